@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
-from ldpipe.flow import FlowSettings
+from ldpipe.flow import FlowSettings, integrate
 from ldpipe.poincare import poincare_dataset
 from ldpipe.sections import Section
 from ldpipe.stages import poincare as poincare_stage
@@ -97,3 +97,13 @@ def test_bad_initial_conditions_name_the_key():
                                                 {"name": "px", "range": [-5, 5], "points": 4}], "solve": "py"},
             }},
         })
+
+
+def test_without_a_section_trajectories_run_to_the_end(barbanis):
+    # Regression: with no section, the crossing counter (0 of 0) used to count as full, so a
+    # trajectory stopped at its first upward crossing of the first coordinate through 0.
+    # In the well below E_c nothing escapes, so every trajectory must reach the final time.
+    states = section_at(barbanis, -0.125).initial_state.values[:5]
+    result = integrate(barbanis, states, 40.0, FLOW)
+    assert np.all(result.status == 0)
+    np.testing.assert_allclose(result.final_time, 40.0, rtol=1e-14)

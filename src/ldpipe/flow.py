@@ -195,7 +195,7 @@ def integrate_one(y0, t_end, rtol, atol, sample_times, samples, sec_index, sec_v
             if escaped:
                 status = 1
                 break
-            if hit and n_cross >= max_cross:
+            if hit and max_cross > 0 and n_cross >= max_cross:
                 status = 2
                 break
         else:
