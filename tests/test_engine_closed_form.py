@@ -152,3 +152,29 @@ def test_equilibrium_and_zero_velocity_start(oscillator):
     exact = oscillator_ld(states[1], 8.0, 0.5)
     assert abs(result.ld[1] - exact) / exact < 1e-10
     assert np.isfinite(result.ld).all() and not result.failed.any()
+
+
+@pytest.mark.parametrize("p", [0.5, 0.3])
+def test_default_quadrature_follows_the_tolerance(oscillator, p):
+    # The default node count and cusp window depend on rtol (LDSettings.nodes,
+    # LDSettings.quadrature_window); at every tolerance the closed form is met to a few rtol
+    # (scaled error < 5, as in scipy's tests), so the cheaper quadrature at loose tolerances
+    # costs no accuracy that the integration keeps.
+    rng = np.random.default_rng(3)
+    states = np.vstack([STATES, rng.normal(size=(12, 4))])
+    for tol in (1e-4, 1e-5, 1e-6, 1e-10):
+        result = compute_ld(oscillator, states, +1, LDSettings(rtol=tol, atol=tol, p=p, tau=23.7))
+        assert relative_errors(result, states, 23.7, p).max() / tol < 5.0
+
+
+@pytest.mark.parametrize("window", [0.2, 0.5, 1.0])
+def test_cusp_window_paths(oscillator, window):
+    # Larger windows send more steps through the cusp path with a root outside the step
+    # (Gauss–Jacobi from the extrapolated root, or the Gauss–Legendre value kept when the
+    # extrapolated root does not exist); every window meets the closed form at rtol 1e-10.
+    rng = np.random.default_rng(4)
+    states = np.vstack([STATES, rng.normal(size=(12, 4))])
+    settings = LDSettings(rtol=1e-10, atol=1e-10, p=0.5, tau=23.7, window=window)
+    assert settings.quadrature_window == window
+    result = compute_ld(oscillator, states, +1, settings)
+    assert relative_errors(result, states, 23.7, 0.5).max() < 2e-10

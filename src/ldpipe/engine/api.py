@@ -8,7 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .integrator import get_runner, run_units
-from .quadrature import KIND_ARCLENGTH, KIND_HALF, KIND_ONE, KIND_POW, jacobi_rule, legendre_rule
+from .quadrature import KIND_ARCLENGTH, KIND_HALF, KIND_ONE, KIND_POW, folded_jacobi_rule, legendre_rule
 from .settings import LDSettings
 
 
@@ -20,7 +20,10 @@ class LDResult(NamedTuple):
     time : float64
         |t| actually integrated: tau, or the exit time from the region box, or the escape time.
     escaped : bool
-        Stopped because max_i |q_i| exceeded the escape radius.
+        Stopped because max_i |q_i| exceeded the escape radius: dop853 at the crossing located
+        on the step, the fixed-step schemes at the start of the step that left the radius (or
+        overflowed), the last state they can trust; ``ld``, ``time`` and ``energy_error`` are
+        those of that point.
     left_region : bool
         Stopped at the first exit from the region box (variable-time LD only).
     energy_error : float64
@@ -28,7 +31,7 @@ class LDResult(NamedTuple):
     steps : int64
         Step attempts (accepted and rejected): the work spent on the trajectory.
     failed : bool
-        Stopped early by the step cap, a step size below 1e-13 tau, or a non-finite state;
+        Stopped early by the step cap, or (dop853) a step size below 1e-13 tau;
         ``ld`` and ``time`` then cover the part integrated.
     """
 
@@ -98,7 +101,7 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
     kind, p_exp = _kind(settings.p)
     nodes = settings.nodes
     glx, glw = legendre_rule(nodes)
-    gjx, gjw = jacobi_rule(nodes, p_exp)
+    gjx, gjf = folded_jacobi_rule(nodes, p_exp)
     n_fixed = 1 if settings.adaptive else max(1, math.ceil(settings.tau / settings.dt - 1e-9))
 
     N = states.shape[0]
@@ -137,8 +140,8 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
         glx,
         glw,
         gjx,
-        gjw,
-        settings.window,
+        gjf,
+        settings.quadrature_window,
     )
     run_units(runner, states, unit, args, outputs, get_num_threads())
     return LDResult(*outputs)

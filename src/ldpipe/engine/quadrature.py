@@ -28,3 +28,15 @@ def jacobi_rule(n: int, p: float) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on [0, 1] for the weight s^p: int_0^1 s^p f(s) ds ~ sum w f(x)."""
     x, w = roots_jacobi(n, 0.0, p)  # weight (1 - x)^0 (1 + x)^p on [-1, 1]
     return 0.5 * (x + 1.0), w * 0.5 ** (1.0 + p)
+
+
+def folded_jacobi_rule(n: int, p: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Jacobi nodes x and weights w x^-p on [0, 1], for integrands that carry the cusp.
+
+    For v(s) = s g(s) with g smooth and nonzero on [0, 1],
+    int_0^1 |v(s)|^p ds = int_0^1 s^p |g(s)|^p ds ~ sum_g w_g |g(x_g)|^p = sum_g (w_g x_g^-p) |v(x_g)|^p:
+    the compiled quadrature evaluates |v|^p at the nodes with these weights, without dividing
+    by the cusp factor.
+    """
+    x, w = jacobi_rule(n, p)
+    return x, w * x ** (-p)

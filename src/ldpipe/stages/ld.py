@@ -123,6 +123,9 @@ def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
         "atol": settings.atol,
         "dt": settings.dt,
         "escape_radius": settings.escape_radius,
+        # the LD quadrature's settings in use (defaults resolved from scheme and rtol)
+        "quadrature_window": settings.quadrature_window,
+        "quad_nodes": settings.nodes,
     }
 
 

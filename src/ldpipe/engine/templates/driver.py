@@ -28,6 +28,29 @@ START_FAILED = 3
 
 
 @njit(**JIT)
+def step_factors(err, kind, FC, fac_accept, fac_reject, inc):
+    """Per lane: the step-size factors after an accepted and after a rejected attempt, from
+    the scaled error err (SAFETY * err^ERROR_EXPONENT, clipped), and the LD integrand of the
+    step summed over components (from the quadrature's FC), in loops over lanes outside the
+    scalar pass."""
+    for j in range(LANES):
+        e = err[j]
+        scaled = SAFETY * e**ERROR_EXPONENT if e > 0.0 else MAX_FACTOR
+        fac_accept[j] = min(MAX_FACTOR, scaled)
+        # NaN or inf error (e.g. a non-finite state): the smallest factor
+        fac_reject[j] = max(MIN_FACTOR, scaled) if (e < math.inf and e > 0.0) else MIN_FACTOR
+    if kind == KIND_ARCLENGTH:
+        for j in range(LANES):
+            inc[j] = FC[0, j]
+    else:
+        for j in range(LANES):
+            inc[j] = 0.0
+        for c in range(NCOMP):
+            for j in range(LANES):
+                inc[j] += FC[c, j]
+
+
+@njit(**JIT)
 def energy(qv, pv):
     kinetic = 0.0
     for i in range(N):
@@ -106,7 +129,7 @@ def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, r
 @njit(nogil=True, **JIT)
 def process(
     states, start, stop, direction, tau, dt, n_fixed, rtol, atol, kind, p_exp,
-    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjw, window,
+    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
     o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed,
 ):  # fmt: skip
     lanes = LANES
@@ -123,7 +146,10 @@ def process(
     QC = W[OQC : OQC + NC * NB].reshape((NC, N, LANES))
     FC = W[OFC : OFC + NCOMP * LANES].reshape((NCOMP, LANES))
     SP = np.zeros((NCOMP, LANES), dtype=np.bool_)
-    CB = np.zeros((CB_ROWS, NCOMP * LANES))
+    fac_accept = np.zeros(LANES)
+    fac_reject = np.zeros(LANES)
+    inc_step = np.zeros(LANES)
+    CB = np.zeros(CB_ROWS * NCOMP * LANES)  # the special path's item buffer (block_quadrature.py)
     ITEM = np.zeros(NCOMP * LANES, dtype=np.int64)
     habs = np.zeros(lanes)
     t = np.zeros(lanes)
@@ -135,7 +161,8 @@ def process(
     was_rejected = np.zeros(lanes, dtype=np.bool_)
     esc_flag = np.zeros(lanes, dtype=np.bool_)
     reg_flag = np.zeros(lanes, dtype=np.bool_)
-    roots = np.zeros(4 * SAMPLES_PER_STEP + 8 + int(4 * window * SAMPLES_PER_STEP))
+    # component_integral's roots: at most 2 per sample interval and 1 per sample (its docstring)
+    roots = np.zeros(6 * SAMPLES_PER_STEP + 16 + int(12 * window * SAMPLES_PER_STEP))
     qv = np.zeros(N)
     pv = np.zeros(N)
     av = np.zeros(N)
@@ -190,13 +217,14 @@ def process(
         attempt(W, rtol, atol)
         fast(W, kind, p_exp, glx, glw, window, SP)
         if kind != KIND_ARCLENGTH:
-            special(W, SP, kind, p_exp, glx, glw, gjx, gjw, window, CB, ITEM, roots)
+            special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots)
         any_escape = flag_escapes(qn, radius, esc_flag)
         if has_region:
             qpoly(W)
             flag_box_exits(QC, NC, qn, lo, hi, reg_flag)
-        elif any_escape:
+        elif any_escape and ADAPTIVE:
             qpoly(W)
+        step_factors(err, kind, FC, fac_accept, fac_reject, inc_step)
 
         for j in range(lanes):
             if not active[j]:
@@ -211,7 +239,17 @@ def process(
             failed = False
             escaped = False
             left = False
-            if accepted:
+            if not ADAPTIVE and (esc_flag[j] or not finite):
+                # A fixed step that leaves the escape radius (or overflows) is not trusted: its
+                # end and interpolant can be off by orders of magnitude (|q| 1e30 from |q| 50 at
+                # dt 0.4), and an LD or energy taken on it can overflow. The trajectory stops at
+                # the step's start, the last state inside the radius, flagged escaped.
+                escaped = True
+                done = True
+                for i in range(N):
+                    qv[i] = q[i, j]
+                    pv[i] = p[i, j]
+            elif accepted:
                 theta = NO_EXIT
                 if has_region and reg_flag[j]:
                     theta = min(first_exit(QC, j, NC, N, lo, hi), 1.0)
@@ -228,7 +266,7 @@ def process(
                     else:
                         inc = 0.0
                         for c in range(NCOMP):
-                            inc += component_integral(VC, c, j, NC, theta, kind, p_exp, glx, glw, gjx, gjw, window, roots)
+                            inc += component_integral(VC, c, j, NC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots)
                     ld[j] += habs[j] * inc
                     t[j] += theta * habs[j]
                     for i in range(N):
@@ -241,13 +279,7 @@ def process(
                         pv[i] = u
                     done = True
                 else:
-                    if kind == KIND_ARCLENGTH:
-                        inc = FC[0, j]
-                    else:
-                        inc = 0.0
-                        for c in range(NCOMP):
-                            inc += FC[c, j]
-                    ld[j] += habs[j] * inc
+                    ld[j] += habs[j] * inc_step[j]
                     for i in range(N):
                         q[i, j] = qn[i, j]
                         p[i, j] = pn[i, j]
@@ -257,10 +289,7 @@ def process(
                     last = habs[j] >= tau - t[j]
                     if ADAPTIVE:
                         t[j] = tau if last else t[j] + habs[j]
-                        if e == 0.0:
-                            factor = MAX_FACTOR
-                        else:
-                            factor = min(MAX_FACTOR, SAFETY * e**ERROR_EXPONENT)
+                        factor = fac_accept[j]
                         if was_rejected[j]:
                             factor = min(1.0, factor)
                         habs[j] *= factor
@@ -271,16 +300,10 @@ def process(
                     done = last
             else:
                 if ADAPTIVE:
-                    if e < math.inf and e > 0.0:
-                        factor = max(MIN_FACTOR, SAFETY * e**ERROR_EXPONENT)
-                    else:
-                        factor = MIN_FACTOR
-                    habs[j] *= factor
+                    habs[j] *= fac_reject[j]
                     was_rejected[j] = True
                     if habs[j] < 1e-13 * max(1.0, tau):
                         failed = True
-                else:
-                    failed = True  # a fixed step produced a non-finite state
             if not done and not failed and nsteps[j] >= max_steps:
                 failed = True
             if failed:

@@ -20,7 +20,10 @@ component at a time: ``component_integral`` below)
     Gauss–Jacobi nodes for the weight (s - r)^p, as the difference of the integrals from r to b
     and from r to a (the second is zero when r = a); the integrand left after the weight,
     |v(s) / (s - r)|^p, is smooth. A piece with such roots on both sides is halved first.
-    Other pieces use Gauss–Legendre.
+    Other pieces use Gauss–Legendre. Two roots between one pair of samples (where v dips to
+    the other sign and back) are found from the minimum of |v| (``root_pair``).
+    The fast path sends a component here also when its samples' |v| is small enough for such
+    a dip: below |v''| gap^2 / 8 on some sample interval (bound of |v''| from the coefficients).
 
 Arc length sqrt(sum_c v_c^2) is smooth unless every component vanishes together, so it always
 takes the Gauss–Legendre path.
@@ -82,6 +85,50 @@ def refine_root(VC, c, j, nc, shift, a, b, fa, fb):
 
 
 @njit(**JIT)
+def curvature_bound(VC, c, j, nc, radius):
+    """An upper bound of |v''(x)| for |x| <= radius: sum_k k (k - 1) |c_k| radius^(k - 2)."""
+    bound = 0.0
+    scale = 1.0
+    for k in range(2, nc):
+        bound += k * (k - 1.0) * abs(VC[k, c, j]) * scale
+        scale *= radius
+    return bound
+
+
+@njit(**JIT)
+def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots):
+    """Roots of v in (a, b) when v(a), v(b) have one sign but |v| dips to the other sign between.
+
+    The samples a, b miss a pair of roots closer together than their spacing. If |v| falls at
+    a and rises at b, its minimum (a root of v') is bracketed and found by bisection on v';
+    where v has the other sign there, each half holds one root. Appends them to ``roots`` and
+    returns the new count.
+    """
+    _, da = horner_d(VC, c, j, nc, a)
+    _, db = horner_d(VC, c, j, nc, b)
+    if not (fa * da < 0.0 and fb * db > 0.0):
+        return n_roots  # |v| monotone, or a maximum of |v| inside: no pair
+    lo = a
+    hi = b
+    for _ in range(ROOT_ITERATIONS):
+        middle = 0.5 * (lo + hi)
+        if middle <= lo or middle >= hi:
+            break
+        _, dm = horner_d(VC, c, j, nc, middle)
+        if (dm < 0.0) == (da < 0.0):
+            lo = middle
+        else:
+            hi = middle
+    x_min = 0.5 * (lo + hi)
+    f_min = horner(VC, c, j, nc, x_min)
+    if f_min * fa >= 0.0:
+        return n_roots  # the dip does not reach zero (a double root exactly at 0 is left to the pieces)
+    roots[n_roots] = refine_root(VC, c, j, nc, 0.0, a, x_min, fa, f_min)
+    roots[n_roots + 1] = refine_root(VC, c, j, nc, 0.0, x_min, b, f_min, fb)
+    return n_roots + 2
+
+
+@njit(**JIT)
 def _power(y, kind, p):
     """y^p for y >= 0 (the fast special cases first)."""
     if kind == KIND_HALF:
@@ -101,37 +148,40 @@ def _legendre(VC, c, j, nc, a, b, kind, p, glx, glw):
 
 
 @njit(**JIT)
-def _jacobi(VC, c, j, nc, r, e, kind, p, gjx, gjw):
-    """int over [r, e] (or [e, r]) of |v|^p, with the cusp (s - r)^p at the root r taken out."""
+def _jacobi(VC, c, j, nc, r, e, kind, p, gjx, gjf):
+    """int over [r, e] (or [e, r]) of |v|^p, with the cusp (s - r)^p at the root r taken out.
+
+    Gauss–Jacobi for the weight |s - r|^p with the weights folded: gjf_g = w_g xi_g^-p, so that
+    the integral is |e - r| sum_g gjf_g |v(r + (e - r) xi_g)|^p (no division by |s - r|^p).
+    """
     length = abs(e - r)
     if length == 0.0:
         return 0.0
     sign = 1.0 if e > r else -1.0
     total = 0.0
     for g in range(gjx.shape[0]):
-        offset = length * gjx[g]
-        total += gjw[g] * _power(abs(horner(VC, c, j, nc, r + sign * offset)) / offset, kind, p)
-    return total * _power(length, kind, p) * length
+        total += gjf[g] * _power(abs(horner(VC, c, j, nc, r + sign * length * gjx[g])), kind, p)
+    return total * length
 
 
 @njit(**JIT)
-def _one_side(VC, c, j, nc, a, b, anchor, left, kind, p, glx, glw, gjx, gjw):
+def _one_side(VC, c, j, nc, a, b, anchor, left, kind, p, glx, glw, gjx, gjf):
     """int_a^b |v|^p with one root `anchor` at or beyond the end a (left) or b (right)."""
     if left:
         distance = a - anchor
         if distance <= b - a:
-            outer = _jacobi(VC, c, j, nc, anchor, b, kind, p, gjx, gjw)
-            return outer - _jacobi(VC, c, j, nc, anchor, a, kind, p, gjx, gjw)
+            outer = _jacobi(VC, c, j, nc, anchor, b, kind, p, gjx, gjf)
+            return outer - _jacobi(VC, c, j, nc, anchor, a, kind, p, gjx, gjf)
     else:
         distance = anchor - b
         if distance <= b - a:
-            outer = _jacobi(VC, c, j, nc, anchor, a, kind, p, gjx, gjw)
-            return outer - _jacobi(VC, c, j, nc, anchor, b, kind, p, gjx, gjw)
+            outer = _jacobi(VC, c, j, nc, anchor, a, kind, p, gjx, gjf)
+            return outer - _jacobi(VC, c, j, nc, anchor, b, kind, p, gjx, gjf)
     return _legendre(VC, c, j, nc, a, b, kind, p, glx, glw)
 
 
 @njit(**JIT)
-def _piece(VC, c, j, nc, a, b, left_root, right_root, kind, p, glx, glw, gjx, gjw):
+def _piece(VC, c, j, nc, a, b, left_root, right_root, kind, p, glx, glw, gjx, gjf):
     """int_a^b |v|^p, v without roots inside (a, b); left_root <= a, right_root >= b (+-inf: none)."""
     length = b - a
     if length <= 0.0:
@@ -140,25 +190,31 @@ def _piece(VC, c, j, nc, a, b, left_root, right_root, kind, p, glx, glw, gjx, gj
     near_right = right_root - b <= length
     if near_left and near_right:
         middle = 0.5 * (a + b)
-        return _one_side(VC, c, j, nc, a, middle, left_root, True, kind, p, glx, glw, gjx, gjw) + _one_side(
-            VC, c, j, nc, middle, b, right_root, False, kind, p, glx, glw, gjx, gjw
+        return _one_side(VC, c, j, nc, a, middle, left_root, True, kind, p, glx, glw, gjx, gjf) + _one_side(
+            VC, c, j, nc, middle, b, right_root, False, kind, p, glx, glw, gjx, gjf
         )
     if near_left:
-        return _one_side(VC, c, j, nc, a, b, left_root, True, kind, p, glx, glw, gjx, gjw)
+        return _one_side(VC, c, j, nc, a, b, left_root, True, kind, p, glx, glw, gjx, gjf)
     if near_right:
-        return _one_side(VC, c, j, nc, a, b, right_root, False, kind, p, glx, glw, gjx, gjw)
+        return _one_side(VC, c, j, nc, a, b, right_root, False, kind, p, glx, glw, gjx, gjf)
     return _legendre(VC, c, j, nc, a, b, kind, p, glx, glw)
 
 
 @njit(**JIT)
-def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjw, window, roots):
+def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roots):
     """int_0^u |v_c(x)|^p dx for lane j, cutting at the roots of v_c (the special path).
 
-    ``roots`` is scratch space of at least 2 * (1 + window) * SAMPLES_PER_STEP + 2 entries.
+    Between two samples of one sign, a pair of roots is looked for (``root_pair``) where the
+    samples' |v| is within the largest dip a polynomial of this curvature can make between
+    them (|v''| dx^2 / 8: below that no root pair fits).
+
+    ``roots`` is scratch space of at least 3 (2 m_out + SAMPLES_PER_STEP + 1) entries, m_out =
+    ceil(window SAMPLES_PER_STEP): two roots per sample interval, one per sample.
     """
     m = SAMPLES_PER_STEP
     m_out = int(math.ceil(window * m))
     dx = u / m
+    dip = curvature_bound(VC, c, j, nc, max(1.0, u) + (m_out + 1) * dx) * dx * dx * 0.125
     n_roots = 0
     x_prev = -m_out * dx
     f_prev = horner(VC, c, j, nc, x_prev)
@@ -173,6 +229,8 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjw, window, roo
         if f_prev * f < 0.0:
             roots[n_roots] = refine_root(VC, c, j, nc, 0.0, x_prev, x, f_prev, f)
             n_roots += 1
+        elif f_prev * f > 0.0 and min(abs(f_prev), abs(f)) <= dip:
+            n_roots = root_pair(VC, c, j, nc, x_prev, x, f_prev, f, roots, n_roots)
         if f == 0.0:
             roots[n_roots] = x
             n_roots += 1
@@ -188,12 +246,12 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjw, window, roo
     a = 0.0
     while k < n_roots and roots[k] < u:
         r = roots[k]
-        total += _piece(VC, c, j, nc, a, r, left_root, r, kind, p, glx, glw, gjx, gjw)
+        total += _piece(VC, c, j, nc, a, r, left_root, r, kind, p, glx, glw, gjx, gjf)
         a = r
         left_root = r
         k += 1
     right_root = roots[k] if k < n_roots else math.inf
-    total += _piece(VC, c, j, nc, a, u, left_root, right_root, kind, p, glx, glw, gjx, gjw)
+    total += _piece(VC, c, j, nc, a, u, left_root, right_root, kind, p, glx, glw, gjx, gjf)
     return total
 
 

@@ -1,0 +1,203 @@
+"""Where the engine's time goes: the block driver instrumented with the CPU's cycle counter.
+
+The engine's generated module (``ldpipe.engine.codegen.engine_source``) is copied with timers
+inserted around each phase of ``process`` (lane refill, step attempt, fast quadrature, special
+quadrature, events, the scalar per-lane pass) and counters of the LD quadrature's special path
+(components flagged, components left to the scalar ``component_integral``). The copy is
+compiled without numba's disk cache into a temporary directory; the library is not touched.
+Runs single-threaded so that the cycle counts of one thread add up.
+
+Run: ``.venv/bin/python benchmarks/profile_engine.py [--n 120] [--scheme dop853] [--rtol 1e-5 1e-10]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass")
+# part of "special": the scatter with the scalar fallbacks (not added to the total)
+SCATTER = "  of which scalar"
+COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks", "inside", "near left",
+            "near right", "other case", "not converged")
+N_TIMERS = len(PHASES) + len(COUNTERS) + 1
+
+CYCLES_SOURCE = '''
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def tick(typingctx):
+    """The CPU's cycle counter (llvm.readcyclecounter)."""
+
+    def codegen(context, builder, signature, args):
+        fnty = ir.FunctionType(ir.IntType(64), [])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.readcyclecounter")
+        return builder.call(fn, [])
+
+    return types.int64(), codegen
+'''
+
+
+def _replace(text: str, old: str, new: str, count: int = 1) -> str:
+    if text.count(old) != count:
+        raise RuntimeError(f"instrumentation: expected {count} occurrence(s) of {old!r}, found {text.count(old)}")
+    return text.replace(old, new)
+
+
+def instrumented_source(source: str) -> str:
+    """``source`` with timers in ``process`` and counters in ``special`` (see the module docstring)."""
+    s = source.replace('"cache": True', '"cache": False')
+    s = _replace(s, "from numba import njit\n", "from numba import njit\nfrom ldpipe_cycles import tick\n")
+    # process gets the timer array as its last argument; special gets it too
+    s = _replace(s, "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed,\n):",
+                 "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, PT,\n):")
+    s = _replace(s, "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):",
+                 "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT):")
+    s = _replace(s, "special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots)",
+                 "special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT)")
+    base = len(PHASES)
+    s = _replace(s, "    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n",
+                 f"    PT[{base + 2}] += m\n    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n")
+    s = _replace(s, "        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0\n",
+                 "        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0\n"
+                 f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
+                 f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
+    s = _replace(s, "        CB[R_OK * CBS + t] = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
+                 f"        PT[{base + 8}] += 0.0 if good else ok\n"
+                 "        CB[R_OK * CBS + t] = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
+    s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
+    s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
+    s = _replace(s, "window, roots)\n\n\n# ---- events ----",
+                 f"window, roots)\n    PT[{N_TIMERS - 1}] += tick() - _ts\n\n\n# ---- events ----")
+    # phases of the main loop
+    s = _replace(s, "    while True:\n        for j in range(lanes):\n            # an idle lane",
+                 "    while True:\n        _t = tick()\n        for j in range(lanes):\n            # an idle lane")
+    s = _replace(s, "        n_active = 0\n        for j in range(lanes):\n            if active[j]:\n",
+                 "        _u = tick(); PT[0] += _u - _t; _t = _u\n"
+                 "        n_active = 0\n        for j in range(lanes):\n            if active[j]:\n")
+    s = _replace(s, "        attempt(W, rtol, atol)\n        fast(W, kind, p_exp, glx, glw, window, SP)\n",
+                 f"        PT[{base}] += 1; PT[{base + 1}] += n_active\n"
+                 "        _u = tick(); PT[1] += _u - _t; _t = _u\n"
+                 "        attempt(W, rtol, atol)\n"
+                 "        _u = tick(); PT[2] += _u - _t; _t = _u\n"
+                 "        fast(W, kind, p_exp, glx, glw, window, SP)\n"
+                 "        _u = tick(); PT[3] += _u - _t; _t = _u\n")
+    s = _replace(s, "        any_escape = flag_escapes(qn, radius, esc_flag)\n",
+                 "        _u = tick(); PT[4] += _u - _t; _t = _u\n"
+                 "        any_escape = flag_escapes(qn, radius, esc_flag)\n")
+    s = _replace(s, "\n        for j in range(lanes):\n            if not active[j]:\n                continue\n",
+                 "\n        _u = tick(); PT[5] += _u - _t; _t = _u\n"
+                 "        for j in range(lanes):\n            if not active[j]:\n                continue\n")
+    s = _replace(s, "                o_steps[k] = nsteps[j]\n                active[j] = False\n",
+                 "                o_steps[k] = nsteps[j]\n                active[j] = False\n"
+                 "        PT[6] += tick() - _t\n")
+    return s
+
+
+def load_instrumented(system, scheme: str, lanes: int, directory: Path):
+    from ldpipe.engine.codegen import engine_source
+
+    (directory / "ldpipe_cycles.py").write_text(CYCLES_SOURCE)
+    if str(directory) not in sys.path:
+        sys.path.insert(0, str(directory))
+    source = instrumented_source(engine_source(system, scheme, lanes))
+    name = "profiled_" + re.sub(r"\W", "_", f"{system.name}_{scheme}_{lanes}")
+    path = directory / f"{name}.py"
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module.process
+
+
+def profile(process, system, states, settings) -> tuple[np.ndarray, float]:
+    """Run the instrumented ``process`` over ``states`` in one unit; (timers, wall seconds)."""
+    from ldpipe.engine import api
+
+    captured = {}
+
+    def fake_run_units(_runner, st, _unit, args, outputs, _threads):
+        captured["args"] = (st, args, outputs)
+
+    real = api.run_units
+    api.run_units = fake_run_units
+    real_get = api.get_runner
+    api.get_runner = lambda *a, **k: None
+    try:
+        api.compute_ld(system, states, +1, settings)
+    finally:
+        api.run_units = real
+        api.get_runner = real_get
+    st, args, outputs = captured["args"]
+    timers = np.zeros(N_TIMERS)
+    start = time.perf_counter()
+    process(st, 0, st.shape[0], *args, *outputs, timers)
+    return timers, time.perf_counter() - start
+
+
+def main() -> None:
+    import reference as ref
+
+    from ldpipe.engine import LDSettings
+    from ldpipe.systems import make_system
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=120, help="grid side on U_xpx, x and p_x in [-5.6, 5.6]")
+    parser.add_argument("--scheme", default="dop853")
+    parser.add_argument("--rtol", type=float, nargs="*", default=[1e-5, 1e-10])
+    parser.add_argument("--p", default="0.5", help="0.5 or arclength")
+    parser.add_argument("--quad-nodes", type=int, default=None)
+    parser.add_argument("--block", type=int, default=64)
+    parser.add_argument("--window", type=float, default=None)
+    args = parser.parse_args()
+    numba.set_num_threads(1)
+    system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
+    x, px = np.meshgrid(np.linspace(-5.6, 5.6, args.n), np.linspace(-5.6, 5.6, args.n), indexing="ij")
+    states, allowed = ref.section_state(x.ravel(), px.ravel(), ref.E_SADDLE - 0.125)
+    states = np.ascontiguousarray(states[allowed])
+    p = args.p if args.p == "arclength" else float(args.p)
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        process = load_instrumented(system, args.scheme, args.block, Path(tmp))
+        for rtol in args.rtol:
+            settings = LDSettings(scheme=args.scheme, rtol=rtol, atol=rtol, p=p, quad_nodes=args.quad_nodes,
+                                  block=args.block, **({} if args.window is None else {"window": args.window}))
+            profile(process, system, states[:16], settings)  # compile
+            if start is not None:
+                print(f"compiled in {time.perf_counter() - start:.1f} s; {len(states)} trajectories, tau 50, p {p}")
+                start = None
+            timers, wall = profile(process, system, states, settings)
+            cycles = timers[: len(PHASES)]
+            total = cycles.sum()
+            counts = dict(zip(COUNTERS, timers[len(PHASES):-1]))
+            lane_steps = counts["lane steps"]
+            print(f"\n{args.scheme} rtol {rtol:g}: wall {wall:.2f} s, {50.0 * len(states) / wall:.3g} time units/s "
+                  f"(1 thread), {lane_steps / len(states):.0f} steps per trajectory, "
+                  f"lane occupancy {lane_steps / (counts['block iterations'] * args.block):.2f}, "
+                  f"{total / lane_steps:.0f} cycles per lane step")
+            for name, c in zip(PHASES, cycles):
+                print(f"  {name:>10}: {c / total:6.1%}  {c / lane_steps:7.1f} cycles/lane step")
+                if name == "special":
+                    c = timers[-1]
+                    print(f"  {SCATTER:>10}: {c / total:6.1%}  {c / lane_steps:7.1f} cycles/lane step")
+            print("  per lane step: " + ", ".join(f"{k} {v / lane_steps:.3f}" for k, v in counts.items()
+                                                    if k not in ("block iterations", "lane steps")))
+
+
+if __name__ == "__main__":
+    main()
