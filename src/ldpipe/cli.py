@@ -12,7 +12,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import __version__, cli_orbits
+from . import __version__, cli_nhim, cli_orbits
 from .config import load_config, validate_config
 from .errors import ConfigError, LdpipeError
 from .logs import log_to
@@ -235,6 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
     ld.set_defaults(handler=_run_ld)
 
     cli_orbits.register(commands, EPILOG)
+    cli_nhim.register(commands, EPILOG)
     return parser
 
 

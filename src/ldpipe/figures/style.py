@@ -1,0 +1,166 @@
+"""One look for every figure: the paper's symbols, colour maps, colour bars, rasterized maps, saving.
+
+Every figure module draws through these helpers so that axes carry the paper's symbols
+($x$, $p_x$, $\\mathcal{L}$ ...), LD maps share one colour map with the energetically
+forbidden region in grey (never drawn as LD = 0), and each figure is written once as PNG
+(for browsing and the report) and once as PDF with the dense maps rasterized inside it, so
+that neither file grows with the grid size.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import Iterator
+
+import matplotlib
+
+matplotlib.use("Agg")  # figures are files; never open a window (Snakemake jobs have no display)
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import Colormap  # noqa: E402
+
+#: Colour map of every LD map; forbidden points (masked) are drawn in FORBIDDEN_COLOR.
+LD_COLORMAP = "viridis"
+FORBIDDEN_COLOR = "0.82"
+#: The paper's colours: stable manifolds cyan, unstable magenta (Fig. 3(f)), the energy boundary
+#: of a Poincaré section green (Fig. 3(a-c)), the slices orange and the periodic orbit black (Fig. 4(d)),
+#: the saddles red crosses (Fig. 1).
+STABLE_COLOR = "cyan"
+UNSTABLE_COLOR = "magenta"
+BOUNDARY_COLOR = "green"
+SLICE_COLOR = "darkorange"
+ORBIT_COLOR = "black"
+SADDLE_COLOR = "red"
+HILL_COLOR = "0.75"
+#: Colours of successive 1D slices (each slice line on a map has its curve's colour).
+SLICE_COLORS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:brown", "tab:pink")
+#: Resolution of the PNG files and of the rasterized maps inside the PDF files.
+DPI = 150
+
+RC_PARAMS = {
+    "font.size": 9,
+    "axes.titlesize": 9,
+    "axes.labelsize": 10,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "legend.fontsize": 7,
+    "figure.dpi": DPI,
+    "savefig.dpi": DPI,
+    "image.origin": "lower",
+    "mathtext.fontset": "cm",
+    "axes.formatter.useoffset": False,
+}
+
+
+@contextlib.contextmanager
+def figure_style() -> Iterator[None]:
+    """Apply ldpipe's style to the figures created inside the block."""
+    with plt.rc_context(RC_PARAMS):
+        yield
+
+
+def symbol(name: str) -> str:
+    """The paper's symbol of a phase-space coordinate as mathtext: 'px' -> '$p_x$', 'y' -> '$y$'."""
+    if len(name) > 1 and name.startswith("p"):
+        index = name[1:] if len(name) == 2 else f"{{{name[1:]}}}"
+        return f"$p_{index}$"
+    return f"${name}$"
+
+
+def section_symbol(axes: tuple[str, str], sign: int | None = None) -> str:
+    """The paper's name of a section with these axes, e.g. '$U_{xp_x}^+$'."""
+    subscript = "".join(a if len(a) == 1 else f"p_{{{a[1:]}}}" for a in axes)
+    superscript = {1: "^+", -1: "^-"}.get(sign, "")
+    return f"$U_{{{subscript}}}{superscript}$"
+
+
+#: Label of the Lagrangian descriptor (forward plus backward unless said otherwise).
+LD_LABEL = {
+    "total": r"$\mathcal{L}$",
+    "forward": r"$\mathcal{L}^{f}$",
+    "backward": r"$\mathcal{L}^{b}$",
+}
+
+
+def ld_colormap() -> Colormap:
+    """The LD colour map, with masked (energetically forbidden) points in grey."""
+    return plt.get_cmap(LD_COLORMAP).with_extremes(bad=FORBIDDEN_COLOR)
+
+
+def color_limits(values: np.ndarray, percentiles: tuple[float, float]) -> tuple[float, float]:
+    """Colour-scale limits: the given percentiles of the unmasked values (a robust range, so that
+    a few extreme points do not wash out the structure). Returns (0, 1) if nothing is unmasked."""
+    data = np.ma.compressed(np.ma.masked_invalid(values))
+    if data.size == 0:
+        return 0.0, 1.0
+    low, high = np.percentile(data, percentiles)
+    if not high > low:
+        high = low + max(abs(low) * 1e-6, 1e-12)
+    return float(low), float(high)
+
+
+def draw_map(ax, first: np.ndarray, second: np.ndarray, values: np.ma.MaskedArray, *,
+             limits: tuple[float, float], colorbar_label: str | None = None):
+    """Draw a map over a regular grid, rasterized in vector output, with a colour bar.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    first, second : ndarray, shapes (n1,), (n2,)
+        Grid coordinates along the horizontal and the vertical axis (regular spacing).
+    values : masked ndarray, shape (n1, n2)
+        The field; masked points are drawn in grey (the forbidden region).
+    limits : (float, float)
+        Colour-scale limits.
+    colorbar_label : str, optional
+        Label of the colour bar; None for no colour bar.
+
+    Returns
+    -------
+    The image (a matplotlib AxesImage).
+    """
+    dx = (first[-1] - first[0]) / max(len(first) - 1, 1)
+    dy = (second[-1] - second[0]) / max(len(second) - 1, 1)
+    extent = (first[0] - dx / 2, first[-1] + dx / 2, second[0] - dy / 2, second[-1] + dy / 2)
+    image = ax.imshow(
+        np.ma.transpose(values), extent=extent, origin="lower", aspect="auto", cmap=ld_colormap(),
+        vmin=limits[0], vmax=limits[1], interpolation="nearest", rasterized=True,
+    )
+    if colorbar_label is not None:
+        colorbar = ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.03)
+        colorbar.set_label(colorbar_label)
+    return image
+
+
+def label_axes(ax, horizontal: str, vertical: str) -> None:
+    """Label an axes with the paper's symbols of two phase-space coordinates."""
+    ax.set_xlabel(symbol(horizontal))
+    ax.set_ylabel(symbol(vertical))
+
+
+def panel_letter(ax, index: int, text: str = "") -> None:
+    """The panel's letter, (a), (b), ..., in its top left corner as the paper labels panels,
+    followed by ``text`` (what the panel shows)."""
+    ax.set_title(f"({chr(ord('a') + index)}) {text}".rstrip(), loc="left")
+
+
+def save_figure(figure, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
+    """Write ``figure`` as PNG (and PDF, maps rasterized at :data:`DPI`), then close it.
+
+    Both files are written under temporary names and renamed when complete, so a killed job
+    never leaves a figure that looks finished.
+    """
+    written = []
+    for path, kind in ((png, "png"), (pdf, "pdf")):
+        if path is None:
+            continue
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_name(f".{path.stem}.tmp.{kind}")
+        figure.savefig(temporary, format=kind, dpi=DPI, bbox_inches="tight")
+        temporary.replace(path)
+        written.append(path)
+    plt.close(figure)
+    return written
