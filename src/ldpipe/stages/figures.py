@@ -1,0 +1,284 @@
+"""Figures stage: one figure of ``figures:`` in the configuration, drawn from stage files.
+
+An entry names a figure ``kind`` and the stage outputs it draws (LD maps, Poincaré sections,
+manifold sets, a periodic-orbit family, a system's equilibria). :func:`figure_input_files`
+lists exactly those files, so asking Snakemake for one figure runs only the stages it needs;
+:func:`figure_parameters` gives the settings that apply to the kind (so only they rerun it)
+and the text of its caption (the parameters actually used, for the report); :func:`run_figure`
+draws it and writes a PNG and a PDF.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+from ..errors import ConfigError
+from ..logs import get_logger
+from .ld import ld_map_parameters
+
+log = get_logger(__name__)
+
+#: The settings of each kind (besides 'kind' and 'caption'); other keys of an entry are ignored.
+KIND_SETTINGS = {
+    "potential": ("system", "plane", "fixed", "saddle_near", "energies", "points", "levels", "surface",
+                  "potential_range"),
+    "section_maps": ("poincare", "ld_maps", "manifold_curves", "descriptor", "color_percentiles", "color_limits",
+                     "point_size"),
+    "ld_slices": ("ld_maps", "slices", "slice_through_orbit", "orbit", "configuration", "descriptor",
+                  "color_percentiles", "color_limits", "view"),
+    "orbit_family": ("family", "energies", "manifolds", "configuration", "view3d_axes", "view3d_limits",
+                     "trajectories_per_branch", "view"),
+}
+#: What each kind needs, for the configuration check.
+KIND_REQUIRED = {
+    "potential": ("system", "plane", "energies"),
+    "section_maps": ("ld_maps",),
+    "ld_slices": ("ld_maps",),
+    "orbit_family": ("family",),
+}
+FORMATS = ("png", "pdf")
+
+
+def figure_settings(config: dict, name: str) -> dict:
+    """The settings of figure ``name`` that its kind uses, defaults filled (a validated config)."""
+    spec = config["figures"][name]
+    return {key: copy.deepcopy(spec[key]) for key in ("kind", *KIND_SETTINGS[spec["kind"]]) if key in spec}
+
+
+def figure_input_files(config: dict, name: str, results: str = "results") -> dict[str, list[str]]:
+    """The stage files figure ``name`` draws, by role; exactly these and nothing else.
+
+    Returns
+    -------
+    dict
+        Some of 'equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', each a list of paths
+        under ``results`` (in the order the figure draws them).
+    """
+    spec = config["figures"][name]
+    kind = spec["kind"]
+    files: dict[str, list[str]] = {}
+    if kind == "potential":
+        files["equilibria"] = [f"{results}/{spec['system']}/equilibria.nc"]
+    if kind in ("section_maps", "ld_slices"):
+        files["ld_maps"] = [f"{results}/ld/{m}.nc" for m in spec["ld_maps"]]
+    if kind == "section_maps":
+        if spec.get("poincare"):
+            files["poincare"] = [f"{results}/poincare/{p}.nc" for p in spec["poincare"]]
+        sets = [s for m in spec["ld_maps"] for s in spec.get("manifold_curves", {}).get(m, [])]
+        if sets:
+            files["manifolds"] = [f"{results}/manifolds/{s}.nc" for s in dict.fromkeys(sets)]
+    if kind == "ld_slices" and spec.get("orbit"):
+        files["upo"] = [f"{results}/upo/{spec['orbit']['family']}.nc"]
+    if kind == "orbit_family":
+        files["upo"] = [f"{results}/upo/{spec['family']}.nc"]
+        if spec.get("manifolds"):
+            files["manifolds"] = [f"{results}/manifolds/{s}.nc" for s in spec["manifolds"]]
+    return files
+
+
+def figure_outputs(name: str, results: str = "results") -> dict[str, str]:
+    return {fmt: f"{results}/figures/{name}.{fmt}" for fmt in FORMATS}
+
+
+# ----------------------------------------------------------------------------- captions
+# Plain text (Unicode, no reStructuredText markup), so the report renders it as written.
+
+def _number(value) -> str:
+    return format(float(value), "g").replace("-", "−")
+
+
+def _interval(interval) -> str:
+    return f"[{_number(interval[0])}, {_number(interval[1])}]"
+
+
+def _energy_text(energy: dict) -> str:
+    (kind, value), = energy.items()
+    return f"ΔE = {_number(value)}" if kind == "excess" else f"E = {_number(value)}"
+
+
+def _energies_text(energies: dict) -> str:
+    (kind, values), = energies.items()
+    return ("ΔE = " if kind == "excess" else "E = ") + ", ".join(_number(v) for v in values)
+
+
+def _section_text(section: dict) -> str:
+    axes = [axis["name"] for axis in section["axes"]]
+    sign = "+" if section.get("sign", 1) == 1 else "−"
+    fixed = ", ".join(f"{k} = {v if v == 'saddle' else _number(v)}" for k, v in section.get("fixed", {}).items())
+    return f"U_{''.join(axes)}{sign}: {fixed}, {section['solve']} {'>' if sign == '+' else '<'} 0"
+
+
+def ld_map_caption(config: dict, map_name: str) -> str:
+    """One line on an LD map: section, energy, τ, p, fixed or variable time, saddle region, grid."""
+    parameters = ld_map_parameters(config, map_name)
+    axes = parameters["section"]["axes"]
+    p = "arc length" if parameters["p"] == "arclength" else f"p = {_number(parameters['p'])}"
+    text = (
+        f"{map_name}: system {parameters['system_name']}, section {_section_text(parameters['section'])}, "
+        f"{_energy_text(parameters['energy'])}, τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
+    )
+    if parameters["time"] == "variable":
+        region = parameters["region"]
+        text += (", saddle region q_s = " + " × ".join(_interval(region[c]) for c in region)
+                 + f" in ({', '.join(region)}) (config key ld_maps.{map_name}.region)")
+    integrator = parameters["integrator"]
+    tolerance = (f"rtol = {_number(integrator['rtol'])}, atol = {_number(integrator['atol'])}"
+                 if integrator["scheme"] == "dop853" else f"dt = {_number(integrator['dt'])}")
+    text += (f", {axes[0]['points']} × {axes[1]['points']} grid over {axes[0]['name']} ∈ {_interval(axes[0]['range'])}, "
+             f"{axes[1]['name']} ∈ {_interval(axes[1]['range'])}, {integrator['scheme']} ({tolerance})")
+    return text
+
+
+def _poincare_caption(config: dict, name: str) -> str:
+    spec = config["poincare_sections"][name]
+    axes = spec["initial_conditions"]["axes"]
+    surface = spec["section"]
+    direction = "increasing" if surface["direction"] == 1 else "decreasing"
+    return (f"{name}: system {spec['system']}, {_energy_text(spec['energy'])}, crossings of "
+            f"{surface['coordinate']} = {_number(surface['value'])} ({direction}) up to T = {_number(spec['time'])} "
+            f"from a {axes[0]['points']} × {axes[1]['points']} grid of initial conditions, "
+            f"DOP853 rtol = {_number(spec['integrator']['rtol'])}")
+
+
+def _manifold_caption(config: dict, name: str) -> str:
+    spec = config["manifolds"][name]
+    return (f"{name}: orbits of family {spec['orbits']} at {_energy_text(spec['energy'])}, {spec['points']} points "
+            f"along the orbit, displacement ε = {_number(spec['displacement'])}, integrated for "
+            f"{_number(spec['time'])} time units, cut by {spec['section']['coordinate']} = "
+            f"{_number(spec['section']['value'])}")
+
+
+def _family_caption(config: dict, family: str) -> str:
+    spec = config["periodic_orbits"][family]
+    near = spec.get("saddle_near")
+    where = f"the index-1 saddle nearest ({', '.join(_number(v) for v in near)})" if near else "the lowest index-1 saddle"
+    return (f"{family}: Lyapunov family of {where} of {spec['system']}, centre mode {spec['center_mode']}, "
+            f"closure tolerance {_number(spec['tolerance'])}")
+
+
+def _system_caption(config: dict, system: str) -> str:
+    spec = config["systems"][system]
+    parameters = ", ".join(f"{k} = {_number(v)}" for k, v in spec.get("parameters", {}).items())
+    # '**' and '*' would be emphasis markup in the report: write powers and products as ^ and ·.
+    formula = spec.get("formula", "").replace("**", "^").replace("*", "·")
+    what = f"built-in {spec['builtin']}" if "builtin" in spec else f"V = {formula}"
+    return f"{system}: {what}" + (f" with {parameters}" if parameters else "")
+
+
+def figure_caption(config: dict, name: str) -> dict:
+    """Caption material of figure ``name``: the entry's own text and one line per parameter
+    group, each as used (the grid cap of a quick run applied)."""
+    spec = config["figures"][name]
+    kind = spec["kind"]
+    lines: list[str] = []
+    if kind == "potential":
+        lines.append("system " + _system_caption(config, spec["system"]))
+        plane = ", ".join(f"{c} ∈ {_interval(r)}" for c, r in spec["plane"].items())
+        fixed = ", ".join(f"{c} at the saddle" if v == "saddle" else f"{c} = {_number(v)}"
+                          for c, v in spec.get("fixed", {}).items())
+        lines.append(f"plane {plane}" + (f", {fixed}" if fixed else "") + f" ({spec['points']} points per axis)")
+        lines.append("Hill's regions at " + _energies_text(spec["energies"]))
+    if kind == "section_maps":
+        lines += ["Poincaré section " + _poincare_caption(config, p) for p in spec.get("poincare", [])]
+        lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        for map_name, sets in spec.get("manifold_curves", {}).items():
+            lines += [f"manifold curves on {map_name}: " + _manifold_caption(config, s) for s in sets]
+    if kind == "ld_slices":
+        lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        slices = ", ".join(_number(v) for v in spec["slices"])
+        lines.append(f"1D slices at fixed values {slices} of each map's second axis"
+                     + (" and through the orbit's point" if spec.get("orbit") and spec["slice_through_orbit"] else ""))
+        if spec.get("orbit"):
+            energy = spec["orbit"].get("energy")
+            where = f"at {_energy_text(energy)}" if energy else "at each map's energy"
+            lines.append(f"periodic orbit {where} of family " + _family_caption(config, spec["orbit"]["family"]))
+    if kind == "orbit_family":
+        lines.append("family " + _family_caption(config, spec["family"]))
+        lines.append("orbits at " + (_energies_text(spec["energies"]) if spec.get("energies") else "every target energy"))
+        lines += ["manifolds " + _manifold_caption(config, s) for s in spec.get("manifolds", [])]
+    if kind in ("section_maps", "ld_slices"):
+        limits = spec.get("color_limits")
+        lines.append(f"LD shown: {spec['descriptor']} (forward + backward for 'total'); colour scale "
+                     + (_interval(limits) if limits else
+                        f"from the {_number(spec['color_percentiles'][0])}th to the "
+                        f"{_number(spec['color_percentiles'][1])}th percentile of the allowed points")
+                     + "; energetically forbidden points (never integrated) in grey")
+    return {"text": spec.get("caption", "").strip(), "lines": lines}
+
+
+def figure_parameters(config: dict, name: str) -> dict:
+    """The keyword arguments of :func:`run_figure` for figure ``name`` (besides paths)."""
+    spec = config["figures"][name]
+    return {"figure_name": name, "kind": spec["kind"], "settings": figure_settings(config, name),
+            "caption": figure_caption(config, name)}
+
+
+# ----------------------------------------------------------------------------- drawing
+
+def _as_list(value) -> list[str]:
+    if value is None:
+        return []
+    return [str(value)] if isinstance(value, (str, Path)) else [str(v) for v in value]
+
+
+def draw_figure(kind: str, settings: dict, inputs: dict):
+    """The matplotlib Figure of one figure entry, from its input files by role."""
+    inputs = {role: _as_list(paths) for role, paths in inputs.items()}
+    if kind == "potential":
+        from ..figures.potential import draw_potential
+
+        return draw_potential(settings, equilibria=inputs["equilibria"][0])
+    if kind == "section_maps":
+        from ..figures.section_maps import draw_section_maps
+
+        by_name = {Path(path).name[: -len(".nc")]: path for path in inputs.get("manifolds", [])}
+        curves = {m: [by_name[s] for s in sets] for m, sets in settings.get("manifold_curves", {}).items()}
+        return draw_section_maps(settings, poincare=inputs.get("poincare", []), ld_maps=inputs["ld_maps"],
+                                 manifolds=curves)
+    if kind == "ld_slices":
+        from ..figures.ld_slices import draw_ld_slices
+
+        upo = inputs.get("upo", [None])[0] if settings.get("orbit") else None
+        return draw_ld_slices(settings, ld_maps=inputs["ld_maps"], upo=upo)
+    if kind == "orbit_family":
+        from ..figures.orbits import draw_orbit_family
+
+        return draw_orbit_family(settings, upo=inputs["upo"][0], manifolds=inputs.get("manifolds", []))
+    raise ConfigError(f"figure kind {kind!r}: expected one of {sorted(KIND_SETTINGS)}")
+
+
+def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | None = None, inputs: dict,
+               png: str | Path, pdf: str | Path | None = None) -> list[Path]:
+    """Draw figure ``figure_name`` from its input files and write it as PNG (and PDF).
+
+    Parameters
+    ----------
+    figure_name, kind, settings, caption
+        As :func:`figure_parameters` returns them (the caption is for the report only).
+    inputs : dict
+        Input files by role ('equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo'), as
+        :func:`figure_input_files` lists them; other roles are ignored.
+    png, pdf : path
+        Output files.
+    """
+    from ..figures import style
+
+    log.info("figure %s (%s) from %s", figure_name, kind, {k: _as_list(v) for k, v in inputs.items()})
+    with style.figure_style():
+        figure = draw_figure(kind, settings, inputs)
+        written = style.save_figure(figure, png, pdf)
+    for path in written:
+        log.info("wrote %s (%d kB)", path, path.stat().st_size // 1024)
+    return written
+
+
+def figure_memory_mb(config: dict, name: str) -> int:
+    """Memory a figure job needs: one whole LD file at a time (about 80 bytes a grid point) and
+    the drawn field of every map (about 10 bytes a point), plus the interpreter and matplotlib."""
+    spec = config["figures"][name]
+    points = []
+    for map_name in spec.get("ld_maps", []):
+        axes = ld_map_parameters(config, map_name)["section"]["axes"]
+        points.append(axes[0]["points"] * axes[1]["points"])
+    return 1000 + (100 * max(points, default=0) + 10 * sum(points)) // 2**20

@@ -1,0 +1,303 @@
+"""Figures: the drawing functions on small synthetic stage files, the figure configuration,
+captions, and (slow) the plan Snakemake makes for one named figure."""
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import jinja2
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+import xarray as xr
+import yaml
+from docutils.core import publish_parts
+
+from ldpipe.config import load_config, validate_config
+from ldpipe.datafile import write_stage_file
+from ldpipe.errors import ConfigError
+from ldpipe.figures import style
+from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_points
+from ldpipe.sections import Section, section_states
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
+
+ROOT = Path(__file__).resolve().parents[1]
+BARBANIS = {"builtin": "barbanis_2dof", "parameters": {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}}
+E_C = 15.125  # the paper's critical energy of both Barbanis 2 DoF saddles
+SADDLE = np.array([5.5, -np.sqrt(50.0)])  # closed form: x = wy^2/(2|delta|)... y^2 = wx^2 x/|delta|
+
+
+def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time="fixed"):
+    """A synthetic LD map on U_xpx (y = fixed_y, p_y > 0) written like the LD stage writes one.
+
+    The allowed mask is the real one (section_states); the LD fields are 1 + x^2 + p_x^2 on
+    allowed points and 0 elsewhere, as the stage leaves points it never integrates.
+    """
+    section = Section(axes=("x", "px"), ranges=((-6.0, 6.0), (-6.0, 6.0)), shape=points, fixed={"y": fixed_y},
+                      solve="py")
+    energy = E_C + excess
+    _, allowed, solved = section_states(barbanis, section, energy)
+    x, px = section.axis_values()
+    field = np.where(allowed, 1.0 + x[:, None] ** 2 + px[None, :] ** 2, 0.0)
+    dataset = xr.Dataset(
+        {"ld_forward": (("x", "px"), field / 2), "ld_backward": (("x", "px"), field / 2),
+         "allowed": (("x", "px"), allowed), "py": (("x", "px"), solved)},
+        coords={"x": x, "px": px},
+        attrs={"map": Path(path).stem, "system": "barbanis_2dof", "energy": energy, "excess_energy": excess,
+               "critical_energy": E_C, "saddle_position": SADDLE, "tau": 50.0, "time_mode": time,
+               "region_lower": np.array([4.5, -8.5]), "region_upper": np.array([6.5, -5.5])},
+    )
+    parameters = {"map_name": Path(path).stem, "system_name": "barbanis_2dof", "system_spec": BARBANIS,
+                  "section": {"axes": [{"name": "x", "range": [-6.0, 6.0], "points": points[0]},
+                                       {"name": "px", "range": [-6.0, 6.0], "points": points[1]}],
+                              "fixed": {"y": fixed_y}, "solve": "py", "sign": 1},
+                  "energy": {"excess": excess}, "tau": 50, "p": 0.5, "time": time}
+    return write_stage_file(dataset, path, stage="ld_grid", title="synthetic LD map", parameters=parameters)
+
+
+def poincare_file(path, *, excess=0.125):
+    """A synthetic Poincaré file: crossings on the circle x^2 + p_x^2 = 4 (any points will do)."""
+    angles = np.linspace(0, 2 * np.pi, 50)
+    states = np.zeros((1, 50, 4))
+    states[0, :, 0], states[0, :, 2] = 2 * np.cos(angles), 2 * np.sin(angles)
+    dataset = xr.Dataset(
+        {"crossing_state": (("trajectory", "crossing", "phase"), states),
+         "crossing_valid": (("trajectory", "crossing"), np.ones((1, 50), dtype=bool))},
+        coords={"phase": ["x", "y", "px", "py"]},
+        attrs={"energy": E_C + excess, "excess_energy": excess, "critical_energy": E_C},
+    )
+    parameters = {"system_name": "barbanis_2dof", "system_spec": BARBANIS, "energy": {"excess": excess},
+                  "initial_conditions": {"axes": [{"name": "x", "range": [-6.0, 6.0], "points": 10},
+                                                  {"name": "px", "range": [-6.0, 6.0], "points": 10}],
+                                         "fixed": {"y": 0.0}, "solve": "py", "sign": 1}}
+    return write_stage_file(dataset, path, stage="poincare", title="synthetic Poincaré section", parameters=parameters)
+
+
+def upo_file(path, barbanis):
+    """A synthetic 'orbit': a segment through the saddle along x = y + c, sampled over a period
+    (the figure code does not care that it is not a solution)."""
+    t = np.linspace(0.0, 1.0, 201)
+    trajectory = np.zeros((1, 201, 4))
+    trajectory[0, :, 0] = SADDLE[0] + 0.3 * np.sin(2 * np.pi * t)
+    trajectory[0, :, 1] = SADDLE[1] + 0.3 * np.sin(2 * np.pi * t)
+    trajectory[0, :, 2] = trajectory[0, :, 3] = 0.6 * np.pi * np.cos(2 * np.pi * t)
+    dataset = xr.Dataset(
+        {"trajectory": (("orbit", "sample", "phase"), trajectory), "energy": ("orbit", [E_C + 0.125]),
+         "excess_energy": ("orbit", [0.125]), "period": ("orbit", [1.0])},
+        coords={"phase": ["x", "y", "px", "py"]},
+        attrs={"saddle_position": SADDLE, "critical_energy": E_C},
+    )
+    return write_stage_file(dataset, path, stage="upo", title="synthetic family",
+                            parameters={"system_name": "barbanis_2dof", "system_spec": BARBANIS})
+
+
+@pytest.fixture(scope="module")
+def equilibria_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("equilibria") / "equilibria.nc"
+    return run_equilibria(system_name="barbanis_2dof", system_spec=BARBANIS,
+                          box={"x": [-20.0, 20.0], "y": [-20.0, 20.0]}, output=path)
+
+
+def test_ld_map_masks_the_forbidden_region(tmp_path, barbanis):
+    path = ld_file(tmp_path / "m.nc", barbanis)
+    ld_map = load_ld_map(path)
+    # Invariant: on y = 0, V = x^2/2 (omega_x = 1), so the allowed points are the disc x^2 + px^2 <= 2E.
+    x, px = np.meshgrid(ld_map.first, ld_map.second, indexing="ij")
+    np.testing.assert_array_equal(~ld_map.values.mask, x**2 + px**2 <= 2 * (E_C + 0.125))
+    # The total descriptor is forward + backward: 1 + x^2 + px^2 where allowed.
+    np.testing.assert_allclose(ld_map.values.compressed(), (1 + x**2 + px**2)[~ld_map.values.mask])
+
+
+def test_section_maps_figure_has_labels_colour_bar_grey_forbidden_and_green_boundary(tmp_path, barbanis):
+    settings = {"kind": "section_maps", "ld_maps": ["m"], "poincare": ["p"], "manifold_curves": {},
+                "descriptor": "total", "color_percentiles": [5.0, 99.9], "color_limits": None, "point_size": 0.6}
+    inputs = {"ld_maps": [ld_file(tmp_path / "m.nc", barbanis)], "poincare": [poincare_file(tmp_path / "p.nc")]}
+    with style.figure_style():
+        figure = draw_figure("section_maps", settings, inputs)
+    poincare_ax, map_ax = figure.axes[0], figure.axes[1]
+    assert (map_ax.get_xlabel(), map_ax.get_ylabel()) == ("$x$", "$p_x$")
+    colorbars = [ax for ax in figure.axes if ax.get_ylabel() == r"$\mathcal{L}$"]
+    assert len(colorbars) == 1
+    image = map_ax.get_images()[0]
+    data = image.get_array()  # transposed: (px, x)
+    assert np.ma.getmaskarray(data).any() and not np.ma.getmaskarray(data).all()
+    assert image.cmap.get_bad()[:3] == pytest.approx(plt.matplotlib.colors.to_rgb(style.FORBIDDEN_COLOR))
+    assert image.get_rasterized()
+    # The colour scale comes from allowed points only (LD >= 1 there), never the forbidden zeros.
+    assert image.norm.vmin >= 1.0
+    # Closed form: the green energy boundary of U_xpx is the circle x^2 + px^2 = 2E, to the grid spacing.
+    boundary = [c for c in poincare_ax.collections if c.get_edgecolor().size and
+                np.allclose(c.get_edgecolor()[0][:3], plt.matplotlib.colors.to_rgb(style.BOUNDARY_COLOR))]
+    assert len(boundary) == 1
+    vertices = np.concatenate([p.vertices for p in boundary[0].get_paths()])
+    radius = np.hypot(vertices[:, 0], vertices[:, 1])
+    np.testing.assert_allclose(radius, np.sqrt(2 * (E_C + 0.125)), atol=2 * 12.0 / 600)
+    plt.close(figure)
+
+
+def test_ld_slices_with_orbit_marks_where_it_pierces_each_section(tmp_path, barbanis):
+    maps = [ld_file(tmp_path / f"k{i}.nc", barbanis, fixed_y=k, time="variable")
+            for i, k in enumerate((-7.0, -7.1))]
+    settings = {"kind": "ld_slices", "ld_maps": ["k0", "k1"], "slices": [0.0], "slice_through_orbit": True,
+                "orbit": {"family": "f", "energy": {"excess": 0.125}}, "descriptor": "total",
+                "color_percentiles": [5.0, 99.9], "color_limits": None, "view": [20.0, -60.0]}
+    with style.figure_style():
+        figure = draw_figure("ld_slices", settings, {"ld_maps": maps, "upo": [upo_file(tmp_path / "f.nc", barbanis)]})
+    curve_ax, map_ax = figure.axes[0], figure.axes[1]
+    # The synthetic orbit has x - y = 5.5 + sqrt(50): at y = -7.0 it is at x = 5.5 + sqrt(50) - 7.0.
+    markers = [line for line in map_ax.get_lines() if line.get_marker() == "o"]
+    assert len(markers) == 1
+    assert markers[0].get_xdata()[0] == pytest.approx(5.5 + np.sqrt(50.0) - 7.0, abs=1e-9)
+    # One slice at p_x = 0 and one through the orbit's point, each a curve above and a line on the map.
+    assert len(curve_ax.get_legend().get_texts()) == 2
+    assert curve_ax.get_ylabel() == r"$\mathcal{L}$" and map_ax.get_ylabel() == "$p_x$"
+    assert any(ax.name == "3d" for ax in figure.axes)  # the view of the orbit threading the sections
+    plt.close(figure)
+
+
+def test_orbit_section_points_on_a_circle():
+    # Closed form: the circle (cos t, sin t) with p = (-sin t, cos t) meets y = 1/2 with p_y > 0
+    # at t = pi/6, i.e. x = sqrt(3)/2, p_x = -1/2 (linear interpolation: error O(h^2)).
+    t = np.linspace(0.0, 2 * np.pi, 2001)
+    orbit = Orbit(phase=("x", "y", "px", "py"),
+                  trajectory=np.stack([np.cos(t), np.sin(t), -np.sin(t), np.cos(t)], axis=1),
+                  energy=0.5, excess_energy=0.0, period=2 * np.pi)
+    points = orbit_section_points(orbit, "y", 0.5, "py", 1)
+    assert points.shape == (1, 4)
+    np.testing.assert_allclose(points[0, [0, 2]], [np.sqrt(3) / 2, -0.5], atol=1e-5)
+    assert orbit_section_points(orbit, "y", 0.5, "py", -1)[0, 0] == pytest.approx(-np.sqrt(3) / 2, abs=1e-5)
+
+
+def test_split_curve_keeps_a_closed_curve_whole_and_breaks_at_gaps():
+    angles = np.linspace(0, 2 * np.pi, 100, endpoint=False)
+    circle = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    pieces = _split_curve(circle, np.ones(100, dtype=bool))
+    assert len(pieces) == 1 and np.allclose(pieces[0][0], pieces[0][-1])  # closed
+    valid = np.ones(100, dtype=bool)
+    valid[[20, 60]] = False
+    assert sorted(len(p) for p in _split_curve(circle, valid)) == [39, 59]  # 21..59, then 61..99 + 0..19
+    jump = circle.copy()
+    jump[50:] += 10.0  # two sheets: no line across the gap
+    assert len(_split_curve(jump, np.ones(100, dtype=bool))) == 2
+
+
+def test_potential_figure_marks_the_paper_saddles(equilibria_file):
+    settings = {"kind": "potential", "system": "barbanis_2dof", "plane": {"x": [-10.0, 15.0], "y": [-12.0, 12.0]},
+                "fixed": {}, "energies": {"excess": [-1.0, 1.0]}, "points": 60, "levels": 10, "surface": True,
+                "potential_range": None}
+    with style.figure_style():
+        figure = draw_figure("potential", settings, {"equilibria": [equilibria_file]})
+    contour_ax = figure.axes[0]
+    saddles = [line for line in contour_ax.get_lines() if line.get_marker() == "x"][0]
+    # Paper: saddles at (5.5, +-7.0711).
+    np.testing.assert_allclose(sorted(zip(saddles.get_xdata(), saddles.get_ydata())),
+                               [(5.5, -np.sqrt(50.0)), (5.5, np.sqrt(50.0))], atol=1e-9)
+    titles = [ax.get_title(loc="right") for ax in figure.axes]
+    assert r"$\Delta E = -1.000$" in titles and r"$\Delta E = 1.000$" in titles
+    assert contour_ax.get_xlabel() == "$x$" and contour_ax.get_ylabel() == "$y$"
+    plt.close(figure)
+
+
+def test_run_figure_writes_small_png_and_pdf_with_the_map_rasterized(tmp_path, barbanis):
+    path = ld_file(tmp_path / "m.nc", barbanis, points=(300, 300))
+    settings = {"kind": "ld_slices", "ld_maps": ["m"], "slices": [0.0, 1.0], "slice_through_orbit": True,
+                "descriptor": "forward", "color_percentiles": [5.0, 99.9], "color_limits": None, "view": [20.0, -60.0]}
+    written = run_figure(figure_name="m", kind="ld_slices", settings=settings, inputs={"ld_maps": path},
+                         png=tmp_path / "out/m.png", pdf=tmp_path / "out/m.pdf")
+    assert [p.name for p in written] == ["m.png", "m.pdf"]
+    pdf = (tmp_path / "out/m.pdf").read_bytes()
+    assert b"/Subtype /Image" in pdf  # the map is an embedded raster, not 90 000 vector cells
+    assert len(pdf) < 400_000 and (tmp_path / "out/m.png").stat().st_size < 400_000
+    assert not list((tmp_path / "out").glob(".*"))  # no temporary file left behind
+
+
+def quick_config():
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    quick = yaml.safe_load((ROOT / "config.quick.yaml").read_text())
+    for key, value in quick.items():  # Snakemake's merge of --configfile over configfile
+        if isinstance(value, dict) and isinstance(config.get(key), dict):
+            for name, entry in value.items():
+                if isinstance(entry, dict) and isinstance(config[key].get(name), dict):
+                    config[key][name] = {**config[key][name], **entry}
+                else:
+                    config[key][name] = entry
+        else:
+            config[key] = value
+    return validate_config(config)
+
+
+def test_each_paper_figure_draws_only_the_stage_files_it_needs():
+    config = load_config(ROOT / "config.yaml")
+    assert figure_input_files(config, "fig1") == {"equilibria": ["results/barbanis_2dof/equilibria.nc"]}
+    fig4 = figure_input_files(config, "fig4")
+    assert sorted(fig4) == ["ld_maps", "upo"]  # no Poincaré sections, no manifolds
+    assert fig4["upo"] == ["results/upo/barbanis_2dof_bottom.nc"]
+    assert sorted(figure_input_files(config, "fig5")) == ["ld_maps"]
+    assert figure_input_files(config, "fig3")["manifolds"] == [
+        "results/manifolds/barbanis_2dof_bottom_dE0.125.nc", "results/manifolds/barbanis_2dof_top_dE0.125.nc"]
+    # Every LD map a figure draws at this energy is fixed time for fig3 and variable time for fig4/fig5.
+    for name, mode in (("fig3", "fixed"), ("fig4", "variable"), ("fig5", "variable")):
+        assert {config["ld_maps"][m]["time"] for m in config["figures"][name]["ld_maps"]} == {mode}
+
+
+def test_captions_state_the_parameters_used_and_render_as_html():
+    config = quick_config()
+    caption = figure_caption(config, "fig4")
+    text = "\n".join(caption["lines"])
+    assert "q_s = [4.5, 6.5] × [−8.5, −5.5]" in text  # the 2 DoF saddle region the paper leaves unstated
+    assert "48 × 48 grid" in text  # the quick run's cap, not the configured 1500
+    assert "τ = 50" in text and "ΔE = 0.125" in text
+    henon = figure_caption(config, "henon_heiles_potential")["lines"][0]
+    assert "V = (x^2 + y^2)/2 + lam·(x^2·y - y^3/3)" in henon  # no '*', which is emphasis markup
+    for name in config["figures"]:
+        parameters = figure_parameters(config, name)
+        json.dumps(parameters)  # Snakemake compares params as text: they must be plain data
+        template = (ROOT / "workflow/report" / f"{parameters['kind']}.rst").read_text()
+        rst = jinja2.Template(template).render(snakemake=SimpleNamespace(params=SimpleNamespace(figure=parameters)))
+        html = publish_parts(rst, writer="html", settings_overrides={"report_level": 2})["body"]
+        assert "System Message" not in html, html  # docutils found nothing to complain about
+        assert html.count("<li>") == len(parameters["caption"]["lines"])  # one list item per parameter line
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda f: f["fig4"].update(ld_maps=["nope"]), "config key 'figures.fig4.ld_maps': no ld_maps entry 'nope'"),
+        (lambda f: f["fig4"]["orbit"].update(energy={"excess": 0.2}), "config key 'figures.fig4.orbit.energy'"),
+        (lambda f: f["fig1"].pop("energies"), "config key 'figures.fig1': a figure of kind 'potential' needs ['energies']"),
+        (lambda f: f["fig2"].update(fixed={}), "config key 'figures.fig2.plane'"),
+        (lambda f: f["fig3"]["manifold_curves"].update({"fig4_k-7.0": []}), "config key 'figures.fig3.manifold_curves.fig4_k-7.0'"),
+        (lambda f: f["fig5"].update(kind="histogram"), "config key 'figures.fig5.kind'"),
+    ],
+)
+def test_bad_figure_entries_name_the_key(change, message):
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    change(config["figures"])
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        validate_config(config)
+
+
+@pytest.mark.slow
+def test_named_figure_targets_plan_only_their_stages(tmp_path):
+    for name in ("Snakefile", "config.yaml", "config.quick.yaml"):
+        shutil.copy(ROOT / name, tmp_path / name)
+    shutil.copytree(ROOT / "workflow", tmp_path / "workflow")
+    shutil.copytree(ROOT / "profiles", tmp_path / "profiles")
+    snakemake = str(Path(sys.executable).with_name("snakemake"))
+
+    def planned(target):
+        result = subprocess.run([snakemake, target, "-n", "--quiet", "rules"], cwd=tmp_path, capture_output=True,
+                                text=True, timeout=300)
+        assert result.returncode == 0, result.stderr
+        return dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
+
+    assert planned("fig1") == {"equilibria": "1", "fig1": "1", "total": "2"}
+    fig4 = planned("fig4")
+    assert "poincare" not in fig4 and "manifolds" not in fig4 and fig4["ld_gather"] == "3"
+    fig3 = planned("fig3")
+    assert fig3["poincare"] == "3" and fig3["manifolds"] == "2" and fig3["ld_gather"] == "3"
