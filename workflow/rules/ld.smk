@@ -13,10 +13,10 @@ rule ld_tile:
         f"{RESULTS}/benchmarks/ld/{{map}}/tile-{{tile}}-of-{{tiles}}.tsv"
     conda:
         "../envs/ldpipe.yaml"
-    threads: workflow.cores
+    threads: STAGE_THREADS
     resources:
         mem_mb=ld_tile_memory_mb,
-        runtime=120,
+        runtime=ld_tile_runtime_min,
     script:
         "../scripts/ld_tile.py"
 

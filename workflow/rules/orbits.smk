@@ -36,7 +36,7 @@ rule manifolds:
         f"{RESULTS}/benchmarks/manifolds/{{manifold}}.tsv"
     conda:
         "../envs/ldpipe.yaml"
-    threads: workflow.cores
+    threads: STAGE_THREADS
     resources:
         mem_mb=manifold_memory_mb,
         runtime=30,
@@ -59,7 +59,7 @@ rule poincare:
         f"{RESULTS}/benchmarks/poincare/{{section}}.tsv"
     conda:
         "../envs/ldpipe.yaml"
-    threads: workflow.cores
+    threads: STAGE_THREADS
     resources:
         mem_mb=poincare_memory_mb,
         runtime=60,

@@ -1,0 +1,199 @@
+"""The workflow on a real SLURM cluster (issue 8).
+
+A single-node cluster (munged, slurmctld and slurmd on this machine, accounting off; started by
+tests/slurm/local_cluster.sh) runs stages of the quick configuration through
+`snakemake --executor slurm`, each job an sbatch submission, and every stage file it writes must
+equal what the session's local run of the same configuration (conftest's ``quick_run``) wrote.
+The reference is an independent execution: a local run on two threads a job, against cluster
+jobs on one core each (the cluster run is limited to one thread a job), so the comparison also
+shows that no number depends on the thread count or on the process that computed it. Left out:
+the figures (drawings of these files) and the accuracy-cost stage, whose numbers are wall times. The test skips, saying
+why, where SLURM is not installed or its daemons do not come up; .ci/run installs it.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
+CLUSTER_SCRIPT = ROOT / "tests" / "slurm" / "local_cluster.sh"
+pytestmark = pytest.mark.slow
+
+# What cannot be equal between two runs, so is not compared: the `history` attribute (the time
+# and command of writing) and measured run times (the NHIM stage's refinement cost, variables
+# named *_wall_time).
+VOLATILE_ATTRIBUTES = {"history"}
+MEASURED_TIME = re.compile(r"wall_time$")
+
+# What the test cluster needs on top of profiles/slurm: no accounting, so no account and squeue
+# for the job status; its jobs are seconds long, so the first status check after 2 s instead of
+# 40 s and a short wait for files; one thread a job; no retry.
+CLUSTER_OPTIONS = (
+    "--slurm-no-account",
+    "--slurm-status-command", "squeue",
+    "--slurm-init-seconds-before-status-checks", "2",
+    "--latency-wait", "5",
+    "--max-threads", "1",
+    "--retries", "0",  # a failure shows at once instead of being retried
+    "--seconds-between-status-checks", "1",  # jobs take seconds; the default polls every 10 s
+    "--jobs", "8",  # the node runs two at once; SLURM starts the queued ones as soon as one ends
+)
+
+
+@pytest.fixture(scope="session")
+def slurm_environment():
+    """Environment variables that point SLURM clients at a local cluster started for this session.
+
+    The cluster is stopped (its jobs cancelled, the daemons this fixture started stopped by
+    their pid files) and its folder removed at the end, also when a test fails.
+    """
+    if os.geteuid() != 0:
+        pytest.skip("the local SLURM cluster needs root (SlurmUser=root, munged as the munge user)")
+    # The cluster's folder must be reachable by the munge user, which pytest's tmp_path is not.
+    state = Path(tempfile.mkdtemp(prefix="ldpipe-slurm-"))
+    try:
+        try:
+            started = subprocess.run(
+                ["bash", str(CLUSTER_SCRIPT), "start", str(state)], capture_output=True, text=True, timeout=120
+            )
+        except subprocess.TimeoutExpired:
+            pytest.skip("SLURM did not start within 120 s")
+        if started.returncode != 0:
+            pytest.skip(f"SLURM could not be started here: {started.stderr.strip()}")
+        yield {
+            **os.environ,
+            "SLURM_CONF": str(state / "slurm.conf"),
+            "PATH": f"{state / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
+        }
+    finally:
+        subprocess.run(["bash", str(CLUSTER_SCRIPT), "stop", str(state)], capture_output=True, timeout=120)
+        shutil.rmtree(state, ignore_errors=True)
+
+
+def snakemake(workdir: Path, *arguments: str, env: dict | None = None) -> subprocess.Popen:
+    """A snakemake run in ``workdir``, started; its output goes to ``workdir/snakemake.log``."""
+    with open(workdir / "snakemake.log", "w") as log:  # the child keeps its own descriptor
+        return subprocess.Popen([SNAKEMAKE, *arguments], cwd=workdir, stdout=log, stderr=subprocess.STDOUT, env=env)
+
+
+def finish(run: subprocess.Popen, workdir: Path) -> str:
+    """Wait for a run started by :func:`snakemake`; it must succeed. Its output."""
+    try:
+        run.wait(timeout=1800)
+    finally:
+        if run.poll() is None:
+            run.terminate()  # snakemake cancels its SLURM jobs when it stops
+            try:
+                run.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                run.kill()  # the fixture's teardown cancels what is left on the cluster
+                run.wait()
+    output = (workdir / "snakemake.log").read_text()
+    assert run.returncode == 0, output[-5000:]
+    return output
+
+
+def same_value(a, b) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    if a.dtype.kind == "f" and b.dtype.kind == "f":
+        return np.array_equal(a, b, equal_nan=True)  # a NaN _FillValue attribute equals itself
+    return np.array_equal(a, b)
+
+
+def assert_same_netcdf(local: Path, cluster: Path, name: str) -> None:
+    """Every variable, coordinate and attribute of two files equal, bit for bit, as stored."""
+    # decode_cf=False: compare the stored values, not a decoded view of them.
+    with xr.open_dataset(local, engine="netcdf4", decode_cf=False) as a, xr.open_dataset(
+        cluster, engine="netcdf4", decode_cf=False
+    ) as b:
+        assert set(a.attrs) == set(b.attrs), name
+        for key in set(a.attrs) - VOLATILE_ATTRIBUTES:
+            assert same_value(a.attrs[key], b.attrs[key]), f"{name}: attribute {key!r} differs"
+        assert set(a.variables) == set(b.variables), name
+        for variable in a.variables:
+            if MEASURED_TIME.search(variable):
+                continue
+            assert a[variable].dims == b[variable].dims, f"{name}: {variable}"
+            np.testing.assert_array_equal(a[variable].values, b[variable].values, err_msg=f"{name}: {variable}")
+            assert set(a[variable].attrs) == set(b[variable].attrs), f"{name}: {variable}"
+            for key, value in a[variable].attrs.items():
+                assert same_value(value, b[variable].attrs[key]), f"{name}: {variable} attribute {key!r}"
+
+
+def job_count(snakemake_output: str) -> dict[str, int]:
+    """The "Job stats" table Snakemake prints before a run: rule -> number of jobs."""
+    lines = snakemake_output.splitlines()
+    start = lines.index("Job stats:") + 3  # the header and its underline follow
+    counts = {}
+    for line in lines[start:]:
+        fields = line.split()
+        if len(fields) != 2 or fields[0] == "total":
+            break
+        counts[fields[0]] = int(fields[1])
+    return counts
+
+
+def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quick_run, workdir):
+    local, local_result = quick_run
+    assert local_result.returncode == 0, local_result.stderr[-5000:]
+    # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on this
+    # 2-core node, so by default the cluster runs one chain of the quick configuration that has
+    # every kind of job: equilibria, LD tiles as separate multi-threaded jobs, their gather, a
+    # periodic-orbit family and the NHIM study of Fig. 4 (12 jobs). LDPIPE_SLURM_TEST=full runs
+    # every stage file instead (~40 jobs, ~6 min here), leaving out the accuracy-cost stage,
+    # whose numbers are wall times, and the figures, which are drawings of these files.
+    if os.environ.get("LDPIPE_SLURM_TEST") == "full":
+        stage_files = sorted(
+            path.relative_to(local) for path in (local / "results").rglob("*.nc") if path.parts[-2] != "accuracy"
+        )
+    else:
+        stage_files = [Path("results/nhim/fig4.nc")]
+    run = snakemake(
+        workdir,
+        "--workflow-profile", "profiles/slurm",
+        "--configfile", "config.quick.yaml",
+        *CLUSTER_OPTIONS,
+        *map(str, stage_files),
+        env=slurm_environment,
+    )
+    output = finish(run, workdir)
+
+    # Every job went through sbatch but those of local rules, which Snakemake's log announces
+    # as "localrule".
+    jobs = job_count(output)
+    assert jobs.get("ld_tile", 0) > 1, jobs  # LD tiles are separate cluster jobs
+    local_jobs = len(re.findall(r"^localrule \w+:$", output, flags=re.M))
+    submitted = output.count("has been submitted with SLURM jobid")
+    assert submitted == sum(jobs.values()) - local_jobs > 0, output[-5000:]
+
+    computed = sorted(path.relative_to(workdir) for path in (workdir / "results").rglob("*.nc"))
+    assert any(path.parts[1] == "ld" for path in computed), computed
+    for path in computed:
+        assert_same_netcdf(local / path, workdir / path, str(path))
+
+
+def test_slurm_profile_gives_every_job_threads_memory_and_a_time_limit(workdir):
+    """The paper configuration planned with profiles/slurm (a dry run, no cluster needed): every
+    job states the memory and time limit sbatch is given, and fits the profile's per-job cap."""
+    run = snakemake(workdir, "--workflow-profile", "profiles/slurm", "-n")
+    output = finish(run, workdir)
+    jobs = re.findall(r"\n(?:local)?rule (\w+):\n(.*?)\n(?:Shell command|\n)", output, flags=re.S)
+    assert len(jobs) == sum(job_count(output).values())
+    for rule, block in jobs:
+        if rule == "all":
+            continue
+        threads = re.search(r"threads: (\d+)", block)
+        resources = dict(re.findall(r"(\w+)=([^,\s]+)", block.split("resources:")[-1]))
+        assert 1 <= (int(threads.group(1)) if threads else 1) <= 32, (rule, block)  # max-threads
+        # The smallest job (equilibria) peaks at 271 MB (results/benchmarks): less would be killed
+        # where SLURM enforces memory.
+        assert int(resources["mem_mb"]) >= 300 and int(resources["runtime"]) >= 1, (rule, resources)
