@@ -19,3 +19,6 @@ rule all:
 include: "workflow/rules/equilibria.smk"
 include: "workflow/rules/ld.smk"
 include: "workflow/rules/orbits.smk"
+include: "workflow/rules/nhim.smk"
+include: "workflow/rules/accuracy.smk"
+include: "workflow/rules/figures.smk"  # last: it checks figure names against every rule

@@ -1,8 +1,16 @@
-"""Shared fixtures: the paper's systems, compiled once per test session."""
+"""Shared fixtures: the paper's systems, compiled once per test session, and one quick workflow run."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from ldpipe.systems import make_system
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
 
 
 @pytest.fixture(scope="session")
@@ -13,3 +21,34 @@ def barbanis():
 @pytest.fixture(scope="session")
 def barbanis_contopoulos():
     return make_system("barbanis_contopoulos_3dof", {"builtin": "barbanis_contopoulos_3dof"})
+
+
+def copy_workflow(folder: Path) -> Path:
+    """What a clone holds for the workflow, copied to ``folder`` (code comes from the installed ldpipe)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in ("Snakefile", "config.yaml", "config.quick.yaml"):
+        shutil.copy(ROOT / name, folder / name)
+    for name in ("workflow", "profiles"):
+        shutil.copytree(ROOT / name, folder / name)
+    return folder
+
+
+@pytest.fixture
+def workdir(tmp_path):
+    """A fresh copy of the workflow files, for a test that runs or plans the workflow."""
+    return copy_workflow(tmp_path / "workflow")
+
+
+@pytest.fixture(scope="session")
+def quick_run(tmp_path_factory):
+    """The quick configuration, run once locally on two cores: ``(workdir, completed process)``.
+
+    Every end-to-end test that needs a complete run reads this one (a run is ~60 jobs, minutes),
+    and none may change its results; a test that edits the configuration writes a new file.
+    """
+    workdir = copy_workflow(tmp_path_factory.mktemp("quick_run"))
+    result = subprocess.run(
+        [SNAKEMAKE, "--configfile", "config.quick.yaml", "--cores", "2"],
+        cwd=workdir, capture_output=True, text=True, timeout=1800,
+    )
+    return workdir, result

@@ -3,7 +3,6 @@ captions, and (slow) the plan Snakemake makes for one named figure."""
 
 import json
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -283,15 +282,11 @@ def test_bad_figure_entries_name_the_key(change, message):
 
 
 @pytest.mark.slow
-def test_named_figure_targets_plan_only_their_stages(tmp_path):
-    for name in ("Snakefile", "config.yaml", "config.quick.yaml"):
-        shutil.copy(ROOT / name, tmp_path / name)
-    shutil.copytree(ROOT / "workflow", tmp_path / "workflow")
-    shutil.copytree(ROOT / "profiles", tmp_path / "profiles")
+def test_named_figure_targets_plan_only_their_stages(workdir):
     snakemake = str(Path(sys.executable).with_name("snakemake"))
 
     def planned(target):
-        result = subprocess.run([snakemake, target, "-n", "--quiet", "rules"], cwd=tmp_path, capture_output=True,
+        result = subprocess.run([snakemake, target, "-n", "--quiet", "rules"], cwd=workdir, capture_output=True,
                                 text=True, timeout=300)
         assert result.returncode == 0, result.stderr
         return dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))

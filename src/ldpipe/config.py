@@ -8,6 +8,7 @@ what is allowed there.
 from __future__ import annotations
 
 import copy
+import functools
 from importlib import resources
 from pathlib import Path
 
@@ -23,6 +24,13 @@ SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 def load_schema() -> dict:
     text = resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
     return yaml.safe_load(text)
+
+
+@functools.lru_cache(maxsize=1)
+def _schema_validator():
+    # Parsing the schema costs ~0.3 s; stages and Snakemake's input functions validate often.
+    # The validator copies defaults into the instance, so the cached schema is never modified.
+    return _DefaultingValidator(load_schema())
 
 
 def _extend_with_defaults(validator_class):
@@ -208,11 +216,186 @@ def _check_orbits(config: dict) -> None:
             )
 
 
+def _check_nhim(config: dict) -> None:
+    """NHIM studies: maps and families exist, maps are variable time and of one system."""
+    nhim = config["nhim"]
+    refinement = nhim["refinement"]
+    if not refinement["bisection_precision"] < refinement["tolerance"]:
+        raise ConfigError(
+            f"config key 'nhim.refinement.bisection_precision': {refinement['bisection_precision']} must be below "
+            f"nhim.refinement.tolerance ({refinement['tolerance']})"
+        )
+    if refinement["zoom_points"] % 2 == 0:
+        raise ConfigError(f"config key 'nhim.refinement.zoom_points': expected an odd number, got {refinement['zoom_points']}")
+    for name, spec in nhim["studies"].items():
+        key = f"nhim.studies.{name}"
+        if ("maps" in spec) == ("derived" in spec):
+            raise ConfigError(f"config key {key!r}: give either 'maps' (LD maps) or 'derived' (slices of one map)")
+        maps = spec["maps"] if "maps" in spec else [spec["derived"]["base_map"]]
+        where = f"{key}.maps" if "maps" in spec else f"{key}.derived.base_map"
+        systems = set()
+        for map_name in maps:
+            if map_name not in config["ld_maps"]:
+                raise ConfigError(f"config key {where!r}: no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
+            if config["ld_maps"][map_name]["time"] != "variable":
+                raise ConfigError(f"config key {where!r}: map {map_name!r} is fixed time; NHIM detection needs variable time")
+            systems.add(config["ld_maps"][map_name]["system"])
+        if len(systems) > 1:
+            raise ConfigError(f"config key {where!r}: maps of several systems {sorted(systems)}; one system per study")
+        if "derived" in spec:
+            section = config["ld_maps"][maps[0]]["section"]
+            for coordinate in spec["derived"]["fixed"]:
+                if coordinate not in section["fixed"]:
+                    raise ConfigError(
+                        f"config key '{key}.derived.fixed.{coordinate}': not a fixed coordinate of map {maps[0]!r} "
+                        f"(it fixes {sorted(section['fixed'])})"
+                    )
+            for axis, interval in spec["derived"]["ranges"].items():
+                if axis not in [a["name"] for a in section["axes"]]:
+                    raise ConfigError(f"config key '{key}.derived.ranges.{axis}': not an axis of map {maps[0]!r}")
+                _check_interval(interval, f"{key}.derived.ranges.{axis}")
+        for family in spec["reference"]:
+            if family not in config["periodic_orbits"]:
+                raise ConfigError(
+                    f"config key '{key}.reference': no family {family!r} under periodic_orbits; expected one of "
+                    f"{sorted(config['periodic_orbits'])}"
+                )
+            if config["periodic_orbits"][family]["system"] not in systems:
+                raise ConfigError(f"config key '{key}.reference': family {family!r} is of another system than the maps")
+
+
+_FIGURE_REQUIRED = {
+    "potential": ("system", "plane", "energies"),
+    "section_maps": ("ld_maps",),
+    "ld_slices": ("ld_maps",),
+    "orbit_family": ("family",),
+}
+
+
+def _check_names(names: list[str], section: str, key: str, config: dict) -> None:
+    for name in names:
+        if name not in config[section]:
+            raise ConfigError(f"config key {key!r}: no {section} entry {name!r}; expected one of {sorted(config[section])}")
+
+
+def _check_family_energies(config: dict, family: str, energies: dict, key: str) -> None:
+    """Every energy asked of a family is one of its target energies (same kind, excess or total)."""
+    targets = config["periodic_orbits"][family]["energies"]
+    for kind, values in energies.items():
+        for value in values if isinstance(values, list) else [values]:
+            if kind not in targets or not any(abs(v - value) <= 1e-8 * max(1.0, abs(value)) for v in targets[kind]):
+                raise ConfigError(
+                    f"config key {key!r}: {kind} energy {value!r} is not among the energies of family {family!r} "
+                    f"({targets}); add it there"
+                )
+
+
+def _check_figures(config: dict) -> None:
+    """Figures: what each kind needs is there, and every stage output it names is declared."""
+    for name, spec in config["figures"].items():
+        key = f"figures.{name}"
+        kind = spec["kind"]
+        missing = [k for k in _FIGURE_REQUIRED[kind] if k not in spec]
+        if missing:
+            raise ConfigError(f"config key {key!r}: a figure of kind {kind!r} needs {missing}")
+        if kind == "potential":
+            coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
+            _check_saddle_near(spec, coordinates, key)
+            named = [*spec["plane"], *spec["fixed"]]
+            if sorted(named) != sorted(coordinates):
+                raise ConfigError(
+                    f"config key '{key}.plane': the plane's two coordinates and 'fixed' must name each of "
+                    f"{list(coordinates)} exactly once; got plane {list(spec['plane'])}, fixed {list(spec['fixed'])}"
+                )
+            for coordinate, interval in spec["plane"].items():
+                _check_interval(interval, f"{key}.plane.{coordinate}")
+        if kind in ("section_maps", "ld_slices"):
+            _check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+        if kind == "section_maps":
+            _check_names(spec["poincare"], "poincare_sections", f"{key}.poincare", config)
+            for map_name, sets in spec["manifold_curves"].items():
+                if map_name not in spec["ld_maps"]:
+                    raise ConfigError(f"config key '{key}.manifold_curves.{map_name}': not one of the figure's ld_maps {spec['ld_maps']}")
+                _check_names(sets, "manifolds", f"{key}.manifold_curves.{map_name}", config)
+        if kind == "ld_slices" and "orbit" in spec:
+            family = spec["orbit"]["family"]
+            _check_names([family], "periodic_orbits", f"{key}.orbit.family", config)
+            if "energy" in spec["orbit"]:
+                _check_family_energies(config, family, spec["orbit"]["energy"], f"{key}.orbit.energy")
+            else:  # the orbit at each map's own energy
+                for map_name in spec["ld_maps"]:
+                    _check_family_energies(config, family, config["ld_maps"][map_name]["energy"],
+                                           f"{key}.orbit (the energy of map {map_name!r})")
+        if kind == "orbit_family":
+            _check_names([spec["family"]], "periodic_orbits", f"{key}.family", config)
+            if "energies" in spec:
+                _check_family_energies(config, spec["family"], spec["energies"], f"{key}.energies")
+            _check_names(spec["manifolds"], "manifolds", f"{key}.manifolds", config)
+            for set_name in spec["manifolds"]:
+                if config["manifolds"][set_name]["orbits"] != spec["family"]:
+                    raise ConfigError(f"config key '{key}.manifolds': set {set_name!r} is of another family than {spec['family']!r}")
+        for axis, interval in spec.get("configuration", {}).items():
+            _check_interval(interval, f"{key}.configuration.{axis}")
+        for limits_key in ("color_limits", "potential_range"):
+            if spec.get(limits_key) is not None:
+                _check_interval(spec[limits_key], f"{key}.{limits_key}")
+        low, high = spec.get("color_percentiles", (0, 100))
+        if not low < high:
+            raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
+
+
+def _check_accuracy_cost(config: dict) -> None:
+    """The accuracy-cost measurement: its maps and family exist, its integrator settings are complete."""
+    spec = config.get("accuracy_cost")
+    if spec is None:
+        return
+    for map_name in spec["ld"]["maps"]:
+        if map_name not in config["ld_maps"]:
+            raise ConfigError(
+                f"config key 'accuracy_cost.ld.maps': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}"
+            )
+    for name in ("reference", "reference_check"):
+        setting = spec["ld"][name]
+        key = f"accuracy_cost.ld.{name}"
+        if setting["scheme"] == "dop853":
+            if "rtol" not in setting or "dt" in setting:
+                raise ConfigError(f"config key {key!r}: dop853 takes rtol (and atol), not dt; got {setting}")
+        elif "dt" not in setting or "rtol" in setting or "atol" in setting:
+            raise ConfigError(f"config key {key!r}: {setting['scheme']} takes dt, not rtol/atol; got {setting}")
+    dop853 = spec["ld"]["ladder"].get("dop853", {})
+    if "atol" in dop853 and len(dop853["atol"]) != len(dop853["rtol"]):
+        raise ConfigError(
+            f"config key 'accuracy_cost.ld.ladder.dop853.atol': {len(dop853['atol'])} values for "
+            f"{len(dop853['rtol'])} rtol values; give one atol per rtol (or none: atol = rtol)"
+        )
+    family = spec["upo"]["family"]
+    if family is not None and family not in config["periodic_orbits"]:
+        raise ConfigError(
+            f"config key 'accuracy_cost.upo.family': no family {family!r}; expected one of {sorted(config['periodic_orbits'])}"
+        )
+    nhim_map = spec["nhim"]["map"]
+    if nhim_map is not None:
+        key = "accuracy_cost.nhim.map"
+        if nhim_map not in config["ld_maps"]:
+            raise ConfigError(f"config key {key!r}: no LD map {nhim_map!r}; expected one of {sorted(config['ld_maps'])}")
+        map_spec = config["ld_maps"][nhim_map]
+        if map_spec["time"] != "variable" or len(map_spec["section"]["fixed"]) != 1:
+            raise ConfigError(
+                f"config key {key!r}: map {nhim_map!r} must be variable time on a 2 DoF section (one fixed coordinate), "
+                "where the periodic orbit's crossing is the exact NHIM point"
+            )
+        if family is None or config["periodic_orbits"][family]["system"] != map_spec["system"]:
+            raise ConfigError(
+                f"config key {key!r}: needs accuracy_cost.upo.family, a family of the map's system "
+                f"{map_spec['system']!r}, for the exact NHIM point (the orbit's crossing); got {family!r}"
+            )
+
+
 def validate_config(config: dict) -> dict:
     """Validate ``config`` in place against the schema, fill defaults, and return it."""
     if not isinstance(config, dict):
         raise ConfigError(f"the configuration must be a mapping of keys to values, got {type(config).__name__}")
-    validator = _DefaultingValidator(load_schema())
+    validator = _schema_validator()
     # The deepest error names the key most precisely: list those first.
     errors = sorted(validator.iter_errors(config), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
     if errors:
@@ -221,6 +404,9 @@ def validate_config(config: dict) -> dict:
     _check_semantics(config)
     _check_ld_maps(config)
     _check_orbits(config)
+    _check_figures(config)
+    _check_nhim(config)
+    _check_accuracy_cost(config)
     return config
 
 

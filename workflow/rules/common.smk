@@ -1,4 +1,5 @@
 # Helpers shared by the rules: configuration checks, targets, parameters, code dependencies.
+import math
 import os
 import re
 
@@ -23,6 +24,8 @@ LD_MAPS = sorted(config["ld_maps"])
 UPO_FAMILIES = sorted(config["periodic_orbits"])
 MANIFOLD_SETS = sorted(config["manifolds"])
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
+FIGURES = list(config["figures"])
+NHIM_STUDIES = list(config["nhim"]["studies"])
 RESULTS = "results"
 
 
@@ -52,6 +55,10 @@ def all_targets():
         *expand(f"{RESULTS}/upo/{{family}}.nc", family=UPO_FAMILIES),
         *expand(f"{RESULTS}/manifolds/{{manifold}}.nc", manifold=MANIFOLD_SETS),
         *expand(f"{RESULTS}/poincare/{{section}}.nc", section=POINCARE_SECTIONS),
+        *expand(f"{RESULTS}/figures/{{figure}}.{{format}}", figure=FIGURES, format=["png", "pdf"]),
+        *nhim_targets(),
+        *([f"{RESULTS}/accuracy/accuracy_cost.nc", f"{RESULTS}/figures/accuracy_cost.png"]
+          if config.get("accuracy_cost") else []),
     ]
 
 
@@ -85,9 +92,32 @@ def _ld_points(map_name):
     return axes[0]["points"] * axes[1]["points"]
 
 
+# Cores of one job of a multi-threaded stage (LD tiles, manifolds, Poincare sections). A local
+# run caps it at --cores; on a cluster it is what each such job asks for (a profile's set-threads
+# changes it per rule). The numbers a stage writes do not depend on it (tests/test_slurm.py runs
+# LD tiles on one core and compares them with a local run on two).
+STAGE_THREADS = 4
+
+# Core-seconds one LD grid point costs per unit of tau, forward and backward together: the
+# paper's fixed-time Fig. 3 tiles took 1.4e-6 with dop853 at rtol 1e-8 (results/benchmarks/ld);
+# fifteen times that covers fixed-step schemes at small dt, tighter tolerances and 3 DoF.
+LD_CORE_SECONDS_PER_POINT_TAU = 2e-5
+
+
 def ld_tile_memory_mb(wildcards):
-    # About 200 bytes a grid point for the fields and the engine's arrays, plus the interpreter.
+    # About 200 bytes a grid point for the fields and the engine's arrays, plus the interpreter
+    # (measured: 350-460 MB peak for a 1500 x 375 tile).
     return 1000 + _ld_points(wildcards.map) * 200 // int(wildcards.tiles) // 2**20
+
+
+def ld_tile_runtime_min(wildcards, threads, attempt):
+    # A time limit that fits the tile (a scheduler starts short jobs sooner), doubled on a retry.
+    from ldpipe.stages.ld import ld_map_parameters
+
+    tau = ld_map_parameters(config, wildcards.map)["tau"]
+    tile_points = _ld_points(wildcards.map) / int(wildcards.tiles)
+    core_seconds = tile_points * tau * LD_CORE_SECONDS_PER_POINT_TAU
+    return (10 + math.ceil(core_seconds / threads / 60)) * attempt
 
 
 def ld_gather_memory_mb(wildcards):
@@ -135,3 +165,76 @@ def poincare_memory_mb(wildcards):
     spec = config["poincare_sections"][wildcards.section]
     axes = spec["initial_conditions"]["axes"]
     return 1000 + 4 * axes[0]["points"] * axes[1]["points"] * spec["max_crossings"] * 12 * 8 // 2**20
+
+
+def nhim_params(wildcards):
+    from ldpipe.stages.nhim import nhim_study_parameters
+
+    return nhim_study_parameters(config, wildcards.study)
+
+
+def _nhim_inputs(study):
+    from ldpipe.stages.nhim import nhim_study_inputs
+
+    return nhim_study_inputs(config, study)
+
+
+def nhim_map_files(wildcards):
+    return [f"{RESULTS}/ld/{name}.nc" for name in _nhim_inputs(wildcards.study)["maps"]]
+
+
+def nhim_equilibria_files(wildcards):
+    return [f"{RESULTS}/{system}/equilibria.nc" for system in _nhim_inputs(wildcards.study)["systems"]]
+
+
+def nhim_reference_files(wildcards):
+    return [f"{RESULTS}/upo/{family}.nc" for family in _nhim_inputs(wildcards.study)["references"]]
+
+
+def nhim_memory_mb(wildcards):
+    # One LD map in memory at a time (about 110 bytes a point as loaded), plus the interpreter.
+    largest = max([_ld_points(name) for name in _nhim_inputs(wildcards.study)["maps"]], default=0)
+    return 1000 + largest * 110 // 2**20
+
+
+def nhim_study_files():
+    return [f"{RESULTS}/nhim/{study}.nc" for study in NHIM_STUDIES]
+
+
+def nhim_figure_maps():
+    """The LD maps of the figure's top row: those of the first study that lists 2 DoF maps."""
+    from ldpipe.config import system_coordinates
+
+    for study in NHIM_STUDIES:
+        maps = _nhim_inputs(study)["maps"]
+        if maps and len(system_coordinates(config["systems"][config["ld_maps"][maps[0]]["system"]])) == 2:
+            return [f"{RESULTS}/ld/{name}.nc" for name in maps]
+    return []
+
+
+def nhim_figure_memory_mb():
+    return 1000 + sum(_ld_points(path.split("/")[-1][:-3]) for path in nhim_figure_maps()) * 40 // 2**20
+
+
+def nhim_targets():
+    if not NHIM_STUDIES:
+        return []
+    return [
+        *nhim_study_files(),
+        f"{RESULTS}/nhim/validation.csv",
+        f"{RESULTS}/nhim/validation.md",
+        f"{RESULTS}/figures/nhim_validation.png",
+        f"{RESULTS}/figures/nhim_validation.pdf",
+    ]
+
+
+def accuracy_params(wildcards):
+    from ldpipe.stages.accuracy import accuracy_parameters
+
+    return accuracy_parameters(config)
+
+
+def accuracy_equilibria_files(wildcards):
+    from ldpipe.stages.accuracy import accuracy_systems
+
+    return [f"{RESULTS}/{system}/equilibria.nc" for system in accuracy_systems(config)]
