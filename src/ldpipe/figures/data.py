@@ -259,6 +259,16 @@ def allowed_mask(system: System, section: Section, energy: float) -> tuple[np.nd
     return first, second, allowed
 
 
+def plane_view(view: dict | None, coordinates: tuple[str, str], first: np.ndarray, second: np.ndarray,
+               margin: float, min_span: float = 0.0) -> list[tuple[float, float]]:
+    """Ranges of a configuration-space panel: the configured ``view`` if given, else the box of
+    the points (``first``, ``second``) padded by ``margin`` times its larger side (at least ``min_span``)."""
+    if view:
+        return [tuple(view[coordinates[0]]), tuple(view[coordinates[1]])]
+    pad = margin * max(np.ptp(first), np.ptp(second), min_span)
+    return [(first.min() - pad, first.max() + pad), (second.min() - pad, second.max() + pad)]
+
+
 def potential_on_plane(system: System, axes: tuple[str, str], ranges, points: int,
                        fixed: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """V on a grid of a configuration plane, the other coordinates fixed.

@@ -18,7 +18,9 @@ from matplotlib.colors import Normalize
 
 from ..logs import get_logger
 from . import style
-from .data import LDMap, Orbit, load_ld_map, load_orbits, nearest_index, orbit_section_points, potential_on_plane
+from .data import (
+    LDMap, Orbit, load_ld_map, load_orbits, nearest_index, orbit_section_points, plane_view, potential_on_plane,
+)
 
 log = get_logger(__name__)
 
@@ -110,14 +112,8 @@ def draw_configuration_view(ax, maps: list[LDMap], orbits: list[Orbit], settings
         segments.append((ends[coordinates[0]], ends[coordinates[1]]))
     q0 = np.concatenate([orbit.coordinate(coordinates[0]) for orbit in orbits])
     q1 = np.concatenate([orbit.coordinate(coordinates[1]) for orbit in orbits])
-    view = settings.get("configuration")
-    if view:
-        ranges = [view[coordinates[0]], view[coordinates[1]]]
-    else:
-        xs = np.concatenate([q0, *[s[0] for s in segments]])
-        ys = np.concatenate([q1, *[s[1] for s in segments]])
-        margin = 0.5 * max(np.ptp(xs), np.ptp(ys))
-        ranges = [(xs.min() - margin, xs.max() + margin), (ys.min() - margin, ys.max() + margin)]
+    ranges = plane_view(settings.get("configuration"), coordinates[:2], np.concatenate([q0, *[s[0] for s in segments]]),
+                        np.concatenate([q1, *[s[1] for s in segments]]), margin=0.5)
     saddle = np.asarray(maps[0].attrs["saddle_position"])
     fixed_rest = {c: float(saddle[i]) for i, c in enumerate(coordinates[2:], start=2)}
     first, second, potential = potential_on_plane(system, coordinates[:2], ranges, POTENTIAL_POINTS, fixed_rest)

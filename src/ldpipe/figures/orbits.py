@@ -19,7 +19,7 @@ from ..datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..systems import make_system
 from . import style
-from .data import load_manifold_curves, load_orbits, potential_on_plane
+from .data import load_manifold_curves, load_orbits, plane_view, potential_on_plane
 
 log = get_logger(__name__)
 
@@ -79,12 +79,7 @@ def draw_orbit_family(settings: dict, *, upo: str | Path, manifolds: list[str | 
     colormap = plt.get_cmap(ENERGY_COLORMAP)
     q0 = np.concatenate([orbit.coordinate(coordinates[0]) for orbit in orbits])
     q1 = np.concatenate([orbit.coordinate(coordinates[1]) for orbit in orbits])
-    view = settings.get("configuration")
-    if view:
-        ranges = [view[coordinates[0]], view[coordinates[1]]]
-    else:
-        margin = 0.4 * max(np.ptp(q0), np.ptp(q1), 0.5)
-        ranges = [(q0.min() - margin, q0.max() + margin), (q1.min() - margin, q1.max() + margin)]
+    ranges = plane_view(settings.get("configuration"), coordinates[:2], q0, q1, margin=0.4, min_span=0.5)
     fixed_rest = {c: float(saddle[i]) for i, c in enumerate(coordinates[2:], start=2)}
     first, second, potential = potential_on_plane(system, coordinates[:2], ranges, POTENTIAL_POINTS, fixed_rest)
     top = critical_energy + float(excess.max())
