@@ -179,7 +179,8 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
     """>>> HOOK: ldpipe's own engine. <<<
 
     Rows: rk4 dt 0.1, 0.05, 0.01; dop853 rtol 1e-4, 1e-5, 1e-6, 1e-8, 1e-10 (atol = rtol); and
-    dop853 1e-6, 1e-8, 1e-10, 1e-12 with the arc-length LD (to put next to heyoka).  Skipped, with a note, when ldpipe.engine does not
+    dop853 1e-6, 1e-8, 1e-10, 1e-12 with the arc-length LD (to put next to heyoka); taylor at
+    1e-8, 1e-10, 1e-12 (default order) for both integrands.  Skipped, with a note, when ldpipe.engine does not
     import.
     """
     notes = []
@@ -205,6 +206,12 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
         ("dop853", dict(scheme="dop853", rtol=1e-8, atol=1e-8), "arclength", "rtol 1e-8"),
         ("dop853", dict(scheme="dop853", rtol=1e-10, atol=1e-10), "arclength", "rtol 1e-10"),
         ("dop853", dict(scheme="dop853", rtol=1e-12, atol=1e-12), "arclength", "rtol 1e-12"),
+        ("taylor", dict(scheme="taylor", rtol=1e-8, atol=1e-8), 0.5, "rtol 1e-8"),
+        ("taylor", dict(scheme="taylor", rtol=1e-10, atol=1e-10), 0.5, "rtol 1e-10"),
+        ("taylor", dict(scheme="taylor", rtol=1e-12, atol=1e-12), 0.5, "rtol 1e-12"),
+        ("taylor", dict(scheme="taylor", rtol=1e-8, atol=1e-8), "arclength", "rtol 1e-8"),
+        ("taylor", dict(scheme="taylor", rtol=1e-10, atol=1e-10), "arclength", "rtol 1e-10"),
+        ("taylor", dict(scheme="taylor", rtol=1e-12, atol=1e-12), "arclength", "rtol 1e-12"),
     ]
     for scheme, kw, p, label in configs:
         settings = LDSettings(p=p, tau=tau, **kw)

@@ -89,10 +89,11 @@ def instrumented_source(source: str) -> str:
     s = _replace(s, "        n_active = 0\n        for j in range(lanes):\n            if active[j]:\n",
                  "        _u = tick(); PT[0] += _u - _t; _t = _u\n"
                  "        n_active = 0\n        for j in range(lanes):\n            if active[j]:\n")
-    s = _replace(s, "        attempt(W, rtol, atol)\n        fast(W, kind, p_exp, glx, glw, window, SP)\n",
+    s = _replace(s, "        attempt(W, rtol, atol)\n",
                  f"        PT[{base}] += 1; PT[{base + 1}] += n_active\n"
                  "        _u = tick(); PT[1] += _u - _t; _t = _u\n"
-                 "        attempt(W, rtol, atol)\n"
+                 "        attempt(W, rtol, atol)\n")
+    s = _replace(s, "        fast(W, kind, p_exp, glx, glw, window, SP)\n",
                  "        _u = tick(); PT[2] += _u - _t; _t = _u\n"
                  "        fast(W, kind, p_exp, glx, glw, window, SP)\n"
                  "        _u = tick(); PT[3] += _u - _t; _t = _u\n")
@@ -108,14 +109,14 @@ def instrumented_source(source: str) -> str:
     return s
 
 
-def load_instrumented(system, scheme: str, lanes: int, directory: Path):
+def load_instrumented(system, scheme: str, lanes: int, directory: Path, order: int | None = None):
     from ldpipe.engine.codegen import engine_source
 
     (directory / "ldpipe_cycles.py").write_text(CYCLES_SOURCE)
     if str(directory) not in sys.path:
         sys.path.insert(0, str(directory))
-    source = instrumented_source(engine_source(system, scheme, lanes))
-    name = "profiled_" + re.sub(r"\W", "_", f"{system.name}_{scheme}_{lanes}")
+    source = instrumented_source(engine_source(system, scheme, lanes, order))
+    name = "profiled_" + re.sub(r"\W", "_", f"{system.name}_{scheme}{order or ''}_{lanes}")
     path = directory / f"{name}.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location(name, path)
@@ -164,6 +165,7 @@ def main() -> None:
     parser.add_argument("--quad-nodes", type=int, default=None)
     parser.add_argument("--block", type=int, default=64)
     parser.add_argument("--window", type=float, default=None)
+    parser.add_argument("--taylor-order", type=int, default=None, help="taylor scheme: order (default from rtol)")
     args = parser.parse_args()
     numba.set_num_threads(1)
     system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
@@ -173,10 +175,11 @@ def main() -> None:
     p = args.p if args.p == "arclength" else float(args.p)
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        process = load_instrumented(system, args.scheme, args.block, Path(tmp))
         for rtol in args.rtol:
             settings = LDSettings(scheme=args.scheme, rtol=rtol, atol=rtol, p=p, quad_nodes=args.quad_nodes,
-                                  block=args.block, **({} if args.window is None else {"window": args.window}))
+                                  block=args.block, taylor_order=args.taylor_order,
+                                  **({} if args.window is None else {"window": args.window}))
+            process = load_instrumented(system, args.scheme, args.block, Path(tmp), settings.order)
             profile(process, system, states[:16], settings)  # compile
             if start is not None:
                 print(f"compiled in {time.perf_counter() - start:.1f} s; {len(states)} trajectories, tau 50, p {p}")
@@ -186,7 +189,8 @@ def main() -> None:
             total = cycles.sum()
             counts = dict(zip(COUNTERS, timers[len(PHASES):-1]))
             lane_steps = counts["lane steps"]
-            print(f"\n{args.scheme} rtol {rtol:g}: wall {wall:.2f} s, {50.0 * len(states) / wall:.3g} time units/s "
+            order = "" if settings.order is None else f" order {settings.order}"
+            print(f"\n{args.scheme}{order} rtol {rtol:g}: wall {wall:.2f} s, {50.0 * len(states) / wall:.3g} time units/s "
                   f"(1 thread), {lane_steps / len(states):.0f} steps per trajectory, "
                   f"lane occupancy {lane_steps / (counts['block iterations'] * args.block):.2f}, "
                   f"{total / lane_steps:.0f} cycles per lane step")

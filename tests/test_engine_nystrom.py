@@ -32,7 +32,7 @@ def first_order_dop853(f, y0, h, rtol, atol):
 
 def test_nystrom_step_equals_first_order_step(barbanis):
     module = load_engine(barbanis, "dop853", LANES)
-    layout = scheme_source("dop853", 2, LANES).layout
+    layout = scheme_source("dop853", barbanis, LANES).layout
     NB = 2 * LANES
     rng = np.random.default_rng(7)
     q0 = rng.uniform(-4.0, 4.0, size=(2, LANES))

@@ -108,7 +108,8 @@ def _map_from_options(args: argparse.Namespace) -> dict:
         "tau": args.tau,
         "p": "arclength" if args.p == "arclength" else _number(args.p, "--p"),
         "time": args.time,
-        "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt},
+        "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
+                       "taylor_order": args.taylor_order},
     }
     if args.region:
         spec["region"] = {}
@@ -223,9 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--time", choices=("fixed", "variable"), default="fixed", help="fixed or variable time (default fixed)")
     ld.add_argument("--region", type=_key_value, action="append", default=[], metavar="COORD=LOW:HIGH",
                     help="saddle region interval of one coordinate (repeatable; variable time)")
-    ld.add_argument("--scheme", default="dop853", help="integrator: dop853 (default), rk4, sym4, sym6")
-    ld.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance of dop853 (default 1e-8)")
-    ld.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance of dop853 (default 1e-8)")
+    ld.add_argument("--scheme", default="dop853", help="integrator: dop853 (default), taylor, rk4, sym4, sym6")
+    ld.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance of dop853 and taylor (default 1e-8)")
+    ld.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance of dop853 and taylor (default 1e-8)")
+    ld.add_argument("--taylor-order", type=int, metavar="M", help="order of the taylor scheme (default: from the tolerance)")
     ld.add_argument("--dt", type=float, default=0.01, help="step of the fixed-step schemes (default 0.01)")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")

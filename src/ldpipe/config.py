@@ -357,17 +357,18 @@ def _check_accuracy_cost(config: dict) -> None:
     for name in ("reference", "reference_check"):
         setting = spec["ld"][name]
         key = f"accuracy_cost.ld.{name}"
-        if setting["scheme"] == "dop853":
+        if setting["scheme"] in ("dop853", "taylor"):
             if "rtol" not in setting or "dt" in setting:
-                raise ConfigError(f"config key {key!r}: dop853 takes rtol (and atol), not dt; got {setting}")
+                raise ConfigError(f"config key {key!r}: {setting['scheme']} takes rtol (and atol), not dt; got {setting}")
         elif "dt" not in setting or "rtol" in setting or "atol" in setting:
             raise ConfigError(f"config key {key!r}: {setting['scheme']} takes dt, not rtol/atol; got {setting}")
-    dop853 = spec["ld"]["ladder"].get("dop853", {})
-    if "atol" in dop853 and len(dop853["atol"]) != len(dop853["rtol"]):
-        raise ConfigError(
-            f"config key 'accuracy_cost.ld.ladder.dop853.atol': {len(dop853['atol'])} values for "
-            f"{len(dop853['rtol'])} rtol values; give one atol per rtol (or none: atol = rtol)"
-        )
+    for scheme in ("dop853", "taylor"):
+        tolerances = spec["ld"]["ladder"].get(scheme, {})
+        if "atol" in tolerances and len(tolerances["atol"]) != len(tolerances["rtol"]):
+            raise ConfigError(
+                f"config key 'accuracy_cost.ld.ladder.{scheme}.atol': {len(tolerances['atol'])} values for "
+                f"{len(tolerances['rtol'])} rtol values; give one atol per rtol (or none: atol = rtol)"
+            )
     family = spec["upo"]["family"]
     if family is not None and family not in config["periodic_orbits"]:
         raise ConfigError(

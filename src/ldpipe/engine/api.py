@@ -122,7 +122,7 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
     # Units of whole blocks, at least ~8 per thread for load balance, at most 16 blocks each.
     per_thread = max(1, N // (8 * get_num_threads()))
     unit = max(lanes, min(16 * lanes, per_thread))
-    runner = get_runner(system, settings.scheme, lanes)
+    runner = get_runner(system, settings.scheme, lanes, settings.order)
     args = (
         float(direction),
         settings.tau,

@@ -93,12 +93,13 @@ def _module_names(source: str) -> set[str]:
     return names
 
 
-def engine_source(system, scheme: str, lanes: int) -> str:
+def engine_source(system, scheme: str, lanes: int, order: int | None = None) -> str:
     """The full text of the generated engine module (see the module docstring)."""
-    parts = scheme_source(scheme, system.n_dof, lanes)
+    parts = scheme_source(scheme, system, lanes, order)
     constants = {
         **parts.layout.constants(),
         "ADAPTIVE": parts.adaptive,
+        "SELF_SIZED": parts.self_sized,
         "ORDER": parts.order,
         "ERROR_EXPONENT": -1.0 / (parts.order + 1.0),
         **parts.constants,
@@ -121,7 +122,8 @@ def engine_source(system, scheme: str, lanes: int) -> str:
     return kernel_source + engine
 
 
-def load_engine(system, scheme: str, lanes: int) -> types.ModuleType:
+def load_engine(system, scheme: str, lanes: int, order: int | None = None) -> types.ModuleType:
     """Import the generated engine module (compiled lazily, on first call, or loaded from disk)."""
-    prefix = re.sub(r"\W", "_", f"engine_{system.name}_{scheme}_{lanes}")
-    return load_generated_module(engine_source(system, scheme, lanes), prefix=prefix)
+    variant = scheme if order is None else f"{scheme}{order}"
+    prefix = re.sub(r"\W", "_", f"engine_{system.name}_{variant}_{lanes}")
+    return load_generated_module(engine_source(system, scheme, lanes, order), prefix=prefix)

@@ -23,26 +23,27 @@ from .codegen import load_engine
 
 # Compiled runners, per live System object, scheme and block size. Keyed by id() with a weak reference
 # (System is an unhashable frozen dataclass); an entry dies with its system.
-_RUNNERS: dict[tuple[int, str, int], tuple[weakref.ref, object]] = {}
+_RUNNERS: dict[tuple[int, str, int, int | None], tuple[weakref.ref, object]] = {}
 _LOCK = threading.Lock()
 
 
-def build_runner(system, scheme: str, lanes: int):
+def build_runner(system, scheme: str, lanes: int, order: int | None = None):
     """The LD kernel ``process`` of ``scheme`` for ``system`` (compiled lazily or loaded from disk).
 
     ``process(states, start, stop, ...)`` integrates trajectories start..stop-1 with one block
     of lanes and writes their results; it releases the GIL, so units run in parallel threads.
     """
-    return load_engine(system, scheme, lanes).process
+    return load_engine(system, scheme, lanes, order).process
 
 
-def get_runner(system, scheme: str, lanes: int):
-    key = (id(system), scheme, lanes)
+def get_runner(system, scheme: str, lanes: int, order: int | None = None):
+    """``build_runner``'s kernel, kept per live system; ``order``: the Taylor scheme's."""
+    key = (id(system), scheme, lanes, order)
     with _LOCK:
         entry = _RUNNERS.get(key)
         if entry is not None and entry[0]() is system:
             return entry[1]
-        runner = build_runner(system, scheme, lanes)
+        runner = build_runner(system, scheme, lanes, order)
         _RUNNERS[key] = (weakref.ref(system, lambda _ref, key=key: _RUNNERS.pop(key, None)), runner)
         return runner
 

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from typing import Union
 
 from .stepping import SCHEMES
+from .taylor import MAX_ORDER, MIN_ORDER, jorba_zou_order
 
-ADAPTIVE_SCHEMES = ("dop853",)
+ADAPTIVE_SCHEMES = ("dop853", "taylor")
 FIXED_STEP_SCHEMES = ("rk4", "sym4", "sym6")
 
 #: Default escape radius: a trajectory is stopped and flagged ``escaped`` the first time
@@ -46,14 +47,20 @@ class LDSettings:
 
     Parameters
     ----------
-    scheme : {"dop853", "rk4", "sym4", "sym6"}
+    scheme : {"dop853", "taylor", "rk4", "sym4", "sym6"}
         ``dop853``: adaptive Dormand–Prince 8(5,3) with per-trajectory step control (uses
-        ``rtol``/``atol``). ``rk4``: classical fixed-step Runge–Kutta. ``sym4``/``sym6``:
+        ``rtol``/``atol``). ``taylor``: Taylor series of order ``taylor_order`` with the
+        Jorba–Zou step rule (uses ``rtol``/``atol``; polynomial potentials only; see
+        :mod:`ldpipe.engine.taylor`). ``rk4``: classical fixed-step Runge–Kutta. ``sym4``/``sym6``:
         fixed-step symplectic compositions of Störmer–Verlet (Suzuki 4th order, 5 forces per
         step; Yoshida's triple jump of it, 6th order, 15 forces per step). Fixed-step schemes
         use ``dt``.
     rtol, atol : float
-        Relative and absolute tolerance of the adaptive scheme (per component of (q, p)).
+        Relative and absolute tolerance of the adaptive schemes (per component of (q, p)).
+    taylor_order : int or None
+        Degree of the momentum series of the ``taylor`` scheme (q is one degree higher);
+        None picks from m_JZ = ceil(-ln(min(rtol, atol)) / 2) + 1 (Jorba & Zou's rule): m_JZ + 5
+        for the arc length, m_JZ - 2 for |v|^p (measured, see :attr:`order`).
     dt : float
         Step of the fixed-step schemes; the last step is shortened to end exactly at ``tau``.
     p : float in (0, 1] or "arclength"
@@ -75,8 +82,8 @@ class LDSettings:
         ``failed``.
     quad_nodes : int or None
         Gauss nodes per step (and per piece) of the LD quadrature; None picks 4 for dop853 at
-        rtol >= 1e-5, 8 for dop853 at tighter tolerances, and 6 for the fixed-step schemes
-        (see :attr:`nodes`).
+        rtol >= 1e-5, 8 for dop853 at tighter tolerances, 8 (arc length) or 12-16 (|v|^p) for
+        taylor, and 6 for the fixed-step schemes (see :attr:`nodes`).
     window : float or None
         The LD quadrature treats a velocity root within this many step lengths outside a step
         as a singularity of that step (see :mod:`ldpipe.engine.quadrature`). None (default)
@@ -87,6 +94,7 @@ class LDSettings:
     scheme: str = "dop853"
     rtol: float = 1e-10
     atol: float = 1e-10
+    taylor_order: int | None = None
     dt: float = 0.01
     p: Union[float, str] = 0.5
     tau: float = 50.0
@@ -131,6 +139,10 @@ class LDSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ValueError(f"{name}: expected an integer >= {low}, got {value!r}")
+        if self.taylor_order is not None:
+            value = self.taylor_order
+            if isinstance(value, bool) or not isinstance(value, int) or not MIN_ORDER <= value <= MAX_ORDER:
+                raise ValueError(f"taylor_order: expected None or an integer in [{MIN_ORDER}, {MAX_ORDER}], got {value!r}")
         if self.quad_nodes is not None:
             if isinstance(self.quad_nodes, bool) or not isinstance(self.quad_nodes, int) or not 2 <= self.quad_nodes <= 32:
                 raise ValueError(f"quad_nodes: expected None or an integer in [2, 32], got {self.quad_nodes!r}")
@@ -138,6 +150,33 @@ class LDSettings:
     @property
     def adaptive(self) -> bool:
         return self.scheme in ADAPTIVE_SCHEMES
+
+    @property
+    def order(self) -> int | None:
+        """The Taylor scheme's order in use (None for the other schemes)."""
+        if self.scheme != "taylor":
+            return None
+        if self.taylor_order is not None:
+            return self.taylor_order
+        order = jorba_zou_order(min(self.rtol, self.atol))
+        if self.p == "arclength":
+            # Five orders above Jorba & Zou's: an engine step's fixed work (the quadrature over
+            # the step, the lanes' bookkeeping) outweighs the series' ~m^2 terms, so longer steps
+            # pay until the step's Gauss rule limits the accuracy. Measured (400 points of the
+            # benchmark section against dop853 at rtol 1e-14, 8 nodes): at rtol 1e-10 order 18
+            # ran 82 steps per tau = 50 against 154 at order 13, 1.3-1.5x the throughput, the
+            # median error 2.0e-12 against 1.5e-12; at 1e-12 order 20 (89 steps) against 15
+            # (157), 1.2-1.5x, median 3.4e-14 against 2.7e-14. Order 24 lost accuracy.
+            order += 5
+        else:
+            # |v|^p: two orders below, for shorter steps. A velocity component that nearly
+            # touches zero inside a step makes |v|^p vary on the scale sqrt(|v_min| / |v''|),
+            # which Gauss–Legendre resolves only on steps a few times that long. Measured (1000
+            # points of the benchmark section, p = 1/2, against dop853 at rtol 1e-14): at rtol
+            # 1e-12 the worst error was 2e-9 at order 15 and 4e-12 at order 13; at 1e-10, 5e-9
+            # at order 13 and 1.3e-10 at order 11; the medians did not change.
+            order -= 2
+        return max(MIN_ORDER, min(MAX_ORDER, order))
 
     @property
     def variable_time(self) -> bool:
@@ -166,8 +205,20 @@ class LDSettings:
         left the median and worst errors against the benchmark reference unchanged (within
         3 %) and were 10-15 % faster; at 1e-6 and tighter 6 nodes already raised the errors.
         """
+        if self.taylor_order is not None:
+            value = self.taylor_order
+            if isinstance(value, bool) or not isinstance(value, int) or not MIN_ORDER <= value <= MAX_ORDER:
+                raise ValueError(f"taylor_order: expected None or an integer in [{MIN_ORDER}, {MAX_ORDER}], got {value!r}")
         if self.quad_nodes is not None:
             return self.quad_nodes
+        if self.scheme == "taylor":
+            # Its steps are 2-5x longer than dop853's at the same tolerance. Measured (400 points
+            # of the benchmark section, against dop853 at rtol 1e-14): the arc length at its
+            # default orders needs 8 nodes (6 raised the median error 60x at rtol 1e-12, order
+            # 20); |v|^p needs 12 (8 raised the worst error 15x at rtol 1e-8) and 16 below 1e-9.
+            if self.p == "arclength":
+                return 8
+            return 12 if self.rtol >= 1e-9 else 16
         if not self.adaptive:
             return 6
         return 4 if self.rtol >= 1e-5 else 8

@@ -35,8 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import tableaux
+from . import taylor
 
-SCHEMES = ("dop853", "rk4", "sym4", "sym6")
+SCHEMES = ("dop853", "taylor", "rk4", "sym4", "sym6")
 
 
 @dataclass(frozen=True)
@@ -59,13 +60,14 @@ class Layout:
     size: int = 0
 
     @classmethod
-    def build(cls, n: int, lanes: int, nc: int, stages: int) -> "Layout":
+    def build(cls, n: int, lanes: int, nc: int, stages: int, series: int = 0) -> "Layout":
         rows = {
             "OQ": n, "OP": n, "OA": n, "OQN": n, "OPN": n, "OAN": n, "OQS": n, "OMQ": n,
             "OH": 1, "OERR": 1, "OE3": 1,
             "OSP": stages * n, "OSA": stages * n,
             "OVC": nc * 2 * n, "OQC": nc * n, "OFC": 2 * n,
             "OMIN": 1, "OMAX": 1, "OACC": 1, "OPRV": 1, "ORAT": 1,
+            "OTS": series,
         }  # fmt: skip
         offsets = {}
         position = 0
@@ -101,12 +103,14 @@ class SchemeSource:
 
     ``templates`` are the template modules (``templates/<name>.py``) that define ``attempt``
     and ``qpoly``, ``source`` generated code appended after them, ``constants`` header
-    constants beyond the layout's.
+    constants beyond the layout's. ``self_sized``: ``attempt`` chooses the step itself (it
+    may shorten the requested ``h``, never lengthen it) and never needs a rejection.
     """
 
     layout: Layout
     adaptive: bool
     order: int
+    self_sized: bool = False
     templates: tuple[str, ...] = ()
     source: str = ""
     constants: dict = field(default_factory=dict)
@@ -272,8 +276,19 @@ def dop853_source(L: Layout) -> str:
     return "\n".join(lines) + "\n"
 
 
-def scheme_source(scheme: str, n_dof: int, lanes: int) -> SchemeSource:
-    """The compiled parts of ``scheme`` for ``n_dof`` degrees of freedom and ``lanes`` lanes."""
+def scheme_source(scheme: str, system, lanes: int, order: int | None = None) -> SchemeSource:
+    """The compiled parts of ``scheme`` for ``system`` and ``lanes`` lanes.
+
+    ``order``: the Taylor scheme's order (required for it, ignored by the others).
+    """
+    n_dof = system.n_dof
+    if scheme == "taylor":
+        if order is None:
+            raise ValueError("scheme 'taylor': the order must be given")
+        acceleration = taylor.acceleration_of(system)
+        rows = taylor.series_rows(n_dof, order, len(acceleration.products))
+        layout = Layout.build(n_dof, lanes, order + 2, 0, series=rows)
+        return SchemeSource(layout, True, order, source=taylor.taylor_source(layout, acceleration, order), self_sized=True)
     if scheme == "dop853":
         layout = Layout.build(n_dof, lanes, 8, 16)
         return SchemeSource(layout, True, tableaux.DOP853_ORDER, source=dop853_source(layout))

@@ -36,6 +36,7 @@ log = get_logger(__name__)
 STAGE = "accuracy_cost"
 SCHEME_STYLE = {
     "dop853": {"color": "tab:blue", "marker": "o"},
+    "taylor": {"color": "tab:purple", "marker": "P"},
     "rk4": {"color": "tab:orange", "marker": "s"},
     "sym4": {"color": "tab:green", "marker": "^"},
     "sym6": {"color": "tab:red", "marker": "D"},

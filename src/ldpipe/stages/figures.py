@@ -124,7 +124,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
                  + f" in ({', '.join(region)}) (config key ld_maps.{map_name}.region)")
     integrator = parameters["integrator"]
     tolerance = (f"rtol = {_number(integrator['rtol'])}, atol = {_number(integrator['atol'])}"
-                 if integrator["scheme"] == "dop853" else f"dt = {_number(integrator['dt'])}")
+                 if integrator["scheme"] in ("dop853", "taylor") else f"dt = {_number(integrator['dt'])}")
     text += (f", {axes[0]['points']} × {axes[1]['points']} grid over {axes[0]['name']} ∈ {_interval(axes[0]['range'])}, "
              f"{axes[1]['name']} ∈ {_interval(axes[1]['range'])}, {integrator['scheme']} ({tolerance})")
     return text

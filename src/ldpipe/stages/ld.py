@@ -95,7 +95,7 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
         settings = LDSettings(
             scheme=integrator["scheme"], rtol=integrator["rtol"], atol=integrator["atol"], dt=integrator["dt"],
             p=parameters["p"], tau=parameters["tau"], region_lower=lower, region_upper=upper,
-            escape_radius=integrator["escape_radius"],
+            escape_radius=integrator["escape_radius"], taylor_order=integrator.get("taylor_order"),
         )
     except ValueError as error:
         raise ConfigError(f"config key '{key}': {error}") from None
@@ -122,6 +122,8 @@ def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
         "rtol": settings.rtol,
         "atol": settings.atol,
         "dt": settings.dt,
+        # the Taylor scheme's order in use (0: another scheme), default resolved from the tolerance
+        "taylor_order": settings.order or 0,
         "escape_radius": settings.escape_radius,
         # the LD quadrature's settings in use (defaults resolved from scheme and rtol)
         "quadrature_window": settings.quadrature_window,

@@ -112,6 +112,7 @@ def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
         scheme=str(dataset.attrs["scheme"]), rtol=float(dataset.attrs["rtol"]), atol=float(dataset.attrs["atol"]),
         dt=float(dataset.attrs["dt"]), p=parameters["p"], tau=float(dataset.attrs["tau"]),
         region_lower=tuple(lower), region_upper=tuple(upper), escape_radius=float(dataset.attrs["escape_radius"]),
+        taylor_order=int(dataset.attrs.get("taylor_order", 0)) or None,
     )
     return make_slice_problem(parameters["map_name"], system, section, float(dataset.attrs["energy"]),
                               float(dataset.attrs["critical_energy"]), saddle, settings)

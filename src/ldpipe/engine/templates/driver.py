@@ -11,7 +11,7 @@ One iteration advances every active lane by one step attempt with its own h:
 flags (vectorized) -> a short scalar pass per lane for acceptance, the special quadrature
 path, event location, commit, step-size control and refill.
 
-Header names used: N, LANES, NC, NCOMP, SIZE, NB, ADAPTIVE, ORDER, ERROR_EXPONENT,
+Header names used: N, LANES, NC, NCOMP, SIZE, NB, ADAPTIVE, SELF_SIZED, ORDER, ERROR_EXPONENT,
 KIND_ARCLENGTH, the workspace offsets, and the kernels ``potential`` and ``gradient``.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT, np and the kernels come from the generated module)
@@ -215,6 +215,9 @@ def process(
             break
 
         attempt(W, rtol, atol)
+        if SELF_SIZED:  # the scheme chose the step: what the lanes integrate is hh
+            for j in range(lanes):
+                habs[j] = abs(hh[j])
         fast(W, kind, p_exp, glx, glw, window, SP)
         if kind != KIND_ARCLENGTH:
             special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots)

@@ -1,0 +1,254 @@
+"""The ``taylor`` scheme: Taylor series stepping for q'' = a(q) with a polynomial potential.
+
+Along a trajectory q(t) = sum_k q_k t^k, and q'' = a(q) gives the recurrence
+
+    q_{k+2} = a^[k] / ((k + 1)(k + 2)),
+
+where a^[k], the k-th Taylor coefficient of t -> a(q(t)), needs q_0..q_k only: a constant
+term of a contributes at k = 0, a linear term c q_l contributes c q_{l,k}, and a monomial of
+degree d >= 2 the k-th coefficient of a product of series, by Cauchy products
+(sum_{l=0}^k f_l g_{k-l}; half of it for a square), chained for d > 2. The acceleration's
+monomials come from the system's formula by sympy, so the scheme serves every polynomial
+potential (the built-ins give their formula too); a potential that is not a polynomial gets
+a clear error.
+
+With the momentum series p = q' taken to degree m (the *order*; q to degree m + 1), the step
+follows Jorba & Zou (Experiment. Math. 14, 2005): with rho_k = max over the components of
+|x_c^[k]| / (atol + rtol |x_c|), x = (q, p),
+
+    h = SAFETY * min(rho_m^(-1/m), rho_{m-1}^(-1/(m-1))),
+
+so the first terms left out are about the tolerance; two orders guard against a coefficient
+that vanishes by symmetry. The step is chosen before it is taken: no rejected attempts. The
+default order, ceil(-ln(tol) / 2) + 1, balances the cost of the series (~m^2 per product)
+against the number of steps (Jorba & Zou; heyoka's choice too). The LD settings start from
+it: five more for the arc length (an engine step's fixed work outweighs the series), two
+less for |v|^p (shorter steps for the cusp quadrature); see ``LDSettings.order``.
+
+The series is the step's dense output, of the step's own order: the velocity polynomials
+VC of the LD quadrature are the series of p and of a(q(t)), and the configuration
+polynomials QC (event location) that of q, each in x = t / h.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import sympy
+
+# Step safety factor exp(-0.7 / (m - 1)) of heyoka's step rule is ~0.95 at the default
+# orders; a constant is as good here and keeps the rule readable.
+SAFETY = 0.95
+MIN_ORDER = 4
+MAX_ORDER = 40
+
+
+def jorba_zou_order(tolerance: float) -> int:
+    """Jorba & Zou's order for a tolerance, ceil(-ln(tol) / 2) + 1 (not clipped to the limits)."""
+    return math.ceil(-math.log(tolerance) / 2.0) + 1
+
+
+@dataclass(frozen=True)
+class Acceleration:
+    """a_i(q) = sum over ``terms[i]`` of coefficient * prod_l q_l^(exponent_l).
+
+    ``products`` lists the series products the monomials of degree >= 2 need, each as
+    (left, right) operands: ("q", l) is the series of q_l, ("product", r) an earlier product;
+    ``monomials`` maps an exponent tuple of degree >= 2 to the index of its product.
+    """
+
+    terms: tuple[tuple[tuple[tuple[int, ...], float], ...], ...]
+    products: tuple[tuple[tuple[str, int], tuple[str, int]], ...]
+    monomials: dict
+
+
+def acceleration_of(system) -> Acceleration:
+    """The acceleration -grad V of ``system`` as polynomials, from its formula."""
+    from ..systems.formula import parse_potential
+
+    if not system.formula:
+        raise ValueError(f"scheme 'taylor': system {system.name!r} has no formula for V; use dop853")
+    expression = parse_potential(system.formula, system.coordinates, system.parameters, f"systems.{system.name}")
+    symbols = [sympy.Symbol(name, real=True) for name in system.coordinates]
+    terms = []
+    for symbol in symbols:
+        try:
+            # numeric coefficients first: pi * x or sqrt(2) * x is a polynomial over the reals
+            polynomial = sympy.Poly(sympy.N(-sympy.diff(expression, symbol), 17), *symbols)
+        except sympy.PolynomialError:
+            polynomial = None
+        if polynomial is None or not polynomial.domain.is_Numerical:
+            raise ValueError(
+                f"scheme 'taylor': the potential of system {system.name!r}, V = {system.formula}, is not a "
+                f"polynomial in {list(system.coordinates)}; the Taylor scheme needs one (use dop853)"
+            )
+        terms.append(tuple((tuple(m), float(c)) for m, c in polynomial.terms() if float(c) != 0.0))
+
+    products: list[tuple[tuple[str, int], tuple[str, int]]] = []
+    by_factors: dict[tuple[int, ...], tuple[str, int]] = {}
+
+    def series_of(factors: tuple[int, ...]) -> tuple[str, int]:
+        """Operand for the product of the q-series listed in ``factors`` (sorted, with repeats)."""
+        if len(factors) == 1:
+            return ("q", factors[0])
+        if factors not in by_factors:
+            products.append((series_of(factors[:-1]), ("q", factors[-1])))
+            by_factors[factors] = ("product", len(products) - 1)
+        return by_factors[factors]
+
+    monomials = {}
+    for component in terms:
+        for exponents, _ in component:
+            if sum(exponents) >= 2:
+                factors = tuple(l for l, e in enumerate(exponents) for _ in range(e))
+                monomials[exponents] = series_of(factors)[1]
+    return Acceleration(tuple(terms), tuple(products), monomials)
+
+
+def _power_source(name: str, exponent: int) -> str:
+    """Source of name**exponent by repeated squaring (exponent >= 1), e.g. x^5 = (x^2)^2 x."""
+    if exponent == 1:
+        return name
+    half = _power_source(name, exponent // 2)
+    square = f"({half}) * ({half})" if exponent // 2 > 1 else f"{half} * {half}"
+    return f"{square} * {name}" if exponent % 2 else square
+
+
+def series_rows(n: int, order: int, n_products: int) -> int:
+    """Workspace rows of the series: q to degree order + 1, each product to degree order - 1."""
+    return (order + 2) * n + order * n_products
+
+
+def taylor_source(L, acceleration: Acceleration, order: int) -> str:
+    """Source of ``attempt`` and ``qpoly`` of the Taylor scheme of ``order`` for layout L.
+
+    Series coefficients live in the workspace region OTS: q_{k,i} in row k n + i, the k-th
+    coefficient of product r in row (order + 2) n + k n_products + r. One loop over the lanes
+    per degree k, with the Cauchy sums written out (the order is a compile-time constant), so
+    each loop vectorizes across lanes.
+    """
+    n, B, m = L.n, L.lanes, order
+    NB = n * B
+    n_products = len(acceleration.products)
+    base_products = L.OTS + (m + 2) * NB
+
+    def q(k: int, i: int) -> str:
+        return f"W[{L.OTS + (k * n + i) * B} + j]"
+
+    def product(r: int, k: int) -> str:
+        return f"W[{base_products + (k * n_products + r) * B} + j]"
+
+    def operand(ref: tuple[str, int], k: int) -> str:
+        kind, index = ref
+        return q(k, index) if kind == "q" else product(index, k)
+
+    def cauchy(left, right, k: int) -> str:
+        if left == right:  # a square: each cross term twice
+            pairs = [f"{operand(left, l)} * {operand(left, k - l)}" for l in range((k + 1) // 2)]
+            total = f"2.0 * ({' + '.join(pairs)})" if pairs else ""
+            middle = f"{operand(left, k // 2)} * {operand(left, k // 2)}" if k % 2 == 0 else ""
+            return " + ".join(t for t in (total, middle) if t)
+        return " + ".join(f"{operand(left, l)} * {operand(right, k - l)}" for l in range(k + 1))
+
+    lines = [
+        "@njit(**JIT)",
+        "def attempt(W, rtol, atol):",
+        f"    for i in range({n}):",
+        f"      for j in range({B}):",
+        f"        W[{L.OTS} + i * {B} + j] = W[{L.OQ} + i * {B} + j]",
+        f"        W[{L.OTS + NB} + i * {B} + j] = W[{L.OP} + i * {B} + j]",
+    ]
+    for k in range(m):  # a^[k] from q_0..q_k, then q_{k+2}
+        lines.append(f"    for j in range({B}):")
+        for r, (left, right) in enumerate(acceleration.products):
+            lines.append(f"        {product(r, k)} = {cauchy(left, right, k)}")
+        for i, component in enumerate(acceleration.terms):
+            parts = []
+            for exponents, coefficient in component:
+                degree = sum(exponents)
+                if degree == 0:
+                    if k == 0:
+                        parts.append(repr(coefficient))
+                elif degree == 1:
+                    parts.append(f"{coefficient!r} * {q(k, exponents.index(1))}")
+                else:
+                    parts.append(f"{coefficient!r} * {product(acceleration.monomials[exponents], k)}")
+            value = " + ".join(parts) if parts else "0.0"
+            lines.append(f"        {q(k + 2, i)} = ({value}) * {1.0 / ((k + 1) * (k + 2))!r}")
+
+    # Step size (Jorba & Zou, see the module docstring), in the lanes' own direction.
+    lines += [
+        f"    for j in range({B}):",
+        "        rho_last = 0.0",
+        "        rho_before = 0.0",
+    ]
+    for i in range(n):
+        lines += [
+            f"        sq = atol + rtol * abs(W[{L.OQ + i * B} + j])",
+            f"        sp = atol + rtol * abs(W[{L.OP + i * B} + j])",
+            f"        rho_last = max(rho_last, abs({q(m, i)}) / sq, {float(m + 1)!r} * abs({q(m + 1, i)}) / sp)",
+            f"        rho_before = max(rho_before, abs({q(m - 1, i)}) / sq, {float(m)!r} * abs({q(m, i)}) / sp)",
+        ]
+    lines += [
+        f"        W[{L.OERR} + j] = 0.0",
+        f"        requested = W[{L.OH} + j]",
+        "        limit = abs(requested)",
+        "        if rho_last > 0.0:",
+        f"            limit = min(limit, {SAFETY!r} * rho_last ** {-1.0 / m!r})",
+        # the second bound only where it binds (rho_before (limit / SAFETY)^(m-1) > 1): one
+        # power by multiplications instead of a second call of pow on every step
+        f"        x = limit * {1.0 / SAFETY!r}",
+        f"        if rho_before * {_power_source('x', m - 1)} > 1.0:",
+        f"            limit = min(limit, {SAFETY!r} * rho_before ** {-1.0 / (m - 1)!r})",
+        f"        W[{L.OH} + j] = math.copysign(limit, requested)",
+    ]
+
+    # The step's end by Horner, and the velocity polynomials in x = t / h: VC of q_i is
+    # p_i(t) = sum_k (k+1) q_{k+1} t^k, VC of p_i is a_i(t) = sum_k (k+1)(k+2) q_{k+2} t^k.
+    CS = 2 * NB
+    lines += [
+        f"    for i in range({n}):",
+        f"      for j in range({B}):",
+        f"        h = W[{L.OH} + j]",
+    ]
+    qk = lambda k: f"W[{L.OTS + k * NB} + i * {B} + j]"  # noqa: E731  (row k n + i)
+    horner_q = qk(m + 1)
+    for k in range(m, -1, -1):
+        horner_q = f"({horner_q}) * h + {qk(k)}"
+    horner_p = f"{float(m + 1)!r} * {qk(m + 1)}"
+    for k in range(m - 1, -1, -1):
+        horner_p = f"({horner_p}) * h + {float(k + 1)!r} * {qk(k + 1)}"
+    lines += [
+        f"        W[{L.OQN} + i * {B} + j] = {horner_q}",
+        f"        W[{L.OPN} + i * {B} + j] = {horner_p}",
+        f"        vq = {L.OVC} + i * {B} + j",
+        f"        vp = {L.OVC + NB} + i * {B} + j",
+        "        hk = 1.0",
+    ]
+    for k in range(L.nc):
+        velocity = f"{float(k + 1)!r} * {qk(k + 1)} * hk" if k <= m else "0.0"
+        force = f"{float((k + 1) * (k + 2))!r} * {qk(k + 2)} * hk" if k <= m - 1 else "0.0"
+        lines += [f"        W[vq + {k * CS}] = {velocity}", f"        W[vp + {k * CS}] = {force}"]
+        if k < m:
+            lines.append("        hk *= h")
+    lines.append(
+        f"    acceleration_block(W[{L.OQN}:{L.OQN + NB}].reshape(({n}, {B})), "
+        f"W[{L.OAN}:{L.OAN + NB}].reshape(({n}, {B})), {B})"
+    )
+    # qpoly: q(x) = sum_k q_k h^k x^k
+    lines += [
+        "",
+        "",
+        "@njit(**JIT)",
+        "def qpoly(W):",
+        f"    for i in range({n}):",
+        f"      for j in range({B}):",
+        f"        h = W[{L.OH} + j]",
+        "        hk = 1.0",
+    ]
+    for k in range(m + 2):
+        lines.append(f"        W[{L.OQC + k * NB} + i * {B} + j] = {qk(k)} * hk")
+        if k < m + 1:
+            lines.append("        hk *= h")
+    return "\n".join(lines) + "\n"
