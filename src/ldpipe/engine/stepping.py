@@ -49,7 +49,7 @@ class Layout:
     configuration), ``OMQ`` (mean velocity), ``OH`` (signed step), ``OERR``, ``OE3`` (error
     estimates), ``OSP``, ``OSA`` (stage momenta and accelerations, ``stages * n`` rows each),
     ``OVC``, ``OQC`` (velocity and configuration polynomials), ``OFC`` (per-component LD of
-    the step) and ``OMIN``, ``OMAX``, ``OACC``, ``OPRV``, ``ORAT`` (scratch rows of the quadrature).
+    the step) and ``OMIN``, ``OMAX``, ``OACC``, ``OPRV``, ``ORAT``, ``OCRV`` (scratch rows of the quadrature).
     """
 
     n: int  # degrees of freedom
@@ -66,7 +66,7 @@ class Layout:
             "OH": 1, "OERR": 1, "OE3": 1,
             "OSP": stages * n, "OSA": stages * n,
             "OVC": nc * 2 * n, "OQC": nc * n, "OFC": 2 * n,
-            "OMIN": 1, "OMAX": 1, "OACC": 1, "OPRV": 1, "ORAT": 1,
+            "OMIN": 1, "OMAX": 1, "OACC": 1, "OPRV": 1, "ORAT": 1, "OCRV": 1,
             "OTS": series,
         }  # fmt: skip
         offsets = {}
