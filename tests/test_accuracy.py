@@ -271,3 +271,32 @@ def test_dataset_joins_maps_of_different_sample_sizes():
     padded = accuracy_stage._pad_points(one, 4)
     assert padded.v.values.tolist() == [1.0, 2.0, 0.0, 0.0]
     assert padded.point_used.values.tolist() == [True, True, False, False]
+
+
+def test_error_statistics_leave_out_the_reference_escapes(barbanis):
+    # Above the saddle energy some trajectories escape. A fixed-step reference stops them at the
+    # start of the step that leaves the escape radius (short by up to one step of a fast
+    # integrand), so their errors say nothing about the setting measured: the quantiles must be
+    # those of the other trajectories, and the escapes counted (an invariant of the bookkeeping:
+    # recomputed here from the stored per-point errors and stop reasons).
+    rng = np.random.default_rng(7)
+    saddle = barbanis.closed_form_equilibria()[1]
+    energy = barbanis.potential(saddle) + 1.0
+    states = []
+    while len(states) < 128:
+        q = rng.uniform([-3.0, -6.0], [6.0, 6.0])
+        kinetic = energy - barbanis.potential(q)
+        if kinetic > 0.0:
+            angle = rng.uniform(0.0, 2.0 * math.pi)
+            states.append([*q, *(math.sqrt(2.0 * kinetic) * np.array([math.cos(angle), math.sin(angle)]))])
+    steps = integrator_ladder({"dop853": {"rtol": [1e-8]}})
+    reference = IntegratorStep("sym6", dt=0.02)
+    check = IntegratorStep("sym6", dt=0.01)
+    data = ld_ladder_dataset(barbanis, np.array(states), LDSettings(tau=20.0), steps, reference, check)
+    escaped = data.reference_stop_reason.values == accuracy.STOP_REASONS.index("escaped")
+    assert 0 < escaped.sum() < escaped.size  # the case is there
+    assert data.attrs["reference_escapes"] == escaped.sum()
+    kept = data.ld_relative_error.values[0][~escaped]
+    assert np.allclose(data.ld_error_quantile.values[0], np.quantile(kept, accuracy.QUANTILES), rtol=0, atol=0)
+    kept_check = data.reference_check_error.values[~escaped]
+    assert np.allclose(data.reference_check_quantile.values, np.quantile(kept_check, accuracy.QUANTILES), rtol=0, atol=0)

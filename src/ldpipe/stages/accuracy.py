@@ -132,6 +132,7 @@ def _map_dataset(name: str, parameters: dict, equilibria: xr.Dataset, ld: dict, 
         "variable_time": settings.variable_time,
         "reference_wall_time": data.attrs.pop("reference_wall_time"),
         "reference_check_wall_time": data.attrs.pop("reference_check_wall_time"),
+        "reference_escapes": data.attrs.pop("reference_escapes"),
     }
     for key, value in scalars.items():
         data[key] = value
@@ -280,7 +281,9 @@ def _ld_tables(data: xr.Dataset) -> list[str]:
         f"LD: reference {data.attrs['reference']}; the reference check ({data.attrs['reference_check']}) "
         f"is listed per map. Wall time is the smallest of {data.attrs['repeats']} run(s); the full-map "
         "estimate scales it to every allowed grid point. Errors are relative to the reference, over the "
-        "sampled points and both directions; energy drift is |H(end) - H(0)|. `*` marks the map's own setting.",
+        "sampled points and both directions where the reference did not escape (a fixed-step reference stops "
+        "an escape at the start of a step, short by up to one step's LD); energy drift is |H(end) - H(0)|. "
+        "`*` marks the map's own setting.",
         "",
     ]
     for m, name in enumerate(data["map"].values):
@@ -292,7 +295,9 @@ def _ld_tables(data: xr.Dataset) -> list[str]:
             f"dE = {float(d.excess_energy):g}",
             "",
             f"Reference check: median {_scientific(check[median])}, 99% {_scientific(check[p99])}, "
-            f"worst {_scientific(check[worst])}; reference wall time {float(d.reference_wall_time):.2f} s.",
+            f"worst {_scientific(check[worst])}; reference wall time {float(d.reference_wall_time):.2f} s; "
+            f"{int(d.reference_escapes)} of {2 * int(d.sampled_points)} reference trajectories escaped "
+            "(left out of the error columns).",
             "",
             "| setting | wall s (sample) | full map s | time units / s | LD error median | 99% | worst "
             "| energy drift median | worst | stop mismatches | non-finite energy |",
