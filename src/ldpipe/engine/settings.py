@@ -205,10 +205,6 @@ class LDSettings:
         left the median and worst errors against the benchmark reference unchanged (within
         3 %) and were 10-15 % faster; at 1e-6 and tighter 6 nodes already raised the errors.
         """
-        if self.taylor_order is not None:
-            value = self.taylor_order
-            if isinstance(value, bool) or not isinstance(value, int) or not MIN_ORDER <= value <= MAX_ORDER:
-                raise ValueError(f"taylor_order: expected None or an integer in [{MIN_ORDER}, {MAX_ORDER}], got {value!r}")
         if self.quad_nodes is not None:
             return self.quad_nodes
         if self.scheme == "taylor":

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 
 import sympy
 
-# Step safety factor exp(-0.7 / (m - 1)) of heyoka's step rule is ~0.95 at the default
-# orders; a constant is as good here and keeps the rule readable.
+# Safety factor of the step rule: the coefficient estimate of the truncation error is not a
+# bound, so the step stays a little inside it.
 SAFETY = 0.95
 MIN_ORDER = 4
 MAX_ORDER = 40
