@@ -144,9 +144,6 @@ def fast(W, kind, p, glx, glw, window, SP):
                     v1 = v1 + W[base + k * CS]
                 near_left = (v0 * d0 > 0.0) & (abs(v0) <= window * abs(d0))
                 near_right = (v1 * d1 < 0.0) & (abs(v1) <= window * abs(d1))
-                v1 = 0.0
-                for k in range(NC):
-                    v1 += W[base + k * CS]
                 pair = max(W[ORAT + j], pair_possible(W[OPRV + j], v1, W[OCRV + j], last_gap)) > 0.0
                 # An idle lane (h = 0; never loaded: all zero) is never special: its FC is not
                 # used, and its zero polynomials would each take the scalar path.
