@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..datafile import open_stage_file, stage_parameters
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..sections import Section, section_states
 from ..systems import System, make_system
@@ -292,11 +293,14 @@ def potential_on_plane(system: System, axes: tuple[str, str], ranges, points: in
     return first, second, potential.reshape(grid_first.shape)
 
 
-def saddles(path: str | Path) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], dict]:
-    """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), critical energies (k,),
-    the coordinate names, and the stage parameters (with the system's spec)."""
+def saddles(path: str | Path, near: list[float] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, float, tuple[str, ...], dict]:
+    """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), the one nearest ``near``
+    (:func:`ldpipe.equilibria.select_saddle`) and its critical energy, the coordinate names, and
+    the stage parameters (with the system's spec)."""
     dataset = open_stage_file(path, stage="equilibria", variables=("position", "saddle_equilibrium", "critical_energy"))
     indices = dataset.saddle_equilibrium.values
     coordinates = tuple(str(c) for c in dataset.coordinate.values)
-    return (dataset.position.values[indices].copy(), dataset.critical_energy.values.copy(), coordinates,
+    saddle, critical_energy = select_saddle(dataset, near)
+    return (dataset.position.values[indices].copy(), saddle.copy(), critical_energy, coordinates,
             stage_parameters(dataset))

@@ -45,12 +45,8 @@ def draw_potential(settings: dict, *, equilibria: str | Path) -> plt.Figure:
     equilibria : path
         The system's ``equilibria`` stage file (saddles, critical energies, the system's spec).
     """
-    positions, critical_energies, coordinates, parameters = saddles(equilibria)
+    positions, saddle, critical_energy, coordinates, parameters = saddles(equilibria, settings.get("saddle_near"))
     system = make_system(parameters["system_name"], parameters["system_spec"])
-    near = settings.get("saddle_near")
-    choice = int(np.argmin(critical_energies)) if near is None else int(
-        np.argmin(np.linalg.norm(positions - np.asarray(near), axis=1)))
-    saddle, critical_energy = positions[choice], float(critical_energies[choice])
     axes = tuple(settings["plane"])
     ranges = [settings["plane"][a] for a in axes]
     fixed = _fixed_values(settings, coordinates, saddle)

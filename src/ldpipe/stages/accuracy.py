@@ -26,6 +26,7 @@ from ..accuracy import (
     same_number,
 )
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError, StageFileError
 from ..ld_grid import ld_grid_dataset
 from ..logs import get_logger
@@ -34,7 +35,6 @@ from ..periodic_orbits import CorrectionFailed, linearize_saddle
 from ..sections import section_states
 from ..systems import make_system
 from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 from .ld import ld_map_parameters, resolve_map
 from .upo import upo_parameters
 

@@ -18,13 +18,13 @@ import xarray as xr
 from ..config import system_spec
 from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import gather_tiles, ld_grid_dataset, tile_rows
 from ..logs import get_logger
 from ..sections import Section
 from ..systems import make_system
 from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
 STAGE = "ld_grid"
 TILE_STAGE = "ld_tile"

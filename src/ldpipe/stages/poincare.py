@@ -16,6 +16,7 @@ import numba
 
 from ..config import system_spec
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
@@ -23,7 +24,6 @@ from ..poincare import poincare_dataset
 from ..sections import Section
 from ..systems import make_system
 from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
 STAGE = "poincare"
 VARIABLES = ("initial_state", "crossing_state", "crossing_count", "escaped")

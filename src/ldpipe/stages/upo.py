@@ -17,6 +17,7 @@ import xarray as xr
 
 from ..config import system_spec
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..periodic_orbits import (
@@ -24,7 +25,6 @@ from ..periodic_orbits import (
 )
 from ..systems import make_system
 from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
 STAGE = "upo"
 VARIABLES = (
