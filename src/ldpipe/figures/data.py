@@ -8,6 +8,7 @@ figure of several 1500 x 1500 maps never holds more than one whole file in memor
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +40,9 @@ class LDMap:
     attrs : dict
         The file's attributes (energy, excess_energy, critical_energy, tau, time_mode, region ...).
     parameters : dict
-        The stage parameters the map was computed with (section, system_spec ...).
+        The stage parameters the map was computed with (section spec, system_spec ...).
+    section : Section
+        The section, resolved from ``parameters`` (see :meth:`ldpipe.sections.Section.from_spec`).
     """
 
     name: str
@@ -50,9 +53,11 @@ class LDMap:
     attrs: dict
     parameters: dict = field(repr=False)
 
-    @property
-    def section(self) -> dict:
-        return self.parameters["section"]
+    @cached_property
+    def section(self) -> Section:
+        """The map's section, resolved from its recorded spec (``'saddle'`` values at the map's saddle)."""
+        return Section.from_spec(self.parameters["section"], self.system(), self.attrs.get("saddle_position"),
+                                 key=f"ld_maps.{self.name}.section")
 
     def system(self) -> System:
         return make_system(self.parameters["system_name"], self.parameters["system_spec"])
@@ -232,23 +237,6 @@ def load_manifold_curves(path: str | Path, *, trajectories: bool = False) -> Man
         for m, manifold in enumerate(dataset.manifold.values):
             tubes[str(manifold)] = dataset.trajectory.values[m].copy()
     return ManifoldCurves(phase=phase, curves=curves, trajectories=tubes, attrs=dict(dataset.attrs))
-
-
-def section_from_parameters(system: System, spec: dict, shape: tuple[int, int],
-                            ranges: tuple[tuple[float, float], tuple[float, float]] | None = None,
-                            saddle: np.ndarray | None = None) -> Section:
-    """A :class:`~ldpipe.sections.Section` from a stage's section parameters (axes, fixed, solve,
-    sign), on a grid of ``shape`` over ``ranges`` (default the stage's own)."""
-    axes = spec["axes"]
-    fixed = {}
-    for name, value in spec.get("fixed", {}).items():
-        if value == "saddle":
-            state = np.concatenate([np.asarray(saddle, dtype=float), np.zeros(system.n_dof)])
-            value = state[system.phase_coordinates.index(name)]
-        fixed[name] = float(value)
-    ranges = ranges or (tuple(axes[0]["range"]), tuple(axes[1]["range"]))
-    return Section(axes=(axes[0]["name"], axes[1]["name"]), ranges=ranges, shape=shape, fixed=fixed,
-                   solve=spec["solve"], sign=spec.get("sign", 1))
 
 
 def allowed_mask(system: System, section: Section, energy: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -59,24 +59,7 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
     system = make_system(parameters["system_name"], parameters["system_spec"])
     key = f"ld_maps.{parameters['map_name']}"
     saddle, critical_energy = select_saddle(equilibria, parameters.get("saddle_near"))
-    saddle_state = np.concatenate([saddle, np.zeros(system.n_dof)])
-    fixed = {}
-    for name, value in parameters["section"].get("fixed", {}).items():
-        if value == "saddle":
-            if name not in system.phase_coordinates:
-                raise ConfigError(f"config key '{key}.section.fixed.{name}': not a phase coordinate of {system.name}")
-            value = float(saddle_state[system.phase_coordinates.index(name)])
-        fixed[name] = float(value)
-    axes = parameters["section"]["axes"]
-    section = Section(
-        axes=(axes[0]["name"], axes[1]["name"]),
-        ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(axes[0]["points"], axes[1]["points"]),
-        fixed=fixed,
-        solve=parameters["section"]["solve"],
-        sign=parameters["section"].get("sign", 1),
-    )
-    section.check(system, key=f"{key}.section")
+    section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
     energy_spec = parameters["energy"]
     energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
     region = parameters.get("region")

@@ -93,17 +93,10 @@ def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
     """The slice problem an LD map file (or an in-memory map) describes, from its own attributes."""
     system = make_system(parameters["system_name"], parameters["system_spec"])
     saddle = np.asarray(dataset.attrs["saddle_position"], dtype=np.float64)
-    saddle_state = np.concatenate([saddle, np.zeros(system.n_dof)])
-    fixed = {}
-    for name, value in parameters["section"]["fixed"].items():
-        fixed[name] = float(saddle_state[system.phase_coordinates.index(name)]) if value == "saddle" else float(value)
-    axes = parameters["section"]["axes"]
-    section = Section(
-        axes=(axes[0]["name"], axes[1]["name"]),
-        ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(dataset.sizes[axes[0]["name"]], dataset.sizes[axes[1]["name"]]),
-        fixed=fixed, solve=parameters["section"]["solve"], sign=parameters["section"].get("sign", 1),
-    )
+    section = Section.from_spec(parameters["section"], system, saddle,
+                                key=f"ld_maps.{parameters['map_name']}.section")
+    if section.shape != tuple(dataset.sizes[axis] for axis in section.axes):
+        raise ValueError(f"LD map {parameters['map_name']}: grid {dict(dataset.sizes)} is not its section's {section.shape}")
     lower, upper = np.atleast_1d(dataset.attrs["region_lower"]), np.atleast_1d(dataset.attrs["region_upper"])
     if len(lower) != system.n_dof:
         raise ConfigError(f"LD map {parameters['map_name']}: NHIM detection needs a variable-time map with a saddle "

@@ -56,13 +56,7 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
         critical_energy = select_saddle(equilibria_data, parameters.get("saddle_near"))[1]
         energy = critical_energy + energy_spec["excess"]
     start = parameters["initial_conditions"]
-    axes = start["axes"]
-    grid = Section(
-        axes=(axes[0]["name"], axes[1]["name"]), ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(axes[0]["points"], axes[1]["points"]), fixed={k: float(v) for k, v in start.get("fixed", {}).items()},
-        solve=start["solve"], sign=start.get("sign", 1),
-    )
-    grid.check(system, key=f"{key}.initial_conditions")
+    grid = Section.from_spec(start, system, key=f"{key}.initial_conditions")
     section = parameters["section"]
     if section["coordinate"] not in system.phase_coordinates:
         raise ConfigError(f"config key '{key}.section.coordinate': {section['coordinate']!r} is not one of "
