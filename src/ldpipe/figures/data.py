@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
 from ..datafile import open_stage_file, stage_parameters
 from ..equilibria import select_saddle
 from ..errors import ConfigError
@@ -67,7 +68,7 @@ def load_ld_map(path: str | Path, descriptor: str = "total") -> LDMap:
     """An LD map from a file of the ``ld_grid`` stage (``descriptor`` one of :data:`DESCRIPTORS`)."""
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
-    dataset = open_stage_file(path, stage="ld_grid", variables=("ld_forward", "ld_backward", "allowed"))
+    dataset = open_stage_file(path, stage=LD_GRID)
     axes = tuple(dataset.ld_forward.dims)
     if descriptor == "total":
         values = dataset.ld_forward.values + dataset.ld_backward.values
@@ -127,7 +128,7 @@ def _energy_index(dataset, energy: dict, path) -> int:
 def load_orbits(path: str | Path, energies: list[dict] | None = None) -> list[Orbit]:
     """Orbits of a ``upo`` family file, at the given energies (each {'excess': v} or {'total': v};
     default every orbit of the file), in that order."""
-    dataset = open_stage_file(path, stage="upo", variables=("trajectory", "energy", "excess_energy", "period"))
+    dataset = open_stage_file(path, stage=UPO, variables=("trajectory", "energy", "excess_energy", "period"))
     indices = range(dataset.sizes["orbit"]) if energies is None else [_energy_index(dataset, e, path) for e in energies]
     phase = tuple(str(p) for p in dataset.phase.values)
     return [
@@ -221,7 +222,7 @@ def _split_curve(points: np.ndarray, valid: np.ndarray, jump_factor: float = 10.
 
 def load_manifold_curves(path: str | Path, *, trajectories: bool = False) -> ManifoldCurves:
     """Section curves (and optionally trajectories) of a ``manifolds`` stage file."""
-    dataset = open_stage_file(path, stage="manifolds", variables=("section_state", "section_valid"))
+    dataset = open_stage_file(path, stage=MANIFOLDS, variables=("section_state", "section_valid"))
     phase = tuple(str(p) for p in dataset.phase.values)
     states = dataset.section_state.values  # (manifold, branch, crossing, point, phase)
     valid = dataset.section_valid.values.astype(bool)
@@ -286,7 +287,7 @@ def saddles(path: str | Path, near: list[float] | None = None
     """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), the one nearest ``near``
     (:func:`ldpipe.equilibria.select_saddle`) and its critical energy, the coordinate names, and
     the stage parameters (with the system's spec)."""
-    dataset = open_stage_file(path, stage="equilibria", variables=("position", "saddle_equilibrium", "critical_energy"))
+    dataset = open_stage_file(path, stage=EQUILIBRIA, variables=("position", "saddle_equilibrium", "critical_energy"))
     indices = dataset.saddle_equilibrium.values
     coordinates = tuple(str(c) for c in dataset.coordinate.values)
     saddle, critical_energy = select_saddle(dataset, near)

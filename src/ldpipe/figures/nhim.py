@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contracts import NHIM
 from ..datafile import open_stage_file
-from ..stages.nhim import STAGE, VARIABLES
 from . import style
 from .data import load_ld_map
 
@@ -27,7 +27,7 @@ MARKERS = {
 
 
 def _studies(paths: list[str | Path]) -> list:
-    return [open_stage_file(path, stage=STAGE, variables=VARIABLES) for path in paths]
+    return [open_stage_file(path, stage=NHIM) for path in paths]
 
 
 def _map_panel(ax, map_path: str | Path, study, index: int) -> None:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
+from ..contracts import POINCARE
 from ..datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..sections import Section
@@ -32,7 +33,7 @@ def energy_title(excess: float, energy: float) -> str:
 
 def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     """One Poincaré section: every located crossing, and the section's energy boundary in green."""
-    dataset = open_stage_file(path, stage="poincare", variables=("crossing_state", "crossing_valid"))
+    dataset = open_stage_file(path, stage=POINCARE, variables=("crossing_state", "crossing_valid"))
     parameters = stage_parameters(dataset)
     start = parameters["initial_conditions"]
     axes = (start["axes"][0]["name"], start["axes"][1]["name"])

@@ -5,16 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..config import equilibrium_box, system_coordinates, system_spec
+from ..contracts import EQUILIBRIA
 from ..datafile import write_stage_file
 from ..equilibria import equilibria_dataset
 from ..logs import get_logger
 from ..systems import make_system
 
-STAGE = "equilibria"
-VARIABLES = (
-    "position", "energy", "type", "morse_index", "eigenvalue_real", "eigenvalue_imag",
-    "eigenvector_real", "eigenvector_imag", "critical_energy", "saddle_equilibrium",
-)
 log = get_logger(__name__)
 
 
@@ -64,7 +60,7 @@ def run_equilibria(
         "seeds_per_axis": seeds_per_axis, "tolerance": tolerance,
     }
     title = f"Equilibria and linear analysis of {system_name}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=EQUILIBRIA, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numba
 
 from ..config import system_spec
+from ..contracts import EQUILIBRIA, POINCARE
 from ..datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
 from ..errors import ConfigError
@@ -23,10 +24,7 @@ from ..logs import get_logger
 from ..poincare import poincare_dataset
 from ..sections import Section
 from ..systems import make_system
-from . import equilibria as equilibria_stage
 
-STAGE = "poincare"
-VARIABLES = ("initial_state", "crossing_state", "crossing_count", "escaped")
 log = get_logger(__name__)
 
 
@@ -45,7 +43,7 @@ def poincare_parameters(config: dict, name: str) -> dict:
 def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | None = None, **parameters) -> Path:
     """Integrate the section's initial conditions and write their crossings to ``output``."""
     key = f"poincare_sections.{parameters['name']}"
-    equilibria_data = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
     energy_spec = parameters["energy"]
     if "total" in energy_spec:
@@ -75,6 +73,6 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
     log.info("%d trajectories, %d escaped, %d crossings", dataset.sizes["trajectory"], int(dataset.escaped.sum()),
              int(dataset.crossing_count.sum()))
     title = f"Poincaré section {parameters['name']} of {system.name}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=POINCARE, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path
