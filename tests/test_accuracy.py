@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from ldpipe import contracts
 from ldpipe import accuracy
 from ldpipe.accuracy import (
     CorrectorStep, IntegratorStep, closure_error, corrector_ladder, finite_quantiles, integrator_ladder,
@@ -224,7 +225,7 @@ def stage_output(tmp_path_factory, equilibria_file):
 
 def test_stage_file_holds_every_ladder_without_nan(stage_output):
     path, table = stage_output
-    data = open_stage_file(path, stage="accuracy_cost", variables=accuracy_stage.VARIABLES)
+    data = open_stage_file(path, stage=contracts.ACCURACY_COST)
     for name, variable in data.data_vars.items():
         if variable.dtype.kind == "f":
             assert np.all(np.isfinite(variable.values)), name

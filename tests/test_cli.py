@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ldpipe import contracts
 from ldpipe.cli import main
 from ldpipe.datafile import open_stage_file
-from ldpipe.stages.equilibria import VARIABLES
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_equilibria_builtin_writes_paper_values(tmp_path):
     out = tmp_path / "b2.nc"
     assert main(["equilibria", "--system", "barbanis_2dof", "-o", str(out)]) == 0
-    dataset = open_stage_file(out, stage="equilibria", variables=VARIABLES)
+    dataset = open_stage_file(out, stage=contracts.EQUILIBRIA)
     saddles = dataset.position.values[dataset.saddle_equilibrium.values]
     # Paper: saddles (5.5, +-7.071), E_c = 15.125.
     np.testing.assert_allclose(np.sort(saddles[:, 1]), [-7.0710678118654755, 7.0710678118654755], atol=1e-12)

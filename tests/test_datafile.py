@@ -8,6 +8,7 @@ import pytest
 import xarray as xr
 
 from ldpipe import datafile
+from ldpipe.contracts import CONTRACTS, StageFile
 from ldpipe.datafile import open_stage_file, stage_parameters, write_stage_file
 from ldpipe.errors import StageFileError
 
@@ -109,6 +110,24 @@ def test_wrong_stage_and_missing_variables_named(tmp_path):
         open_stage_file(path, stage="upo")
     with pytest.raises(StageFileError, match=r"lacks variables \['period'\]"):
         open_stage_file(path, stage="ld_grid", variables=("energy", "period"))
+
+
+def test_a_contract_names_the_stage_and_the_variables_checked(tmp_path):
+    probe = StageFile("probe", ("energy", "escaped"))
+    path = write_stage_file(sample_dataset(), tmp_path / "s.nc", stage=probe, title="t", parameters={})
+    assert open_stage_file(path, stage="probe").attrs["ldpipe_stage"] == "probe"
+    # By default every variable the contract names is checked; a reader may ask for some of them only.
+    with pytest.raises(StageFileError, match=r"lacks variables \['period'\] that the 'probe' stage writes"):
+        open_stage_file(path, stage=StageFile("probe", ("energy", "period")))
+    assert "count" in open_stage_file(path, stage=probe, variables=("energy",))
+    # Asking for a variable the contract does not name is a reader's mistake, not the file's.
+    with pytest.raises(ValueError, match=r"\['count'\] are not in the 'probe' stage's contract"):
+        open_stage_file(path, stage=probe, variables=("count",))
+
+
+def test_contracts_are_indexed_by_their_stage():
+    assert all(stage == contract.stage for stage, contract in CONTRACTS.items())
+    assert {"equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim", "accuracy_cost"} == set(CONTRACTS)
 
 
 def test_parameters_attribute_is_json(tmp_path):

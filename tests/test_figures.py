@@ -31,8 +31,9 @@ E_C = 15.125  # the paper's critical energy of both Barbanis 2 DoF saddles
 SADDLE = np.array([5.5, -np.sqrt(50.0)])  # closed form: x = wy^2/(2|delta|)... y^2 = wx^2 x/|delta|
 
 
-def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time="fixed"):
-    """A synthetic LD map on U_xpx (y = fixed_y, p_y > 0) written like the LD stage writes one.
+def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time="fixed", spec_y=None):
+    """A synthetic LD map on U_xpx (y = fixed_y, p_y > 0) written like the LD stage writes one
+    (its recorded spec fixes y at ``spec_y`` if given, e.g. 'saddle').
 
     The allowed mask is the real one (section_states); the LD fields are 1 + x^2 + p_x^2 on
     allowed points and 0 elsewhere, as the stage leaves points it never integrates.
@@ -54,7 +55,7 @@ def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time=
     parameters = {"map_name": Path(path).stem, "system_name": "barbanis_2dof", "system_spec": BARBANIS,
                   "section": {"axes": [{"name": "x", "range": [-6.0, 6.0], "points": points[0]},
                                        {"name": "px", "range": [-6.0, 6.0], "points": points[1]}],
-                              "fixed": {"y": fixed_y}, "solve": "py", "sign": 1},
+                              "fixed": {"y": fixed_y if spec_y is None else spec_y}, "solve": "py", "sign": 1},
                   "energy": {"excess": excess}, "tau": 50, "p": 0.5, "time": time}
     return write_stage_file(dataset, path, stage="ld_grid", title="synthetic LD map", parameters=parameters)
 
@@ -156,6 +157,22 @@ def test_ld_slices_with_orbit_marks_where_it_pierces_each_section(tmp_path, barb
     assert len(curve_ax.get_legend().get_texts()) == 2
     assert curve_ax.get_ylabel() == r"$\mathcal{L}$" and map_ax.get_ylabel() == "$p_x$"
     assert any(ax.name == "3d" for ax in figure.axes)  # the view of the orbit threading the sections
+    plt.close(figure)
+
+
+def test_ld_slices_resolve_a_saddle_coordinate_from_the_map_file(tmp_path, barbanis):
+    # The map's spec fixes y at 'saddle'; the file's saddle is the closed-form (5.5, -sqrt(50)).
+    path = ld_file(tmp_path / "s.nc", barbanis, fixed_y=SADDLE[1], time="variable", spec_y="saddle")
+    assert load_ld_map(path).section.fixed == {"y": pytest.approx(-np.sqrt(50.0), rel=0, abs=1e-15)}
+    settings = {"kind": "ld_slices", "ld_maps": ["s"], "slices": [0.0], "slice_through_orbit": True,
+                "orbit": {"family": "f", "energy": {"excess": 0.125}}, "descriptor": "total",
+                "color_percentiles": [5.0, 99.9], "color_limits": None, "view": [20.0, -60.0]}
+    with style.figure_style():
+        figure = draw_figure("ld_slices", settings, {"ld_maps": [path], "upo": [upo_file(tmp_path / "f.nc", barbanis)]})
+    # The synthetic orbit has x - y = 5.5 + sqrt(50): on y = -sqrt(50) it is at x = 5.5 (closed form).
+    markers = [line for line in figure.axes[1].get_lines() if line.get_marker() == "o"]
+    assert len(markers) == 1
+    assert markers[0].get_xdata()[0] == pytest.approx(5.5, abs=1e-9)
     plt.close(figure)
 
 

@@ -28,6 +28,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import beta
 
+from ldpipe import contracts
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
@@ -437,7 +438,7 @@ def test_lyapunov_family_continues_far_beyond_de_10(tmp_path):
     equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
     path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "far"), equilibria=equilibria,
                              output=tmp_path / "far.nc")
-    data = open_stage_file(path, stage="upo", variables=upo_stage.VARIABLES)
+    data = open_stage_file(path, stage=contracts.UPO)
     tolerance = data.attrs["tolerance"]
     np.testing.assert_allclose(data.excess_energy.values, targets, rtol=0, atol=2 * data.attrs["energy_tolerance"])
     for k in range(len(targets)):

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from ldpipe import contracts
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.flow import FlowSettings, integrate
@@ -115,7 +116,7 @@ def test_stage_writes_manifolds_from_the_upo_file(tmp_path):
                             output=tmp_path / "upo.nc")
     path = manifold_stage.run_manifolds(**manifold_stage.manifold_parameters(config, "m"), upo=upo,
                                         output=tmp_path / "m.nc")
-    data = open_stage_file(path, stage="manifolds", variables=manifold_stage.VARIABLES)
+    data = open_stage_file(path, stage=contracts.MANIFOLDS)
     assert data.attrs["excess_energy"] == pytest.approx(2.25, abs=1e-11)
     assert dict(data.trajectory.sizes) == {"manifold": 2, "branch": 2, "point": 8, "sample": 10, "phase": 4}
     assert list(data.manifold.values) == ["stable", "unstable"]

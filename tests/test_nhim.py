@@ -15,6 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ldpipe import contracts
 from ldpipe import nhim
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
@@ -178,7 +179,7 @@ def test_refined_points_agree_with_the_periodic_orbit(study_file):
     # Independent method: the UPO from differential correction, its crossing of y = k with p_y > 0
     # located by the flow integrator's event. The fate refinement (from a 48 x 48 grid, spacing
     # 0.026) must meet it to the configured tolerance 1e-8 (1e-7 validation tolerance, with margin).
-    data = open_stage_file(study_file, stage="nhim", variables=nhim_stage.VARIABLES)
+    data = open_stage_file(study_file, stage=contracts.NHIM)
     assert list(data.slice.values) == ["k-7.0", "k-7.2"]
     assert list(data.reference_kind.values) == ["orbit_crossing"] * 2
     assert np.all(data.distance_refined.values < 1e-8)
@@ -250,7 +251,7 @@ def test_cli_runs_detection_refinement_and_validation(barbanis_files, tmp_path, 
     arguments = ["nhim", str(barbanis_files["maps"]["k-7.2"]), "-o", str(output), "--upo", str(barbanis_files["upo"]),
                  "--no-zoom", "--csv", str(tmp_path / "cli.csv")]
     assert main([*arguments, "--validate", "1e-7"]) == 0
-    data = open_stage_file(output, stage="nhim", variables=nhim_stage.VARIABLES)
+    data = open_stage_file(output, stage=contracts.NHIM)
     # Independent method: the UPO's crossing of y = -7.2 (as in test_refined_points_agree_with_the_periodic_orbit).
     assert data.distance_refined.values[0] < 1e-8
     # The refined state lies on the section's energy surface (the solved momentum from the energy).

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from ldpipe import contracts
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.flow import FlowSettings, integrate
@@ -80,7 +81,7 @@ def test_stage_writes_the_section(tmp_path):
     equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
     path = poincare_stage.run_poincare(**poincare_stage.poincare_parameters(config, "p"), equilibria=equilibria,
                                        output=tmp_path / "p.nc")
-    data = open_stage_file(path, stage="poincare", variables=poincare_stage.VARIABLES)
+    data = open_stage_file(path, stage=contracts.POINCARE)
     assert data.attrs["excess_energy"] == pytest.approx(0.125, abs=1e-12)
     assert data.sizes["crossing"] == 20 and data.crossing_valid.dtype == bool
 

@@ -1,8 +1,9 @@
-"""Isoenergetic sections: allowed regions and solved momenta against closed forms."""
+"""Isoenergetic sections: allowed regions and solved momenta against closed forms; specs resolved into sections."""
 
 import numpy as np
 import pytest
 
+from ldpipe.equilibria import equilibria_dataset, select_saddle
 from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states
 
@@ -73,5 +74,83 @@ def test_bad_sections_rejected(barbanis, kwargs, words):
     section = Section(axes=("x", "px"), ranges=((0, 1), (0, 1)), shape=(2, 2), **kwargs)
     with pytest.raises(ConfigError) as info:
         section.check(barbanis)
+    for word in words:
+        assert word in str(info.value)
+
+
+# ----------------------------------------------------------------------------------------------
+# Section.from_spec: a configuration spec resolved once into a Section
+
+WX, WY, DELTA = 1.0, 1.1, -0.11  # the built-in Barbanis 2 DoF parameters
+# Closed form (paper sec. model_prob_2dof): saddles at (-wy^2/(2 delta), +-wx wy/(sqrt(2) |delta|)) = (5.5, +-7.0711),
+# E_c = wx^2 wy^4/(8 delta^2) = 15.125.
+X_SADDLE, Y_SADDLE, E_C = -WY**2 / (2 * DELTA), abs(WX * WY / (np.sqrt(2) * DELTA)), WX**2 * WY**4 / (8 * DELTA**2)
+
+
+def spec(fixed, *, solve="py", sign=1, axes=(("x", (4.5, 6.5), 21), ("px", (-1.0, 1.0), 17))):
+    return {"axes": [{"name": n, "range": list(r), "points": p} for n, r, p in axes], "fixed": fixed,
+            "solve": solve, "sign": sign}
+
+
+@pytest.fixture(scope="module")
+def barbanis_equilibria(barbanis):
+    return equilibria_dataset(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]})
+
+
+@pytest.mark.parametrize("near, y_sign", [([5.5, 7.0], 1), ([5.0, -6.0], -1)])
+def test_from_spec_saddle_is_the_closed_form_saddle_and_states_lie_on_the_energy_surface(
+        barbanis, barbanis_equilibria, near, y_sign):
+    saddle, critical_energy = select_saddle(barbanis_equilibria, near)
+    section = Section.from_spec(spec({"y": "saddle"}, sign=-1), barbanis, saddle, key="ld_maps.m.section")
+    # The 'saddle' value is the closed-form saddle's y (the nearest of the two to `near`).
+    assert section.fixed["y"] == pytest.approx(y_sign * Y_SADDLE, rel=0, abs=1e-12)
+    assert critical_energy == pytest.approx(E_C, rel=0, abs=1e-12)
+    assert (section.axes, section.shape, section.ranges, section.solve, section.sign) == (
+        ("x", "px"), (21, 17), ((4.5, 6.5), (-1.0, 1.0)), "py", -1)
+    # Invariant: every allowed state has H = E to round-off, with the solved momentum of the asked sign.
+    energy = critical_energy + 0.5
+    states, allowed, _ = section_states(barbanis, section, energy)
+    assert allowed.sum() > 100
+    np.testing.assert_allclose([barbanis.energy(s) for s in states], energy, rtol=0, atol=1e-12)
+    assert np.all(states[:, 1] == section.fixed["y"]) and np.all(states[:, 3] <= 0)
+
+
+def test_from_spec_momentum_at_the_saddle_is_zero_and_numbers_pass_through(barbanis):
+    # Equilibria have p = 0 (closed form), so a momentum fixed at 'saddle' is 0; numbers are kept as floats.
+    saddle = np.array([X_SADDLE, -Y_SADDLE])
+    section = Section.from_spec(spec({"px": "saddle"}, axes=(("x", (4, 7), 5), ("y", (-8, -6), 5))), barbanis, saddle)
+    assert section.fixed == {"px": 0.0}
+    plain = Section.from_spec(spec({"y": 0}), barbanis)
+    # Round trip: the spec of a plain section gives the Section built directly.
+    assert plain == Section(axes=("x", "px"), ranges=((4.5, 6.5), (-1.0, 1.0)), shape=(21, 17), fixed={"y": 0.0},
+                            solve="py", sign=1)
+    assert type(plain.fixed["y"]) is float
+    # A spec without 'fixed' or 'sign' takes no fixed coordinates and sign +1 (the schema's defaults).
+    minimal = {"axes": spec({})["axes"], "solve": "py"}
+    with pytest.raises(ConfigError, match="missing \\['y'\\]"):
+        Section.from_spec(minimal, barbanis)
+    assert Section.from_spec({**minimal, "fixed": {"y": 1.5}}, barbanis).sign == 1
+
+
+@pytest.mark.parametrize(
+    "bad, saddle, words",
+    [
+        (spec({"y": "sadle"}), None, ["'ld_maps.m.section.fixed.y'", "a number or 'saddle'", "'sadle'"]),
+        (spec({"y": "saddle"}), None, ["'ld_maps.m.section.fixed.y'", "needs a selected index-1 saddle"]),
+        (spec({"w": "saddle"}), [5.5, 7.0], ["'ld_maps.m.section.fixed.w'", "not a phase coordinate"]),
+        (spec({"y": [1.0]}), None, ["'ld_maps.m.section.fixed.y'", "a number or 'saddle'"]),
+        ({"axes": spec({})["axes"], "fixed": {"y": 0.0}}, None, ["'ld_maps.m.section'", "lacks ['solve']"]),
+        ({**spec({"y": 0.0}), "axes": spec({})["axes"][:1]}, None, ["'ld_maps.m.section.axes'", "two axes"]),
+        ({**spec({"y": 0.0}), "axes": [spec({})["axes"][0], {"name": "px", "range": [0, 1]}]}, None,
+         ["'ld_maps.m.section.axes.1'", "lacks ['points']"]),
+        (spec({"y": 0.0}, sign=2), None, ["'ld_maps.m.section.sign'"]),
+        (spec({"y": 0.0}, axes=(("x", (1, 0), 3), ("px", (0, 1), 3))), None, ["'ld_maps.m.section.axes.x'", "low < high"]),
+        (spec({"y": 0.0}, solve="x", axes=(("y", (0, 1), 3), ("px", (0, 1), 3))), None,
+         ["'ld_maps.m.section.solve'", "not a momentum"]),
+    ],
+)
+def test_from_spec_names_the_offending_key(barbanis, bad, saddle, words):
+    with pytest.raises(ConfigError) as info:
+        Section.from_spec(bad, barbanis, None if saddle is None else np.asarray(saddle), key="ld_maps.m.section")
     for word in words:
         assert word in str(info.value)

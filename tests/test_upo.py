@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from ldpipe import contracts
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.errors import ConfigError
@@ -188,7 +189,7 @@ def test_stage_writes_the_family_file(tmp_path, equilibria_files):
     }})
     path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "bottom"), equilibria=equilibria_files["barbanis_2dof"],
                              output=tmp_path / "bottom.nc")
-    data = open_stage_file(path, stage="upo", variables=upo_stage.VARIABLES)
+    data = open_stage_file(path, stage=contracts.UPO)
     assert data.sizes["orbit"] == 3 and data.sizes["sample"] == 50 and data.sizes["mode"] == 4
     np.testing.assert_allclose(data.excess_energy.values, [0.0, 0.125, 2.25], atol=2e-12)
     assert np.all(data.closure_error.values < 1e-10)
@@ -229,7 +230,7 @@ def test_cli_subcommands_write_stage_files(tmp_path):
     args = parser.parse_args(["upo", "--config", str(config), "--family", "barbanis_contopoulos_3dof_mode1",
                               "-o", str(tmp_path / "upo.nc")])
     args.handler(args)
-    data = open_stage_file(tmp_path / "upo.nc", stage="upo", variables=upo_stage.VARIABLES)
+    data = open_stage_file(tmp_path / "upo.nc", stage=contracts.UPO)
     assert data.energy.values == pytest.approx([24.0], abs=1e-11)  # the paper's E = 24
     args = parser.parse_args(["upo", "--config", str(config), "--family", "nope", "-o", str(tmp_path / "x.nc")])
     with pytest.raises(ConfigError, match="no entry 'nope' under 'periodic_orbits'"):

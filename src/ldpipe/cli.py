@@ -124,6 +124,7 @@ def _map_from_options(args: argparse.Namespace) -> dict:
 
 
 def _run_ld(args: argparse.Namespace) -> None:
+    from .contracts import EQUILIBRIA
     from .datafile import open_stage_file
     from .stages import equilibria as equilibria_stage
     from .stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
@@ -148,7 +149,7 @@ def _run_ld(args: argparse.Namespace) -> None:
     parameters = ld_map_parameters(config, args.map)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         path = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
-        equilibria = open_stage_file(path, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+        equilibria = open_stage_file(path, stage=EQUILIBRIA)
         dataset = compute_ld_map(parameters, equilibria, threads=args.threads, show_progress=not args.quiet)
         write_ld_map(dataset, parameters, args.output, tile_file=False)
 

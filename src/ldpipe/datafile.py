@@ -4,7 +4,8 @@ Every stage file is an xarray Dataset written with the netCDF4 engine and carrie
 CF-style global attributes (``Conventions``, ``title``, ``history``,
 ``source``), the stage's parameters as JSON, the ldpipe version and the git
 commit when known. Reading checks that a file is a readable netCDF file written
-by the expected stage, and names the file in every error.
+by the expected stage, holding the variables the stage's contract
+(:mod:`ldpipe.contracts`) names, and names the file in every error.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
+from .contracts import StageFile
 from .errors import StageFileError
 
 ENGINE = "netcdf4"
@@ -66,15 +68,17 @@ def _json_default(value):
 
 
 def write_stage_file(
-    dataset: xr.Dataset, path: str | os.PathLike, *, stage: str, title: str, parameters: dict
+    dataset: xr.Dataset, path: str | os.PathLike, *, stage: str | StageFile, title: str, parameters: dict
 ) -> Path:
-    """Write ``dataset`` to ``path`` with ldpipe's conventions, atomically.
+    """Write ``dataset`` to ``path`` with ldpipe's conventions, atomically, as a file of ``stage``
+    (its contract, or a bare stage name).
 
     The file is written to a temporary name in the same folder and renamed into
     place only once complete, so a job killed mid-write never leaves a file
     under the final name. Floating-point data must be finite.
     """
     path = Path(path)
+    stage = stage.stage if isinstance(stage, StageFile) else stage
     _check_finite(dataset, path)
     dataset = dataset.copy()
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
@@ -114,17 +118,35 @@ def write_stage_file(
 
 
 def open_stage_file(
-    path: str | os.PathLike, *, stage: str, variables: tuple[str, ...] = ()
+    path: str | os.PathLike, *, stage: str | StageFile, variables: tuple[str, ...] | None = None
 ) -> xr.Dataset:
     """Load a stage file fully into memory, checking it is what ``stage`` wrote.
+
+    Parameters
+    ----------
+    stage : StageFile or str
+        The stage's contract (:mod:`ldpipe.contracts`), or a bare stage name.
+    variables : tuple of str, optional
+        The variables the reader needs, which the file must hold: by default every variable of
+        the contract (none for a bare name). With a contract, each must be one it names.
 
     Raises
     ------
     StageFileError
         naming the file and what was expected, if it is missing, not a readable
         netCDF file, written by another stage or program, or lacks ``variables``.
+    ValueError
+        if ``variables`` names one the stage's contract does not.
     """
     path = Path(path)
+    if isinstance(stage, StageFile):
+        if variables is None:
+            variables = stage.variables
+        unnamed = [name for name in variables if name not in stage.variables]
+        if unnamed:
+            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract (ldpipe.contracts)")
+        stage = stage.stage
+    variables = variables or ()
     if not path.is_file():
         raise StageFileError(f"{path}: no such file; expected the output of the {stage!r} stage")
     try:

@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 from scipy.optimize import root
 
+from .errors import ConfigError
 from .systems import System
 
 
@@ -231,3 +232,22 @@ def equilibria_dataset(
         "largest first; then zero modes"
     )
     return dataset
+
+
+def select_saddle(equilibria: xr.Dataset, near: list[float] | None) -> tuple[np.ndarray, float]:
+    """Position and critical energy of the index-1 saddle nearest ``near`` (default: lowest E_c)."""
+    if equilibria.sizes.get("saddle", 0) == 0:
+        raise ConfigError(
+            f"system {equilibria.attrs.get('system')!r} has no index-1 saddle in its equilibrium search box; "
+            "an excess energy or a 'saddle' coordinate needs one (widen systems.<name>.equilibria.box)"
+        )
+    indices = equilibria.saddle_equilibrium.values
+    positions = equilibria.position.values[indices]
+    energies = equilibria.critical_energy.values
+    if near is None:
+        choice = int(np.argmin(energies))
+    else:
+        if len(near) != positions.shape[1]:
+            raise ConfigError(f"saddle_near: expected {positions.shape[1]} numbers, got {near}")
+        choice = int(np.argmin(np.linalg.norm(positions - np.asarray(near), axis=1)))
+    return positions[choice], float(energies[choice])

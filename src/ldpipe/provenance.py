@@ -46,6 +46,12 @@ def _imported_modules(path: Path, module: str) -> set[str]:
     return {name for name in found if name.split(".")[0] == PACKAGE}
 
 
+def imported_modules(module: str) -> set[str]:
+    """The ldpipe modules (and packages) ``module``'s source imports by name, anywhere in it."""
+    path = _module_file(module)
+    return set() if path is None else _imported_modules(path, module)
+
+
 @lru_cache(maxsize=None)
 def library_sources(module: str) -> tuple[str, ...]:
     """Sorted paths of the source files ``module`` depends on within ldpipe, itself included.

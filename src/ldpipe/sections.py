@@ -10,11 +10,18 @@ region and are masked; they are never integrated. The paper's U_xpx (y = 0,
 p_y > 0) is ``axes=("x", "px"), fixed={"y": 0}, solve="py", sign=+1``; its 3 DoF
 U_xpx^+ is ``axes=("x", "px"), fixed={"y": y_eq, "z": z_eq, "py": 0},
 solve="pz"``.
+
+A configuration spec of a section (``ld_maps.<name>.section``,
+``poincare_sections.<name>.initial_conditions``) is resolved into a
+:class:`Section` once, by :meth:`Section.from_spec`, where fixed values given as
+``saddle`` take the selected saddle's value; the object then travels.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from numbers import Real
 
 import numpy as np
 
@@ -32,6 +39,52 @@ class Section:
     fixed: dict[str, float]
     solve: str
     sign: int = 1
+
+    @classmethod
+    def from_spec(
+        cls, spec: Mapping, system: System, saddle: np.ndarray | None = None, *, key: str = "section"
+    ) -> Section:
+        """The section a configuration spec describes, checked against ``system``.
+
+        Parameters
+        ----------
+        spec : mapping
+            ``axes`` (two ``{name, range: [low, high], points}``), ``fixed`` (optional;
+            coordinate -> number, or ``'saddle'``), ``solve`` (a momentum) and ``sign``
+            (optional, +1 or -1, default +1), as the config schema's section.
+        system : System
+        saddle : ndarray, shape (n_dof,), optional
+            Position of the selected index-1 saddle, the value of ``'saddle'`` coordinates.
+        key : str
+            The spec's config key, named in every error.
+
+        Raises
+        ------
+        ConfigError
+            Naming the offending key, if the spec lacks a key, a fixed value is neither a
+            number nor ``'saddle'`` (or is ``'saddle'`` with no saddle given), or the
+            coordinates do not split the phase space (:meth:`check`).
+        """
+        missing = [name for name in ("axes", "solve") if name not in spec]
+        if missing:
+            raise ConfigError(f"config key {key!r}: lacks {missing}; a section needs 'axes' and 'solve'")
+        axes = spec["axes"]
+        if len(axes) != 2:
+            raise ConfigError(f"config key '{key}.axes': expected two axes, got {len(axes)}")
+        for index, axis in enumerate(axes):
+            lacking = [name for name in ("name", "range", "points") if name not in axis]
+            if lacking:
+                raise ConfigError(f"config key '{key}.axes.{index}': lacks {lacking}")
+        section = cls(
+            axes=(axes[0]["name"], axes[1]["name"]),
+            ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
+            shape=(axes[0]["points"], axes[1]["points"]),
+            fixed=fixed_values(spec.get("fixed", {}), system, saddle, key=f"{key}.fixed"),
+            solve=spec["solve"],
+            sign=spec.get("sign", 1),
+        )
+        section.check(system, key=key)
+        return section
 
     def axis_values(self) -> tuple[np.ndarray, np.ndarray]:
         """Grid coordinates along each axis, end points included."""
@@ -57,6 +110,29 @@ class Section:
         for (lo, hi), axis in zip(self.ranges, self.axes):
             if not lo < hi:
                 raise ConfigError(f"config key '{key}.axes.{axis}': expected [low, high] with low < high, got {[lo, hi]}")
+
+
+def fixed_values(
+    fixed: Mapping[str, float | str], system: System, saddle: np.ndarray | None = None, *, key: str = "fixed"
+) -> dict[str, float]:
+    """Fixed coordinates as numbers: each value a number, or ``'saddle'`` for the coordinate's value
+    at the saddle at position ``saddle`` (shape (n_dof,); 0 for a momentum). ``key`` (the config
+    key of ``fixed``) is named in errors."""
+    resolved = {}
+    for name, value in fixed.items():
+        if isinstance(value, str):
+            if value != "saddle":
+                raise ConfigError(f"config key '{key}.{name}': expected a number or 'saddle', got {value!r}")
+            if name not in system.phase_coordinates:
+                raise ConfigError(f"config key '{key}.{name}': not a phase coordinate of {system.name}")
+            if saddle is None:
+                raise ConfigError(f"config key '{key}.{name}': 'saddle' needs a selected index-1 saddle, and none is given")
+            saddle_state = np.concatenate([np.asarray(saddle, dtype=np.float64), np.zeros(system.n_dof)])
+            value = saddle_state[system.phase_coordinates.index(name)]
+        elif not isinstance(value, Real) or isinstance(value, bool):
+            raise ConfigError(f"config key '{key}.{name}': expected a number or 'saddle', got {value!r}")
+        resolved[name] = float(value)
+    return resolved
 
 
 def section_states(

@@ -1,4 +1,4 @@
-"""The work–precision diagram of the accuracy–cost stage (:mod:`ldpipe.stages.accuracy`).
+"""The work–precision diagram of the accuracy–cost stage's file (:data:`ldpipe.contracts.ACCURACY_COST`).
 
 One column per sampled LD map, one for the periodic orbit and one for the NHIM point (each
 when measured), log–log throughout, error against wall time:
@@ -27,13 +27,13 @@ import numpy as np
 import xarray as xr
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
+from ..contracts import ACCURACY_COST
 from ..datafile import open_stage_file
 from ..logs import get_logger
 from . import style
 
 log = get_logger(__name__)
 
-STAGE = "accuracy_cost"
 SCHEME_STYLE = {
     "dop853": {"color": "tab:blue", "marker": "o"},
     "taylor": {"color": "tab:purple", "marker": "P"},
@@ -200,7 +200,7 @@ def accuracy_cost_figure(data: xr.Dataset):
 
 def draw_accuracy_cost(path: str | Path, *, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Draw the work–precision diagram of the stage file ``path`` to ``png`` (and ``pdf``)."""
-    data = open_stage_file(path, stage=STAGE)
+    data = open_stage_file(path, stage=ACCURACY_COST, variables=())  # each part optional: drawn if its dimension is there
     if not {"map", "orbit_setting", "nhim_grid"} & set(data.dims):
         raise ValueError(f"{path}: holds no LD, orbit or NHIM ladder; nothing to draw")
     figure = accuracy_cost_figure(data)

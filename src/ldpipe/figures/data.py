@@ -8,11 +8,14 @@ figure of several 1500 x 1500 maps never holds more than one whole file in memor
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
+from ..contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
 from ..datafile import open_stage_file, stage_parameters
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..sections import Section, section_states
 from ..systems import System, make_system
@@ -38,7 +41,9 @@ class LDMap:
     attrs : dict
         The file's attributes (energy, excess_energy, critical_energy, tau, time_mode, region ...).
     parameters : dict
-        The stage parameters the map was computed with (section, system_spec ...).
+        The stage parameters the map was computed with (section spec, system_spec ...).
+    section : Section
+        The section, resolved from ``parameters`` (see :meth:`ldpipe.sections.Section.from_spec`).
     """
 
     name: str
@@ -49,9 +54,11 @@ class LDMap:
     attrs: dict
     parameters: dict = field(repr=False)
 
-    @property
-    def section(self) -> dict:
-        return self.parameters["section"]
+    @cached_property
+    def section(self) -> Section:
+        """The map's section, resolved from its recorded spec (``'saddle'`` values at the map's saddle)."""
+        return Section.from_spec(self.parameters["section"], self.system(), self.attrs.get("saddle_position"),
+                                 key=f"ld_maps.{self.name}.section")
 
     def system(self) -> System:
         return make_system(self.parameters["system_name"], self.parameters["system_spec"])
@@ -61,7 +68,7 @@ def load_ld_map(path: str | Path, descriptor: str = "total") -> LDMap:
     """An LD map from a file of the ``ld_grid`` stage (``descriptor`` one of :data:`DESCRIPTORS`)."""
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
-    dataset = open_stage_file(path, stage="ld_grid", variables=("ld_forward", "ld_backward", "allowed"))
+    dataset = open_stage_file(path, stage=LD_GRID)
     axes = tuple(dataset.ld_forward.dims)
     if descriptor == "total":
         values = dataset.ld_forward.values + dataset.ld_backward.values
@@ -121,7 +128,7 @@ def _energy_index(dataset, energy: dict, path) -> int:
 def load_orbits(path: str | Path, energies: list[dict] | None = None) -> list[Orbit]:
     """Orbits of a ``upo`` family file, at the given energies (each {'excess': v} or {'total': v};
     default every orbit of the file), in that order."""
-    dataset = open_stage_file(path, stage="upo", variables=("trajectory", "energy", "excess_energy", "period"))
+    dataset = open_stage_file(path, stage=UPO, variables=("trajectory", "energy", "excess_energy", "period"))
     indices = range(dataset.sizes["orbit"]) if energies is None else [_energy_index(dataset, e, path) for e in energies]
     phase = tuple(str(p) for p in dataset.phase.values)
     return [
@@ -215,7 +222,7 @@ def _split_curve(points: np.ndarray, valid: np.ndarray, jump_factor: float = 10.
 
 def load_manifold_curves(path: str | Path, *, trajectories: bool = False) -> ManifoldCurves:
     """Section curves (and optionally trajectories) of a ``manifolds`` stage file."""
-    dataset = open_stage_file(path, stage="manifolds", variables=("section_state", "section_valid"))
+    dataset = open_stage_file(path, stage=MANIFOLDS, variables=("section_state", "section_valid"))
     phase = tuple(str(p) for p in dataset.phase.values)
     states = dataset.section_state.values  # (manifold, branch, crossing, point, phase)
     valid = dataset.section_valid.values.astype(bool)
@@ -231,23 +238,6 @@ def load_manifold_curves(path: str | Path, *, trajectories: bool = False) -> Man
         for m, manifold in enumerate(dataset.manifold.values):
             tubes[str(manifold)] = dataset.trajectory.values[m].copy()
     return ManifoldCurves(phase=phase, curves=curves, trajectories=tubes, attrs=dict(dataset.attrs))
-
-
-def section_from_parameters(system: System, spec: dict, shape: tuple[int, int],
-                            ranges: tuple[tuple[float, float], tuple[float, float]] | None = None,
-                            saddle: np.ndarray | None = None) -> Section:
-    """A :class:`~ldpipe.sections.Section` from a stage's section parameters (axes, fixed, solve,
-    sign), on a grid of ``shape`` over ``ranges`` (default the stage's own)."""
-    axes = spec["axes"]
-    fixed = {}
-    for name, value in spec.get("fixed", {}).items():
-        if value == "saddle":
-            state = np.concatenate([np.asarray(saddle, dtype=float), np.zeros(system.n_dof)])
-            value = state[system.phase_coordinates.index(name)]
-        fixed[name] = float(value)
-    ranges = ranges or (tuple(axes[0]["range"]), tuple(axes[1]["range"]))
-    return Section(axes=(axes[0]["name"], axes[1]["name"]), ranges=ranges, shape=shape, fixed=fixed,
-                   solve=spec["solve"], sign=spec.get("sign", 1))
 
 
 def allowed_mask(system: System, section: Section, energy: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -292,11 +282,14 @@ def potential_on_plane(system: System, axes: tuple[str, str], ranges, points: in
     return first, second, potential.reshape(grid_first.shape)
 
 
-def saddles(path: str | Path) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], dict]:
-    """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), critical energies (k,),
-    the coordinate names, and the stage parameters (with the system's spec)."""
-    dataset = open_stage_file(path, stage="equilibria", variables=("position", "saddle_equilibrium", "critical_energy"))
+def saddles(path: str | Path, near: list[float] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, float, tuple[str, ...], dict]:
+    """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), the one nearest ``near``
+    (:func:`ldpipe.equilibria.select_saddle`) and its critical energy, the coordinate names, and
+    the stage parameters (with the system's spec)."""
+    dataset = open_stage_file(path, stage=EQUILIBRIA, variables=("position", "saddle_equilibrium", "critical_energy"))
     indices = dataset.saddle_equilibrium.values
     coordinates = tuple(str(c) for c in dataset.coordinate.values)
-    return (dataset.position.values[indices].copy(), dataset.critical_energy.values.copy(), coordinates,
+    saddle, critical_energy = select_saddle(dataset, near)
+    return (dataset.position.values[indices].copy(), saddle.copy(), critical_energy, coordinates,
             stage_parameters(dataset))

@@ -38,28 +38,19 @@ def section_points(ld_map: LDMap, orbit: Orbit) -> np.ndarray:
     """
     n_dof = len(orbit.phase) // 2
     configuration = orbit.phase[:n_dof]
-    fixed = ld_map.section.get("fixed", {})
-    fixed_positions = [name for name in fixed if name in configuration]
-    if len(fixed_positions) != 1 or len(fixed) != 1:
+    section = ld_map.section
+    fixed_positions = [name for name in section.fixed if name in configuration]
+    if len(fixed_positions) != 1 or len(section.fixed) != 1:
         return np.zeros((0, len(orbit.phase)))
     name = fixed_positions[0]
-    value = fixed[name]
-    if value == "saddle":
-        value = float(np.asarray(ld_map.attrs["saddle_position"])[configuration.index(name)])
-    return orbit_section_points(orbit, name, float(value), ld_map.section["solve"], ld_map.section.get("sign", 1))
+    return orbit_section_points(orbit, name, section.fixed[name], section.solve, section.sign)
 
 
 def _map_title(ld_map: LDMap) -> str:
     """The section's symbol and its fixed coordinates, 'saddle' values resolved."""
-    coordinates = ld_map.system().coordinates
-    saddle_state = np.concatenate([np.asarray(ld_map.attrs["saddle_position"]), np.zeros(len(coordinates))])
-    phase = [*coordinates, *("p" + c for c in coordinates)]
-    parts = []
-    for name, value in ld_map.section.get("fixed", {}).items():
-        value = saddle_state[phase.index(name)] if value == "saddle" else float(value)
-        parts.append(f"{style.symbol(name)} = {value:.4g}")
+    parts = [f"{style.symbol(name)} = {value:.4g}" for name, value in ld_map.section.fixed.items()]
     parts.append(rf"$\Delta E$ = {float(ld_map.attrs['excess_energy']):.3f}")
-    return style.section_symbol(ld_map.axes, ld_map.section.get("sign", 1)) + ": " + ", ".join(parts)
+    return style.section_symbol(ld_map.axes, ld_map.section.sign) + ": " + ", ".join(parts)
 
 
 def draw_map_with_slices(ax_curve, ax_map, ld_map: LDMap, settings: dict, pierce: np.ndarray, phase) -> None:
@@ -101,14 +92,12 @@ def draw_configuration_view(ax, maps: list[LDMap], orbits: list[Orbit], settings
     coordinates = system.coordinates
     segments = []
     for ld_map in maps:
-        fixed = {k: v for k, v in ld_map.section.get("fixed", {}).items() if k in coordinates}
+        fixed = {k: v for k, v in ld_map.section.fixed.items() if k in coordinates}
         axis = ld_map.axes[0]
         if axis not in coordinates or len(fixed) != 1:
             continue
         (name, value), = fixed.items()
-        if value == "saddle":
-            value = float(np.asarray(ld_map.attrs["saddle_position"])[coordinates.index(name)])
-        ends = {axis: (ld_map.first[0], ld_map.first[-1]), name: (float(value), float(value))}
+        ends = {axis: (ld_map.first[0], ld_map.first[-1]), name: (value, value)}
         segments.append((ends[coordinates[0]], ends[coordinates[1]]))
     q0 = np.concatenate([orbit.coordinate(coordinates[0]) for orbit in orbits])
     q1 = np.concatenate([orbit.coordinate(coordinates[1]) for orbit in orbits])
@@ -145,12 +134,10 @@ def draw_3d_view(ax, maps: list[LDMap], orbits: list[Orbit], pierce: list[np.nda
     phase = orbits[0].phase
     ax.computed_zorder = False  # draw in the order given: the orbit over the planes it threads
     for ld_map, points in zip(maps, pierce):
-        fixed = ld_map.section.get("fixed", {})
+        fixed = ld_map.section.fixed
         if len(fixed) != 1:
             continue
         (name, value), = fixed.items()
-        if value == "saddle":
-            value = float(np.asarray(ld_map.attrs["saddle_position"])[phase.index(name)])
         step_first = max(1, len(ld_map.first) // SURFACE_FACETS)
         step_second = max(1, len(ld_map.second) // SURFACE_FACETS)
         values = ld_map.values[::step_first, ::step_second]

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contracts import NHIM
 from ..datafile import open_stage_file
-from ..stages.nhim import STAGE, VARIABLES
 from . import style
 from .data import load_ld_map
 
@@ -27,7 +27,7 @@ MARKERS = {
 
 
 def _studies(paths: list[str | Path]) -> list:
-    return [open_stage_file(path, stage=STAGE, variables=VARIABLES) for path in paths]
+    return [open_stage_file(path, stage=NHIM) for path in paths]
 
 
 def _map_panel(ax, map_path: str | Path, study, index: int) -> None:
@@ -50,7 +50,9 @@ def _map_panel(ax, map_path: str | Path, study, index: int) -> None:
         ax.plot(*study.reference_point.values[k], marker="o", markersize=11, markerfacecolor="none",
                 markeredgecolor=style.ORBIT_COLOR, linestyle="none", label="periodic orbit crossing")
     style.label_axes(ax, *ld.axes)
-    fixed = ", ".join(f"{style.symbol(n)} = {v:g}" for n, v in ld.section["fixed"].items() if v != "saddle")
+    # The numbers the map's spec fixes (coordinates fixed at the saddle are left out of the title).
+    spec = ld.parameters["section"]["fixed"]
+    fixed = ", ".join(f"{style.symbol(n)} = {v:g}" for n, v in spec.items() if v != "saddle")
     style.panel_letter(ax, index, f"{ld.name}: {fixed}, $\\Delta E$ = {float(ld.attrs['excess_energy']):g}")
 
 

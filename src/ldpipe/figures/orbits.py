@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 
+from ..contracts import UPO
 from ..datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..systems import make_system
@@ -30,7 +31,7 @@ ENERGY_COLORMAP = "plasma"
 
 
 def _family_system(path: str | Path):
-    dataset = open_stage_file(path, stage="upo", variables=("trajectory",))
+    dataset = open_stage_file(path, stage=UPO, variables=("trajectory",))
     parameters = stage_parameters(dataset)
     return make_system(parameters["system_name"], parameters["system_spec"]), dict(dataset.attrs)
 

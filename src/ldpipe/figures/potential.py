@@ -13,18 +13,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..logs import get_logger
+from ..sections import fixed_values
 from ..systems import make_system
 from . import style
 from .data import potential_on_plane, saddles
 
 log = get_logger(__name__)
-
-
-def _fixed_values(settings: dict, coordinates: tuple[str, ...], saddle: np.ndarray) -> dict[str, float]:
-    fixed = {}
-    for name, value in settings.get("fixed", {}).items():
-        fixed[name] = float(saddle[coordinates.index(name)]) if value == "saddle" else float(value)
-    return fixed
 
 
 def _energies(settings: dict, critical_energy: float) -> list[tuple[float, float]]:
@@ -45,15 +39,11 @@ def draw_potential(settings: dict, *, equilibria: str | Path) -> plt.Figure:
     equilibria : path
         The system's ``equilibria`` stage file (saddles, critical energies, the system's spec).
     """
-    positions, critical_energies, coordinates, parameters = saddles(equilibria)
+    positions, saddle, critical_energy, coordinates, parameters = saddles(equilibria, settings.get("saddle_near"))
     system = make_system(parameters["system_name"], parameters["system_spec"])
-    near = settings.get("saddle_near")
-    choice = int(np.argmin(critical_energies)) if near is None else int(
-        np.argmin(np.linalg.norm(positions - np.asarray(near), axis=1)))
-    saddle, critical_energy = positions[choice], float(critical_energies[choice])
     axes = tuple(settings["plane"])
     ranges = [settings["plane"][a] for a in axes]
-    fixed = _fixed_values(settings, coordinates, saddle)
+    fixed = fixed_values(settings.get("fixed", {}), system, saddle, key="figures.<potential>.fixed")
     first, second, potential = potential_on_plane(system, axes, ranges, settings["points"], fixed)
     log.info("V of %s on (%s, %s), fixed %s: E_c = %.10g at %s", system.name, *axes, fixed, critical_energy, saddle)
 

@@ -8,15 +8,18 @@ Either row may be left out.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 
+from ..contracts import POINCARE
 from ..datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
+from ..sections import Section
 from ..systems import make_system
 from . import style
-from .data import allowed_mask, load_ld_map, load_manifold_curves, section_from_parameters
+from .data import allowed_mask, load_ld_map, load_manifold_curves
 
 log = get_logger(__name__)
 
@@ -30,7 +33,7 @@ def energy_title(excess: float, energy: float) -> str:
 
 def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     """One Poincaré section: every located crossing, and the section's energy boundary in green."""
-    dataset = open_stage_file(path, stage="poincare", variables=("crossing_state", "crossing_valid"))
+    dataset = open_stage_file(path, stage=POINCARE, variables=("crossing_state", "crossing_valid"))
     parameters = stage_parameters(dataset)
     start = parameters["initial_conditions"]
     axes = (start["axes"][0]["name"], start["axes"][1]["name"])
@@ -42,12 +45,13 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     # The energy boundary: where the solved momentum of the section vanishes.
     system = make_system(parameters["system_name"], parameters["system_spec"])
     energy = float(dataset.attrs["energy"])
-    ranges = (tuple(start["axes"][0]["range"]), tuple(start["axes"][1]["range"]))
-    section = section_from_parameters(system, start, (BOUNDARY_POINTS, BOUNDARY_POINTS), ranges)
+    section = Section.from_spec(start, system, key=f"poincare_sections.{parameters.get('name', Path(path).stem)}"
+                                ".initial_conditions")
+    section = dataclasses.replace(section, shape=(BOUNDARY_POINTS, BOUNDARY_POINTS))
     first, second, allowed = allowed_mask(system, section, energy)
     ax.contour(first, second, allowed.T.astype(float), levels=[0.5], colors=style.BOUNDARY_COLOR, linewidths=1.0)
-    ax.set_xlim(ranges[0])
-    ax.set_ylim(ranges[1])
+    ax.set_xlim(section.ranges[0])
+    ax.set_ylim(section.ranges[1])
     style.label_axes(ax, *axes)
     ax.set_title(energy_title(float(dataset.attrs["excess_energy"]), energy), loc="right")
     log.info("Poincaré section %s: %d crossings", path, len(states))

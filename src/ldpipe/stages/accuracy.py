@@ -25,7 +25,9 @@ from ..accuracy import (
     load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset, sample_indices,
     same_number,
 )
+from ..contracts import ACCURACY_COST, EQUILIBRIA
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError, StageFileError
 from ..ld_grid import ld_grid_dataset
 from ..logs import get_logger
@@ -33,13 +35,9 @@ from ..nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orb
 from ..periodic_orbits import CorrectionFailed, linearize_saddle
 from ..sections import section_states
 from ..systems import make_system
-from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 from .ld import ld_map_parameters, resolve_map
 from .upo import upo_parameters
 
-STAGE = "accuracy_cost"
-VARIABLES = ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
 log = get_logger(__name__)
 
 #: Why the LD reference is trusted, recorded in the file (measured with benchmarks/reference.py,
@@ -92,7 +90,7 @@ def accuracy_systems(config: dict) -> list[str]:
 def _equilibria_by_system(paths: list[str | Path]) -> dict[str, xr.Dataset]:
     found = {}
     for path in paths:
-        data = open_stage_file(path, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+        data = open_stage_file(path, stage=EQUILIBRIA)
         found[str(data.attrs.get("system", ""))] = data
     return found
 
@@ -425,7 +423,7 @@ def run_accuracy_cost(
     if threads:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     data = accuracy_dataset(ld, upo, nhim, [equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
-    path = write_stage_file(data, output, stage=STAGE, title="Accuracy against cost of the LD engine, the "
+    path = write_stage_file(data, output, stage=ACCURACY_COST, title="Accuracy against cost of the LD engine, the "
                             "periodic-orbit corrector and the NHIM detection", parameters={"ld": ld, "upo": upo, "nhim": nhim})
     table = Path(table)
     table.parent.mkdir(parents=True, exist_ok=True)

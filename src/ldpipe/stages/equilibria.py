@@ -4,21 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-import xarray as xr
-
 from ..config import equilibrium_box, system_coordinates, system_spec
+from ..contracts import EQUILIBRIA
 from ..datafile import write_stage_file
-from ..errors import ConfigError
 from ..equilibria import equilibria_dataset
 from ..logs import get_logger
 from ..systems import make_system
 
-STAGE = "equilibria"
-VARIABLES = (
-    "position", "energy", "type", "morse_index", "eigenvalue_real", "eigenvalue_imag",
-    "eigenvector_real", "eigenvector_imag", "critical_energy", "saddle_equilibrium",
-)
 log = get_logger(__name__)
 
 
@@ -68,25 +60,7 @@ def run_equilibria(
         "seeds_per_axis": seeds_per_axis, "tolerance": tolerance,
     }
     title = f"Equilibria and linear analysis of {system_name}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=EQUILIBRIA, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path
 
-
-def select_saddle(equilibria: xr.Dataset, near: list[float] | None) -> tuple[np.ndarray, float]:
-    """Position and critical energy of the index-1 saddle nearest ``near`` (default: lowest E_c)."""
-    if equilibria.sizes.get("saddle", 0) == 0:
-        raise ConfigError(
-            f"system {equilibria.attrs.get('system')!r} has no index-1 saddle in its equilibrium search box; "
-            "an excess energy or a 'saddle' coordinate needs one (widen systems.<name>.equilibria.box)"
-        )
-    indices = equilibria.saddle_equilibrium.values
-    positions = equilibria.position.values[indices]
-    energies = equilibria.critical_energy.values
-    if near is None:
-        choice = int(np.argmin(energies))
-    else:
-        if len(near) != positions.shape[1]:
-            raise ConfigError(f"saddle_near: expected {positions.shape[1]} numbers, got {near}")
-        choice = int(np.argmin(np.linalg.norm(positions - np.asarray(near), axis=1)))
-    return positions[choice], float(energies[choice])

@@ -16,18 +16,16 @@ import numpy as np
 import xarray as xr
 
 from ..config import system_spec
+from ..contracts import EQUILIBRIA, LD_GRID, LD_TILE
 from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import gather_tiles, ld_grid_dataset, tile_rows
 from ..logs import get_logger
 from ..sections import Section
 from ..systems import make_system
-from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
-STAGE = "ld_grid"
-TILE_STAGE = "ld_tile"
 log = get_logger(__name__)
 
 
@@ -59,24 +57,7 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
     system = make_system(parameters["system_name"], parameters["system_spec"])
     key = f"ld_maps.{parameters['map_name']}"
     saddle, critical_energy = select_saddle(equilibria, parameters.get("saddle_near"))
-    saddle_state = np.concatenate([saddle, np.zeros(system.n_dof)])
-    fixed = {}
-    for name, value in parameters["section"].get("fixed", {}).items():
-        if value == "saddle":
-            if name not in system.phase_coordinates:
-                raise ConfigError(f"config key '{key}.section.fixed.{name}': not a phase coordinate of {system.name}")
-            value = float(saddle_state[system.phase_coordinates.index(name)])
-        fixed[name] = float(value)
-    axes = parameters["section"]["axes"]
-    section = Section(
-        axes=(axes[0]["name"], axes[1]["name"]),
-        ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(axes[0]["points"], axes[1]["points"]),
-        fixed=fixed,
-        solve=parameters["section"]["solve"],
-        sign=parameters["section"].get("sign", 1),
-    )
-    section.check(system, key=f"{key}.section")
+    section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
     energy_spec = parameters["energy"]
     energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
     region = parameters.get("region")
@@ -159,7 +140,7 @@ def compute_ld_map(
 def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, tile_file: bool) -> Path:
     """Write a whole map, or (``tile_file``) one tile of it for :func:`run_ld_gather`."""
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
-    stage = TILE_STAGE if tile_file else STAGE
+    stage = LD_TILE if tile_file else LD_GRID
     title = f"Lagrangian descriptor map {parameters['map_name']}" + (f", tile {tile + 1} of {tiles}" if tile_file else "")
     resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy")}
     recorded = {**parameters, "tile": tile, "tiles": tiles, "resolved": resolved}
@@ -179,7 +160,7 @@ def run_ld_tile(
     **parameters,
 ) -> Path:
     """Compute one tile of an LD map from the system's equilibria file, and write it as a tile file."""
-    equilibria_data = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
     dataset = compute_ld_map(
         parameters, equilibria_data, tile=tile, tiles=tiles, threads=threads, show_progress=show_progress
     )
@@ -188,7 +169,7 @@ def run_ld_tile(
 
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tiles of one map into the map's file."""
-    datasets = [open_stage_file(path, stage=TILE_STAGE, variables=("ld_forward", "ld_backward")) for path in tiles]
+    datasets = [open_stage_file(path, stage=LD_TILE) for path in tiles]
     parameters = [stage_parameters(d) for d in datasets]
     counts = {p["tiles"] for p in parameters}
     if counts != {len(tiles)} or sorted(p["tile"] for p in parameters) != list(range(len(tiles))):
@@ -203,5 +184,5 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
     title = f"Lagrangian descriptor map {common['map_name']}"
-    return write_stage_file(joined, output, stage=STAGE, title=title, parameters={**common, "tiles": len(tiles)})
+    return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})
 

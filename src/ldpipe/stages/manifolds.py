@@ -14,16 +14,14 @@ from pathlib import Path
 import numpy as np
 
 from ..config import system_spec
+from ..contracts import MANIFOLDS, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import ManifoldSettings, manifold_dataset
 from ..systems import make_system
-from . import upo as upo_stage
 
-STAGE = "manifolds"
-VARIABLES = ("trajectory", "start_state", "section_state", "section_valid", "orbit_state")
 log = get_logger(__name__)
 
 
@@ -55,7 +53,7 @@ def select_orbit(orbits, energy: dict, key: str, path) -> int:
 def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = None, **parameters) -> Path:
     """Globalize both manifolds of the selected orbit of the UPO file ``upo`` and write ``output``."""
     key = f"manifolds.{parameters['name']}"
-    data = open_stage_file(upo, stage=upo_stage.STAGE, variables=upo_stage.VARIABLES)
+    data = open_stage_file(upo, stage=UPO)
     if stage_parameters(data)["system_name"] != parameters["system_name"]:
         raise StageFileError(f"{upo}: orbits of system {data.attrs['system']!r}, expected {parameters['system_name']!r}")
     index = select_orbit(data, parameters["energy"], key, upo)
@@ -85,6 +83,6 @@ def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = 
     log.info("unstable multiplier %.12g; %d of %d trajectories escaped", dataset.attrs["unstable_multiplier"],
              int(dataset.escaped.sum()), dataset.escaped.size)
     title = f"Stable and unstable manifolds of {data.attrs['family']} at dE = {dataset.attrs['excess_energy']:.6g}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=MANIFOLDS, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path

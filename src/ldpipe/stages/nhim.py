@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
 from ..errors import ConfigError, LdpipeError
@@ -35,13 +36,8 @@ from ..nhim import (
 )
 from ..sections import Section
 from ..systems import make_system
-from . import equilibria as equilibria_stage
 from . import ld as ld_stage
-from . import upo as upo_stage
 
-STAGE = "nhim"
-VALIDATION_STAGE = "nhim_validation"
-VARIABLES = ("refined_point", "reference_point", "distance_refined", "residence_forward")
 log = get_logger(__name__)
 
 
@@ -93,17 +89,10 @@ def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
     """The slice problem an LD map file (or an in-memory map) describes, from its own attributes."""
     system = make_system(parameters["system_name"], parameters["system_spec"])
     saddle = np.asarray(dataset.attrs["saddle_position"], dtype=np.float64)
-    saddle_state = np.concatenate([saddle, np.zeros(system.n_dof)])
-    fixed = {}
-    for name, value in parameters["section"]["fixed"].items():
-        fixed[name] = float(saddle_state[system.phase_coordinates.index(name)]) if value == "saddle" else float(value)
-    axes = parameters["section"]["axes"]
-    section = Section(
-        axes=(axes[0]["name"], axes[1]["name"]),
-        ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(dataset.sizes[axes[0]["name"]], dataset.sizes[axes[1]["name"]]),
-        fixed=fixed, solve=parameters["section"]["solve"], sign=parameters["section"].get("sign", 1),
-    )
+    section = Section.from_spec(parameters["section"], system, saddle,
+                                key=f"ld_maps.{parameters['map_name']}.section")
+    if section.shape != tuple(dataset.sizes[axis] for axis in section.axes):
+        raise ValueError(f"LD map {parameters['map_name']}: grid {dict(dataset.sizes)} is not its section's {section.shape}")
     lower, upper = np.atleast_1d(dataset.attrs["region_lower"]), np.atleast_1d(dataset.attrs["region_upper"])
     if len(lower) != system.n_dof:
         raise ConfigError(f"LD map {parameters['map_name']}: NHIM detection needs a variable-time map with a saddle "
@@ -120,7 +109,7 @@ def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
 
 def _orbits_at_energy(path: str | Path, energy: float) -> tuple[np.ndarray, float, np.ndarray] | None:
     """(initial state, period, samples) of the orbit of a UPO file at ``energy``, or None."""
-    data = open_stage_file(path, stage=upo_stage.STAGE, variables=upo_stage.VARIABLES)
+    data = open_stage_file(path, stage=UPO)
     match = np.flatnonzero(np.abs(data.energy.values - energy) <= 1e-9 * max(1.0, abs(energy)))
     if not len(match):
         return None
@@ -278,12 +267,12 @@ def run_nhim_study(
     phase = None
     sources = []
     for path in maps:
-        data = open_stage_file(path, stage=ld_stage.STAGE, variables=("ld_forward", "ld_backward", "allowed"))
+        data = open_stage_file(path, stage=LD_GRID)
         sources.append((data, stage_parameters(data)))
     if derived:
         if equilibria is None:
             raise ValueError(f"study {study}: derived slices need the system's equilibria file")
-        eq = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+        eq = open_stage_file(equilibria, stage=EQUILIBRIA)
         for parameters in derived:
             sources.append((ld_stage.compute_ld_map(parameters, eq, show_progress=False), parameters))
     if not sources:
@@ -302,7 +291,7 @@ def run_nhim_study(
     dataset.attrs["study"] = study
     recorded = {"study": study, "refinement": refinement, "maps": [str(m) for m in maps], "derived": derived or [],
                 "references": references}
-    path = write_stage_file(dataset, output, stage=STAGE, title=f"NHIM points of study {study}", parameters=recorded)
+    path = write_stage_file(dataset, output, stage=NHIM, title=f"NHIM points of study {study}", parameters=recorded)
     log.info("wrote %s (%d slices)", path, len(records))
     return path
 
@@ -320,7 +309,7 @@ TABLE_COLUMNS = (
 
 def validation_rows(study_file: str | Path, tolerance: float, residence_ratio: float) -> list[dict]:
     """One table row per slice of a study file, with its pass/fail status."""
-    data = open_stage_file(study_file, stage=STAGE, variables=VARIABLES)
+    data = open_stage_file(study_file, stage=NHIM)
     rows = []
     for k, name in enumerate(data.slice.values):
         get = lambda v: data[v].values[k]  # noqa: E731

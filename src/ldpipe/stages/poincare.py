@@ -15,18 +15,16 @@ from pathlib import Path
 import numba
 
 from ..config import system_spec
+from ..contracts import EQUILIBRIA, POINCARE
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..poincare import poincare_dataset
 from ..sections import Section
 from ..systems import make_system
-from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
-STAGE = "poincare"
-VARIABLES = ("initial_state", "crossing_state", "crossing_count", "escaped")
 log = get_logger(__name__)
 
 
@@ -45,7 +43,7 @@ def poincare_parameters(config: dict, name: str) -> dict:
 def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | None = None, **parameters) -> Path:
     """Integrate the section's initial conditions and write their crossings to ``output``."""
     key = f"poincare_sections.{parameters['name']}"
-    equilibria_data = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
     energy_spec = parameters["energy"]
     if "total" in energy_spec:
@@ -56,13 +54,7 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
         critical_energy = select_saddle(equilibria_data, parameters.get("saddle_near"))[1]
         energy = critical_energy + energy_spec["excess"]
     start = parameters["initial_conditions"]
-    axes = start["axes"]
-    grid = Section(
-        axes=(axes[0]["name"], axes[1]["name"]), ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
-        shape=(axes[0]["points"], axes[1]["points"]), fixed={k: float(v) for k, v in start.get("fixed", {}).items()},
-        solve=start["solve"], sign=start.get("sign", 1),
-    )
-    grid.check(system, key=f"{key}.initial_conditions")
+    grid = Section.from_spec(start, system, key=f"{key}.initial_conditions")
     section = parameters["section"]
     if section["coordinate"] not in system.phase_coordinates:
         raise ConfigError(f"config key '{key}.section.coordinate': {section['coordinate']!r} is not one of "
@@ -81,6 +73,6 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
     log.info("%d trajectories, %d escaped, %d crossings", dataset.sizes["trajectory"], int(dataset.escaped.sum()),
              int(dataset.crossing_count.sum()))
     title = f"Poincaré section {parameters['name']} of {system.name}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=POINCARE, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path

@@ -16,21 +16,16 @@ import numpy as np
 import xarray as xr
 
 from ..config import system_spec
+from ..contracts import EQUILIBRIA, UPO
 from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..periodic_orbits import (
     CorrectionFailed, CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle, sample_orbit,
 )
 from ..systems import make_system
-from . import equilibria as equilibria_stage
-from .equilibria import select_saddle
 
-STAGE = "upo"
-VARIABLES = (
-    "period", "energy", "excess_energy", "initial_state", "floquet_real", "floquet_imag", "closure_error",
-    "trajectory", "monodromy",
-)
 log = get_logger(__name__)
 
 
@@ -161,9 +156,9 @@ def _dataset(system, saddle, family, targets, orbits, parameters) -> xr.Dataset:
 
 def run_upo(*, output: str | Path, equilibria: str | Path, **parameters) -> Path:
     """Compute one Lyapunov family from the system's equilibria file and write ``output``."""
-    equilibria_data = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
     dataset = upo_family_dataset(parameters, equilibria_data)
     title = f"Lyapunov periodic orbits, family {parameters['family']} of {parameters['system_name']}"
-    path = write_stage_file(dataset, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(dataset, output, stage=UPO, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path

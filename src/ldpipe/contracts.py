@@ -1,0 +1,54 @@
+"""What each stage's file is, for the stages and figures that read it: one contract per stage.
+
+A contract names the stage (the ``ldpipe_stage`` attribute every file of it carries) and the
+variables every file of it holds that a later stage or a figure reads. The writing stage
+writes with its contract (:func:`ldpipe.datafile.write_stage_file`); a reader opens with it
+(:func:`ldpipe.datafile.open_stage_file`), which checks the stage and the variables, and may
+ask for only some of them (never for one the contract does not name). Readers import this
+module, never the stage that wrote the file: figures and library modules stay below the stages.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class StageFile:
+    """The contract of one stage's files.
+
+    Attributes
+    ----------
+    stage : str
+        The stage's identifier, written as the file's ``ldpipe_stage`` attribute.
+    variables : tuple of str
+        Variables the stage writes that its readers rely on.
+    """
+
+    stage: str
+    variables: tuple[str, ...] = ()
+
+
+EQUILIBRIA = StageFile("equilibria", (
+    "position", "energy", "type", "morse_index", "eigenvalue_real", "eigenvalue_imag",
+    "eigenvector_real", "eigenvector_imag", "critical_energy", "saddle_equilibrium",
+))
+#: One tile of an LD map, gathered into the map's file.
+LD_TILE = StageFile("ld_tile", ("ld_forward", "ld_backward"))
+LD_GRID = StageFile("ld_grid", ("ld_forward", "ld_backward", "allowed"))
+UPO = StageFile("upo", (
+    "period", "energy", "excess_energy", "initial_state", "floquet_real", "floquet_imag", "closure_error",
+    "trajectory", "monodromy",
+))
+MANIFOLDS = StageFile("manifolds", ("trajectory", "start_state", "section_state", "section_valid", "orbit_state"))
+POINCARE = StageFile("poincare", ("initial_state", "crossing_state", "crossing_valid", "crossing_count", "escaped"))
+NHIM = StageFile("nhim", ("refined_point", "reference_point", "distance_refined", "residence_forward"))
+#: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
+ACCURACY_COST = StageFile(
+    "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
+)
+
+#: Every stage file's contract, by stage.
+CONTRACTS = {contract.stage: contract for contract in (
+    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, ACCURACY_COST,
+)}
