@@ -1,4 +1,5 @@
-"""Shared fixtures: the paper's systems, compiled once per test session, and one quick workflow run."""
+"""Shared fixtures: the paper's systems and the harmonic oscillators, compiled once per test session,
+and one quick workflow run."""
 
 import shutil
 import subprocess
@@ -8,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from ldpipe.systems import make_system
+from support.closed_forms import oscillator_system
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
@@ -21,6 +23,12 @@ def barbanis():
 @pytest.fixture(scope="session")
 def barbanis_contopoulos():
     return make_system("barbanis_contopoulos_3dof", {"builtin": "barbanis_contopoulos_3dof"})
+
+
+@pytest.fixture(scope="session")
+def oscillator():
+    """Two uncoupled harmonic oscillators, whose LD is a closed form (support.closed_forms)."""
+    return oscillator_system()
 
 
 def copy_workflow(folder: Path) -> Path:
