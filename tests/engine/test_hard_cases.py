@@ -41,13 +41,8 @@ from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
 from ldpipe.systems import make_system
 from ldpipe.variational import sample
-from support.barbanis import E_C, escaping_states
+from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2, escaping_states
 
-# The paper's Barbanis 2 DoF: V = x^2/2 + wy2 y^2/2 + delta x y^2, E_c = 15.125.
-WY2 = 1.1**2
-DELTA = -0.11
-BOTTOM_REGION = ((4.5, -8.5), (6.5, -5.5))  # the config's 2 DoF saddle region
-PAPER_Q_S = ((9.0, 2.5, 1.0), (12.0, 7.5, 4.0))  # the paper's 3 DoF saddle region
 EPS = np.finfo(float).eps
 
 
