@@ -32,7 +32,8 @@ import scipy  # noqa: E402
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import alternatives as alt  # noqa: E402
-import reference as ref  # noqa: E402
+
+from ldpipe import reference_ld as ref  # noqa: E402  (independent of the engine: numpy and scipy only)
 
 
 # ------------------------------------------------------------------------------------------

@@ -23,8 +23,6 @@ from pathlib import Path
 import numba
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass")
 # part of "special": the scatter with the scalar fallbacks (not added to the total)
@@ -152,8 +150,7 @@ def profile(process, system, states, settings) -> tuple[np.ndarray, float]:
 
 
 def main() -> None:
-    import reference as ref
-
+    from ldpipe import reference_ld as ref
     from ldpipe.engine import LDSettings
     from ldpipe.systems import make_system
 

@@ -2,7 +2,7 @@
 
 One LD map of the configuration (default: Fig. 3's fixed-time map at ΔE = 0.125, τ = 50, on a
 ``--points`` x ``--points`` grid) is computed by ``snakemake --workflow-profile profiles/slurm``
-on a single-node cluster started by ``tests/slurm/local_cluster.sh`` (this machine's cores and
+on a single-node cluster started by ``tests/workflow/local_cluster.sh`` (this machine's cores and
 memory), for every number of tiles in ``--tiles`` and of concurrent SLURM jobs in ``--jobs``,
 each tile a one-core job; and, as the baseline, by a plain local ``snakemake --cores N`` (tiles
 on every core). The timed run is the target ``results/ld/MAP.nc`` only: tiles and gather, with
@@ -11,7 +11,7 @@ command, the CPU seconds of the tile jobs (Snakemake's benchmark files: the work
 does not change much), and ``uptime``'s load averages just before the run, since the machine may
 be shared. ``--repeat`` runs each setting several times; every run is kept.
 
-Needs root and Debian's slurm-wlm and munge (as tests/test_slurm.py). Run from the repository:
+Needs root and Debian's slurm-wlm and munge (as tests/workflow/test_slurm.py). Run from the repository:
 
     .venv/bin/python benchmarks/slurm_scaling.py                      # 600 x 600, tiles 1 2 4 8, jobs 1 2
     .venv/bin/python benchmarks/slurm_scaling.py --points 300 --tiles 1 4 --jobs 2 --repeat 2
@@ -38,8 +38,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
-CLUSTER_SCRIPT = ROOT / "tests" / "slurm" / "local_cluster.sh"
-# As tests/test_slurm.py: no accounting on the local cluster, short polls for short jobs.
+CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
+# As tests/workflow/test_slurm.py: no accounting on the local cluster, short polls for short jobs.
 CLUSTER_OPTIONS = [
     "--slurm-no-account",
     "--slurm-status-command", "squeue",

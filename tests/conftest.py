@@ -1,6 +1,6 @@
-"""Shared fixtures: the paper's systems, compiled once per test session, and one quick workflow run."""
+"""Shared fixtures: the paper's systems and the harmonic oscillators, compiled once per test session,
+and one quick workflow run."""
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from ldpipe.systems import make_system
+from support.closed_forms import oscillator_system
+from support.workflow import copy_workflow
 
-ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
 
 
@@ -23,14 +24,10 @@ def barbanis_contopoulos():
     return make_system("barbanis_contopoulos_3dof", {"builtin": "barbanis_contopoulos_3dof"})
 
 
-def copy_workflow(folder: Path) -> Path:
-    """What a clone holds for the workflow, copied to ``folder`` (code comes from the installed ldpipe)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    for name in ("Snakefile", "config.yaml", "config.quick.yaml"):
-        shutil.copy(ROOT / name, folder / name)
-    for name in ("workflow", "profiles"):
-        shutil.copytree(ROOT / name, folder / name)
-    return folder
+@pytest.fixture(scope="session")
+def oscillator():
+    """Two uncoupled harmonic oscillators, whose LD is a closed form (support.closed_forms)."""
+    return oscillator_system()
 
 
 @pytest.fixture

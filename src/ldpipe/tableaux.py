@@ -7,7 +7,7 @@ DOP853
     Dormand & Prince's 8(5,3) pair with its 7th-order continuous extension, as published by
     Hairer, Nørsett & Wanner (Solving ODEs I, 2nd ed., sec. II.10; the Fortran code
     ``dop853.f``). The numbers are the ones distributed with that code (also in SciPy's
-    ``scipy/integrate/_ivp/dop853_coefficients.py``, BSD-3). ``tests/test_engine_settings.py``
+    ``scipy/integrate/_ivp/dop853_coefficients.py``, BSD-3). ``tests/engine/test_settings.py``
     checks the order conditions on them, so a mistyped digit cannot go unnoticed.
 RK4
     The classical fourth-order Runge–Kutta method.

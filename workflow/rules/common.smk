@@ -94,7 +94,7 @@ def _ld_points(map_name):
 
 # Cores of one job of a multi-threaded stage (LD tiles, manifolds, Poincare sections). A local
 # run caps it at --cores; on a cluster it is what each such job asks for (a profile's set-threads
-# changes it per rule). The numbers a stage writes do not depend on it (tests/test_slurm.py runs
+# changes it per rule). The numbers a stage writes do not depend on it (tests/workflow/test_slurm.py runs
 # LD tiles on one core and compares them with a local run on two).
 STAGE_THREADS = 4
 

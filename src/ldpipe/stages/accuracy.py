@@ -40,11 +40,11 @@ from .upo import upo_parameters
 
 log = get_logger(__name__)
 
-#: Why the LD reference is trusted, recorded in the file (measured with benchmarks/reference.py,
+#: Why the LD reference is trusted, recorded in the file (measured with ldpipe.reference_ld,
 #: an independent LD: scipy DOP853 at 1e-13, every velocity zero crossing located, Gauss–Jacobi
 #: rules on the pieces; see README "What accuracy costs").
 REFERENCE_VALIDATION = (
-    "sym6 at dt 0.005 against benchmarks/reference.py (independent: scipy DOP853 rtol 1e-13, located velocity zero "
+    "sym6 at dt 0.005 against ldpipe.reference_ld (independent: scipy DOP853 rtol 1e-13, located velocity zero "
     "crossings, Gauss-Jacobi rules): relative LD difference median 6e-14, max 4e-12 on 57 non-escaping points of "
     "fig3_dE0.125 (fixed time, tau 50), median 4e-14, max 3e-13 on 300 points of fig4_k-7.0 (variable time). "
     "dop853 at rtol 1e-13 was the worse reference (max 4e-10 and 5e-11 on the same points). "

@@ -5,8 +5,7 @@ import math
 import numpy as np
 
 from ldpipe.engine import LDSettings, compute_ld
-
-Q_S = ((9.0, 2.5, 1.0), (12.0, 7.5, 4.0))  # the paper's q_s = [9,12] x [2.5,7.5] x [1,4]
+from support.barbanis import PAPER_Q_S as Q_S  # the paper's q_s = [9,12] x [2.5,7.5] x [1,4]
 
 
 def test_variable_time_3dof_invariants(barbanis_contopoulos):

@@ -116,7 +116,7 @@ def test_cli_computes_the_fig4a_slice(tmp_path):
 
 
 def test_cli_map_from_config_and_errors(tmp_path, capsys):
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     assert main(["ld", "--config", str(root / "config.yaml"), "--map", "nonesuch", "-o", str(tmp_path / "x.nc")]) == 2
     assert "no map 'nonesuch'" in capsys.readouterr().err
     assert main(["ld", "--system", "barbanis_2dof", "--axis", "x=0:1:3", "--solve", "py",

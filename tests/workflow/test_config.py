@@ -8,7 +8,7 @@ import yaml
 from ldpipe.config import load_config, validate_config
 from ldpipe.errors import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("name", ["config.yaml", "config.quick.yaml"])

@@ -41,14 +41,8 @@ from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
 from ldpipe.systems import make_system
 from ldpipe.variational import sample
+from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2, escaping_states
 
-# The paper's Barbanis 2 DoF: V = x^2/2 + wy2 y^2/2 + delta x y^2, E_c = 15.125.
-WY2 = 1.1**2
-DELTA = -0.11
-E_C = 15.125
-TOP_SADDLE = (5.5, math.sqrt(50.0))
-BOTTOM_REGION = ((4.5, -8.5), (6.5, -5.5))  # the config's 2 DoF saddle region
-PAPER_Q_S = ((9.0, 2.5, 1.0), (12.0, 7.5, 4.0))  # the paper's 3 DoF saddle region
 EPS = np.finfo(float).eps
 
 
@@ -69,14 +63,6 @@ def barbanis_equilibria(barbanis):
 
 
 # --- finite-time blow-up ----------------------------------------------------------------------
-def escaping_states(system, excess=1.0, count=5):
-    """At the top saddle, above E_c, heading out of the well: every one escapes to infinity."""
-    x, y = TOP_SADDLE
-    speed = math.sqrt(2.0 * (E_C + excess - system.potential(np.array([x, y]))))
-    angles = np.linspace(-0.6, 0.6, count)
-    return np.array([(x, y, speed * math.sin(a) * 0.3 + 0.4, speed * math.cos(a)) for a in angles])
-
-
 def escape_reference(state, radius, tau):
     """Escape time, M_1 and the arc length up to the first max_i |q_i| = radius, by solve_ivp.
 

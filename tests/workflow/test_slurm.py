@@ -1,7 +1,7 @@
 """The workflow on a real SLURM cluster (issue 8).
 
 A single-node cluster (munged, slurmctld and slurmd on this machine, accounting off; started by
-tests/slurm/local_cluster.sh) runs stages of the quick configuration through
+tests/workflow/local_cluster.sh) runs stages of the quick configuration through
 `snakemake --executor slurm`, each job an sbatch submission, and every stage file it writes must
 equal what the session's local run of the same configuration (conftest's ``quick_run``) wrote.
 The reference is an independent execution: a local run on two threads a job, against cluster
@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
-CLUSTER_SCRIPT = ROOT / "tests" / "slurm" / "local_cluster.sh"
+CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
 pytestmark = pytest.mark.slow
 
 # What cannot be equal between two runs, so is not compared: the `history` attribute (the time

@@ -25,7 +25,7 @@ from ldpipe.sections import Section, section_states
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BARBANIS = {"builtin": "barbanis_2dof", "parameters": {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}}
 E_C = 15.125  # the paper's critical energy of both Barbanis 2 DoF saddles
 SADDLE = np.array([5.5, -np.sqrt(50.0)])  # closed form: x = wy^2/(2|delta|)... y^2 = wx^2 x/|delta|

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # A throw-away single-node SLURM cluster on this machine, for tests and benchmarks.
 #
-#   eval "$(tests/slurm/local_cluster.sh start [DIR])"   start munged, slurmctld and slurmd, and
-#                                                        point this shell's clients at them
-#   tests/slurm/local_cluster.sh stop DIR                cancel its jobs and stop its daemons
+#   eval "$(tests/workflow/local_cluster.sh start [DIR])"   start munged, slurmctld and slurmd, and
+#                                                           point this shell's clients at them
+#   tests/workflow/local_cluster.sh stop DIR                cancel its jobs and stop its daemons
 #
 # Everything lives in DIR (default: a new /tmp/ldpipe-slurm.XXXXXX): its own munge key and socket,
 # slurm.conf on two free TCP ports, state, spool, pid and log files. Nothing under /etc is read or
@@ -81,7 +81,7 @@ start() {
     printf '#!/bin/sh\nexport SLURM_CONF=%s\nexec %s "$@"\n' "$dir/slurm.conf" "$(command -v srun)" >"$dir/bin/srun"
     chmod 755 "$dir/bin/srun"
     cat >"$dir/slurm.conf" <<CONF
-# Written by tests/slurm/local_cluster.sh: a single-node test cluster, accounting off.
+# Written by tests/workflow/local_cluster.sh: a single-node test cluster, accounting off.
 ClusterName=ldpipe-local
 SlurmctldHost=$host(127.0.0.1)
 SlurmctldPort=$(free_port)

@@ -1,6 +1,9 @@
 """A careful, independent reference Lagrangian descriptor for one initial condition.
 
-Independent of ``ldpipe``: the vector fields are written out here by hand.
+Independent of the rest of ``ldpipe``, on purpose: this module imports only numpy and scipy,
+and the vector fields are written out here by hand, so it can judge the engine. It lives in the
+package so that the benchmarks (benchmarks/compare.py, profile_engine.py, alternatives.py) and
+the tests import it by name.
 
 Method
 ------
@@ -20,7 +23,7 @@ Method
 
 Accuracy: see ``estimate_accuracy`` and benchmarks/README.md (on the Barbanis section,
 rtol 1e-13 vs 1e-11 agree to ~1e-12 relative; the closed-form tests in
-tests/test_reference_ld.py hold to 1e-9 relative and in practice to ~1e-12).
+tests/engine/test_reference_ld.py hold to 1e-9 relative and in practice to ~1e-12).
 
 Variable time: ``box`` = {coordinate index: (lo, hi)} stops the integration (terminal event) the
 first time one of those coordinates leaves [lo, hi]; the LD is then integrated up to that exit
@@ -278,7 +281,7 @@ def estimate_accuracy(states, tau=50.0, p=0.5, loose=1e-11, tight=1e-13, **kwarg
     }
 
 
-if __name__ == "__main__":  # quick look: python benchmarks/reference.py
+if __name__ == "__main__":  # quick look: python -m ldpipe.reference_ld
     import time
 
     rng = np.random.default_rng(1)

@@ -1,66 +1,17 @@
 """LD of uncoupled harmonic oscillators against closed forms.
 
-For V = (wx^2 x^2 + wy^2 y^2)/2 each coordinate is q(t) = A cos(w t + phi), so every velocity
-component is of the form C cos(w t + psi): q' = A w cos(w t + phi + pi/2) and
-p' = -w^2 q = A w^2 cos(w t + phi + pi). Hence
-
-    int_0^tau |C cos(w t + psi)|^p dt = |C|^p / w * (F(w tau + psi) - F(psi)),
-    F(theta) = int_0^theta |cos u|^p du,
-
-and F is a closed form through the Beta function: over a half period
-F(pi) = B(1/2, (p+1)/2), and for 0 <= u <= pi/2, int_0^u cos^p = B(sin^2 u; 1/2, (p+1)/2)/2
-(the incomplete Beta function, substituting s = sin^2). F(theta + pi) = F(theta) + F(pi),
-F(-theta) = -F(theta).
+The closed form (Beta functions, derived in tests/support/closed_forms.py) is itself checked
+here, and the engine's schemes and settings are measured against it.
 """
 
 import math
 
 import numpy as np
 import pytest
-from scipy.special import beta, betainc
+from scipy.special import beta
 
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.systems import make_system
-
-WX, WY = 1.0, 1.3
-
-
-@pytest.fixture(scope="module")
-def oscillator():
-    return make_system(
-        "ho", {"formula": "(wx**2*x**2 + wy**2*y**2)/2", "coordinates": ["x", "y"], "parameters": {"wx": WX, "wy": WY}}
-    )
-
-
-def cos_power_antiderivative(theta: float, p: float) -> float:
-    """F(theta) = int_0^theta |cos u|^p du, from the (incomplete) Beta function."""
-    if theta < 0.0:
-        return -cos_power_antiderivative(-theta, p)
-    half = beta(0.5, (p + 1.0) / 2.0)
-    k, u = divmod(theta, math.pi)
-
-    def quarter(v):  # int_0^v cos^p, 0 <= v <= pi/2
-        return 0.5 * half * betainc(0.5, (p + 1.0) / 2.0, math.sin(v) ** 2)
-
-    inner = quarter(u) if u <= math.pi / 2 else half - quarter(math.pi - u)
-    return k * half + inner
-
-
-def oscillator_ld(state, tau: float, p: float) -> float:
-    """Closed-form M_p of the two uncoupled oscillators over [0, tau]."""
-    x, y, px, py = state
-    total = 0.0
-    for q0, p0, w in ((x, px, WX), (y, py, WY)):
-        amplitude = math.hypot(q0, p0 / w)
-        if amplitude == 0.0:
-            continue
-        phase = math.atan2(-p0 / w, q0)  # q = A cos(w t + phase)
-        for c, psi in ((amplitude * w, phase + math.pi / 2), (amplitude * w * w, phase + math.pi)):
-            total += c**p / w * (cos_power_antiderivative(w * tau + psi, p) - cos_power_antiderivative(psi, p))
-    return total
-
-
-STATES = np.array([[1.0, 0.5, 0.3, -0.2], [-0.7, 0.1, 1.1, 0.9], [0.2, -1.3, -0.4, 0.05], [0.0, 0.8, 1.0, 0.0]])
+from support.closed_forms import STATES, WX, cos_power_antiderivative, oscillator_ld
 
 
 def relative_errors(result, states, tau, p):

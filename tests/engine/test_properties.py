@@ -19,13 +19,9 @@ from hypothesis import strategies as st
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.ld_grid import gather_tiles, ld_grid_dataset, tile_rows
 from ldpipe.sections import Section
-
 # The paper's Barbanis 2 DoF: V = x^2/2 + y^2 (wy2 + 2 delta x)/2, E_c = 15.125 at x = 5.5.
-WY2 = 1.1**2
-DELTA = -0.11
-E_C = 15.125
-BOTTOM_REGION = ((4.5, -8.5), (6.5, -5.5))
-PAPER_Q_S = ((9.0, 2.5, 1.0), (12.0, 7.5, 4.0))
+from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2
+
 PROPERTY = settings(max_examples=30, deadline=None)
 unit = st.floats(-1.0, 1.0, allow_nan=False)
 angle = st.floats(0.0, 2.0 * math.pi, allow_nan=False)

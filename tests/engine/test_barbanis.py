@@ -13,9 +13,7 @@ import pytest
 from scipy.integrate import IntegrationWarning, quad, solve_ivp
 
 from ldpipe.engine import LDSettings, compute_ld
-
-E_C = 15.125
-SADDLE = (5.5, 7.0710678118654755)
+from support.barbanis import E_C, TOP_SADDLE as SADDLE
 
 
 def section_states(system, energy, xs, pxs, y=0.0):

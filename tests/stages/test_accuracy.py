@@ -23,21 +23,13 @@ from ldpipe.errors import ConfigError
 from ldpipe.periodic_orbits import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.systems import make_system
 
-# The closed-form M_p of uncoupled oscillators (Beta functions), derived and checked in
-# tests/test_engine_closed_form.py, for the same frequencies (wx, wy) = (1.0, 1.3).
-from test_engine_closed_form import WX, WY, oscillator_ld
+# The closed-form M_p of the uncoupled oscillators (Beta functions) of the `oscillator` fixture,
+# frequencies (wx, wy) = (1.0, 1.3): derived in tests/support, checked in tests/engine/test_closed_form.py.
+from support.closed_forms import WX, oscillator_ld
 
 TAU = 20.0
 CONTINUATION = {"initial_amplitude": 1e-4, "max_step": 0.1, "max_members": 5000}
-
-
-@pytest.fixture(scope="module")
-def oscillator():
-    return make_system(
-        "ho", {"formula": "(wx**2*x**2 + wy**2*y**2)/2", "coordinates": ["x", "y"], "parameters": {"wx": WX, "wy": WY}}
-    )
 
 
 @pytest.fixture(scope="module")

@@ -2,8 +2,8 @@
 
 Every expected value is a closed form, an invariant or an independent integration:
 
-- uncoupled harmonic oscillators: the LD for p = 1/2 from the Beta function (the helper of
-  test_engine_closed_form), the arc length from the incomplete elliptic integral E, and the
+- uncoupled harmonic oscillators: the LD for p = 1/2 from the Beta function
+  (support.closed_forms), the arc length from the incomplete elliptic integral E, and the
   Taylor coefficients, hence the steps the Jorba–Zou rule must take, from cos and sin;
 - the Barbanis 2 DoF on the paper's section: dop853 at rtol 1e-13 (the engine's other
   adaptive scheme), energy, time reversal, escapes and region exits;
@@ -27,13 +27,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.special import ellipeinc
-from test_engine_closed_form import STATES, WX, WY, oscillator_ld
-from test_hard_cases import E_C, escaping_states
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.engine.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
+from support.barbanis import E_C, escaping_states
+from support.closed_forms import STATES, WX, WY, oscillator_ld
 
 FORMULA_ORDER = 14  # the oscillator and the quartic system
 BARBANIS_ORDER = 13  # = LDSettings(scheme="taylor", rtol=1e-12, p=0.5).order
@@ -53,19 +53,10 @@ def assert_finite(result) -> None:
         assert np.isfinite(getattr(result, name)).all(), name
 
 
-@pytest.fixture(scope="module")
-def oscillator():
-    # The same specification as test_engine_closed_form's, so its closed form applies (and
-    # make_system returns the same cached system).
-    return make_system(
-        "ho", {"formula": "(wx**2*x**2 + wy**2*y**2)/2", "coordinates": ["x", "y"], "parameters": {"wx": WX, "wy": WY}}
-    )
-
-
 # --- 1. harmonic oscillator against closed forms -------------------------------------------------
 @pytest.mark.parametrize("direction", [+1, -1])
 def test_oscillator_half_power_ld_meets_the_closed_form(oscillator, direction):
-    # Closed form through the Beta function (test_engine_closed_form.oscillator_ld). Backward
+    # Closed form through the Beta function (support.closed_forms.oscillator_ld). Backward
     # time: the LD over [-tau, 0] of (q, p) is the forward LD of (q, -p), also in closed form.
     # Measured: relative error 6e-15 both ways with the default 16 Gauss nodes (1e-10 with 8).
     rng = np.random.default_rng(12)
@@ -198,7 +189,7 @@ def test_barbanis_time_reversal(barbanis, barbanis_section):
 @pytest.mark.parametrize("p", [0.5, "arclength"])
 def test_escapes_stop_at_the_radius_like_dop853(barbanis, p):
     # Beyond the top saddle above E_c, the cubic term sends every trajectory to infinity in
-    # finite time (test_hard_cases): each must stop where max|q_i| reaches the radius, flagged.
+    # finite time (test_hard_cases.py): each must stop where max|q_i| reaches the radius, flagged.
     # Independent method: dop853 at rtol 1e-13. Measured: escape times agree to 1.3e-15,
     # LDs to 1.9e-12 (p = 1/2) and 5e-14 (arc length); energy error 1.1e-9 (|V| ~ 1e5 there).
     states = escaping_states(barbanis, count=7)
@@ -215,7 +206,7 @@ def test_escapes_stop_at_the_radius_like_dop853(barbanis, p):
 
 
 def saddle_region_states(system) -> np.ndarray:
-    """Starts on y = 7 near the top saddle at E_c + 0.2, both signs of p_y (as in test_engine_barbanis)."""
+    """Starts on y = 7 near the top saddle at E_c + 0.2, both signs of p_y (as in test_barbanis.py)."""
     energy = E_C + 0.2
     rows = []
     for x in (5.0, 5.3, 5.9):

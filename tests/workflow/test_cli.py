@@ -11,7 +11,7 @@ from ldpipe import contracts
 from ldpipe.cli import main
 from ldpipe.datafile import open_stage_file
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_equilibria_builtin_writes_paper_values(tmp_path):

@@ -226,7 +226,7 @@ def test_cli_subcommands_write_stage_files(tmp_path):
     commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     if "upo" not in commands.choices:
         cli_orbits.register(commands, cli.EPILOG)
-    config = Path(__file__).resolve().parents[1] / "config.yaml"
+    config = Path(__file__).resolve().parents[2] / "config.yaml"
     args = parser.parse_args(["upo", "--config", str(config), "--family", "barbanis_contopoulos_3dof_mode1",
                               "-o", str(tmp_path / "upo.nc")])
     args.handler(args)
