@@ -1,4 +1,4 @@
-"""The ``taylor`` scheme of the LD engine (Taylor series, Jorba–Zou steps; ldpipe.engine.taylor).
+"""The ``taylor`` scheme of the LD engine (Taylor series, Jorba–Zou steps; ldpipe.engine.schemes.taylor).
 
 Every expected value is a closed form, an invariant or an independent integration:
 
@@ -31,7 +31,7 @@ from test_engine_closed_form import STATES, WX, WY, oscillator_ld
 from test_hard_cases import E_C, escaping_states
 
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.engine.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
+from ldpipe.engine.schemes.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
 

@@ -46,7 +46,7 @@ import xarray as xr
 
 from .engine import LDSettings, compute_ld
 from .engine.api import LDResult
-from .engine.settings import ADAPTIVE_SCHEMES, FIXED_STEP_SCHEMES
+from .engine.schemes import SCHEMES
 from .ld_grid import ld_grid_dataset
 from .logs import get_logger
 from .nhim import (
@@ -58,6 +58,9 @@ from .systems import System
 from .variational import propagate
 
 log = get_logger(__name__)
+
+ADAPTIVE_SCHEMES = tuple(name for name, record in SCHEMES.items() if record.adaptive)
+FIXED_STEP_SCHEMES = tuple(name for name, record in SCHEMES.items() if not record.adaptive)
 
 #: Quantiles of the per-trajectory errors stored for every setting (1.0 is the worst).
 QUANTILES = (0.5, 0.9, 0.99, 1.0)
