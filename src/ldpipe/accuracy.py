@@ -44,9 +44,9 @@ import numpy as np
 import scipy
 import xarray as xr
 
-from .engine import LDSettings, compute_ld
+from .engine import IntegratorSettings, LDSettings, compute_ld
 from .engine.api import LDResult
-from .engine.schemes import SCHEMES
+from .engine.schemes import get_scheme
 from .ld_grid import ld_grid_dataset
 from .logs import get_logger
 from .nhim import (
@@ -58,9 +58,6 @@ from .systems import System
 from .variational import propagate
 
 log = get_logger(__name__)
-
-ADAPTIVE_SCHEMES = tuple(name for name, record in SCHEMES.items() if record.adaptive)
-FIXED_STEP_SCHEMES = tuple(name for name, record in SCHEMES.items() if not record.adaptive)
 
 #: Quantiles of the per-trajectory errors stored for every setting (1.0 is the worst).
 QUANTILES = (0.5, 0.9, 0.99, 1.0)
@@ -109,80 +106,31 @@ def same_number(a: float, b: float) -> bool:
 
 
 # -- LD ladder -----------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class IntegratorStep:
-    """One integrator setting of the LD ladder: a scheme with its tolerances or its step.
-
-    The numbers a scheme does not use are 0 (``dt`` of dop853, ``rtol``/``atol`` of the
-    fixed-step schemes), so the ladder stores as plain finite arrays.
-    """
-
-    scheme: str
-    rtol: float = 0.0
-    atol: float = 0.0
-    dt: float = 0.0
-
-    def __post_init__(self):
-        if self.scheme in ADAPTIVE_SCHEMES:
-            if not (self.rtol > 0 and self.atol > 0) or self.dt != 0:
-                raise ValueError(f"{self.scheme}: expected rtol > 0 and atol > 0 and no dt, got {self}")
-        elif self.scheme in FIXED_STEP_SCHEMES:
-            if not self.dt > 0 or self.rtol != 0 or self.atol != 0:
-                raise ValueError(f"{self.scheme}: expected dt > 0 and no rtol/atol, got {self}")
-        else:
-            raise ValueError(f"scheme: unknown scheme {self.scheme!r}; expected one of "
-                             f"{[*ADAPTIVE_SCHEMES, *FIXED_STEP_SCHEMES]}")
-
-    @classmethod
-    def from_spec(cls, spec: dict) -> "IntegratorStep":
-        """From ``{scheme, rtol[, atol]}`` (adaptive; atol defaults to rtol) or ``{scheme, dt}``."""
-        scheme = spec["scheme"]
-        if scheme in ADAPTIVE_SCHEMES:
-            return cls(scheme, rtol=float(spec["rtol"]), atol=float(spec.get("atol", spec["rtol"])))
-        return cls(scheme, dt=float(spec["dt"]))
-
-    @property
-    def adaptive(self) -> bool:
-        return self.scheme in ADAPTIVE_SCHEMES
-
-    @property
-    def label(self) -> str:
-        if self.adaptive:
-            tolerance = f"rtol {self.rtol:g}" + ("" if self.atol == self.rtol else f" atol {self.atol:g}")
-            return f"{self.scheme} {tolerance}"
-        return f"{self.scheme} dt {self.dt:g}"
-
-    def apply(self, base: LDSettings) -> LDSettings:
-        """``base`` (the map's LD, time mode and region) with this step's integrator."""
-        if self.adaptive:
-            return dataclasses.replace(base, scheme=self.scheme, rtol=self.rtol, atol=self.atol)
-        return dataclasses.replace(base, scheme=self.scheme, dt=self.dt)
-
-    def matches(self, settings: LDSettings) -> bool:
-        """Whether ``settings`` integrate as this step does (the numbers the scheme uses agree)."""
-        if settings.scheme != self.scheme:
-            return False
-        if self.adaptive:
-            return same_number(settings.rtol, self.rtol) and same_number(settings.atol, self.atol)
-        return same_number(settings.dt, self.dt)
+#: One integrator setting of the LD ladder: the engine's :class:`~ldpipe.engine.IntegratorSettings`
+#: (built from a ladder entry with :meth:`~ldpipe.engine.IntegratorSettings.from_spec`; its
+#: ``label``, ``numbers``, ``apply`` and ``matches`` serve the ladder).
+IntegratorStep = IntegratorSettings
 
 
-def integrator_ladder(spec: dict) -> list[IntegratorStep]:
-    """The ladder ``{scheme: {rtol: [...]} or {dt: [...]}}`` as steps, scheme by scheme in order.
+def integrator_ladder(spec: dict) -> list[IntegratorSettings]:
+    """The ladder ``{scheme: {rtol: [...]} or {dt: [...]}}`` as settings, scheme by scheme in order.
 
-    For an adaptive scheme ``atol`` equals ``rtol`` (the LD maps' convention) unless the entry
-    gives an ``atol`` list of the same length.
+    The values listed are those of the scheme's step parameter (``rtol`` of an adaptive scheme,
+    ``dt`` of a fixed-step one; the registry's ``parameters``). For an adaptive scheme ``atol``
+    equals ``rtol`` (the LD maps' convention) unless the entry gives an ``atol`` list of the
+    same length.
     """
     steps = []
     for scheme, values in spec.items():
-        if scheme in ADAPTIVE_SCHEMES:
+        if get_scheme(scheme).adaptive:
             rtols = values["rtol"]
             atols = values.get("atol", rtols)
             if len(atols) != len(rtols):
                 raise ValueError(f"{scheme}: {len(rtols)} rtol values but {len(atols)} atol values")
-            steps += [IntegratorStep(scheme, rtol=float(r), atol=float(a)) for r, a in zip(rtols, atols)]
+            steps += [IntegratorSettings.from_spec({"scheme": scheme, "rtol": float(r), "atol": float(a)})
+                      for r, a in zip(rtols, atols)]
         else:
-            steps += [IntegratorStep.from_spec({"scheme": scheme, "dt": dt}) for dt in values["dt"]]
+            steps += [IntegratorSettings.from_spec({"scheme": scheme, "dt": float(dt)}) for dt in values["dt"]]
     return steps
 
 
@@ -285,9 +233,9 @@ def ld_ladder_dataset(
     system: System,
     states: np.ndarray,
     base: LDSettings,
-    steps: list[IntegratorStep],
-    reference: IntegratorStep,
-    reference_check: IntegratorStep,
+    steps: list[IntegratorSettings],
+    reference: IntegratorSettings,
+    reference_check: IntegratorSettings,
     *,
     repeats: int = 1,
 ) -> xr.Dataset:
@@ -301,8 +249,8 @@ def ld_ladder_dataset(
     base : LDSettings
         The map's settings (LD, tau, time mode, region, escape radius); each step replaces the
         integrator only.
-    steps : list of IntegratorStep, length S
-    reference, reference_check : IntegratorStep
+    steps : list of IntegratorSettings, length S
+    reference, reference_check : IntegratorSettings
         The reference, and a second setting whose agreement with it is stored as a check.
     repeats : int
         Timed runs per setting (the smallest time is kept).
@@ -416,9 +364,9 @@ def ld_ladder_dataset(
             "quantile": quantiles,
             # The ladder describes the settings, so it is a coordinate: maps measured with one ladder share it.
             "scheme": ("setting", [s.scheme for s in steps]),
-            "rtol": ("setting", [s.rtol for s in steps], {"long_name": "relative tolerance (0: a fixed-step scheme)"}),
-            "atol": ("setting", [s.atol for s in steps], {"long_name": "absolute tolerance (0: a fixed-step scheme)"}),
-            "dt": ("setting", [s.dt for s in steps], {"long_name": "step (0: an adaptive scheme)"}),
+            "rtol": ("setting", [s.numbers()["rtol"] for s in steps], {"long_name": "relative tolerance (0: a fixed-step scheme)"}),
+            "atol": ("setting", [s.numbers()["atol"] for s in steps], {"long_name": "absolute tolerance (0: a fixed-step scheme)"}),
+            "dt": ("setting", [s.numbers()["dt"] for s in steps], {"long_name": "step (0: an adaptive scheme)"}),
             "label": ("setting", [s.label for s in steps]),
         },
     )
