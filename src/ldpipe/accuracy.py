@@ -317,6 +317,7 @@ def ld_ladder_dataset(
                            where=fields["wall_time"] > 0)
     per_core = np.divide(fields["trajectory_time"], fields["cpu_time"], out=np.zeros(n_steps),
                          where=fields["cpu_time"] > 0)
+    numbers = [s.numbers() for s in steps]  # 0 where the scheme does not use the number
     data = xr.Dataset(
         {
             "wall_time": ("setting", fields["wall_time"], {
@@ -364,9 +365,9 @@ def ld_ladder_dataset(
             "quantile": quantiles,
             # The ladder describes the settings, so it is a coordinate: maps measured with one ladder share it.
             "scheme": ("setting", [s.scheme for s in steps]),
-            "rtol": ("setting", [s.numbers()["rtol"] for s in steps], {"long_name": "relative tolerance (0: a fixed-step scheme)"}),
-            "atol": ("setting", [s.numbers()["atol"] for s in steps], {"long_name": "absolute tolerance (0: a fixed-step scheme)"}),
-            "dt": ("setting", [s.numbers()["dt"] for s in steps], {"long_name": "step (0: an adaptive scheme)"}),
+            "rtol": ("setting", [v["rtol"] for v in numbers], {"long_name": "relative tolerance (0: a fixed-step scheme)"}),
+            "atol": ("setting", [v["atol"] for v in numbers], {"long_name": "absolute tolerance (0: a fixed-step scheme)"}),
+            "dt": ("setting", [v["dt"] for v in numbers], {"long_name": "step (0: an adaptive scheme)"}),
             "label": ("setting", [s.label for s in steps]),
         },
     )
