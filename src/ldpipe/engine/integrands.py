@@ -27,15 +27,13 @@ class Integrand:
 
     ``kind`` is its compile-time constant (named ``constant`` in the generated module);
     ``exponent`` the fixed p the compiled code uses for it, or None when it takes the
-    settings' p (the general power); ``cusps``: the integrand has a cusp or kink where a
-    velocity component vanishes, so the quadrature's special pass looks for those roots.
+    settings' p (the general power).
     """
 
     name: str
     constant: str
     kind: int
     exponent: float | None
-    cusps: bool
     description: str
 
     def p_exponent(self, p) -> float:
@@ -49,10 +47,11 @@ class Integrand:
 
 #: The registry: integrand name -> record; the kinds' values are the compile-time constants.
 INTEGRANDS: dict[str, Integrand] = {
-    "half": Integrand("half", "KIND_HALF", 0, 0.5, True, "M_p with p = 1/2: sqrt in the hot path"),
-    "one": Integrand("one", "KIND_ONE", 1, 1.0, True, "M_p with p = 1: |v| (a kink, not a cusp)"),
-    "power": Integrand("power", "KIND_POW", 2, None, True, "M_p with a general 0 < p < 1: |v|**p"),
-    ARCLENGTH: Integrand(ARCLENGTH, "KIND_ARCLENGTH", 3, 1.0, False, "the phase-space arc length ||x'||"),
+    "half": Integrand("half", "KIND_HALF", 0, 0.5, "M_p with p = 1/2: sqrt in the hot path"),
+    "one": Integrand("one", "KIND_ONE", 1, 1.0, "M_p with p = 1: |v| (a kink, not a cusp: only sign changes cut)"),
+    "power": Integrand("power", "KIND_POW", 2, None, "M_p with a general 0 < p < 1: |v|**p"),
+    # no per-component cusp: the driver skips the quadrature's special pass for it
+    ARCLENGTH: Integrand(ARCLENGTH, "KIND_ARCLENGTH", 3, 1.0, "the phase-space arc length ||x'||"),
 }
 
 #: The compile-time constants of the kinds, by the names the compiled code uses.
