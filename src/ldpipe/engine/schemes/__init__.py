@@ -43,9 +43,12 @@ def scheme_source(scheme: str, system, lanes: int, order: int | None = None) -> 
     """The compiled parts of ``scheme`` for ``system`` and ``lanes`` lanes.
 
     ``order``: the order of a scheme that chooses it per call (taylor; required for it,
-    ignored by the others).
+    ignored by the others). ValueError if the scheme cannot integrate the system (taylor: a
+    potential that is not a polynomial).
     """
-    return get_scheme(scheme).source(system, lanes, order)
+    record = get_scheme(scheme)
+    record.check_system(system)
+    return record.source(system, lanes, order)
 
 
 __all__ = ["AdaptiveScheme", "FixedStepScheme", "SCHEMES", "Scheme", "get_scheme", "scheme_source"]

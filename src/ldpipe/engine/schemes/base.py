@@ -30,7 +30,7 @@ class Scheme:
         One line, for help texts and docs.
     order : int or None
         The order of the propagated solution; None when it is chosen per call (see
-    :meth:`order_for`).
+        :meth:`order_for`).
     ladder : tuple of float
         Default values of the scheme's step parameter (``parameters[0]``: the tolerance of an
         adaptive scheme, the step of a fixed-step one) on the accuracy-cost ladder, loosest first.
@@ -61,7 +61,10 @@ class Scheme:
         raise NotImplementedError
 
     def check_system(self, system) -> None:
-        """Raise ValueError if the scheme cannot integrate ``system`` (the default: it can)."""
+        """Raise ValueError, saying why, if the scheme cannot integrate ``system`` (the default: it can).
+
+        :func:`ldpipe.engine.schemes.scheme_source` calls it before :meth:`source`.
+        """
 
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         """The compiled parts of the scheme for ``system`` and ``lanes`` lanes."""
