@@ -40,10 +40,6 @@ class Integrand:
         """The exponent passed to the compiled quadrature for ``p``."""
         return self.exponent if self.exponent is not None else float(p)
 
-    @property
-    def is_arclength(self) -> bool:
-        return self.name == ARCLENGTH
-
 
 #: The registry: integrand name -> record; the kinds' values are the compile-time constants.
 INTEGRANDS: dict[str, Integrand] = {

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 from typing import Union
 
-from .integrands import check_p, integrand_for, is_arclength
+from .integrands import check_p
 from .schemes import SCHEMES, get_scheme
 from .schemes.taylor import MAX_ORDER, MIN_ORDER
 
@@ -197,11 +197,6 @@ class DescriptorSettings:
             _set(self, "window", _number("window", self.window))
         _integer("quad_nodes", self.quad_nodes, 2, 32, optional=True)
 
-    @property
-    def integrand(self):
-        """The integrand's record (:mod:`ldpipe.engine.integrands`)."""
-        return integrand_for(self.p)
-
 
 @dataclass(frozen=True)
 class StoppingRules:
@@ -335,10 +330,6 @@ class LDSettings:
     @property
     def variable_time(self) -> bool:
         return self.region_lower is not None
-
-    @property
-    def arclength(self) -> bool:
-        return is_arclength(self.p)
 
     @property
     def quadrature_window(self) -> float:
