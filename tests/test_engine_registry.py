@@ -34,6 +34,8 @@ def test_schema_scheme_enums_are_the_registry(schema):
     integrator = _ld_map(schema)["integrator"]["properties"]
     assert integrator["scheme"]["enum"] == list(SCHEMES)
     assert schema["$defs"]["integrator_setting"]["properties"]["scheme"]["enum"] == list(SCHEMES)
+    for name in SCHEMES:  # the schema's help text names every scheme
+        assert name in integrator["scheme"]["description"], name
 
 
 def test_schema_integrator_block_mirrors_integrator_settings(schema):
