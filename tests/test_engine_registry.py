@@ -52,6 +52,7 @@ def test_schema_integrator_block_mirrors_integrator_settings(schema):
 def test_schema_descriptor_and_stopping_defaults(schema):
     ld_map = _ld_map(schema)
     assert ld_map["p"]["default"] == DescriptorSettings().p
+    assert {"const": integrands.ARCLENGTH} in ld_map["p"]["anyOf"]
     assert ld_map["tau"]["default"] == StoppingRules().tau
 
 
