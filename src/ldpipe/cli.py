@@ -14,6 +14,8 @@ from pathlib import Path
 
 from . import __version__, cli_nhim, cli_orbits
 from .config import load_config, validate_config
+from .engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
+from .engine.integrands import ARCLENGTH
 from .errors import ConfigError, LdpipeError
 from .logs import log_to
 from .systems import BUILTINS
@@ -28,6 +30,19 @@ examples:
       --fixed y=-7.0 --solve py --excess-energy 0.125 --tau 50 --p 0.5 \\
       --time variable --region x=4.5:6.5 --region y=-8.5:-5.5 --saddle-near 5.5,-7 -o slice.nc
 """
+
+
+#: The defaults of ``ldpipe ld``: the engine's (as the config schema's).
+INTEGRATOR, DESCRIPTOR, STOPPING = IntegratorSettings(), DescriptorSettings(), StoppingRules()
+
+
+def _short(value: float) -> str:
+    """1e-08 -> '1e-8', 50.0 -> '50': a default as the help texts write it."""
+    text = f"{value:g}"
+    if "e" in text:
+        mantissa, exponent = text.split("e")
+        text = f"{mantissa}e{int(exponent)}"
+    return text
 
 
 def _key_value(text: str) -> tuple[str, str]:
@@ -106,7 +121,7 @@ def _map_from_options(args: argparse.Namespace) -> dict:
         },
         "energy": {"total": args.energy} if args.energy is not None else {"excess": args.excess_energy},
         "tau": args.tau,
-        "p": "arclength" if args.p == "arclength" else _number(args.p, "--p"),
+        "p": ARCLENGTH if args.p == ARCLENGTH else _number(args.p, "--p"),
         "time": args.time,
         "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
                        "taylor_order": args.taylor_order},
@@ -220,16 +235,23 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--energy", type=float, metavar="E", help="total energy")
     ld.add_argument("--excess-energy", type=float, metavar="DE", help="energy above the saddle's critical energy")
     ld.add_argument("--saddle-near", metavar="Q1,Q2,...", help="use the index-1 saddle nearest this point")
-    ld.add_argument("--tau", type=float, default=50.0, help="integration time each way (default 50)")
-    ld.add_argument("--p", default="0.5", metavar="P", help="LD exponent in (0, 1], or 'arclength' (default 0.5)")
+    ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {_short(STOPPING.tau)})")
+    ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
+                    help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")
     ld.add_argument("--time", choices=("fixed", "variable"), default="fixed", help="fixed or variable time (default fixed)")
     ld.add_argument("--region", type=_key_value, action="append", default=[], metavar="COORD=LOW:HIGH",
                     help="saddle region interval of one coordinate (repeatable; variable time)")
-    ld.add_argument("--scheme", default="dop853", help="integrator: dop853 (default), taylor, rk4, sym4, sym6")
-    ld.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance of dop853 and taylor (default 1e-8)")
-    ld.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance of dop853 and taylor (default 1e-8)")
-    ld.add_argument("--taylor-order", type=int, metavar="M", help="order of the taylor scheme (default: from the tolerance)")
-    ld.add_argument("--dt", type=float, default=0.01, help="step of the fixed-step schemes (default 0.01)")
+    schemes = ", ".join(f"{name} (default)" if name == INTEGRATOR.scheme else name for name in SCHEMES)
+    adaptive = " and ".join(name for name, record in SCHEMES.items() if record.adaptive)
+    ld.add_argument("--scheme", default=INTEGRATOR.scheme, help=f"integrator: {schemes}")
+    ld.add_argument("--rtol", type=float, default=INTEGRATOR.rtol,
+                    help=f"relative tolerance of {adaptive} (default {_short(INTEGRATOR.rtol)})")
+    ld.add_argument("--atol", type=float, default=INTEGRATOR.atol,
+                    help=f"absolute tolerance of {adaptive} (default {_short(INTEGRATOR.atol)})")
+    ld.add_argument("--taylor-order", type=int, metavar="M", default=INTEGRATOR.taylor_order,
+                    help="order of the taylor scheme (default: from the tolerance)")
+    ld.add_argument("--dt", type=float, default=INTEGRATOR.dt,
+                    help=f"step of the fixed-step schemes (default {_short(INTEGRATOR.dt)})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")

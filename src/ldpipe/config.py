@@ -354,17 +354,19 @@ def _check_accuracy_cost(config: dict) -> None:
             raise ConfigError(
                 f"config key 'accuracy_cost.ld.maps': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}"
             )
+    from .engine import IntegratorSettings
+    from .engine.schemes import SCHEMES
+
     for name in ("reference", "reference_check"):
         setting = spec["ld"][name]
-        key = f"accuracy_cost.ld.{name}"
-        if setting["scheme"] in ("dop853", "taylor"):
-            if "rtol" not in setting or "dt" in setting:
-                raise ConfigError(f"config key {key!r}: {setting['scheme']} takes rtol (and atol), not dt; got {setting}")
-        elif "dt" not in setting or "rtol" in setting or "atol" in setting:
-            raise ConfigError(f"config key {key!r}: {setting['scheme']} takes dt, not rtol/atol; got {setting}")
-    for scheme in ("dop853", "taylor"):
+        try:
+            IntegratorSettings.from_spec(setting)
+        except ValueError:
+            uses = "rtol (and atol), not dt" if SCHEMES[setting["scheme"]].adaptive else "dt, not rtol/atol"
+            raise ConfigError(f"config key 'accuracy_cost.ld.{name}': {setting['scheme']} takes {uses}; got {setting}") from None
+    for scheme, record in SCHEMES.items():
         tolerances = spec["ld"]["ladder"].get(scheme, {})
-        if "atol" in tolerances and len(tolerances["atol"]) != len(tolerances["rtol"]):
+        if record.adaptive and "atol" in tolerances and len(tolerances["atol"]) != len(tolerances["rtol"]):
             raise ConfigError(
                 f"config key 'accuracy_cost.ld.ladder.{scheme}.atol': {len(tolerances['atol'])} values for "
                 f"{len(tolerances['rtol'])} rtol values; give one atol per rtol (or none: atol = rtol)"

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from . import tableaux
+from .engine.settings import DEFAULT_ESCAPE_RADIUS
 from .jitcache import load_generated_module
 from .systems import System
 
@@ -238,7 +239,7 @@ class FlowSettings:
 
     rtol: float = 1e-10
     atol: float = 1e-10
-    escape_radius: float = 100.0
+    escape_radius: float = DEFAULT_ESCAPE_RADIUS
     max_steps: int = 10_000_000
 
 

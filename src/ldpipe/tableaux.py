@@ -1,7 +1,7 @@
 """Coefficients of the stepping schemes, and the dense-output maps derived from them.
 
 Nothing here is compiled: these are plain numpy arrays (and floats) that the code
-generators (:mod:`ldpipe.engine.stepping`, :mod:`ldpipe.flow`) write into the kernels as literals.
+generators (:mod:`ldpipe.engine.schemes`, :mod:`ldpipe.flow`) write into the kernels as literals.
 
 DOP853
     Dormand & Prince's 8(5,3) pair with its 7th-order continuous extension, as published by
@@ -252,6 +252,3 @@ SUZUKI4 = np.array([_SUZUKI_S, _SUZUKI_S, 1.0 - 4.0 * _SUZUKI_S, _SUZUKI_S, _SUZ
 _YOSHIDA_X1 = 1.0 / (2.0 - 2.0 ** (1.0 / 5.0))
 _YOSHIDA_X0 = 1.0 - 2.0 * _YOSHIDA_X1
 YOSHIDA6 = np.concatenate([_YOSHIDA_X1 * SUZUKI4, _YOSHIDA_X0 * SUZUKI4, _YOSHIDA_X1 * SUZUKI4])
-
-COMPOSITIONS = {"sym4": SUZUKI4, "sym6": YOSHIDA6}
-COMPOSITION_ORDERS = {"sym4": 4, "sym6": 6}

@@ -82,13 +82,13 @@ def test_escapes_stop_cleanly(barbanis):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with np.errstate(all="raise"):
-            result = compute_ld(barbanis, states, +1, LDSettings(tau=200.0, escape_radius=100.0))
+            result = compute_ld(barbanis, states, +1, LDSettings(rtol=1e-10, atol=1e-10, tau=200.0, escape_radius=100.0))
     assert result.escaped.all() and not result.failed.any()
     assert np.all(result.time < 200.0) and np.all(result.time > 0.0)
     for column in (result.ld, result.time, result.energy_error):
         assert np.isfinite(column).all()
     # stopped at radius 100, well before blow-up: there |V| ~ 0.11 * 100^3 ~ 1e5, so an energy
-    # error below 1e-4 is ~1e-9 relative to the energies involved (default rtol 1e-10)
+    # error below 1e-4 is ~1e-9 relative to the energies involved (rtol 1e-10)
     assert result.energy_error.max() < 1e-4
 
 
@@ -111,7 +111,7 @@ def test_max_steps_ends_lane_with_flag(barbanis, bounded):
 def test_zero_velocity_starts(barbanis):
     # The potential minimum (an equilibrium) and a point on the zero-velocity curve (p = 0).
     states = np.array([[0.0, 0.0, 0.0, 0.0], [2.0, 1.0, 0.0, 0.0]])
-    result = compute_ld(barbanis, states, +1, LDSettings(tau=10.0))
+    result = compute_ld(barbanis, states, +1, LDSettings(rtol=1e-10, atol=1e-10, tau=10.0))
     assert result.ld[0] == 0.0 and result.time[0] == 10.0
     assert np.isfinite(result.ld).all() and not result.failed.any()
     assert result.energy_error[1] < 1e-8

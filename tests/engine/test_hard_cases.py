@@ -153,7 +153,7 @@ def test_ld_at_the_potential_minimum_is_exactly_zero(request, name):
     for tau in (0.5, 50.0, 500.0):
         for p in (0.5, 0.3, 1.0, "arclength"):
             for lower, upper in ((None, None), region):
-                settings = LDSettings(p=p, tau=tau, region_lower=lower, region_upper=upper)
+                settings = LDSettings(p=p, rtol=1e-10, atol=1e-10, tau=tau, region_lower=lower, region_upper=upper)
                 result = compute_ld(system, state, +1, settings)
                 assert result.ld[0] == 0.0 and result.time[0] == tau and result.energy_error[0] == 0.0
                 assert not (result.escaped[0] or result.left_region[0] or result.failed[0])
@@ -202,7 +202,7 @@ def test_rounded_saddle_departs_no_sooner_than_linear_theory(request, name, sadd
     assert earliest > 20.0  # the rounded saddle holds for tens of time units
     state = np.concatenate([saddle, np.zeros(system.n_dof)])[None, :]
     short = 0.8 * earliest
-    settings = LDSettings(p=1.0, tau=short, region_lower=region[0], region_upper=region[1])
+    settings = LDSettings(p=1.0, rtol=1e-10, atol=1e-10, tau=short, region_lower=region[0], region_upper=region[1])
     for direction in (+1, -1):
         result = compute_ld(system, state, direction, settings)
         assert result.time[0] == short and not (result.left_region[0] or result.escaped[0] or result.failed[0])
@@ -211,7 +211,7 @@ def test_rounded_saddle_departs_no_sooner_than_linear_theory(request, name, sadd
         n, rate = system.n_dof, linear.saddle_rate
         drift = residual / rate**2 * math.cosh(rate * short) + residual / rate * math.sinh(rate * short)
         assert result.ld[0] <= 2 * n * (drift + residual * short * (1.0 + 1.0 / linear.omegas.min()))
-    long = LDSettings(p=1.0, tau=500.0, region_lower=region[0], region_upper=region[1])
+    long = LDSettings(p=1.0, rtol=1e-10, atol=1e-10, tau=500.0, region_lower=region[0], region_upper=region[1])
     result = compute_ld(system, state, +1, long)
     assert result.time[0] >= earliest and np.isfinite(result.ld[0]) and not result.failed[0]
 

@@ -1,6 +1,6 @@
 """The DOP853 step in Nyström form against the first-order formulation, and the folded Gauss–Jacobi rule.
 
-The engine forms no stage momenta (ldpipe.engine.stepping.nystrom_form): its step must equal,
+The engine forms no stage momenta (ldpipe.engine.schemes.dop853.nystrom_form): its step must equal,
 up to rounding, DOP853 written for the first-order system y' = f(y) straight from the tableau
 (independent code here, numpy), and its dense output must close on the step's end.
 """
@@ -11,7 +11,8 @@ import pytest
 from ldpipe import tableaux
 from ldpipe.engine.codegen import load_engine
 from ldpipe.engine.quadrature import folded_jacobi_rule, jacobi_rule
-from ldpipe.engine.stepping import nystrom_form, scheme_source
+from ldpipe.engine.schemes import scheme_source
+from ldpipe.engine.schemes.dop853 import nystrom_form
 
 LANES = 64
 

@@ -7,6 +7,8 @@ import pytest
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe import tableaux
+from ldpipe.engine.schemes import SCHEMES
+from ldpipe.engine.schemes.composition import Composition
 
 
 @pytest.mark.parametrize(
@@ -59,7 +61,10 @@ def test_dop853_order_conditions():
 
 
 def test_compositions_are_consistent():
-    for name, weights in tableaux.COMPOSITIONS.items():
+    compositions = [record for record in SCHEMES.values() if isinstance(record, Composition)]
+    assert [record.name for record in compositions] == ["sym4", "sym6"]
+    for record in compositions:
+        weights = np.array(record.weights)
         assert weights.sum() == pytest.approx(1.0, abs=1e-14)
         assert np.allclose(weights, weights[::-1])  # symmetric composition (time-reversible)
     # 4th order: the triple-power condition sum w^3 = 0 of a symmetric composition of a 2nd-order map

@@ -1,4 +1,4 @@
-"""The ``taylor`` scheme of the LD engine (Taylor series, Jorba–Zou steps; ldpipe.engine.taylor).
+"""The ``taylor`` scheme of the LD engine (Taylor series, Jorba–Zou steps; ldpipe.engine.schemes.taylor).
 
 Every expected value is a closed form, an invariant or an independent integration:
 
@@ -29,7 +29,7 @@ from scipy.integrate import solve_ivp
 from scipy.special import ellipeinc
 
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.engine.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
+from ldpipe.engine.schemes.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
 from support.barbanis import E_C, escaping_states

@@ -128,12 +128,14 @@ def test_relative_error_quantiles_and_sample_indices():
 def test_integrator_steps_are_validated_and_labelled():
     assert IntegratorStep.from_spec({"scheme": "dop853", "rtol": 1e-8}).label == "dop853 rtol 1e-08"
     assert IntegratorStep.from_spec({"scheme": "sym6", "dt": 0.05}).label == "sym6 dt 0.05"
+    # A ladder entry names exactly the numbers its scheme uses (IntegratorSettings.from_spec).
     with pytest.raises(ValueError, match="dop853"):
-        IntegratorStep("dop853", dt=0.1)
+        IntegratorStep.from_spec({"scheme": "dop853", "dt": 0.1})
     with pytest.raises(ValueError, match="rk4"):
-        IntegratorStep("rk4", rtol=1e-8, atol=1e-8)
+        IntegratorStep.from_spec({"scheme": "rk4", "rtol": 1e-8, "atol": 1e-8})
     with pytest.raises(ValueError, match="unknown scheme"):
-        IntegratorStep("euler", dt=0.1)
+        IntegratorStep.from_spec({"scheme": "euler", "dt": 0.1})
+    assert IntegratorStep.from_spec({"scheme": "rk4", "dt": 0.1}).numbers() == {"rtol": 0.0, "atol": 0.0, "dt": 0.1}
     step = IntegratorStep("dop853", rtol=1e-8, atol=1e-8)
     assert step.matches(LDSettings(rtol=1e-8, atol=1e-8)) and not step.matches(LDSettings(rtol=1e-9, atol=1e-9))
     pairs = corrector_ladder([1e-6, 1e-10], [1e-10, 1e-13], 0.01)

@@ -5,11 +5,16 @@
 
 Modules, one job each:
 
-- :mod:`~ldpipe.engine.settings` — :class:`LDSettings`, validated numerical choices;
+- :mod:`~ldpipe.engine.settings` — :class:`LDSettings` and its parts (integrator, descriptor,
+  stopping rules), validated numerical choices, every default stated once;
+- :mod:`~ldpipe.engine.schemes` — the integration schemes, one module each, and their
+  registry ``SCHEMES`` (DOP853 generated with its tableau as literals, the Taylor series);
 - :mod:`ldpipe.tableaux` (shared with :mod:`ldpipe.flow`) — coefficients of the schemes;
-- :mod:`~ldpipe.engine.stepping` — the block workspace layout and the step kernels' source
-  (structure of arrays, per-lane h; DOP853 generated with its tableau as literals);
-- :mod:`~ldpipe.engine.quadrature` — integrand kinds and Gauss rules of the LD quadrature;
+- :mod:`~ldpipe.engine.stepping` — the block workspace layout (structure of arrays, per-lane h)
+  and what the code generator needs of a scheme;
+- :mod:`~ldpipe.engine.integrands` — the LD integrands (p = 1/2, 1, general p, arc length) and
+  their registry;
+- :mod:`~ldpipe.engine.quadrature` — Gauss rules of the LD quadrature;
 - :mod:`~ldpipe.engine.templates` — the compiled code as source templates: the LD integral over
   a step (cusps of |v|^p included), region exit and escape events, the fixed-step schemes,
   and the block driver (lane refill, step control);
@@ -21,7 +26,10 @@ Modules, one job each:
 """
 
 from .api import LDResult, compute_ld
-from .settings import DEFAULT_ESCAPE_RADIUS, LDSettings
-from .stepping import SCHEMES
+from .schemes import SCHEMES
+from .settings import DEFAULT_ESCAPE_RADIUS, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
 
-__all__ = ["DEFAULT_ESCAPE_RADIUS", "LDResult", "LDSettings", "SCHEMES", "compute_ld"]
+__all__ = [
+    "DEFAULT_ESCAPE_RADIUS", "DescriptorSettings", "IntegratorSettings", "LDResult", "LDSettings", "SCHEMES",
+    "StoppingRules", "compute_ld",
+]

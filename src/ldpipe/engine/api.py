@@ -8,7 +8,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .integrator import get_runner, run_units
-from .quadrature import KIND_ARCLENGTH, KIND_HALF, KIND_ONE, KIND_POW, folded_jacobi_rule, legendre_rule
+from .integrands import integrand_for
+from .quadrature import folded_jacobi_rule, legendre_rule
 from .settings import LDSettings
 
 
@@ -45,13 +46,9 @@ class LDResult(NamedTuple):
 
 
 def _kind(p) -> tuple[int, float]:
-    if p == "arclength":
-        return KIND_ARCLENGTH, 1.0
-    if p == 0.5:
-        return KIND_HALF, 0.5
-    if p == 1.0:
-        return KIND_ONE, 1.0
-    return KIND_POW, float(p)
+    """The integrand's compile-time kind and the exponent the compiled quadrature takes."""
+    integrand = integrand_for(p)
+    return integrand.kind, integrand.p_exponent(p)
 
 
 def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings | None = None) -> LDResult:

@@ -1,4 +1,6 @@
-"""The LD quadrature's numerical choices: integrand kinds and Gauss rules.
+"""The LD quadrature's numerical choices: the Gauss rules.
+
+The integrand kinds are in :mod:`ldpipe.engine.integrands`.
 
 The compiled quadrature (cusp-aware integration of |v_c|^p over a step, fast and special
 paths) is in ``templates/quadrature.py`` and ``templates/block_quadrature.py``, whose
@@ -9,13 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.special import roots_jacobi, roots_legendre
-
-# Kinds of integrand, decided once per call from LDSettings.p.
-KIND_HALF = 0  # p = 1/2: sqrt in the hot path
-KIND_ONE = 1  # p = 1: |v| (a kink, not a cusp: only sign changes need cutting)
-KIND_POW = 2  # general 0 < p < 1: |v|**p
-KIND_ARCLENGTH = 3  # sqrt(sum v_c^2)
-KINDS = {"KIND_HALF": KIND_HALF, "KIND_ONE": KIND_ONE, "KIND_POW": KIND_POW, "KIND_ARCLENGTH": KIND_ARCLENGTH}
 
 
 def legendre_rule(n: int) -> tuple[np.ndarray, np.ndarray]:

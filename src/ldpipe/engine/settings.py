@@ -1,16 +1,29 @@
-"""LDSettings: every numerical choice of one LD computation, validated on construction."""
+"""Settings of one LD computation, each default stated once, validated on construction.
+
+Three small records, one per concept, and the engine's flat entry object built from them:
+
+- :class:`IntegratorSettings` — the config's ``integrator:`` block of an LD map (scheme,
+  tolerances or step, Taylor order, escape radius); :meth:`IntegratorSettings.from_config`
+  turns such a block into settings, for the stages, the CLI and the accuracy ladders alike;
+- :class:`DescriptorSettings` — the integrand (p or the arc length) and its quadrature;
+- :class:`StoppingRules` — integration time, the saddle-region box, the step cap;
+- :class:`LDSettings` — all of them flat, as :func:`ldpipe.engine.compute_ld` takes them; its
+  defaults are the records' and its validation theirs.
+
+The config schema (a static file) states the same defaults; ``tests/engine/test_registry.py``
+checks that it agrees with these records, and the CLI reads its defaults from them.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Union
 
-from .stepping import SCHEMES
-from .taylor import MAX_ORDER, MIN_ORDER, jorba_zou_order
-
-ADAPTIVE_SCHEMES = ("dop853", "taylor")
-FIXED_STEP_SCHEMES = ("rk4", "sym4", "sym6")
+from .integrands import check_p
+from .schemes import SCHEMES, get_scheme
+from .schemes.taylor import MAX_ORDER, MIN_ORDER
 
 #: Default escape radius: a trajectory is stopped and flagged ``escaped`` the first time
 #: max_i |q_i| exceeds it. 100 is an order of magnitude beyond the saddles of the paper's
@@ -29,6 +42,14 @@ def _number(name: str, value, *, positive: bool = True) -> float:
     return value
 
 
+def _integer(name: str, value, low: int, high: int | None = None, *, optional: bool = False) -> None:
+    if optional and value is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
+        span = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name}: expected {'None or ' if optional else ''}an integer {span}, got {value!r}")
+
+
 def _box(name: str, value) -> tuple[float, ...] | None:
     if value is None:
         return None
@@ -41,89 +62,166 @@ def _box(name: str, value) -> tuple[float, ...] | None:
     return items
 
 
+def _set(record, name: str, value) -> None:
+    object.__setattr__(record, name, value)
+
+
 @dataclass(frozen=True)
-class LDSettings:
-    """Numerical settings of :func:`ldpipe.engine.compute_ld`.
+class IntegratorSettings:
+    """The integrator of an LD map: the config's ``integrator:`` block.
 
     Parameters
     ----------
-    scheme : {"dop853", "taylor", "rk4", "sym4", "sym6"}
-        ``dop853``: adaptive Dormand–Prince 8(5,3) with per-trajectory step control (uses
-        ``rtol``/``atol``). ``taylor``: Taylor series of order ``taylor_order`` with the
-        Jorba–Zou step rule (uses ``rtol``/``atol``; polynomial potentials only; see
-        :mod:`ldpipe.engine.taylor`). ``rk4``: classical fixed-step Runge–Kutta. ``sym4``/``sym6``:
-        fixed-step symplectic compositions of Störmer–Verlet (Suzuki 4th order, 5 forces per
-        step; Yoshida's triple jump of it, 6th order, 15 forces per step). Fixed-step schemes
-        use ``dt``.
+    scheme : str
+        A scheme of the registry :data:`ldpipe.engine.schemes.SCHEMES`: ``dop853`` (adaptive
+        Dormand–Prince 8(5,3), per-trajectory step control), ``taylor`` (Taylor series of order
+        ``taylor_order``, Jorba–Zou steps; polynomial potentials only), ``rk4`` (classical
+        Runge–Kutta, fixed step), ``sym4``/``sym6`` (fixed-step symplectic compositions of
+        Störmer–Verlet, 4th and 6th order). Adaptive schemes use ``rtol``/``atol``, fixed-step
+        ones ``dt`` (the record's ``parameters``).
     rtol, atol : float
         Relative and absolute tolerance of the adaptive schemes (per component of (q, p)).
     taylor_order : int or None
         Degree of the momentum series of the ``taylor`` scheme (q is one degree higher);
-        None picks from m_JZ = ceil(-ln(min(rtol, atol)) / 2) + 1 (Jorba & Zou's rule): m_JZ + 5
-        for the arc length, m_JZ - 2 for |v|^p (measured, see :attr:`order`).
+        None picks it from the tolerance (see :meth:`ldpipe.engine.schemes.taylor.Taylor.order_for`).
     dt : float
         Step of the fixed-step schemes; the last step is shortened to end exactly at ``tau``.
+    escape_radius : float
+        A trajectory stops, flagged ``escaped``, when max_i |q_i| first exceeds it (located
+        on the interpolant, LD integrated up to it). See ``DEFAULT_ESCAPE_RADIUS``.
+    """
+
+    scheme: str = "dop853"
+    rtol: float = 1e-8
+    atol: float = 1e-8
+    taylor_order: int | None = None
+    dt: float = 0.01
+    escape_radius: float = DEFAULT_ESCAPE_RADIUS
+
+    def __post_init__(self):
+        get_scheme(self.scheme)
+        for name in ("rtol", "atol", "dt", "escape_radius"):
+            _set(self, name, _number(name, getattr(self, name)))
+        if self.rtol < 1e-15:
+            raise ValueError(f"rtol: {self.rtol!r} is below what double precision can deliver; use >= 1e-15")
+        _integer("taylor_order", self.taylor_order, MIN_ORDER, MAX_ORDER, optional=True)
+
+    @classmethod
+    def from_config(cls, block: dict) -> "IntegratorSettings":
+        """From a config ``integrator:`` block; keys left out take the defaults, unknown keys are refused."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(block) - names)
+        if unknown:
+            raise ValueError(f"integrator: unknown settings {unknown}; expected some of {sorted(names)}")
+        return cls(**{name: value for name, value in block.items()})
+
+    @classmethod
+    def from_spec(cls, spec: dict) -> "IntegratorSettings":
+        """From a setting that names exactly the numbers its scheme uses, as the accuracy ladder gives them.
+
+        ``{scheme, rtol[, atol]}`` for an adaptive scheme (``atol`` defaults to ``rtol``, the LD
+        maps' convention), ``{scheme, dt}`` for a fixed-step one.
+        """
+        scheme = get_scheme(spec.get("scheme"))
+        given = set(spec) - {"scheme"}
+        if scheme.adaptive:
+            if "rtol" not in given or not given <= {"rtol", "atol"}:
+                raise ValueError(f"{scheme.name}: expected rtol (and atol) and no dt, got {spec}")
+            return cls(scheme.name, rtol=spec["rtol"], atol=spec.get("atol", spec["rtol"]))
+        if given != {"dt"}:
+            raise ValueError(f"{scheme.name}: expected dt and no rtol/atol, got {spec}")
+        return cls(scheme.name, dt=spec["dt"])
+
+    @property
+    def record(self):
+        """The scheme's record in the registry."""
+        return SCHEMES[self.scheme]
+
+    @property
+    def adaptive(self) -> bool:
+        return self.record.adaptive
+
+    def numbers(self) -> dict[str, float]:
+        """rtol, atol and dt, 0 for those the scheme does not use (the ladder stores them so)."""
+        used = self.record.parameters
+        return {name: (getattr(self, name) if name in used else 0.0) for name in ("rtol", "atol", "dt")}
+
+    @property
+    def label(self) -> str:
+        """E.g. ``dop853 rtol 1e-08`` (atol too where it differs) or ``rk4 dt 0.01``."""
+        if self.adaptive:
+            tolerance = f"rtol {self.rtol:g}" + ("" if self.atol == self.rtol else f" atol {self.atol:g}")
+            return f"{self.scheme} {tolerance}"
+        return f"{self.scheme} dt {self.dt:g}"
+
+    def matches(self, other) -> bool:
+        """Whether ``other`` (settings with the same fields) integrates as this does: the same
+        scheme, and the numbers it uses equal to 1e-9 relative (as read back from a file)."""
+        if other.scheme != self.scheme:
+            return False
+        return all(math.isclose(getattr(other, name), getattr(self, name), rel_tol=1e-9, abs_tol=0.0)
+                   for name in self.record.parameters)
+
+    def apply(self, base: "LDSettings") -> "LDSettings":
+        """``base`` (the map's LD, time mode, region, escape radius) with this scheme and the numbers it uses."""
+        return dataclasses.replace(base, scheme=self.scheme, **{name: getattr(self, name) for name in self.record.parameters})
+
+
+@dataclass(frozen=True)
+class DescriptorSettings:
+    """The LD integrand and its quadrature.
+
+    Parameters
+    ----------
     p : float in (0, 1] or "arclength"
         The LD integrand: sum_c |x'_c|^p over the 2 n_dof phase-space velocity components, or
-        the phase-space arc length ||x'||.
+        the phase-space arc length ||x'|| (:mod:`ldpipe.engine.integrands`).
+    quad_nodes : int or None
+        Gauss nodes per step (and per piece) of the LD quadrature; None: the scheme's default
+        (the record's ``nodes``: 4 for dop853 at rtol >= 1e-5, 8 at tighter tolerances; 8 (arc
+        length) or 12-16 (|v|^p) for taylor; 6 for the fixed-step schemes).
+    window : float or None
+        The LD quadrature treats a velocity root within this many step lengths outside a step
+        as a singularity of that step (see :mod:`ldpipe.engine.quadrature`). None: the
+        scheme's default (the record's ``window``: 0.1 step lengths for the adaptive schemes
+        at rtol >= 1e-7, 0.2 otherwise).
+    """
+
+    p: Union[float, str] = 0.5
+    quad_nodes: int | None = None
+    window: float | None = None
+
+    def __post_init__(self):
+        _set(self, "p", check_p(self.p))
+        if self.window is not None:
+            _set(self, "window", _number("window", self.window))
+        _integer("quad_nodes", self.quad_nodes, 2, 32, optional=True)
+
+
+@dataclass(frozen=True)
+class StoppingRules:
+    """When a trajectory stops, besides the escape radius of the integrator settings.
+
+    Parameters
+    ----------
     tau : float
         Integration time (> 0); the direction is an argument of ``compute_ld``.
     region_lower, region_upper : sequence of float (length n_dof) or None
         The configuration box of the variable-time LD: a trajectory stops at its first exit
         from the box (located on the step's interpolant), flagged ``left_region``. None for
         both: fixed time.
-    escape_radius : float
-        A trajectory stops, flagged ``escaped``, when max_i |q_i| first exceeds it (located
-        on the interpolant, LD integrated up to it). See ``DEFAULT_ESCAPE_RADIUS``.
-    block : int
-        Trajectories per structure-of-arrays block (lanes advanced together).
     max_steps : int
         Cap on step attempts per trajectory; a trajectory that reaches it stops, flagged
         ``failed``.
-    quad_nodes : int or None
-        Gauss nodes per step (and per piece) of the LD quadrature; None picks 4 for dop853 at
-        rtol >= 1e-5, 8 for dop853 at tighter tolerances, 8 (arc length) or 12-16 (|v|^p) for
-        taylor, and 6 for the fixed-step schemes (see :attr:`nodes`).
-    window : float or None
-        The LD quadrature treats a velocity root within this many step lengths outside a step
-        as a singularity of that step (see :mod:`ldpipe.engine.quadrature`). None (default)
-        picks it from the accuracy asked for: 0.1 step lengths for dop853 at rtol >= 1e-7,
-        0.2 otherwise (see :attr:`quadrature_window`).
     """
 
-    scheme: str = "dop853"
-    rtol: float = 1e-10
-    atol: float = 1e-10
-    taylor_order: int | None = None
-    dt: float = 0.01
-    p: Union[float, str] = 0.5
     tau: float = 50.0
     region_lower: tuple[float, ...] | None = None
     region_upper: tuple[float, ...] | None = None
-    escape_radius: float = DEFAULT_ESCAPE_RADIUS
-    block: int = 64
     max_steps: int = 1_000_000
-    quad_nodes: int | None = None
-    window: float | None = None
 
     def __post_init__(self):
-        if self.scheme not in SCHEMES:
-            raise ValueError(f"scheme: unknown scheme {self.scheme!r}; expected one of {list(SCHEMES)}")
-        set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
-        for name in ("rtol", "atol", "dt", "tau", "escape_radius"):
-            set_(name, _number(name, getattr(self, name)))
-        if self.window is not None:
-            set_("window", _number("window", self.window))
-        if self.rtol < 1e-15:
-            raise ValueError(f"rtol: {self.rtol!r} is below what double precision can deliver; use >= 1e-15")
-        if isinstance(self.p, str):
-            if self.p != "arclength":
-                raise ValueError(f"p: expected a number in (0, 1] or 'arclength', got {self.p!r}")
-        else:
-            p = _number("p", self.p)
-            if p > 1.0:
-                raise ValueError(f"p: expected a number in (0, 1] or 'arclength', got {self.p!r}")
-            set_("p", p)
+        _set(self, "tau", _number("tau", self.tau))
         lower = _box("region_lower", self.region_lower)
         upper = _box("region_upper", self.region_upper)
         if (lower is None) != (upper is None):
@@ -133,50 +231,101 @@ class LDSettings:
                 raise ValueError(f"region_lower, region_upper: lengths differ ({len(lower)} and {len(upper)})")
             if not all(lo < hi for lo, hi in zip(lower, upper)):
                 raise ValueError(f"region_lower, region_upper: need lower < upper in every coordinate, got {lower}, {upper}")
-        set_("region_lower", lower)
-        set_("region_upper", upper)
-        for name, low in (("block", 1), ("max_steps", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"{name}: expected an integer >= {low}, got {value!r}")
-        if self.taylor_order is not None:
-            value = self.taylor_order
-            if isinstance(value, bool) or not isinstance(value, int) or not MIN_ORDER <= value <= MAX_ORDER:
-                raise ValueError(f"taylor_order: expected None or an integer in [{MIN_ORDER}, {MAX_ORDER}], got {value!r}")
-        if self.quad_nodes is not None:
-            if isinstance(self.quad_nodes, bool) or not isinstance(self.quad_nodes, int) or not 2 <= self.quad_nodes <= 32:
-                raise ValueError(f"quad_nodes: expected None or an integer in [2, 32], got {self.quad_nodes!r}")
+        _set(self, "region_lower", lower)
+        _set(self, "region_upper", upper)
+        _integer("max_steps", self.max_steps, 1)
+
+    @property
+    def variable_time(self) -> bool:
+        return self.region_lower is not None
+
+
+_INTEGRATOR = IntegratorSettings()
+_DESCRIPTOR = DescriptorSettings()
+_STOPPING = StoppingRules()
+_PARTS = {
+    "integrator": (IntegratorSettings, [f.name for f in dataclasses.fields(IntegratorSettings)]),
+    "descriptor": (DescriptorSettings, [f.name for f in dataclasses.fields(DescriptorSettings)]),
+    "stopping": (StoppingRules, [f.name for f in dataclasses.fields(StoppingRules)]),
+}
+
+
+@dataclass(frozen=True)
+class LDSettings:
+    """Numerical settings of :func:`ldpipe.engine.compute_ld`, flat.
+
+    The fields are those of :class:`IntegratorSettings` (scheme, rtol, atol, taylor_order, dt,
+    escape_radius), :class:`DescriptorSettings` (p, quad_nodes, window) and
+    :class:`StoppingRules` (tau, region_lower, region_upper, max_steps), with their defaults
+    and validation, and ``block``: trajectories per structure-of-arrays block (lanes advanced
+    together). :attr:`integrator`, :attr:`descriptor` and :attr:`stopping` give the parts
+    back; :meth:`from_parts` builds one from them.
+    """
+
+    scheme: str = _INTEGRATOR.scheme
+    rtol: float = _INTEGRATOR.rtol
+    atol: float = _INTEGRATOR.atol
+    taylor_order: int | None = _INTEGRATOR.taylor_order
+    dt: float = _INTEGRATOR.dt
+    p: Union[float, str] = _DESCRIPTOR.p
+    tau: float = _STOPPING.tau
+    region_lower: tuple[float, ...] | None = _STOPPING.region_lower
+    region_upper: tuple[float, ...] | None = _STOPPING.region_upper
+    escape_radius: float = _INTEGRATOR.escape_radius
+    block: int = 64
+    max_steps: int = _STOPPING.max_steps
+    quad_nodes: int | None = _DESCRIPTOR.quad_nodes
+    window: float | None = _DESCRIPTOR.window
+
+    def __post_init__(self):
+        get_scheme(self.scheme)  # the unknown scheme first: it names the registered ones
+        for cls, names in _PARTS.values():
+            part = cls(**{name: getattr(self, name) for name in names})  # validates
+            for name in names:
+                _set(self, name, getattr(part, name))
+        _integer("block", self.block, 1)
+
+    @classmethod
+    def from_parts(
+        cls,
+        integrator: IntegratorSettings = _INTEGRATOR,
+        descriptor: DescriptorSettings = _DESCRIPTOR,
+        stopping: StoppingRules = _STOPPING,
+        **engine,
+    ) -> "LDSettings":
+        """From the parts, plus the engine's own fields (``block``)."""
+        values = {**dataclasses.asdict(integrator), **dataclasses.asdict(descriptor), **dataclasses.asdict(stopping)}
+        return cls(**values, **engine)
+
+    def _part(self, key: str):
+        cls, names = _PARTS[key]
+        return cls(**{name: getattr(self, name) for name in names})
+
+    @property
+    def integrator(self) -> IntegratorSettings:
+        return self._part("integrator")
+
+    @property
+    def descriptor(self) -> DescriptorSettings:
+        return self._part("descriptor")
+
+    @property
+    def stopping(self) -> StoppingRules:
+        return self._part("stopping")
+
+    @property
+    def record(self):
+        """The scheme's record in the registry (:data:`ldpipe.engine.schemes.SCHEMES`)."""
+        return SCHEMES[self.scheme]
 
     @property
     def adaptive(self) -> bool:
-        return self.scheme in ADAPTIVE_SCHEMES
+        return self.record.adaptive
 
     @property
     def order(self) -> int | None:
-        """The Taylor scheme's order in use (None for the other schemes)."""
-        if self.scheme != "taylor":
-            return None
-        if self.taylor_order is not None:
-            return self.taylor_order
-        order = jorba_zou_order(min(self.rtol, self.atol))
-        if self.p == "arclength":
-            # Five orders above Jorba & Zou's: an engine step's fixed work (the quadrature over
-            # the step, the lanes' bookkeeping) outweighs the series' ~m^2 terms, so longer steps
-            # pay until the step's Gauss rule limits the accuracy. Measured (400 points of the
-            # benchmark section against dop853 at rtol 1e-14, 8 nodes): at rtol 1e-10 order 18
-            # ran 82 steps per tau = 50 against 154 at order 13, 1.3-1.5x the throughput, the
-            # median error 2.0e-12 against 1.5e-12; at 1e-12 order 20 (89 steps) against 15
-            # (157), 1.2-1.5x, median 3.4e-14 against 2.7e-14. Order 24 lost accuracy.
-            order += 5
-        else:
-            # |v|^p: two orders below, for shorter steps. A velocity component that nearly
-            # touches zero inside a step makes |v|^p vary on the scale sqrt(|v_min| / |v''|),
-            # which Gauss–Legendre resolves only on steps a few times that long. Measured (1000
-            # points of the benchmark section, p = 1/2, against dop853 at rtol 1e-14): at rtol
-            # 1e-12 the worst error was 2e-9 at order 15 and 4e-12 at order 13; at 1e-10, 5e-9
-            # at order 13 and 1.3e-10 at order 11; the medians did not change.
-            order -= 2
-        return max(MIN_ORDER, min(MAX_ORDER, order))
+        """The order in use of a scheme that chooses it per call (taylor); None for the others."""
+        return self.record.order_for(self)
 
     @property
     def variable_time(self) -> bool:
@@ -184,37 +333,14 @@ class LDSettings:
 
     @property
     def quadrature_window(self) -> float:
-        """The window in use: ``window``, or the default for the accuracy asked for.
-
-        Measured on the Barbanis 2 DoF benchmark (benchmarks/compare.py, errors against the
-        reference): a root at 0.1-0.5 step lengths outside a step changes the LD error of
-        dop853 at rtol 1e-4 .. 1e-8 by less than 2 % whether it is cut out or left to
-        Gauss–Legendre, but a window of 0.5 sends 3 of the 4 components of every step to
-        the slower cusp path at rtol 1e-4 and costs 2.5x the time. At rtol 1e-10 a window
-        of 0.1 raised the median error 7x and one of 0.5 the worst 9x, against 0.2.
-        """
+        """The window in use: ``window``, or the scheme's default for the accuracy asked for."""
         if self.window is not None:
             return self.window
-        return 0.1 if (self.adaptive and self.rtol >= 1e-7) else 0.2
+        return self.record.window(self)
 
     @property
     def nodes(self) -> int:
-        """The Gauss nodes in use: ``quad_nodes``, or the default for the scheme and accuracy.
-
-        At rtol 1e-4 and 1e-5 the LD error of dop853 is the trajectory's: 4 nodes instead of 8
-        left the median and worst errors against the benchmark reference unchanged (within
-        3 %) and were 10-15 % faster; at 1e-6 and tighter 6 nodes already raised the errors.
-        """
+        """The Gauss nodes in use: ``quad_nodes``, or the scheme's default for the accuracy asked for."""
         if self.quad_nodes is not None:
             return self.quad_nodes
-        if self.scheme == "taylor":
-            # Its steps are 2-5x longer than dop853's at the same tolerance. Measured (400 points
-            # of the benchmark section, against dop853 at rtol 1e-14): the arc length at its
-            # default orders needs 8 nodes (6 raised the median error 60x at rtol 1e-12, order
-            # 20); |v|^p needs 12 (8 raised the worst error 15x at rtol 1e-8) and 16 below 1e-9.
-            if self.p == "arclength":
-                return 8
-            return 12 if self.rtol >= 1e-9 else 16
-        if not self.adaptive:
-            return 6
-        return 4 if self.rtol >= 1e-5 else 8
+        return self.record.nodes(self)

@@ -29,18 +29,18 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from ..contracts import ACCURACY_COST
 from ..datafile import open_stage_file
+from ..engine.schemes import SCHEMES
 from ..logs import get_logger
 from . import style
 
 log = get_logger(__name__)
 
-SCHEME_STYLE = {
-    "dop853": {"color": "tab:blue", "marker": "o"},
-    "taylor": {"color": "tab:purple", "marker": "P"},
-    "rk4": {"color": "tab:orange", "marker": "s"},
-    "sym4": {"color": "tab:green", "marker": "^"},
-    "sym6": {"color": "tab:red", "marker": "D"},
-}
+#: Colours and markers handed to the schemes in the registry's order (a new scheme takes the next).
+SCHEME_COLORS = ("tab:blue", "tab:purple", "tab:orange", "tab:green", "tab:red", "tab:brown", "tab:pink",
+                 "tab:olive", "tab:cyan", "tab:gray")
+SCHEME_MARKERS = ("o", "P", "s", "^", "D", "v", "X", "<", ">", "h")
+SCHEME_STYLE = {name: {"color": SCHEME_COLORS[k % len(SCHEME_COLORS)], "marker": SCHEME_MARKERS[k % len(SCHEME_MARKERS)]}
+                for k, name in enumerate(SCHEMES)}
 ORBIT_COLORS = ("tab:purple", "tab:brown", "tab:cyan", "tab:olive", "tab:pink", "tab:gray")
 #: Errors are drawn no lower than this on the log axes (an exact 0 has no logarithm).
 ERROR_FLOOR = 1e-16

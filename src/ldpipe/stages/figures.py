@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
+from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
 from ..logs import get_logger
 from .ld import ld_map_parameters
@@ -113,7 +114,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
     """One line on an LD map: section, energy, τ, p, fixed or variable time, saddle region, grid."""
     parameters = ld_map_parameters(config, map_name)
     axes = parameters["section"]["axes"]
-    p = "arc length" if parameters["p"] == "arclength" else f"p = {_number(parameters['p'])}"
+    p = integrands.caption(parameters["p"], _number)
     text = (
         f"{map_name}: system {parameters['system_name']}, section {_section_text(parameters['section'])}, "
         f"{_energy_text(parameters['energy'])}, τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
@@ -124,7 +125,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
                  + f" in ({', '.join(region)}) (config key ld_maps.{map_name}.region)")
     integrator = parameters["integrator"]
     tolerance = (f"rtol = {_number(integrator['rtol'])}, atol = {_number(integrator['atol'])}"
-                 if integrator["scheme"] in ("dop853", "taylor") else f"dt = {_number(integrator['dt'])}")
+                 if SCHEMES[integrator["scheme"]].adaptive else f"dt = {_number(integrator['dt'])}")
     text += (f", {axes[0]['points']} × {axes[1]['points']} grid over {axes[0]['name']} ∈ {_interval(axes[0]['range'])}, "
              f"{axes[1]['name']} ∈ {_interval(axes[1]['range'])}, {integrator['scheme']} ({tolerance})")
     return text

@@ -18,7 +18,8 @@ import xarray as xr
 from ..config import system_spec
 from ..contracts import EQUILIBRIA, LD_GRID, LD_TILE
 from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
-from ..engine import LDSettings
+from ..engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
+from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import gather_tiles, ld_grid_dataset, tile_rows
@@ -71,12 +72,11 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
         upper = [region[c][1] for c in system.coordinates]
     else:
         lower = upper = None
-    integrator = parameters["integrator"]
     try:
-        settings = LDSettings(
-            scheme=integrator["scheme"], rtol=integrator["rtol"], atol=integrator["atol"], dt=integrator["dt"],
-            p=parameters["p"], tau=parameters["tau"], region_lower=lower, region_upper=upper,
-            escape_radius=integrator["escape_radius"], taylor_order=integrator.get("taylor_order"),
+        settings = LDSettings.from_parts(
+            IntegratorSettings.from_config(parameters["integrator"]),
+            DescriptorSettings(p=parameters["p"]),
+            StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
         )
     except ValueError as error:
         raise ConfigError(f"config key '{key}': {error}") from None
@@ -95,7 +95,7 @@ def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
         "critical_energy": info["critical_energy"],
         "saddle_position": np.asarray(info["saddle"]),
         "tau": settings.tau,
-        "descriptor": "arclength" if settings.p == "arclength" else f"M_p, p = {settings.p}",
+        "descriptor": descriptor_attribute(settings.p),
         "time_mode": parameters["time"],
         "region_lower": np.asarray(settings.region_lower if settings.region_lower else []),
         "region_upper": np.asarray(settings.region_upper if settings.region_upper else []),

@@ -12,6 +12,6 @@ as compile-time constants, exactly as closure variables would be.
 - ``block_quadrature.py`` — the vectorized LD quadrature passes over a block (``fast``, ``special``);
 - ``events.py`` — region exit and escape located on a step's configuration polynomial;
 - ``hermite.py``, ``rk4.py``, ``composition.py`` — the fixed-step schemes (``attempt``,
-  ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.stepping`;
+  ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.schemes.dop853`;
 - ``driver.py`` — ``process``, the block driver that the thread pool runs.
 """

@@ -23,7 +23,7 @@ that vanishes by symmetry. The step is chosen before it is taken: no rejected at
 default order, ceil(-ln(tol) / 2) + 1, balances the cost of the series (~m^2 per product)
 against the number of steps (Jorba & Zou; heyoka's choice too). The LD settings start from
 it: five more for the arc length (an engine step's fixed work outweighs the series), two
-less for |v|^p (shorter steps for the cusp quadrature); see ``LDSettings.order``.
+less for |v|^p (shorter steps for the cusp quadrature); see :meth:`Taylor.order_for`.
 
 The series is the step's dense output, of the step's own order: the velocity polynomials
 VC of the LD quadrature are the series of p and of a(q(t)), and the configuration
@@ -36,6 +36,10 @@ import math
 from dataclasses import dataclass
 
 import sympy
+
+from ..integrands import is_arclength
+from ..stepping import Layout, SchemeSource
+from .base import AdaptiveScheme
 
 # Safety factor of the step rule: the coefficient estimate of the truncation error is not a
 # bound, so the step stays a little inside it.
@@ -65,7 +69,7 @@ class Acceleration:
 
 def acceleration_of(system) -> Acceleration:
     """The acceleration -grad V of ``system`` as polynomials, from its formula."""
-    from ..systems.formula import parse_potential
+    from ...systems.formula import parse_potential
 
     if not system.formula:
         raise ValueError(f"scheme 'taylor': system {system.name!r} has no formula for V; use dop853")
@@ -252,3 +256,67 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
         if k < m + 1:
             lines.append("        hk *= h")
     return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class Taylor(AdaptiveScheme):
+    """Taylor series of an order chosen from the tolerance, Jorba–Zou steps; polynomial potentials."""
+
+    def order_for(self, settings) -> int:
+        """``settings.taylor_order``, or the default picked from the tolerance and the integrand."""
+        if settings.taylor_order is not None:
+            return settings.taylor_order
+        order = jorba_zou_order(min(settings.rtol, settings.atol))
+        if is_arclength(settings.p):
+            # Five orders above Jorba & Zou's: an engine step's fixed work (the quadrature over
+            # the step, the lanes' bookkeeping) outweighs the series' ~m^2 terms, so longer steps
+            # pay until the step's Gauss rule limits the accuracy. Measured (400 points of the
+            # benchmark section against dop853 at rtol 1e-14, 8 nodes): at rtol 1e-10 order 18
+            # ran 82 steps per tau = 50 against 154 at order 13, 1.3-1.5x the throughput, the
+            # median error 2.0e-12 against 1.5e-12; at 1e-12 order 20 (89 steps) against 15
+            # (157), 1.2-1.5x, median 3.4e-14 against 2.7e-14. Order 24 lost accuracy.
+            order += 5
+        else:
+            # |v|^p: two orders below, for shorter steps. A velocity component that nearly
+            # touches zero inside a step makes |v|^p vary on the scale sqrt(|v_min| / |v''|),
+            # which Gauss–Legendre resolves only on steps a few times that long. Measured (1000
+            # points of the benchmark section, p = 1/2, against dop853 at rtol 1e-14): at rtol
+            # 1e-12 the worst error was 2e-9 at order 15 and 4e-12 at order 13; at 1e-10, 5e-9
+            # at order 13 and 1.3e-10 at order 11; the medians did not change.
+            order -= 2
+        return max(MIN_ORDER, min(MAX_ORDER, order))
+
+    def nodes(self, settings) -> int:
+        """8 for the arc length; 12 for |v|^p at rtol >= 1e-9, 16 below.
+
+        Its steps are 2-5x longer than dop853's at the same tolerance. Measured (400 points of
+        the benchmark section, against dop853 at rtol 1e-14): the arc length at its default
+        orders needs 8 nodes (6 raised the median error 60x at rtol 1e-12, order 20); |v|^p
+        needs 12 (8 raised the worst error 15x at rtol 1e-8) and 16 below 1e-9.
+        """
+        if is_arclength(settings.p):
+            return 8
+        return 12 if settings.rtol >= 1e-9 else 16
+
+    def check_system(self, system) -> None:
+        """The potential must be a polynomial given by a formula (see :func:`acceleration_of`)."""
+        acceleration_of(system)
+
+    def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
+        if order is None:
+            raise ValueError("scheme 'taylor': the order must be given")
+        acceleration = acceleration_of(system)
+        rows = series_rows(system.n_dof, order, len(acceleration.products))
+        layout = Layout.build(system.n_dof, lanes, order + 2, 0, series=rows)
+        return SchemeSource(layout, True, order, source=taylor_source(layout, acceleration, order), self_sized=True)
+
+
+TAYLOR = Taylor(
+    name="taylor",
+    description=(
+        "Taylor series, order from the tolerance (rtol, atol; polynomial potentials; "
+        "the faster one at rtol 1e-8 and tighter)"
+    ),
+    order=None,
+    ladder=(1e-6, 1e-8, 1e-10, 1e-12),
+)
