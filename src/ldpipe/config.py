@@ -16,7 +16,7 @@ import jsonschema
 import yaml
 
 from .errors import ConfigError
-from .systems import BUILTINS, check_builtin_parameters
+from .systems import BUILTINS, check_builtin_parameters, system_coordinates
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -92,12 +92,6 @@ def _describe(error: jsonschema.ValidationError) -> str:
     return f"config key {_key(error.absolute_path)!r}: {error.message}" + (f" (allowed: {allowed})" if allowed else "")
 
 
-def _coordinates(spec: dict) -> tuple[str, ...]:
-    if "builtin" in spec:
-        return BUILTINS[spec["builtin"]]["coordinates"]
-    return tuple(spec["coordinates"])
-
-
 def _check_interval(value, key: str) -> None:
     if not value[0] < value[1]:
         raise ConfigError(f"config key {key!r}: expected an interval [low, high] with low < high, got {value}")
@@ -106,7 +100,7 @@ def _check_interval(value, key: str) -> None:
 def _check_semantics(config: dict) -> None:
     """Rules a JSON schema cannot say: intervals ordered, box keys are coordinates."""
     for name, spec in config["systems"].items():
-        coordinates = _coordinates(spec)
+        coordinates = system_coordinates(spec)
         if "builtin" in spec:
             check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
         equilibria = spec["equilibria"]
@@ -125,7 +119,7 @@ def _check_ld_maps(config: dict) -> None:
             raise ConfigError(
                 f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
             )
-        coordinates = _coordinates(config["systems"][spec["system"]])
+        coordinates = system_coordinates(config["systems"][spec["system"]])
         phase = coordinates + tuple("p" + c for c in coordinates)
         axes = [axis["name"] for axis in spec["section"]["axes"]]
         for index, axis in enumerate(spec["section"]["axes"]):
@@ -157,7 +151,7 @@ def _check_ld_maps(config: dict) -> None:
 def _check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
     if name not in config["systems"]:
         raise ConfigError(f"config key '{key}': no system {name!r}; expected one of {sorted(config['systems'])}")
-    return _coordinates(config["systems"][name])
+    return system_coordinates(config["systems"][name])
 
 
 def _check_saddle_near(spec: dict, coordinates: tuple[str, ...], key: str) -> None:
@@ -198,7 +192,7 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.energy': {kind} energy {value!r} is not among the energies of family "
                 f"{spec['orbits']!r} ({family['energies']}); add it there"
             )
-        _check_surface(spec["section"], _coordinates(config["systems"][family["system"]]), f"{key}.section")
+        _check_surface(spec["section"], system_coordinates(config["systems"][family["system"]]), f"{key}.section")
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
         coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
@@ -428,19 +422,3 @@ def load_config(path: str | Path) -> dict:
         return validate_config(config if config is not None else {})
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None
-
-
-def equilibrium_box(config_system: dict, coordinates: tuple[str, ...]) -> dict[str, list[float]]:
-    """The full search box of a validated system entry: configured intervals plus the default."""
-    settings = config_system["equilibria"]
-    return {c: list(settings["box"].get(c, settings["default_interval"])) for c in coordinates}
-
-
-def system_spec(config: dict, name: str) -> dict:
-    """What :func:`ldpipe.systems.make_system` needs of system ``name``: its entry less the
-    equilibrium-search settings, so that changing those reruns only the equilibrium stage."""
-    return {k: v for k, v in config["systems"][name].items() if k != "equilibria"}
-
-
-def system_coordinates(spec: dict) -> tuple[str, ...]:
-    return _coordinates(spec)

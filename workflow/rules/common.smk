@@ -203,7 +203,7 @@ def nhim_study_files():
 
 def nhim_figure_maps():
     """The LD maps of the figure's top row: those of the first study that lists 2 DoF maps."""
-    from ldpipe.config import system_coordinates
+    from ldpipe.systems import system_coordinates
 
     for study in NHIM_STUDIES:
         maps = _nhim_inputs(study)["maps"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..config import equilibrium_box, system_coordinates, system_spec
+from ..systems import equilibrium_box, system_coordinates, system_spec
 from ..contracts import EQUILIBRIA
 from ..datafile import write_stage_file
 from ..equilibria import equilibria_dataset

@@ -15,7 +15,7 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..config import system_spec
+from ..systems import system_spec
 from ..contracts import EQUILIBRIA, LD_GRID, LD_TILE
 from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules

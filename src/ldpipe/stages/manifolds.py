@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import system_spec
+from ..systems import system_spec
 from ..contracts import MANIFOLDS, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numba
 
-from ..config import system_spec
+from ..systems import system_spec
 from ..contracts import EQUILIBRIA, POINCARE
 from ..datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..config import system_spec
+from ..systems import system_spec
 from ..contracts import EQUILIBRIA, UPO
 from ..datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle

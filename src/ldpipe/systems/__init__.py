@@ -15,7 +15,10 @@ from .base import Kernels, System
 from .builtin import BUILTINS, make_builtin
 from .formula import make_formula_system
 
-__all__ = ["BUILTINS", "Kernels", "System", "check_builtin_parameters", "make_system", "system_from_config"]
+__all__ = [
+    "BUILTINS", "Kernels", "System", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
+    "system_from_config", "system_spec",
+]
 
 
 def check_builtin_parameters(builtin: str, parameters: dict, key: str) -> None:
@@ -76,3 +79,22 @@ def system_from_config(config: dict, name: str) -> System:
     if name not in systems:
         raise ConfigError(f"config key 'systems.{name}': no such system; the configuration declares {sorted(systems)}")
     return make_system(name, systems[name])
+
+
+def equilibrium_box(config_system: dict, coordinates: tuple[str, ...]) -> dict[str, list[float]]:
+    """The full search box of a validated system entry: configured intervals plus the default."""
+    settings = config_system["equilibria"]
+    return {c: list(settings["box"].get(c, settings["default_interval"])) for c in coordinates}
+
+
+def system_spec(config: dict, name: str) -> dict:
+    """What :func:`ldpipe.systems.make_system` needs of system ``name``: its entry less the
+    equilibrium-search settings, so that changing those reruns only the equilibrium stage."""
+    return {k: v for k, v in config["systems"][name].items() if k != "equilibria"}
+
+
+def system_coordinates(spec: dict) -> tuple[str, ...]:
+    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's list)."""
+    if "builtin" in spec:
+        return BUILTINS[spec["builtin"]]["coordinates"]
+    return tuple(spec["coordinates"])
