@@ -29,9 +29,11 @@ from .systems import System
 
 COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW = 0, 1, 2, 3  # as FLOW_* in templates/flow_driver.py
 STATUS_MEANINGS = "completed escaped crossings_full step_underflow"
-# Trajectories advanced side by side in one block. Few: a Poincaré section or a manifold has tens
-# to hundreds of trajectories, and the units handed to the threads are whole blocks.
-LANES = 8
+# Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
+# (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
+# spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
+# 0.5-0.75x at 32 (one thread; benchmarks in the commit message).
+LANES = 32
 
 
 @dataclass(frozen=True)
