@@ -66,7 +66,7 @@ def test_separation_grows_at_the_floquet_rate(barbanis, bottom):
 
 
 def test_section_curves_lie_on_the_section_and_energy_surface(barbanis, bottom):
-    # Crossings located by Newton: on y = 0 to round-off, with p_y > 0, on the orbit's energy surface
+    # Crossings located on the step's polynomial: on y = 0 to round-off, with p_y > 0, on the orbit's energy surface
     # to the integration tolerance.
     orbit, data = bottom
     valid = data.section_valid.values
