@@ -32,8 +32,11 @@ STATUS_MEANINGS = "completed escaped crossings_full step_underflow"
 # Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
 # (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
 # spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
-# 0.5-0.75x at 32 (one thread; benchmarks in the commit message).
+# 0.5-0.75x at 32 (one thread; benchmarks in the commit messages). A batch of at most
+# SMALL_LANES trajectories (NHIM bisection rounds) runs in a block of that many lanes, whose
+# attempts cost a third as much as 32 lanes'; that variant is compiled only when used.
 LANES = 32
+SMALL_LANES = 4
 
 
 @dataclass(frozen=True)
@@ -112,9 +115,10 @@ def integrate(
         return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time,
                             steps)
     threads = min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+    lanes = SMALL_LANES if count <= SMALL_LANES else LANES
     # Units of whole blocks, at least ~8 per thread for load balance (as the LD engine).
-    unit = max(LANES, min(16 * LANES, count // (8 * threads)))
-    runner = get_runner(system, "dop853", LANES, entry="flow_process")
+    unit = max(lanes, min(16 * lanes, count // (8 * threads)))
+    runner = get_runner(system, "dop853", lanes, entry="flow_process")
     args = (
         1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol, settings.escape_radius,
         settings.max_steps, np.abs(sample_times), index, float(value), float(direction),
