@@ -53,10 +53,12 @@ class FlowSettings:
 class Trajectories:
     """What :func:`integrate` returns, for ``k`` trajectories.
 
-    ``samples`` (k, s, 2n) at ``sample_times`` (padded with the last state after an
-    early end; ``sample_count`` says how many are real), ``crossings`` (k, c, 2n) at
-    ``crossing_times`` (k, c), ``crossing_count`` (k), ``status`` (k; see
-    ``STATUS_MEANINGS``), ``final_time`` (k), ``steps`` (k).
+    ``samples`` (k, s, 2n) at ``sample_times`` (after an early end, the state where the
+    trajectory stopped; ``sample_count`` says how many are real), ``crossings`` (k, c, 2n)
+    at ``crossing_times`` (k, c), ``crossing_count`` (k), ``status`` (k; see
+    ``STATUS_MEANINGS``), ``final_time`` (k: the duration, or where the trajectory stopped:
+    at the escape radius, at the last crossing wanted, or the last accepted step before a
+    step-size underflow), ``steps`` (k: step attempts, accepted and rejected).
     """
 
     sample_times: np.ndarray
