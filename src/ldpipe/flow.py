@@ -118,8 +118,9 @@ def integrate(
                             steps)
     threads = min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
     lanes = SMALL_LANES if count <= SMALL_LANES else LANES
-    # Units of whole blocks, at least ~8 per thread for load balance (as the LD engine).
-    unit = max(lanes, min(16 * lanes, count // (8 * threads)))
+    # Units of at most a block (fewer trajectories when a block each would leave a thread idle),
+    # or ~8 per thread for load balance, up to 16 blocks (as the LD engine).
+    unit = max(min(lanes, -(-count // threads)), min(16 * lanes, count // (8 * threads)))
     runner = get_runner(system, "dop853", lanes, entry="flow_process")
     args = (
         1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol, settings.escape_radius,
