@@ -1,6 +1,6 @@
 """Many trajectories at once, with samples, section crossings and escapes, on the engine's DOP853.
 
-Each trajectory is integrated by the engine's DOP853 step (:mod:`ldpipe.engine.stepping`:
+Each trajectory is integrated by the engine's DOP853 step (:mod:`ldpipe.engine.schemes.dop853`:
 Dormand-Prince 8(5,3) in Nyström form, scipy's error norm, per-trajectory step control),
 blocks of trajectories side by side, by the driver ``flow_process``
 (``ldpipe/engine/templates/flow_driver.py``). Along the way it
