@@ -2,10 +2,11 @@
 
 Initial conditions are the allowed points of a grid on an isoenergetic section
 (:class:`ldpipe.sections.Section`: two axes, fixed coordinates, one momentum
-solved from the energy). Each is integrated by :mod:`ldpipe.flow` to the final
-time; its crossings of the surface (a phase coordinate = value, crossed in the
-given direction) are located by Newton iteration on the step length. A
-trajectory that leaves the escape radius ends early and is flagged escaped.
+solved from the energy). Each is integrated by :mod:`ldpipe.flow` (the engine's
+DOP853 step) to the final time; its crossings of the surface (a phase coordinate
+= value, crossed in the given direction) are located on the step's dense output
+to machine precision. A trajectory that reaches the escape radius ends there and
+is flagged escaped.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Coefficients of the stepping schemes, and the dense-output maps derived from them.
 
 Nothing here is compiled: these are plain numpy arrays (and floats) that the code
-generators (:mod:`ldpipe.engine.schemes`, :mod:`ldpipe.flow`) write into the kernels as literals.
+generators (:mod:`ldpipe.engine.schemes`; :mod:`ldpipe.flow` runs the engine's DOP853) write into the
+kernels as literals.
 
 DOP853
     Dormand & Prince's 8(5,3) pair with its 7th-order continuous extension, as published by

@@ -69,12 +69,13 @@ def test_second_process_loads_the_compiled_engine(tmp_path):
     assert len(generated) == 1 and not list(tmp_path.glob(".*.tmp"))
 
 
-@pytest.mark.parametrize("scheme", SCHEMES)
-def test_generated_module_defines_every_name_it_uses(barbanis, scheme):
+@pytest.mark.parametrize(("scheme", "entry"), [*((s, "process") for s in SCHEMES), ("dop853", "flow_process")])
+def test_generated_module_defines_every_name_it_uses(barbanis, scheme, entry):
     # The templates use names the header defines (sizes, offsets, kernels): every global a
-    # function reads must be bound at module level or be a builtin.
+    # function reads must be bound at module level or be a builtin. Both drivers: the LD
+    # engine's and ldpipe.flow's.
     order = 12 if scheme == "taylor" else None
-    table = symtable.symtable(engine_source(barbanis, scheme, 8, order), "<engine>", "exec")
+    table = symtable.symtable(engine_source(barbanis, scheme, 8, order, entry), "<engine>", "exec")
     defined = {s.get_name() for s in table.get_symbols() if s.is_assigned() or s.is_imported()}
     missing = set()
     for child in table.get_children():

@@ -9,7 +9,7 @@ Modules, one job each:
   stopping rules), validated numerical choices, every default stated once;
 - :mod:`~ldpipe.engine.schemes` — the integration schemes, one module each, and their
   registry ``SCHEMES`` (DOP853 generated with its tableau as literals, the Taylor series);
-- :mod:`ldpipe.tableaux` (shared with :mod:`ldpipe.flow`) — coefficients of the schemes;
+- :mod:`ldpipe.tableaux` — coefficients of the schemes;
 - :mod:`~ldpipe.engine.stepping` — the block workspace layout (structure of arrays, per-lane h)
   and what the code generator needs of a scheme;
 - :mod:`~ldpipe.engine.integrands` — the LD integrands (p = 1/2, 1, general p, arc length) and
@@ -17,7 +17,8 @@ Modules, one job each:
 - :mod:`~ldpipe.engine.quadrature` — Gauss rules of the LD quadrature;
 - :mod:`~ldpipe.engine.templates` — the compiled code as source templates: the LD integral over
   a step (cusps of |v|^p included), region exit and escape events, the fixed-step schemes,
-  and the block driver (lane refill, step control);
+  the block driver (lane refill, step control), and the driver of :mod:`ldpipe.flow` (samples,
+  section crossings, escapes) on the same DOP853 step;
 - :mod:`~ldpipe.engine.codegen` — joins the system's kernel source, the compile-time constants
   and the templates into one module, loaded through :mod:`ldpipe.jitcache` so that numba's
   on-disk cache serves the next process;

@@ -23,27 +23,28 @@ from .codegen import load_engine
 
 # Compiled runners, per live System object, scheme and block size. Keyed by id() with a weak reference
 # (System is an unhashable frozen dataclass); an entry dies with its system.
-_RUNNERS: dict[tuple[int, str, int, int | None], tuple[weakref.ref, object]] = {}
+_RUNNERS: dict[tuple[int, str, int, int | None, str], tuple[weakref.ref, object]] = {}
 _LOCK = threading.Lock()
 
 
-def build_runner(system, scheme: str, lanes: int, order: int | None = None):
-    """The LD kernel ``process`` of ``scheme`` for ``system`` (compiled lazily or loaded from disk).
+def build_runner(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process"):
+    """The kernel ``entry`` of ``scheme`` for ``system`` (compiled lazily or loaded from disk).
 
-    ``process(states, start, stop, ...)`` integrates trajectories start..stop-1 with one block
-    of lanes and writes their results; it releases the GIL, so units run in parallel threads.
+    ``process(states, start, stop, ...)`` (the LD driver) and ``flow_process`` (the driver of
+    :mod:`ldpipe.flow`) integrate trajectories start..stop-1 with one block of lanes and write
+    their results; they release the GIL, so units run in parallel threads.
     """
-    return load_engine(system, scheme, lanes, order).process
+    return getattr(load_engine(system, scheme, lanes, order, entry), entry)
 
 
-def get_runner(system, scheme: str, lanes: int, order: int | None = None):
+def get_runner(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process"):
     """``build_runner``'s kernel, kept per live system; ``order``: the Taylor scheme's."""
-    key = (id(system), scheme, lanes, order)
+    key = (id(system), scheme, lanes, order, entry)
     with _LOCK:
-        entry = _RUNNERS.get(key)
-        if entry is not None and entry[0]() is system:
-            return entry[1]
-        runner = build_runner(system, scheme, lanes, order)
+        cached = _RUNNERS.get(key)
+        if cached is not None and cached[0]() is system:
+            return cached[1]
+        runner = build_runner(system, scheme, lanes, order, entry)
         _RUNNERS[key] = (weakref.ref(system, lambda _ref, key=key: _RUNNERS.pop(key, None)), runner)
         return runner
 

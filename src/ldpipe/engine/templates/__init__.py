@@ -13,5 +13,7 @@ as compile-time constants, exactly as closure variables would be.
 - ``events.py`` — region exit and escape located on a step's configuration polynomial;
 - ``hermite.py``, ``rk4.py``, ``composition.py`` — the fixed-step schemes (``attempt``,
   ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.schemes.dop853`;
-- ``driver.py`` — ``process``, the block driver that the thread pool runs.
+- ``driver.py`` — ``process``, the block driver that the thread pool runs;
+- ``flow_driver.py`` — ``flow_process``, the driver of :func:`ldpipe.flow.integrate` (samples,
+  section crossings and escapes from the step's dense output), with ``driver.py``'s step control.
 """
