@@ -3,7 +3,9 @@
 Snakemake sees a rule's own script change but not the modules it imports. Each
 rule therefore lists as input the source files of every ldpipe module its
 stage imports, directly or through other ldpipe modules, found by reading the
-import statements (nothing is imported or compiled to find them).
+import statements (nothing is imported or compiled to find them). Some packages hold
+source that is read as text and compiled, not imported (the engine's templates, the built-in
+systems' kernels): a stage that reaches such a package depends on every file in it.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from pathlib import Path
 
 PACKAGE_ROOT = Path(__file__).resolve().parent
 PACKAGE = PACKAGE_ROOT.name
+#: Packages whose files are code generation's text (``importlib.resources``), not imports.
+TEXT_SOURCE_PACKAGES = ("ldpipe.engine.templates", "ldpipe.systems.kernels")
 
 
 def _module_file(module: str) -> Path | None:
@@ -71,4 +75,6 @@ def library_sources(module: str) -> tuple[str, ...]:
         parents = name.split(".")
         pending.extend(".".join(parents[:i]) for i in range(1, len(parents)))
         pending.extend(_imported_modules(path, name))
+        if name in TEXT_SOURCE_PACKAGES:
+            pending.extend(f"{name}.{source.stem}" for source in path.parent.glob("*.py") if source.stem != "__init__")
     return tuple(sorted(str(path) for path in seen.values()))

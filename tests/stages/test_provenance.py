@@ -32,9 +32,20 @@ def test_ld_stage_depends_on_the_engine_the_saddle_selection_and_the_contracts()
     assert "cli.py" not in sources
 
 
-def test_orbit_stages_do_not_depend_on_the_ld_engine():
+def test_orbit_stages_depend_on_the_engine_only_where_they_integrate_with_it():
+    # Poincaré sections and manifolds integrate on the engine's DOP853 step (ldpipe.flow), so an
+    # engine edit reruns them; the periodic orbits use scipy's variational integration, so it does not.
+    assert not any(name.startswith("engine/") for name in names("ldpipe.stages.upo"))
     for stage in ("ldpipe.stages.upo", "ldpipe.stages.manifolds", "ldpipe.stages.poincare"):
         sources = names(stage)
         assert "contracts.py" in sources, stage
-        assert not any(name.startswith("engine/") for name in sources), stage
         assert "ld_grid.py" not in sources and "stages/ld.py" not in sources, stage
+    for stage in ("ldpipe.stages.manifolds", "ldpipe.stages.poincare"):
+        assert {"flow.py", "engine/templates/flow_driver.py"} <= names(stage), stage
+
+def test_code_generation_templates_count_as_sources():
+    # The engine's templates and the built-in kernels are read as text and compiled, never
+    # imported: an edit to one must still rerun the stages whose compiled code it becomes.
+    ld = names("ldpipe.stages.ld")
+    assert {"engine/templates/driver.py", "engine/templates/quadrature.py", "systems/kernels/barbanis_2dof.py"} <= ld
+    assert "engine/templates/flow_driver.py" in names("ldpipe.stages.poincare")
