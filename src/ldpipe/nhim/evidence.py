@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..flow import FlowSettings, integrate
+from ..engine import LDSettings, compute_ld
 from .fates import Cost, RefinementSettings
 from .refinement import ld_at_points
 from .slices import SliceProblem
@@ -19,7 +19,10 @@ def orbit_section_crossing(
 
     The section must fix one coordinate q_j and solve its conjugate momentum p_j with a sign s
     (as U_xpx^+(k): y = k, p_y > 0): the crossing is the orbit's passage through q_j = value with
-    dq_j/dt = p_j of sign s, located by the flow integrator's event (Newton on the step).
+    dq_j/dt = p_j of sign s. It is the engine's exit (DOP853 at ``rtol``, ``atol``; the crossing
+    located on the step's interpolant to machine precision, :attr:`LDResult.end_state`) from the
+    half-space s (q_j - value) <= 0 through its face q_j = value; an orbit starting in the other
+    half-space is first run out of that one.
     """
     system, section = problem.system, problem.section
     if len(section.fixed) != 1:
@@ -33,13 +36,27 @@ def orbit_section_crossing(
             f"map {problem.name}: the orbit crossing needs the fixed coordinate to be a position and the solved "
             f"momentum its conjugate (fixed {name}, solved {section.solve})"
         )
-    flow = FlowSettings(rtol=rtol, atol=atol, escape_radius=problem.ld_settings.escape_radius)
-    result = integrate(system, np.atleast_2d(orbit_state), 1.5 * period, flow, section=(name, value, section.sign),
-                       max_crossings=1)
-    if result.crossing_count[0] < 1:
-        raise ValueError(f"map {problem.name}: the periodic orbit never crosses {name} = {value} with {section.solve} "
-                         f"of sign {section.sign:+d}")
-    state = result.crossings[0, 0]
+    j = system.coordinates.index(name)
+    sign = section.sign
+    radius = problem.ld_settings.escape_radius
+    state = np.array(orbit_state, dtype=np.float64)
+    # Half-spaces of q_j bounded by the section, the other coordinates in a box the escape radius
+    # ends first; ``before`` (s (q_j - value) <= 0) is left through the section in the direction s.
+    for before in ((False, True) if sign * (state[j] - value) > 0 else (True,)):
+        lower, upper = [-2.0 * radius] * system.n_dof, [2.0 * radius] * system.n_dof
+        if before == (sign > 0):
+            upper[j] = value
+        else:
+            lower[j] = value
+        settings = LDSettings(scheme="dop853", rtol=rtol, atol=atol, p="arclength", tau=1.5 * period,
+                              region_lower=tuple(lower), region_upper=tuple(upper), escape_radius=radius)
+        result = compute_ld(system, state, +1, settings)
+        face = (j + 1) * (sign if before else -sign)
+        if result.exit_face[0] != face:
+            raise ValueError(f"map {problem.name}: the periodic orbit never crosses {name} = {value} with "
+                             f"{section.solve} of sign {sign:+d}")
+        state = result.end_state[0].copy()
+        state[j] = value  # on the section (the located crossing, to rounding)
     phase = system.phase_coordinates
     return np.array([state[phase.index(section.axes[0])], state[phase.index(section.axes[1])]])
 

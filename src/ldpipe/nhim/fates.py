@@ -6,12 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..engine import LDSettings, compute_ld
 from ..errors import LdpipeError
-from ..flow import FlowSettings, integrate
 from .slices import SliceProblem, section_point_states
-
-#: Batches of fewer trajectories than this are integrated on one thread (see :func:`exit_fates`).
-SMALL_BATCH = 32
 
 
 class RefinementFailed(LdpipeError):
@@ -31,8 +28,6 @@ class RefinementSettings:
     max_time : float
         Longest integration; a trajectory still in the saddle region then has no fate (it is on
         the manifold to within what the integration resolves).
-    sample_interval : float
-        Time between the samples on which the first exit from the region is looked for.
     stencil_points : int
         Points per axis of the stencil around the detected cell that orients the manifolds.
     stencil_half_width : float
@@ -52,7 +47,6 @@ class RefinementSettings:
     rtol: float = 1e-12
     atol: float = 1e-12
     max_time: float = 100.0
-    sample_interval: float = 0.05
     stencil_points: int = 9
     stencil_half_width: float = 4.0
     shrink: float = 0.05
@@ -61,7 +55,7 @@ class RefinementSettings:
     zoom_factor: float = 0.25
 
     def __post_init__(self):
-        for name in ("tolerance", "bisection_precision", "rtol", "atol", "max_time", "sample_interval",
+        for name in ("tolerance", "bisection_precision", "rtol", "atol", "max_time",
                      "stencil_half_width", "shrink", "zoom_factor"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
@@ -89,10 +83,25 @@ class Cost:
         self.steps += int(steps)
 
 
+def fate_settings(problem: SliceProblem, settings: RefinementSettings) -> LDSettings:
+    """Engine settings of the fate trajectories: DOP853 at the refinement's tolerances, the map's
+    saddle region and escape radius, tau = ``max_time``. The integrand is the arc length, the
+    cheapest (no cusp path); the steps, and so the exits, do not depend on it."""
+    return LDSettings(
+        scheme="dop853", rtol=settings.rtol, atol=settings.atol, p="arclength", tau=settings.max_time,
+        region_lower=tuple(problem.region_lower), region_upper=tuple(problem.region_upper),
+        escape_radius=problem.ld_settings.escape_radius,
+    )
+
+
 def exit_fates(
     problem: SliceProblem, points: np.ndarray, direction: int, settings: RefinementSettings, cost: Cost | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which side of the saddle each trajectory leaves the region by, forward or backward in time.
+
+    The engine (:func:`ldpipe.engine.compute_ld`, variable time, :func:`fate_settings`) stops each
+    trajectory at its first exit from the region, located on the step's interpolant, and returns
+    the state there (``end_state``).
 
     Parameters
     ----------
@@ -103,10 +112,11 @@ def exit_fates(
     Returns
     -------
     fate : ndarray of int, shape (k,)
-        +1 or -1, the sign of ``reaction . (q - saddle)`` at the first sample outside the region;
-        0 if the trajectory stays in the region up to ``max_time`` or the point is not allowed.
+        +1 or -1, the sign of ``reaction . (q - saddle)`` at the exit from the region (or at the
+        escape, for a trajectory that leaves the escape radius first); 0 if the trajectory stays in
+        the region up to ``max_time``, fails, or the point is not allowed.
     exit_time : ndarray, shape (k,)
-        |t| of that first sample outside (``max_time`` where the fate is 0).
+        |t| of that exit (``max_time`` where the fate is 0).
     """
     states, allowed = section_point_states(problem, points)
     fate = np.zeros(len(states), dtype=np.int64)
@@ -114,24 +124,13 @@ def exit_fates(
     if not allowed.any():
         return fate, exit_time
     n = problem.system.n_dof
-    flow = FlowSettings(rtol=settings.rtol, atol=settings.atol, escape_radius=problem.ld_settings.escape_radius)
-    times = direction * np.arange(0.0, settings.max_time + 0.5 * settings.sample_interval, settings.sample_interval)
-    # A bisection round integrates a handful of trajectories: starting numba's thread pool for them
-    # costs ~20 ms a call on a busy machine, against ~0.1 ms on one thread (measured), so small
-    # batches run on one thread.
-    threads = 1 if allowed.sum() < SMALL_BATCH else None
-    result = integrate(problem.system, states[allowed], float(times[-1]), flow, sample_times=times,
-                       threads=threads)
-    positions = result.samples[:, :, :n]
-    outside = np.any((positions < problem.region_lower) | (positions > problem.region_upper), axis=2)
-    left = outside.any(axis=1)
-    first = np.argmax(outside, axis=1)
-    exit_positions = positions[np.arange(len(first)), first]
-    side = np.sign((exit_positions - problem.saddle) @ problem.reaction).astype(np.int64)
+    result = compute_ld(problem.system, states[allowed], direction, fate_settings(problem, settings))
+    left = (result.left_region | result.escaped) & ~result.failed
+    side = np.sign((result.end_state[:, :n] - problem.saddle) @ problem.reaction).astype(np.int64)
     fate[allowed] = np.where(left, side, 0)
-    exit_time[allowed] = np.where(left, np.abs(times[first]), settings.max_time)
+    exit_time[allowed] = np.where(left, result.time, settings.max_time)
     if cost is not None:
-        cost.add(int(allowed.sum()), float(np.abs(result.final_time).sum()), int(result.steps.sum()))
+        cost.add(int(allowed.sum()), float(result.time.sum()), int(result.steps.sum()))
     return fate, exit_time
 
 
