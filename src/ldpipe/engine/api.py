@@ -14,7 +14,7 @@ from .settings import LDSettings
 
 
 class LDResult(NamedTuple):
-    """Per-trajectory results of :func:`compute_ld`, each an array of shape (N,).
+    """Per-trajectory results of :func:`compute_ld`, arrays of shape (N,) (``end_state``: (N, 2 n_dof)).
 
     ld : float64
         The Lagrangian descriptor accumulated over [0, time].
