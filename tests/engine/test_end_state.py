@@ -17,8 +17,8 @@ import pytest
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
+from support.closed_forms import STATES, WX, WY
 
-WX, WY = 1.0, 1.3
 W = np.array([WX, WY])
 SCHEMES = ["dop853", "taylor", "rk4", "sym4", "sym6"]
 # Tight settings per scheme: tolerance 1e-12 for the adaptive ones, dt 0.01 for the fixed-step
@@ -31,14 +31,6 @@ TIGHT = {
     "sym4": (dict(dt=0.01), 1e-7),
     "sym6": (dict(dt=0.01), 1e-9),
 }
-STATES = np.array([[1.0, 0.5, 0.3, -0.2], [-0.7, 0.1, 1.1, 0.9], [0.2, -1.3, -0.4, 0.05], [0.0, 0.8, 1.0, 0.0]])
-
-
-@pytest.fixture(scope="module")
-def oscillator():
-    return make_system(
-        "ho", {"formula": "(wx**2*x**2 + wy**2*y**2)/2", "coordinates": ["x", "y"], "parameters": {"wx": WX, "wy": WY}}
-    )
 
 
 def flow(states: np.ndarray, t: np.ndarray) -> np.ndarray:
