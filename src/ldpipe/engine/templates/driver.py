@@ -291,10 +291,17 @@ def process(
                             u = u * theta + VC[kk, i, j]
                         qv[i] = w
                         pv[i] = u
-                    if left and face == 0:  # qn outside, the polynomial at x = 1 inside by rounding
+                    if left and face == 0:
+                        # flagged, but the polynomial inside at the samples by rounding (theta = 1):
+                        # the face nearest the end state
+                        nearest = math.inf
                         for i in range(N):
-                            if face == 0 and (qn[i, j] < lo[i] or qn[i, j] > hi[i]):
-                                face = i + 1 if qn[i, j] > hi[i] else -(i + 1)
+                            if qv[i] - lo[i] < nearest:
+                                nearest = qv[i] - lo[i]
+                                face = -(i + 1)
+                            if hi[i] - qv[i] < nearest:
+                                nearest = hi[i] - qv[i]
+                                face = i + 1
                     done = True
                 else:
                     ld[j] += habs[j] * inc_step[j]
