@@ -63,6 +63,25 @@ def test_fates_follow_the_closed_form(linear_problem):
     np.testing.assert_array_equal(backward, orientation * np.sign(points[:, 0] - points[:, 1] / LAM))
 
 
+def test_exit_times_follow_the_closed_form(linear_problem):
+    # Closed form: x(t) = A e^{lam t} + B e^{-lam t} leaves the region |x| <= 1 (the y oscillator's
+    # amplitude, sqrt(2 E_y) / w < 1.2 here, keeps |y| <= 2) when x = sign(A) forward, x(-t) = sign(B)
+    # backward; that root of the closed form, found by brentq, is the exit time the engine
+    # locates on its step's interpolant (no sampling: to about the integration tolerance).
+    from scipy.optimize import brentq
+
+    rng = np.random.default_rng(2)
+    points = rng.uniform(-0.4, 0.4, size=(20, 2))
+    for direction in (+1, -1):
+        _, times = nhim.exit_fates(linear_problem, points, direction, SETTINGS)
+        for (x, px), t_engine in zip(points, times):
+            a, b = (x + px / LAM) / 2, (x - px / LAM) / 2
+            grow, decay = (a, b) if direction > 0 else (b, a)
+            exact = brentq(lambda t: grow * np.exp(LAM * t) + decay * np.exp(-LAM * t) - np.sign(grow), 0.0, 40.0,
+                           xtol=1e-15, rtol=1e-15)
+            assert abs(t_engine - exact) < 1e-9
+
+
 def test_bisection_lands_on_the_stable_line(linear_problem):
     # Closed form: the stable manifold crosses the segment p_x = c, x in [-0.4, 0.4] at x = -c / lam.
     c = np.array([0.1, -0.2])
@@ -177,7 +196,7 @@ def study_file(barbanis_files):
 
 def test_refined_points_agree_with_the_periodic_orbit(study_file):
     # Independent method: the UPO from differential correction, its crossing of y = k with p_y > 0
-    # located by the flow integrator's event. The fate refinement (from a 48 x 48 grid, spacing
+    # (the engine's exit from y <= k, located on the step's interpolant). The fate refinement (from a 48 x 48 grid, spacing
     # 0.026) must meet it to the configured tolerance 1e-8 (1e-7 validation tolerance, with margin).
     data = open_stage_file(study_file, stage=contracts.NHIM)
     assert list(data.slice.values) == ["k-7.0", "k-7.2"]

@@ -29,7 +29,7 @@ rule nhim_validation:
     """The validation tables of every NHIM study; fails when a point is farther from its reference than the tolerance."""
     input:
         studies=nhim_study_files(),
-        code=library_code("ldpipe.stages.nhim"),
+        code=library_code("ldpipe.stages.nhim_validation"),
     output:
         csv=f"{RESULTS}/nhim/validation.csv",
         markdown=f"{RESULTS}/nhim/validation.md",

@@ -3,7 +3,7 @@
 from ldpipe.logs import log_to
 
 with log_to(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
-    from ldpipe.stages.nhim import run_nhim_validation  # inside, so an import failure is logged too
+    from ldpipe.stages.nhim_validation import run_nhim_validation  # inside, so an import failure is logged too
 
     run_nhim_validation(
         studies=list(snakemake.input.studies),  # noqa: F821

@@ -14,7 +14,7 @@ from .settings import LDSettings
 
 
 class LDResult(NamedTuple):
-    """Per-trajectory results of :func:`compute_ld`, each an array of shape (N,).
+    """Per-trajectory results of :func:`compute_ld`, arrays of shape (N,) (``end_state``: (N, 2 n_dof)).
 
     ld : float64
         The Lagrangian descriptor accumulated over [0, time].
@@ -34,6 +34,18 @@ class LDResult(NamedTuple):
     failed : bool
         Stopped early by the step cap, or (dop853) a step size below 1e-13 tau;
         ``ld`` and ``time`` then cover the part integrated.
+    end_state : float64, shape (N, 2 n_dof)
+        The state (q..., p...) where the trajectory stopped, the one ``energy_error`` is taken
+        at: at tau; at the region exit or the escape crossing, on the step's interpolant at the
+        located crossing (adaptive schemes; the fixed-step ones locate region exits the same
+        way); for a fixed-step escape, at the start of the step that left the radius; for a
+        failed trajectory, the last accepted state; for one that did not start (outside the
+        region or the escape radius, or not finite), the initial state.
+    exit_face : int64
+        The face of the region box the trajectory left by: +(i+1) for the upper face
+        (q_i = region_upper[i]), -(i+1) for the lower face of coordinate i; for a trajectory
+        starting outside the region, the face it is beyond (lowest i); 0 if it did not leave
+        the region (also for escapes and fixed-time LDs). Nonzero exactly where ``left_region``.
     """
 
     ld: np.ndarray
@@ -43,6 +55,8 @@ class LDResult(NamedTuple):
     energy_error: np.ndarray
     steps: np.ndarray
     failed: np.ndarray
+    end_state: np.ndarray
+    exit_face: np.ndarray
 
 
 def _kind(p) -> tuple[int, float]:
@@ -69,7 +83,7 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
     Returns
     -------
     LDResult
-        Arrays of shape (N,), in the order of ``initial_states``.
+        Arrays of shape (N,) (``end_state``: (N, 2 n_dof)), in the order of ``initial_states``.
     """
     settings = LDSettings() if settings is None else settings
     if not isinstance(settings, LDSettings):
@@ -110,6 +124,8 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
         np.zeros(N),
         np.zeros(N, dtype=np.int64),
         np.zeros(N, dtype=np.bool_),
+        np.zeros((N, 2 * n)),
+        np.zeros(N, dtype=np.int64),
     )
     if N == 0:
         return LDResult(*outputs)

@@ -11,6 +11,10 @@ One iteration advances every active lane by one step attempt with its own h:
 flags (vectorized) -> a short scalar pass per lane for acceptance, the special quadrature
 path, event location, commit, step-size control and refill.
 
+Each trajectory's end is written with its results: ``o_end[k]`` the state where it stopped
+(the same state its energy error is taken at) and ``o_face[k]`` the region face it left by
+(``first_exit``'s; for a start outside the region ``outside_face``'s; else 0).
+
 Header names used: N, LANES, NC, NCOMP, SIZE, NB, ADAPTIVE, SELF_SIZED, ORDER, ERROR_EXPONENT,
 KIND_ARCLENGTH, the workspace offsets, and the kernels ``potential`` and ``gradient``.
 """
@@ -130,7 +134,7 @@ def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, r
 def process(
     states, start, stop, direction, tau, dt, n_fixed, rtol, atol, kind, p_exp,
     lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
-    o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed,
+    o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,
 ):  # fmt: skip
     lanes = LANES
     W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout); views below
@@ -198,6 +202,10 @@ def process(
                     o_failed[k] = outcome == START_FAILED
                     o_eerr[k] = 0.0
                     o_steps[k] = 0
+                    for i in range(N):  # load_lane left the start state in (qv, pv)
+                        o_end[k, i] = qv[i]
+                        o_end[k, N + i] = pv[i]
+                    o_face[k] = outside_face(qv, lo, hi) if outcome == START_OUTSIDE_REGION else 0
         n_active = 0
         for j in range(lanes):
             if active[j]:
@@ -242,6 +250,7 @@ def process(
             failed = False
             escaped = False
             left = False
+            face = 0
             if not ADAPTIVE and (esc_flag[j] or not finite):
                 # A fixed step that leaves the escape radius (or overflows) is not trusted: its
                 # end and interpolant can be off by orders of magnitude (|q| 1e30 from |q| 50 at
@@ -255,14 +264,16 @@ def process(
             elif accepted:
                 theta = NO_EXIT
                 if has_region and reg_flag[j]:
-                    theta = min(first_exit(QC, j, NC, N, lo, hi), 1.0)
+                    theta, face = first_exit(QC, j, NC, N, lo, hi)
+                    theta = min(theta, 1.0)
                     left = True
                 if esc_flag[j]:
-                    theta_e = min(first_exit(QC, j, NC, N, elo, ehi), 1.0)
+                    theta_e = min(first_exit(QC, j, NC, N, elo, ehi)[0], 1.0)
                     if theta_e < theta:
                         theta = theta_e
                         left = False
                         escaped = True
+                        face = 0
                 if left or escaped:
                     if kind == KIND_ARCLENGTH:
                         inc = arclength_integral(VC, NCOMP, j, NC, theta, glx, glw)
@@ -280,6 +291,17 @@ def process(
                             u = u * theta + VC[kk, i, j]
                         qv[i] = w
                         pv[i] = u
+                    if left and face == 0:
+                        # flagged, but the polynomial inside at the samples by rounding (theta = 1):
+                        # the face nearest the end state
+                        nearest = math.inf
+                        for i in range(N):
+                            if qv[i] - lo[i] < nearest:
+                                nearest = qv[i] - lo[i]
+                                face = -(i + 1)
+                            if hi[i] - qv[i] < nearest:
+                                nearest = hi[i] - qv[i]
+                                face = i + 1
                     done = True
                 else:
                     ld[j] += habs[j] * inc_step[j]
@@ -322,4 +344,8 @@ def process(
                 o_failed[k] = failed
                 o_eerr[k] = abs(energy(qv, pv) - H0[j])
                 o_steps[k] = nsteps[j]
+                for i in range(N):
+                    o_end[k, i] = qv[i]
+                    o_end[k, N + i] = pv[i]
+                o_face[k] = face
                 active[j] = False

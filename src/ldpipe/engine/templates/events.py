@@ -25,12 +25,16 @@ def _outside(QC, j, nc, n, lo, hi, x):
 
 @njit(**JIT)
 def first_exit(QC, j, nc, n, lo, hi):
-    """Smallest x in (0, 1] where lane j's configuration leaves the box [lo, hi], else NO_EXIT."""
+    """(x, face): the smallest x in (0, 1] where lane j's configuration leaves the box [lo, hi]
+    and the face it leaves by, +(i+1) for the upper face of coordinate i, -(i+1) for the lower
+    (the earliest crossing's; at equal x the lowest coordinate, lower face first); else
+    (NO_EXIT, 0)."""
     x_prev = 0.0
     for s in range(1, EXIT_SAMPLES + 1):
         x = s / EXIT_SAMPLES
         if _outside(QC, j, nc, n, lo, hi, x):
             best = x
+            best_face = 0
             for i in range(n):
                 va = horner(QC, i, j, nc, x_prev)
                 vb = horner(QC, i, j, nc, x)
@@ -47,11 +51,25 @@ def first_exit(QC, j, nc, n, lo, hi):
                         r = refine_root(QC, i, j, nc, bound, x_prev, x, fa, fb)
                     else:
                         r = x  # left and came back between samples: take the sample
-                    if r < best:
+                    # the first outward face found takes the sample x if no crossing beats it
+                    if r < best or best_face == 0:
                         best = r
-            return best
+                        best_face = i + 1 if face == 1 else -(i + 1)
+            return best, best_face
         x_prev = x
-    return NO_EXIT
+    return NO_EXIT, 0
+
+
+@njit(**JIT)
+def outside_face(qv, lo, hi):
+    """The face of the box [lo, hi] a configuration outside it is beyond: +(i+1) above the
+    upper face of coordinate i, -(i+1) below the lower, for the lowest such i; 0 if inside."""
+    for i in range(N):
+        if qv[i] < lo[i]:
+            return -(i + 1)
+        if qv[i] > hi[i]:
+            return i + 1
+    return 0
 
 
 @njit(**JIT)

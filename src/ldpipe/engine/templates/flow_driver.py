@@ -200,7 +200,7 @@ def flow_process(
                 t_end = tau if last else t[j] + habs[j]
                 x_stop = 1.0
                 if esc_flag[j]:
-                    x_stop = min(first_exit(QC, j, NC, N, elo, ehi), 1.0)
+                    x_stop = min(first_exit(QC, j, NC, N, elo, ehi)[0], 1.0)
                     status = FLOW_ESCAPED
                 if hit[j]:
                     gp = g_prev[j]
