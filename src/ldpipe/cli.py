@@ -14,6 +14,7 @@ from pathlib import Path
 
 from . import __version__, cli_nhim, cli_orbits
 from .config import load_config, validate_config
+from .engine.settings import DEFAULT_ESCAPE_RADIUS
 from .errors import ConfigError, LdpipeError
 from .logs import log_to
 from .systems import BUILTINS
@@ -109,7 +110,7 @@ def _map_from_options(args: argparse.Namespace) -> dict:
         "p": "arclength" if args.p == "arclength" else _number(args.p, "--p"),
         "time": args.time,
         "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
-                       "taylor_order": args.taylor_order},
+                       "taylor_order": args.taylor_order, "escape_radius": args.escape_radius},
     }
     if args.region:
         spec["region"] = {}
@@ -229,6 +230,8 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance of dop853 and taylor (default 1e-8)")
     ld.add_argument("--taylor-order", type=int, metavar="M", help="order of the taylor scheme (default: from the tolerance)")
     ld.add_argument("--dt", type=float, default=0.01, help="step of the fixed-step schemes (default 0.01)")
+    ld.add_argument("--escape-radius", type=float, default=DEFAULT_ESCAPE_RADIUS, metavar="R",
+                    help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {DEFAULT_ESCAPE_RADIUS:g})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")
