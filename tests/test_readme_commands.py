@@ -29,7 +29,7 @@ import pytest
 
 from ldpipe.datafile import open_stage_file
 
-from conftest import copy_workflow
+from conftest import SNAKEMAKE, copy_workflow
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
@@ -161,3 +161,19 @@ def test_readme_command(command, readme_workdir, request):
         rules = {a or b for a, b in ran}
         # "nothing else": the family and the saddle come from the existing stage files
         assert rules <= {"ld_tile", "ld_gather", "figure_study", "study"}, rules
+
+
+@pytest.mark.slow
+def test_inline_snakemake_targets_are_planned_and_the_lint_is_clean(readme_workdir):
+    """Commands the README's text names in passing: `snakemake fig3`, `snakemake accuracy_figure`, ...
+    (dry runs, one plan for all), and `snakemake --lint`, which the README says is clean."""
+    spans = set(re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")))
+    targets = sorted(span.split()[1] for span in spans if re.fullmatch(r"snakemake [\w/.]+", span))
+    assert "fig3" in targets and "accuracy_figure" in targets
+    planned = subprocess.run([SNAKEMAKE, *targets, "-n"], cwd=readme_workdir, capture_output=True, text=True,
+                             timeout=600)
+    assert planned.returncode == 0, planned.stderr[-3000:]
+    if "snakemake --lint" in spans:
+        lint = subprocess.run([SNAKEMAKE, "--lint"], cwd=readme_workdir, capture_output=True, text=True, timeout=600)
+        assert lint.returncode == 0 and "Congratulations, your workflow is in a good condition!" in lint.stdout + lint.stderr, (
+            lint.stdout[-3000:] + lint.stderr[-3000:])
