@@ -141,8 +141,11 @@ def test_readme_command(command, readme_workdir, request):
     if shell.startswith("snakemake study --configfile config.quick.yaml"):
         quick_dir, result = request.getfixturevalue("quick_run")
         assert result.returncode == 0, result.stderr[-3000:]
-        workdir = readme_workdir / "study"
-        shutil.copytree(quick_dir, workdir, symlinks=True)
+        # beside the quick run's folder: the rules' code inputs are relative paths to the installed
+        # ldpipe, which must stay the same for the existing stage files to count as done
+        workdir = request.getfixturevalue("tmp_path_factory").mktemp("readme_study")
+        assert workdir.parent == quick_dir.parent
+        shutil.copytree(quick_dir, workdir, symlinks=True, dirs_exist_ok=True)
         (workdir / "study.yaml").write_text(readme_yaml("study_dE0.125"))
     result = subprocess.run(["bash", "-c", shell], cwd=workdir, env=_environment(), capture_output=True, text=True,
                             timeout=1200)
@@ -160,7 +163,7 @@ def test_readme_command(command, readme_workdir, request):
         ran = set(re.findall(r"localrule (\w+):|rule (\w+):", result.stderr + result.stdout))
         rules = {a or b for a, b in ran}
         # "nothing else": the family and the saddle come from the existing stage files
-        assert rules <= {"ld_tile", "ld_gather", "figure_study", "study"}, rules
+        assert rules <= {"ld_tile", "ld_gather", "study"}, rules
 
 
 @pytest.mark.slow
