@@ -2,16 +2,14 @@
 and one quick workflow run."""
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from ldpipe.systems import make_system
 from support.closed_forms import oscillator_system
-from support.workflow import copy_workflow
+from support.workflow import SNAKEMAKE, copy_workflow
 
-SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
 
 
 @pytest.fixture(scope="session")

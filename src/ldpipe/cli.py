@@ -124,7 +124,7 @@ def _map_from_options(args: argparse.Namespace) -> dict:
         "p": ARCLENGTH if args.p == ARCLENGTH else _number(args.p, "--p"),
         "time": args.time,
         "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
-                       "taylor_order": args.taylor_order},
+                       "taylor_order": args.taylor_order, "escape_radius": args.escape_radius},
     }
     if args.region:
         spec["region"] = {}
@@ -252,6 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="order of the taylor scheme (default: from the tolerance)")
     ld.add_argument("--dt", type=float, default=INTEGRATOR.dt,
                     help=f"step of the fixed-step schemes (default {_short(INTEGRATOR.dt)})")
+    ld.add_argument("--escape-radius", type=float, default=INTEGRATOR.escape_radius, metavar="R",
+                    help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {_short(INTEGRATOR.escape_radius)})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")

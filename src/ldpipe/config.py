@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -388,13 +389,49 @@ def _check_accuracy_cost(config: dict) -> None:
             )
 
 
+# A float as YAML 1.2 reads it. YAML 1.1 (PyYAML, and Snakemake's loader) needs a dot and a signed
+# exponent, so it reads 1e-10 and 1e7 as strings; where the schema expects a number they are numbers.
+_YAML12_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
+def _number_strings(errors) -> list:
+    """Paths of strings that YAML 1.2 reads as floats, found where the schema wanted a number."""
+    paths = []
+    for error in errors:
+        types = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+        if (error.validator == "type" and "number" in types and isinstance(error.instance, str)
+                and _YAML12_FLOAT.fullmatch(error.instance.strip())):
+            paths.append(tuple(error.absolute_path))
+        paths += _number_strings(error.context or [])
+    return paths
+
+
+def _schema_errors(config: dict, validator) -> list:
+    """The schema's errors, after turning in place each string such as '1e-10' into the float it
+    means where a number is expected (one pass over a valid configuration)."""
+    while True:
+        errors = list(validator.iter_errors(config))
+        paths = set(_number_strings(errors))
+        if not paths:
+            return errors
+        for path in paths:
+            parent = config
+            for part in path[:-1]:
+                parent = parent[part]
+            parent[path[-1]] = float(parent[path[-1]])
+
+
 def validate_config(config: dict) -> dict:
-    """Validate ``config`` in place against the schema, fill defaults, and return it."""
+    """Validate ``config`` in place against the schema, fill defaults, and return it.
+
+    Numbers written as YAML 1.1 reads them as strings (``1e-10``, ``1e7``) are converted to
+    floats where the schema expects a number, so every loader's result validates alike.
+    """
     if not isinstance(config, dict):
         raise ConfigError(f"the configuration must be a mapping of keys to values, got {type(config).__name__}")
     validator = _schema_validator()
     # The deepest error names the key most precisely: list those first.
-    errors = sorted(validator.iter_errors(config), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
+    errors = sorted(_schema_errors(config, validator), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
     if errors:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))  # the venv's, beside its python
 
 
 def copy_workflow(folder: Path) -> Path:

@@ -36,10 +36,10 @@ from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError, StageFileError
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather
+from support.workflow import SNAKEMAKE
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = sys.executable
-SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
 
 
 # --- a write killed by SIGKILL ----------------------------------------------------------------

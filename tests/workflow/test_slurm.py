@@ -15,24 +15,20 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
 import pytest
-import xarray as xr
+
+from ldpipe.filediff import compare_files
+from support.workflow import SNAKEMAKE
 
 ROOT = Path(__file__).resolve().parents[2]
-SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
 CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
 pytestmark = pytest.mark.slow
 
-# What cannot be equal between two runs, so is not compared: the `history` attribute (the time
-# and command of writing) and measured run times (the NHIM stage's refinement cost, variables
-# named *_wall_time).
-VOLATILE_ATTRIBUTES = {"history"}
-MEASURED_TIME = re.compile(r"wall_time$")
+# What cannot be equal between two runs (the history attribute, measured wall times) is left out
+# by ldpipe.filediff, which compares the stored values bit for bit.
 
 # What the test cluster needs on top of profiles/slurm: no accounting, so no account and squeue
 # for the job status; its jobs are seconds long, so the first status check after 2 s instead of
@@ -102,33 +98,6 @@ def finish(run: subprocess.Popen, workdir: Path) -> str:
     return output
 
 
-def same_value(a, b) -> bool:
-    a, b = np.asarray(a), np.asarray(b)
-    if a.dtype.kind == "f" and b.dtype.kind == "f":
-        return np.array_equal(a, b, equal_nan=True)  # a NaN _FillValue attribute equals itself
-    return np.array_equal(a, b)
-
-
-def assert_same_netcdf(local: Path, cluster: Path, name: str) -> None:
-    """Every variable, coordinate and attribute of two files equal, bit for bit, as stored."""
-    # decode_cf=False: compare the stored values, not a decoded view of them.
-    with xr.open_dataset(local, engine="netcdf4", decode_cf=False) as a, xr.open_dataset(
-        cluster, engine="netcdf4", decode_cf=False
-    ) as b:
-        assert set(a.attrs) == set(b.attrs), name
-        for key in set(a.attrs) - VOLATILE_ATTRIBUTES:
-            assert same_value(a.attrs[key], b.attrs[key]), f"{name}: attribute {key!r} differs"
-        assert set(a.variables) == set(b.variables), name
-        for variable in a.variables:
-            if MEASURED_TIME.search(variable):
-                continue
-            assert a[variable].dims == b[variable].dims, f"{name}: {variable}"
-            np.testing.assert_array_equal(a[variable].values, b[variable].values, err_msg=f"{name}: {variable}")
-            assert set(a[variable].attrs) == set(b[variable].attrs), f"{name}: {variable}"
-            for key, value in a[variable].attrs.items():
-                assert same_value(value, b[variable].attrs[key]), f"{name}: {variable} attribute {key!r}"
-
-
 def job_count(snakemake_output: str) -> dict[str, int]:
     """The "Job stats" table Snakemake prints before a run: rule -> number of jobs."""
     lines = snakemake_output.splitlines()
@@ -178,7 +147,8 @@ def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quic
     computed = sorted(path.relative_to(workdir) for path in (workdir / "results").rglob("*.nc"))
     assert any(path.parts[1] == "ld" for path in computed), computed
     for path in computed:
-        assert_same_netcdf(local / path, workdir / path, str(path))
+        differences = compare_files(local / path, workdir / path)
+        assert not differences, f"{path}: " + "; ".join(map(str, differences))
 
 
 def test_slurm_profile_gives_every_job_threads_memory_and_a_time_limit(workdir):

@@ -249,6 +249,22 @@ def draw_figure(kind: str, settings: dict, inputs: dict):
     raise ConfigError(f"figure kind {kind!r}: expected one of {sorted(KIND_SETTINGS)}")
 
 
+def refuse_empty_maps(figure_name: str, ld_maps) -> None:
+    """Stop, naming map and figure, where an LD map the figure draws has no energetically allowed
+    point: its panel would be all grey."""
+    from ..datafile import open_stage_file
+
+    for path in _as_list(ld_maps):
+        dataset = open_stage_file(path, stage="ld_grid", variables=("allowed",))
+        if not dataset.allowed.values.any():
+            raise ConfigError(
+                f"figure {figure_name!r}: LD map {dataset.attrs.get('map', Path(path).stem)!r} ({path}) has no "
+                f"energetically allowed point at E = {float(dataset.attrs['energy']):.12g}, so its panel would be "
+                f"empty; choose an energy above the potential somewhere on its section (config key "
+                f"ld_maps.{dataset.attrs.get('map', Path(path).stem)}.energy)"
+            )
+
+
 def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | None = None, inputs: dict,
                png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Draw figure ``figure_name`` from its input files and write it as PNG (and PDF).
@@ -266,6 +282,7 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     from ..figures import style
 
     log.info("figure %s (%s) from %s", figure_name, kind, {k: _as_list(v) for k, v in inputs.items()})
+    refuse_empty_maps(figure_name, inputs.get("ld_maps"))
     with style.figure_style():
         figure = draw_figure(kind, settings, inputs)
         written = style.save_figure(figure, png, pdf)

@@ -112,6 +112,25 @@ def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
     }
 
 
+#: The attribute a map without any energetically allowed point carries (see :func:`note_allowed_points`).
+EMPTY_MAP_WARNING = "warning"
+
+
+def note_allowed_points(dataset: xr.Dataset, *, whole_map: bool) -> int:
+    """Record how many points of ``dataset`` are energetically allowed (attribute ``allowed_points``);
+    a whole map with none is all zeros: warn, and say so in the attribute ``warning``."""
+    count = int(dataset.allowed.sum())
+    dataset.attrs["allowed_points"] = count
+    dataset.attrs.pop(EMPTY_MAP_WARNING, None)
+    if whole_map and count == 0:
+        energy = dataset.attrs.get("energy")
+        text = (f"map {dataset.attrs.get('map')}: no point of the section is energetically allowed at E = {energy:.12g} "
+                "(the energy is below the potential everywhere on the section); every field is 0")
+        log.warning(text)
+        dataset.attrs[EMPTY_MAP_WARNING] = text
+    return count
+
+
 def compute_ld_map(
     parameters: dict,
     equilibria: xr.Dataset,
@@ -134,6 +153,7 @@ def compute_ld_map(
     dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress)
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
+    note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
 
 
@@ -183,6 +203,7 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
+    note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})
 

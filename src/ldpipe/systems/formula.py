@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sympy
 from sympy.parsing.sympy_parser import parse_expr, standard_transformations
+from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import ConfigError
@@ -139,11 +140,38 @@ def generate_kernel_source(expression: sympy.Expr, coordinates: tuple[str, ...])
     return "import math\n\n\n" + "\n\n".join(sources[name] for name in Kernels._fields)
 
 
+def _uncompilable(name: str, formula: str, expression: sympy.Expr, coordinates: tuple[str, ...], key: str) -> str:
+    """Why the kernels of ``expression`` cannot be generated: the first term of V, its gradient
+    or its Hessian that has no code (e.g. DiracDelta, the second derivative of Abs)."""
+    printer = _KernelPrinter({"fully_qualified_modules": True, "standard": "python3"})
+    symbols = [sympy.Symbol(c, real=True) for c in coordinates]
+    derivatives = [("V", expression)]
+    derivatives += [(f"dV/d{c}", sympy.diff(expression, s)) for c, s in zip(coordinates, symbols)]
+    derivatives += [(f"d2V/d{a}d{b}", sympy.diff(expression, s, t))
+                    for a, s in zip(coordinates, symbols) for b, t in zip(coordinates, symbols)]
+    for where, derivative in derivatives:
+        for term in sorted(derivative.atoms(sympy.Function), key=str):
+            try:
+                printer.doprint(term)
+            except PrintMethodNotImplementedError:
+                hint = ("; Abs is not (its second derivative is a DiracDelta): write e.g. sqrt(x**2 + c**2) "
+                        "for a smooth |x|") if term.func in (sympy.DiracDelta, sympy.sign) else ""
+                return (
+                    f"config key '{key}.formula': system {name!r}: {where} of {formula!r} contains {term}, which "
+                    f"cannot be compiled; the potential must be twice differentiable with derivatives in the "
+                    f"allowed functions{hint}"
+                )
+    return f"config key '{key}.formula': system {name!r}: the derivatives of {formula!r} cannot be compiled"
+
+
 def make_formula_system(
     name: str, formula: str, coordinates: tuple[str, ...], parameters: dict[str, float], spec: dict, key: str
 ) -> System:
     expression = parse_potential(formula, coordinates, parameters, key)
-    source = generate_kernel_source(expression, coordinates)
+    try:
+        source = generate_kernel_source(expression, coordinates)
+    except PrintMethodNotImplementedError:
+        raise ConfigError(_uncompilable(name, formula, expression, coordinates, key)) from None
     return System(
         name=name,
         coordinates=tuple(coordinates),

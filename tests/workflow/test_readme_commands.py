@@ -1,0 +1,182 @@
+"""Every shell command of README.md's ```bash blocks works as written (issue 14).
+
+The commands are read from the README itself, so a newly documented command is picked up, and each
+is classified by :func:`plan`:
+
+- run verbatim, in a fresh copy of the workflow (``ldpipe equilibria ...``, ``snakemake ... -n``);
+- run with less work, saying how: the Fig. 4 map commands at 48 × 48 instead of 1500 × 1500 (the
+  map from ``--config`` through the configuration's own cap ``max_grid_points: 48``, the map from
+  options with its ``:1500`` point counts replaced), and the workflow runs (``snakemake``,
+  ``snakemake fig4``, the parameter study at full resolution) as dry runs with ``-n``; the quick
+  parameter study really runs, in a copy of the quick run's results;
+- covered by another test or by CI: the install-and-test command is what ``.ci/run`` runs (checked
+  here, verbatim), the report command is built and opened in a browser by tests/workflow/test_report.py, and
+  the SLURM command is run on a real local cluster by tests/workflow/test_slurm.py.
+
+A command that matches none of these fails, so a new command in the README gets handled here.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ldpipe.datafile import open_stage_file
+
+from support.workflow import SNAKEMAKE, copy_workflow
+
+ROOT = Path(__file__).resolve().parents[2]
+README = (ROOT / "README.md").read_text()
+BIN = Path(sys.executable).parent
+
+
+def bash_commands(text: str) -> list[str]:
+    """The commands of the ```bash blocks: continuation lines joined, comments dropped."""
+    commands = []
+    for block in re.findall(r"^```bash\n(.*?)^```", text, flags=re.S | re.M):
+        for command in block.replace("\\\n", " ").splitlines():
+            command = re.sub(r"\s+#.*$", "", command).strip()
+            if command and not command.startswith("#"):
+                commands.append(" ".join(command.split()))
+    return commands
+
+
+def readme_yaml(marker: str) -> str:
+    """The README's ```yaml block that contains ``marker``."""
+    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if marker in b]
+    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md"
+    return blocks[0]
+
+
+INSTALL_AND_SNAKEMAKE = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/snakemake"
+INSTALL_AND_TEST = "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/pytest"
+
+
+def plan(command: str) -> tuple[str, str, str]:
+    """``(how, shell command to run or '', why)`` for one README command; ``how`` is 'run' or 'covered'."""
+    if command == INSTALL_AND_TEST:
+        return "covered", "", "CI's command: .ci/run runs it verbatim (checked below)"
+    if command == INSTALL_AND_SNAKEMAKE:
+        # The install is CI's (the test extras include the main install); the run is planned.
+        return "run", ".venv/bin/snakemake -n", "install as CI; the full run as a dry run (-n)"
+    if re.fullmatch(r"ldpipe equilibria .*", command):
+        return "run", command, "verbatim"
+    if re.fullmatch(r"ldpipe ld --config config\.yaml --map \S+ -o \S+", command):
+        return "run", command, "verbatim, with max_grid_points: 48 in config.yaml (48 × 48, not 1500 × 1500)"
+    if re.fullmatch(r"ldpipe ld --system .*", command):
+        return "run", command.replace(":1500 ", ":48 "), "grid reduced from 1500 × 1500 to 48 × 48"
+    if re.fullmatch(r"snakemake( \S+)* -n", command):
+        return "run", command, "verbatim (a dry run)"
+    if re.fullmatch(r"snakemake --report \S+\.html", command):
+        return "covered", "", "tests/workflow/test_report.py builds the report of the quick run and opens it in Chromium"
+    if re.fullmatch(r"snakemake study --configfile config\.quick\.yaml study\.yaml", command):
+        return "run", command, "verbatim, in a copy of the quick run (its family and saddle exist)"
+    if re.fullmatch(r"snakemake [\w-]+( --configfile [\w.]+)?", command):
+        return "run", command + " -n", "as a dry run (-n): it computes at the paper's resolution"
+    if re.fullmatch(r"(\.venv/bin/)?snakemake --workflow-profile profiles/slurm .*", command):
+        return "covered", "", "tests/workflow/test_slurm.py runs this profile on a real local SLURM cluster"
+    return "unknown", "", "no rule for this command: classify it in tests/workflow/test_readme_commands.py"
+
+
+COMMANDS = bash_commands(README)
+
+
+def test_the_readme_documents_commands():
+    # The blocks this test was written against; a command that is no longer there is simply not run.
+    assert len(COMMANDS) >= 10
+    assert INSTALL_AND_SNAKEMAKE in COMMANDS and INSTALL_AND_TEST in COMMANDS
+
+
+def test_ci_runs_the_readme_test_command_verbatim():
+    assert INSTALL_AND_TEST in (ROOT / ".ci/run").read_text()
+
+
+def test_inline_snakemake_commands_put_targets_before_configfile():
+    """Snakemake 9's --configfile takes every following word: a target after it is read as a file."""
+    for span in re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")):
+        words = span.split()
+        if "--configfile" in words:
+            files = []
+            for word in words[words.index("--configfile") + 1:]:
+                if word.startswith("-"):
+                    break
+                files.append(word)
+            assert files and all(w.endswith((".yaml", ".yml")) for w in files), span
+
+
+@pytest.fixture(scope="module")
+def readme_workdir(tmp_path_factory):
+    """A copy of the workflow as a clone has it, ``.venv`` the running environment, ``study.yaml``
+    the README's, and a config.yaml capped at 48 × 48 grids for the map commands."""
+    workdir = copy_workflow(tmp_path_factory.mktemp("readme"))
+    (workdir / ".venv").symlink_to(Path(sys.prefix))
+    (workdir / "study.yaml").write_text(readme_yaml("study_dE0.125"))
+    return workdir
+
+
+def _environment() -> dict:
+    return {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ['PATH']}"}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", COMMANDS)
+def test_readme_command(command, readme_workdir, request):
+    how, shell, why = plan(command)
+    assert how != "unknown", f"README command {command!r}: {why}"
+    if how == "covered":
+        pytest.skip(f"covered elsewhere: {why}")
+    workdir = readme_workdir
+    if shell.startswith("ldpipe ld --config"):
+        workdir = readme_workdir / "capped"
+        if not workdir.exists():
+            workdir.mkdir()
+            text = (readme_workdir / "config.yaml").read_text()
+            (workdir / "config.yaml").write_text(text + "\nmax_grid_points: 48\n")
+    if shell.startswith("snakemake study --configfile config.quick.yaml"):
+        quick_dir, result = request.getfixturevalue("quick_run")
+        assert result.returncode == 0, result.stderr[-3000:]
+        # beside the quick run's folder: the rules' code inputs are relative paths to the installed
+        # ldpipe, which must stay the same for the existing stage files to count as done
+        workdir = request.getfixturevalue("tmp_path_factory").mktemp("readme_study")
+        assert workdir.parent == quick_dir.parent
+        shutil.copytree(quick_dir, workdir, symlinks=True, dirs_exist_ok=True)
+        (workdir / "study.yaml").write_text(readme_yaml("study_dE0.125"))
+    result = subprocess.run(["bash", "-c", shell], cwd=workdir, env=_environment(), capture_output=True, text=True,
+                            timeout=1200)
+    assert result.returncode == 0, f"{command!r} ({why}) failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
+    output = re.search(r" -o (\S+)$", shell)
+    if output:  # the file it writes is a finished stage file
+        stage = "equilibria" if shell.startswith("ldpipe equilibria") else "ld_grid"
+        dataset = open_stage_file(workdir / output.group(1), stage=stage)
+        if stage == "ld_grid":
+            assert dataset.ld_forward.shape == (48, 48)  # the reduced grid
+    if shell.startswith("snakemake study --configfile config.quick.yaml"):
+        assert (workdir / "results/figures/study.png").stat().st_size > 0
+        for name in ("study_dE0.125", "study_dE0.375", "study_dE0.625"):
+            assert open_stage_file(workdir / f"results/ld/{name}.nc", stage="ld_grid").ld_forward.shape == (48, 48)
+        ran = set(re.findall(r"localrule (\w+):|rule (\w+):", result.stderr + result.stdout))
+        rules = {a or b for a, b in ran}
+        # "nothing else": the family and the saddle come from the existing stage files
+        assert rules <= {"ld_tile", "ld_gather", "study"}, rules
+
+
+@pytest.mark.slow
+def test_inline_snakemake_targets_are_planned_and_the_lint_is_clean(readme_workdir):
+    """Commands the README's text names in passing: `snakemake fig3`, `snakemake accuracy_figure`, ...
+    (dry runs, one plan for all), and `snakemake --lint`, which the README says is clean."""
+    spans = set(re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")))
+    targets = sorted(span.split()[1] for span in spans if re.fullmatch(r"snakemake [\w/.]+", span))
+    assert "fig3" in targets and "accuracy_figure" in targets
+    planned = subprocess.run([SNAKEMAKE, *targets, "-n"], cwd=readme_workdir, capture_output=True, text=True,
+                             timeout=600)
+    assert planned.returncode == 0, planned.stderr[-3000:]
+    if "snakemake --lint" in spans:
+        lint = subprocess.run([SNAKEMAKE, "--lint"], cwd=readme_workdir, capture_output=True, text=True, timeout=600)
+        assert lint.returncode == 0 and "Congratulations, your workflow is in a good condition!" in lint.stdout + lint.stderr, (
+            lint.stdout[-3000:] + lint.stderr[-3000:])

@@ -1,0 +1,154 @@
+"""The Snakemake report (issue 14): the main install can build it, its captions are clean
+reStructuredText, and built from the quick run it shows every figure in a real browser."""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import re
+import shutil
+import subprocess
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pytest
+from docutils.core import publish_parts
+from matplotlib import image
+from packaging.requirements import Requirement
+
+from support.workflow import SNAKEMAKE
+
+ROOT = Path(__file__).resolve().parents[2]
+# docutils' system messages as it prints them, e.g. "(ERROR/3) Undefined substitution referenced"
+DOCUTILS_MESSAGE = re.compile(r"\((DEBUG|INFO|WARNING|ERROR|SEVERE)/\d\)")
+
+
+def _requirement_closure(name: str) -> set[str]:
+    """Every distribution ``name`` installs without extras, from the installed metadata."""
+    seen, todo = set(), [name]
+    while todo:
+        current = todo.pop()
+        key = current.lower().replace("_", "-")
+        if key in seen:
+            continue
+        seen.add(key)
+        for text in metadata.requires(current) or []:
+            requirement = Requirement(text)
+            if requirement.marker is None or requirement.marker.evaluate({"extra": ""}):
+                todo.append(requirement.name)
+    return seen
+
+
+def test_the_main_install_has_what_snakemake_report_needs():
+    # snakemake --report imports jinja2, docutils and pygments (the last only when it builds the
+    # report, so a missing one fails there); ldpipe's own requirements must bring all three.
+    closure = _requirement_closure("ldpipe")
+    assert {"snakemake", "jinja2", "docutils", "pygments"} <= closure
+    assert "pytest" not in closure  # ... and not through the test extras
+
+
+@pytest.mark.parametrize("caption", sorted(p.name for p in (ROOT / "workflow/report").glob("*.rst")))
+def test_plain_captions_render_without_docutils_messages(caption):
+    """The captions that are not templates (tests/stages/test_figures.py renders the templates)."""
+    text = (ROOT / "workflow/report" / caption).read_text()
+    if "{{" in text:
+        pytest.skip("a Jinja template over the figure's params: rendered in tests/stages/test_figures.py")
+    stream = io.StringIO()
+    html = publish_parts(text, writer="html", settings_overrides={"report_level": 1, "warning_stream": stream})["body"]
+    assert stream.getvalue() == "" and "System Message" not in html, stream.getvalue()
+
+
+# Shows the result named in the URL's hash exactly as the result's "view" button does (the report
+# is a single-page app without routes: `app` and `results` are its globals); with "?bare" the
+# navigation bar is hidden as its own hide button does, so a screenshot holds the figure alone.
+SHOW_RESULT = """<script>
+function ldpipeShow() {
+  if (typeof app === "undefined" || !app) { setTimeout(ldpipeShow, 50); return; }
+  const path = decodeURIComponent(location.hash.slice(1));
+  const entry = results[path];
+  app.setView({content: "img", contentPath: entry ? entry.data_uri : "", navbarMode: "resultinfo",
+               resultPath: entry ? path : undefined, hideNavbar: location.search === "?bare"});
+  document.title = "shown:" + path;
+}
+window.addEventListener("load", ldpipeShow);
+</script>
+"""
+
+
+def _chromium() -> str | None:
+    return next((shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None)
+
+
+def _browse(browser: str, page: Path, fragment: str, profile: Path, *, screenshot: Path | None = None) -> str:
+    """Open ``page#fragment`` in headless Chromium: its DOM after the scripts ran, or a screenshot
+    of the view without the navigation bar."""
+    action = [f"--screenshot={screenshot}", "--window-size=1400,1800"] if screenshot else ["--dump-dom"]
+    url = page.as_uri() + ("?bare" if screenshot else "") + "#" + fragment
+    result = subprocess.run(
+        [browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
+         "--virtual-time-budget=5000", *action, url],
+        capture_output=True, text=True, timeout=180,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    return result.stdout
+
+
+def _ink(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """Where an RGB image differs from ``background`` (same shape, or one colour) by more than 2 %."""
+    return np.any(np.abs(pixels[..., :3] - background[..., :3]) > 0.02, axis=-1)
+
+
+@pytest.mark.slow
+def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, tmp_path):
+    workdir, run = quick_run
+    assert run.returncode == 0, run.stderr[-3000:]
+    report = tmp_path / "report.html"
+    # the README's command, against the quick configuration of the run
+    built = subprocess.run([SNAKEMAKE, "--report", str(report), "--configfile=config.quick.yaml"],
+                           cwd=workdir, capture_output=True, text=True, timeout=900)
+    assert built.returncode == 0, built.stderr[-3000:]
+    messages = [line for line in (built.stdout + built.stderr).splitlines() if DOCUTILS_MESSAGE.search(line)]
+    assert not messages, messages  # e.g. a caption's |...| read as a substitution
+    html = report.read_text()
+    results = json.loads(re.search(r'<script id="results">\s*var results = (.*?);\s*</script>', html, re.S).group(1))
+
+    # Every figure the run made is in the report, embedded byte for byte.
+    figures = sorted(str(p.relative_to(workdir)) for p in (workdir / "results/figures").glob("*.png"))
+    assert len(figures) >= 8 and set(figures) <= set(results)
+    for path in figures:
+        uri = results[path]["data_uri"]
+        assert uri.startswith("data:image/png") and base64.b64decode(uri.split(",", 1)[1]) == (workdir / path).read_bytes()
+
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no chromium on this machine (.ci/run installs Debian's chromium where it runs as root)")
+    page = tmp_path / "view.html"
+    end = html.rindex("</body>")
+    page.write_text(html[:end] + SHOW_RESULT + html[end:])
+    profile = tmp_path / "chromium-profile"
+
+    # Control: the same view with no image. A figure's view differs from it where the figure is:
+    # a box of the figure's aspect ratio (from the PNG file), inked about as densely as the file.
+    _browse(browser, page, "none", profile, screenshot=tmp_path / "blank.png")
+    blank = image.imread(tmp_path / "blank.png")
+    for path in figures:
+        dom = _browse(browser, page, path, profile)
+        assert f"<title>shown:{path}</title>" in dom
+        shown = re.findall(r'<img src="(data:image/png[^"]*)"', dom)
+        assert shown == [results[path]["data_uri"]], f"{path}: the view does not show the figure's image"
+        assert results[path]["caption"][:40] in dom  # the caption is shown beside it
+        shot = tmp_path / (Path(path).stem + ".png")
+        _browse(browser, page, path, profile, screenshot=shot)
+        ink = _ink(image.imread(shot), blank)
+        ink[:60, :60] = False  # the navigation bar's "show" button, drawn once the bar is hidden
+        assert ink.any(), f"{path}: the view is blank"
+        rows, columns = np.nonzero(ink.any(axis=1))[0], np.nonzero(ink.any(axis=0))[0]
+        box = ink[rows[0]:rows[-1] + 1, columns[0]:columns[-1] + 1]
+        figure = image.imread(workdir / path)
+        assert box.shape[1] >= 300, f"{path}: drawn only {box.shape[1]} px wide"
+        np.testing.assert_allclose(box.shape[1] / box.shape[0], figure.shape[1] / figure.shape[0], rtol=0.1,
+                                   err_msg=f"{path}: the drawn box has not the figure's aspect ratio")
+        density, expected = box.mean(), _ink(figure, np.ones(3)).mean()
+        assert 0.5 < density / expected < 2, f"{path}: {density:.1%} of the box inked, the figure has {expected:.1%}"
