@@ -2,7 +2,6 @@
 and one quick workflow run."""
 
 import subprocess
-from pathlib import Path
 
 import pytest
 

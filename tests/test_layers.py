@@ -6,7 +6,6 @@ science modules, the file conventions and the stage file contracts). A figure re
 file through :mod:`ldpipe.contracts`, never through the stage that wrote it.
 """
 
-from pathlib import Path
 
 import pytest
 
@@ -35,7 +34,7 @@ def test_the_walk_sees_the_package_and_its_imports():
     modules = package_modules()
     assert {"ldpipe", "ldpipe.engine", "ldpipe.engine.api", "ldpipe.figures.nhim", "ldpipe.stages.ld"} <= set(modules)
     # A known downward import, relative and absolute forms both resolved.
-    assert "ldpipe.sections" in imported_modules("ldpipe.stages.ld")
+    assert "ldpipe.ld_grid" in imported_modules("ldpipe.stages.ld")
     assert "ldpipe.contracts" in imported_modules("ldpipe.figures.nhim")
 
 

@@ -41,7 +41,8 @@ def _refinement(args: argparse.Namespace) -> dict:
 
 
 def _run_nhim(args: argparse.Namespace) -> None:
-    from .stages.nhim import run_nhim_study, run_nhim_validation
+    from .stages.nhim import run_nhim_study
+    from .stages.nhim_validation import run_nhim_validation
 
     refinement = _refinement(args)
     references = [Path(args.upo).stem] if args.upo else []

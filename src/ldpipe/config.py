@@ -17,7 +17,7 @@ import jsonschema
 import yaml
 
 from .errors import ConfigError
-from .systems import BUILTINS, check_builtin_parameters, system_coordinates
+from .systems import check_builtin_parameters, system_coordinates
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 

@@ -14,10 +14,11 @@ import numpy as np
 import xarray as xr
 from tqdm import tqdm
 
-from .engine import LDSettings, compute_ld
+from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
+from .errors import ConfigError
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
-from .systems import System
+from .systems import System, make_system
 
 log = get_logger(__name__)
 # Points per engine call: small enough for steady progress, large enough to keep every core busy.
@@ -31,6 +32,43 @@ def tile_rows(rows: int, tile: int, tiles: int) -> slice:
     if tiles > rows:
         raise ValueError(f"tiles: {tiles} tiles for {rows} rows; use at most one tile per row")
     return slice(rows * tile // tiles, rows * (tile + 1) // tiles)
+
+
+def resolve_ld_map(parameters: dict, saddle: np.ndarray, critical_energy: float) -> tuple:
+    """What an LD map's recorded parameters describe: ``(system, section, settings, info)``.
+
+    ``parameters`` are the map's stage parameters (the ``ld_maps`` entry, resolved by the LD
+    stage, as recorded in its file); ``saddle`` and ``critical_energy`` those of the saddle it was
+    computed at. ``info`` holds the total, critical and excess energies and the saddle. The LD
+    stage resolves a map with it before computing, later stages to read the map as computed.
+    """
+    system = make_system(parameters["system_name"], parameters["system_spec"])
+    key = f"ld_maps.{parameters['map_name']}"
+    section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
+    energy_spec = parameters["energy"]
+    energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
+    region = parameters.get("region")
+    if parameters["time"] == "variable":
+        if not region:
+            raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region box")
+        missing = [c for c in system.coordinates if c not in region]
+        if missing:
+            raise ConfigError(f"config key '{key}.region': no interval for {missing}; give one per coordinate")
+        lower = [region[c][0] for c in system.coordinates]
+        upper = [region[c][1] for c in system.coordinates]
+    else:
+        lower = upper = None
+    try:
+        settings = LDSettings.from_parts(
+            IntegratorSettings.from_config(parameters["integrator"]),
+            DescriptorSettings(p=parameters["p"]),
+            StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
+        )
+    except ValueError as error:
+        raise ConfigError(f"config key '{key}': {error}") from None
+    info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": energy - critical_energy,
+            "saddle": np.asarray(saddle).tolist()}
+    return system, section, settings, info
 
 
 def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None):

@@ -4,7 +4,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 
 from ldpipe.cli import main
 from ldpipe.config import validate_config

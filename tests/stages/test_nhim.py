@@ -23,6 +23,7 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states
 from ldpipe.stages import nhim as nhim_stage
+from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
 from ldpipe.stages.upo import run_upo, upo_parameters
@@ -216,13 +217,13 @@ def test_refined_points_agree_with_the_periodic_orbit(study_file):
 
 def test_validation_writes_tables_and_fails_loudly(study_file, tmp_path):
     csv_path, markdown = tmp_path / "v.csv", tmp_path / "v.md"
-    rows = nhim_stage.run_nhim_validation(studies=[study_file], csv_output=csv_path, markdown_output=markdown,
+    rows = nhim_validation.run_nhim_validation(studies=[study_file], csv_output=csv_path, markdown_output=markdown,
                                           tolerance=1e-7, residence_ratio=2.0)
     assert [row["status"] for row in rows] == ["ok", "ok"]
     assert csv_path.read_text().count("\n") == 3 and "| fig4_small | k-7.2 |" in markdown.read_text()
     # A tolerance below the achieved distance must fail, naming the slice and the distance.
-    with pytest.raises(nhim_stage.NHIMValidationError, match=r"fig4_small/k-7.0: distance .* > tolerance 1e-13"):
-        nhim_stage.run_nhim_validation(studies=[study_file], csv_output=csv_path, markdown_output=markdown,
+    with pytest.raises(nhim_validation.NHIMValidationError, match=r"fig4_small/k-7.0: distance .* > tolerance 1e-13"):
+        nhim_validation.run_nhim_validation(studies=[study_file], csv_output=csv_path, markdown_output=markdown,
                                        tolerance=1e-13, residence_ratio=2.0)
     assert "FAIL" in csv_path.read_text()  # the tables are written before the failure
 

@@ -206,8 +206,8 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     key = "accuracy_cost.nhim"
     data = _equilibria_for(equilibria, parameters["system_name"], f"{key}.map ({name})")
     system, section, settings, info = resolve_map(parameters, data)
-    position, critical_energy = select_saddle(data, parameters.get("saddle_near"))
-    problem = make_slice_problem(name, system, section, info["energy"], critical_energy, position, settings)
+    problem = make_slice_problem(name, system, section, info["energy"], info["critical_energy"],
+                                 np.asarray(info["saddle"]), settings)
     family = upo["family"]
     ref = upo["reference"]
     reference = CorrectorStep(ref["tolerance"], ref["energy_tolerance"], ref["rtol"], ref["rtol"])

@@ -15,17 +15,14 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..systems import system_spec
 from ..contracts import EQUILIBRIA, LD_GRID, LD_TILE
 from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
-from ..engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
+from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle
-from ..errors import ConfigError
-from ..ld_grid import gather_tiles, ld_grid_dataset, tile_rows
+from ..ld_grid import gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
-from ..sections import Section
-from ..systems import make_system
+from ..systems import system_spec
 
 log = get_logger(__name__)
 
@@ -54,35 +51,10 @@ def ld_map_tiles(config: dict, map_name: str) -> int:
 
 
 def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
-    """The system, section, total energy and engine settings a map's parameters describe."""
-    system = make_system(parameters["system_name"], parameters["system_spec"])
-    key = f"ld_maps.{parameters['map_name']}"
+    """The system, section, engine settings and energies a map's parameters describe, at the saddle
+    its ``saddle_near`` selects in the equilibria file (see :func:`ldpipe.ld_grid.resolve_ld_map`)."""
     saddle, critical_energy = select_saddle(equilibria, parameters.get("saddle_near"))
-    section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
-    energy_spec = parameters["energy"]
-    energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
-    region = parameters.get("region")
-    if parameters["time"] == "variable":
-        if not region:
-            raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region box")
-        missing = [c for c in system.coordinates if c not in region]
-        if missing:
-            raise ConfigError(f"config key '{key}.region': no interval for {missing}; give one per coordinate")
-        lower = [region[c][0] for c in system.coordinates]
-        upper = [region[c][1] for c in system.coordinates]
-    else:
-        lower = upper = None
-    try:
-        settings = LDSettings.from_parts(
-            IntegratorSettings.from_config(parameters["integrator"]),
-            DescriptorSettings(p=parameters["p"]),
-            StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
-        )
-    except ValueError as error:
-        raise ConfigError(f"config key '{key}': {error}") from None
-    info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": energy - critical_energy,
-            "saddle": saddle.tolist()}
-    return system, section, settings, info
+    return resolve_ld_map(parameters, saddle, critical_energy)
 
 
 def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:

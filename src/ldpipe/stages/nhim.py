@@ -26,18 +26,15 @@ import xarray as xr
 
 from ..contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
-from ..engine import LDSettings
 from ..errors import ConfigError
+from ..ld_grid import resolve_ld_map
 from ..logs import get_logger
 from ..nhim import (
     RefinementFailed, RefinementSettings, SliceProblem, detect_global_argmax, detect_nhim_cell, ld_at_points,
     make_slice_problem, orbit_section_crossing, orbit_section_residual, refine_by_fates, refine_by_ld_zoom,
     residence_evidence, section_point_states,
 )
-from ..sections import Section
-from ..systems import make_system
 from . import ld as ld_stage
-from .nhim_validation import NHIMValidationError, run_nhim_validation, validation_rows  # noqa: F401 (re-exported)
 
 log = get_logger(__name__)
 
@@ -83,25 +80,17 @@ def nhim_study_inputs(config: dict, study: str) -> dict[str, list[str]]:
 
 
 def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
-    """The slice problem an LD map file (or an in-memory map) describes, from its own attributes."""
-    system = make_system(parameters["system_name"], parameters["system_spec"])
+    """The slice problem of an LD map file (or an in-memory map): its recorded parameters, resolved
+    at the saddle the map records it was computed at, exactly as the LD stage resolved them."""
     saddle = np.asarray(dataset.attrs["saddle_position"], dtype=np.float64)
-    section = Section.from_spec(parameters["section"], system, saddle,
-                                key=f"ld_maps.{parameters['map_name']}.section")
+    system, section, settings, info = resolve_ld_map(parameters, saddle, float(dataset.attrs["critical_energy"]))
     if section.shape != tuple(dataset.sizes[axis] for axis in section.axes):
         raise ValueError(f"LD map {parameters['map_name']}: grid {dict(dataset.sizes)} is not its section's {section.shape}")
-    lower, upper = np.atleast_1d(dataset.attrs["region_lower"]), np.atleast_1d(dataset.attrs["region_upper"])
-    if len(lower) != system.n_dof:
+    if not settings.variable_time:
         raise ConfigError(f"LD map {parameters['map_name']}: NHIM detection needs a variable-time map with a saddle "
-                          f"region; this one is {dataset.attrs.get('time_mode', 'fixed')} time")
-    settings = LDSettings(
-        scheme=str(dataset.attrs["scheme"]), rtol=float(dataset.attrs["rtol"]), atol=float(dataset.attrs["atol"]),
-        dt=float(dataset.attrs["dt"]), p=parameters["p"], tau=float(dataset.attrs["tau"]),
-        region_lower=tuple(lower), region_upper=tuple(upper), escape_radius=float(dataset.attrs["escape_radius"]),
-        taylor_order=int(dataset.attrs.get("taylor_order", 0)) or None,
-    )
-    return make_slice_problem(parameters["map_name"], system, section, float(dataset.attrs["energy"]),
-                              float(dataset.attrs["critical_energy"]), saddle, settings)
+                          f"region; this one is {parameters['time']} time")
+    return make_slice_problem(parameters["map_name"], system, section, info["energy"], info["critical_energy"],
+                              saddle, settings)
 
 
 def _orbits_at_energy(path: str | Path, energy: float) -> tuple[np.ndarray, float, np.ndarray] | None:
