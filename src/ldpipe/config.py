@@ -132,8 +132,11 @@ def _check_ld_maps(config: dict) -> None:
                 f"name each of {list(phase)} exactly once; got axes {axes}, fixed {list(spec['section']['fixed'])}, "
                 f"solve {spec['section']['solve']!r}"
             )
-        if not spec["section"]["solve"].startswith("p") or spec["section"]["solve"] not in phase[len(coordinates):]:
-            raise ConfigError(f"config key '{key}.section.solve': expected a momentum, one of {list(phase[len(coordinates):])}")
+        if spec["section"]["solve"] in coordinates and "root" not in spec["section"]:
+            raise ConfigError(
+                f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
+                "to take: largest, smallest or {nearest: VALUE}"
+            )
         if spec["section"]["axes"][0]["points"] < spec["tiles"]:
             raise ConfigError(
                 f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "

@@ -11,6 +11,16 @@ p_y > 0) is ``axes=("x", "px"), fixed={"y": 0}, solve="py", sign=+1``; its 3 DoF
 U_xpx^+ is ``axes=("x", "px"), fixed={"y": y_eq, "z": z_eq, "py": 0},
 solve="pz"``.
 
+The solved coordinate may instead be a position q_s: every momentum is then given, and
+q_s solves V(q) = E - |p|^2 / 2 with the other positions fixed, a 1-D root problem. Which
+root is taken is stated (``root``: ``largest``, ``smallest`` or ``nearest`` a value);
+points with no root are not allowed, like those outside the energy surface. If V is a
+polynomial of degree at most 2 in q_s, the roots are a closed form; otherwise they are
+sought on an interval ``search = (low, high)``: sign changes on SCAN_POINTS samples, then
+bisection (a pair of roots closer than the sample spacing can be missed). Hénon–Heiles'
+slice of ldds' tutorial is ``axes=("y", "py"), fixed={"px": 0}, solve="x",
+root="largest"`` (the root x >= 0).
+
 A configuration spec of a section (``ld_maps.<name>.section``,
 ``poincare_sections.<name>.initial_conditions``) is resolved into a
 :class:`Section` once, by :meth:`Section.from_spec`, where fixed values given as
@@ -21,13 +31,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from numbers import Real
 
 import numpy as np
+import sympy
 
 from .errors import ConfigError
 from .systems import System
 
+# Which root a solved position takes (``root`` of a section spec).
+ROOTS = ("largest", "smallest", "nearest")
+# Samples of the scan for sign changes on ``search`` and bisection steps after it.
+SCAN_POINTS = 257
+BISECTIONS = 64
 
 @dataclass(frozen=True)
 class Section:
@@ -39,6 +56,9 @@ class Section:
     fixed: dict[str, float]
     solve: str
     sign: int = 1
+    root: str | None = None
+    near: float | None = None
+    search: tuple[float, float] | None = None
 
     @classmethod
     def from_spec(
@@ -50,8 +70,10 @@ class Section:
         ----------
         spec : mapping
             ``axes`` (two ``{name, range: [low, high], points}``), ``fixed`` (optional;
-            coordinate -> number, or ``'saddle'``), ``solve`` (a momentum) and ``sign``
-            (optional, +1 or -1, default +1), as the config schema's section.
+            coordinate -> number, or ``'saddle'``), ``solve`` (a momentum, or a position),
+            ``sign`` (optional, +1 or -1, default +1; momenta only), ``root`` (positions:
+            ``largest``, ``smallest`` or ``{nearest: VALUE}``) and ``search`` (positions,
+            optional: ``[low, high]``), as the config schema's section.
         system : System
         saddle : ndarray, shape (n_dof,), optional
             Position of the selected index-1 saddle, the value of ``'saddle'`` coordinates.
@@ -75,6 +97,12 @@ class Section:
             lacking = [name for name in ("name", "range", "points") if name not in axis]
             if lacking:
                 raise ConfigError(f"config key '{key}.axes.{index}': lacks {lacking}")
+        root, near = root_rule(spec.get("root"), key=f"{key}.root")
+        search = spec.get("search")
+        if search is not None:
+            if len(search) != 2 or not all(isinstance(v, Real) and not isinstance(v, bool) for v in search):
+                raise ConfigError(f"config key '{key}.search': expected [low, high], got {search!r}")
+            search = (float(search[0]), float(search[1]))
         section = cls(
             axes=(axes[0]["name"], axes[1]["name"]),
             ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
@@ -82,6 +110,9 @@ class Section:
             fixed=fixed_values(spec.get("fixed", {}), system, saddle, key=f"{key}.fixed"),
             solve=spec["solve"],
             sign=spec.get("sign", 1),
+            root=root,
+            near=near,
+            search=search,
         )
         section.check(system, key=key)
         return section
@@ -97,12 +128,27 @@ class Section:
         unknown = [name for name in named if name not in phase]
         if unknown:
             raise ConfigError(f"config key {key!r}: {unknown} are not phase coordinates of {system.name}; expected {list(phase)}")
-        if self.solve not in system.momenta:
-            raise ConfigError(f"config key '{key}.solve': {self.solve!r} is not a momentum; expected one of {list(system.momenta)}")
+        if self.solve in system.momenta and (self.root is not None or self.search is not None):
+            raise ConfigError(
+                f"config key '{key}.root': 'root' and 'search' are for a solved position; a momentum takes 'sign'"
+            )
+        if self.solve in system.coordinates:
+            if self.root not in ROOTS or (self.root == "nearest") != (self.near is not None):
+                raise ConfigError(
+                    f"config key '{key}.root': solving the position {self.solve!r} needs the root to take: "
+                    f"largest, smallest or {{nearest: VALUE}}; got {self.root!r}"
+                )
+            if self.search is None and quadratic_in(system, self.solve) is None:
+                raise ConfigError(
+                    f"config key '{key}.search': V of {system.name} is not a quadratic polynomial in {self.solve!r} "
+                    "(or has no formula); give the interval to seek its roots in, search: [low, high]"
+                )
+            if self.search is not None and not self.search[0] < self.search[1]:
+                raise ConfigError(f"config key '{key}.search': expected [low, high] with low < high, got {list(self.search)}")
         if len(named) != len(set(named)) or set(named) != set(phase):
             missing = sorted(set(phase) - set(named))
             raise ConfigError(
-                f"config key {key!r}: the two axes, the fixed coordinates and the solved momentum must name "
+                f"config key {key!r}: the two axes, the fixed coordinates and the solved coordinate must name "
                 f"each of {list(phase)} exactly once (missing {missing}, given {named})"
             )
         if self.sign not in (1, -1):
@@ -110,6 +156,46 @@ class Section:
         for (lo, hi), axis in zip(self.ranges, self.axes):
             if not lo < hi:
                 raise ConfigError(f"config key '{key}.axes.{axis}': expected [low, high] with low < high, got {[lo, hi]}")
+
+
+def root_rule(spec, *, key: str = "root") -> tuple[str | None, float | None]:
+    """``(root, near)`` of a ``root`` spec: None, 'largest', 'smallest' or {nearest: VALUE}."""
+    if spec is None or spec in ("largest", "smallest"):
+        return spec, None
+    if isinstance(spec, Mapping) and set(spec) == {"nearest"}:
+        value = spec["nearest"]
+        if isinstance(value, Real) and not isinstance(value, bool):
+            return "nearest", float(value)
+    if spec == "nearest":
+        raise ConfigError(f"config key {key!r}: 'nearest' needs the value to be nearest to, {{nearest: VALUE}}")
+    raise ConfigError(f"config key {key!r}: expected largest, smallest or {{nearest: VALUE}}, got {spec!r}")
+
+
+@lru_cache(maxsize=32)
+def _quadratic_coefficients(formula: str, coordinates: tuple, parameters: tuple, name: str):
+    from .systems.formula import parse_potential
+
+    expression = parse_potential(formula, coordinates, dict(parameters), "systems")
+    symbols = [sympy.Symbol(c, real=True) for c in coordinates]
+    solved = symbols[coordinates.index(name)]
+    try:
+        polynomial = sympy.Poly(expression, solved)
+    except sympy.polys.polyerrors.BasePolynomialError:
+        return None
+    if polynomial.degree() > 2 or polynomial.degree() < 1:
+        return None
+    others = [s for s in symbols if s != solved]
+    return tuple(
+        sympy.lambdify(others, polynomial.coeff_monomial(solved**k), "numpy") for k in (2, 1, 0)
+    )
+
+
+def quadratic_in(system: System, name: str):
+    """Functions (a, b, c) of the other coordinates with V = a q^2 + b q + c in the coordinate
+    ``name`` = q, or None if V is not such a polynomial (or the system has no formula)."""
+    if not system.formula:
+        return None
+    return _quadratic_coefficients(system.formula, tuple(system.coordinates), tuple(sorted(system.parameters.items())), name)
 
 
 def fixed_values(
@@ -145,9 +231,9 @@ def section_states(
     states : ndarray, shape (n_allowed, 2 n_dof)
         The allowed points, in C order of the grid (first axis slowest).
     allowed : ndarray of bool, shape (rows, ``section.shape[1]``)
-        Where the solved momentum is real.
+        Where the solved momentum is real, or the solved position has a root.
     solved : ndarray, shape (rows, ``section.shape[1]``)
-        The solved momentum (0 where not allowed).
+        The solved coordinate (0 where not allowed).
     """
     section.check(system)
     n = system.n_dof
@@ -161,14 +247,107 @@ def section_states(
     for name, value in section.fixed.items():
         states[:, phase.index(name)] = value
     solve = phase.index(section.solve)
-    potential = np.empty(len(states))
-    positions = np.ascontiguousarray(states[:, :n].T)
-    system.kernels.potential_block(positions, potential, len(states))
-    other_momenta = np.delete(states[:, n:], solve - n, axis=1)
-    radicand = 2.0 * (energy - potential) - np.sum(other_momenta**2, axis=1)
-    allowed = radicand >= 0.0
-    solved = np.zeros(len(states))
-    solved[allowed] = section.sign * np.sqrt(radicand[allowed])
+    if solve < n:
+        allowed, solved = _solve_position(system, section, states, energy)
+    else:
+        potential = np.empty(len(states))
+        positions = np.ascontiguousarray(states[:, :n].T)
+        system.kernels.potential_block(positions, potential, len(states))
+        other_momenta = np.delete(states[:, n:], solve - n, axis=1)
+        radicand = 2.0 * (energy - potential) - np.sum(other_momenta**2, axis=1)
+        allowed = radicand >= 0.0
+        solved = np.zeros(len(states))
+        solved[allowed] = section.sign * np.sqrt(radicand[allowed])
     states[:, solve] = solved
     shape = grid_first.shape
     return states[allowed], allowed.reshape(shape), solved.reshape(shape)
+
+
+def _pick(roots: np.ndarray, valid: np.ndarray, section: Section) -> tuple[np.ndarray, np.ndarray]:
+    """The root ``section.root`` takes of each row of ``roots`` (candidates where ``valid``)."""
+    if section.root == "largest":
+        score = np.where(valid, roots, -np.inf)
+        index = np.argmax(score, axis=1)
+    elif section.root == "smallest":
+        score = np.where(valid, roots, np.inf)
+        index = np.argmin(score, axis=1)
+    else:
+        score = np.where(valid, np.abs(roots - section.near), np.inf)
+        index = np.argmin(score, axis=1)
+    rows = np.arange(len(roots))
+    return valid[rows, index], roots[rows, index]
+
+
+def _solve_position(system: System, section: Section, states: np.ndarray, energy: float):
+    """``(allowed, solved)``: the position ``section.solve`` with V = E - |p|^2 / 2, the others fixed.
+
+    V quadratic in it: the closed form (both roots, the stable formula). Otherwise, on
+    ``section.search``: the sign changes of V - target on SCAN_POINTS samples, then bisection
+    of the bracket of the root taken (a tangency between two samples is missed). Vectorized
+    over all points, in chunks.
+    """
+    n = system.n_dof
+    s = system.coordinates.index(section.solve)
+    target = energy - 0.5 * np.sum(states[:, n:] ** 2, axis=1)
+    count = len(states)
+    if section.search is None:
+        others = [states[:, l] for l in range(n) if l != s]
+        a, b, c = (np.broadcast_to(np.asarray(f(*others), dtype=np.float64), (count,)) for f in quadratic_in(system, section.solve))
+        c = c - target
+        with np.errstate(divide="ignore", invalid="ignore"):
+            discriminant = b * b - 4.0 * a * c
+            root = np.sqrt(np.maximum(discriminant, 0.0))
+            half = -0.5 * (b + np.copysign(root, b))
+            quadratic = np.column_stack([half / a, np.where(half != 0.0, c / half, half / a)])
+            linear = -c / b
+        is_quadratic = (a != 0.0)[:, None]
+        roots = np.where(is_quadratic, quadratic, linear[:, None])
+        valid = np.isfinite(roots) & np.where(is_quadratic, (discriminant >= 0.0)[:, None], True)
+        allowed, solved = _pick(roots, valid, section)
+        return allowed, np.where(allowed, solved, 0.0)
+
+    samples = np.linspace(*section.search, SCAN_POINTS)
+    allowed = np.zeros(count, dtype=bool)
+    solved = np.zeros(count)
+    columns = np.ascontiguousarray(states[:, :n].T)  # (n, count), the kernels' layout
+    chunk = max(1, 2**20 // SCAN_POINTS)
+    for start in range(0, count, chunk):
+        part = slice(start, min(start + chunk, count))
+        size = part.stop - part.start
+        positions = np.empty((n, size * SCAN_POINTS))
+        for l in range(n):
+            positions[l] = np.tile(samples, size) if l == s else np.repeat(columns[l, part], SCAN_POINTS)
+        g = _potential(system, positions).reshape(size, SCAN_POINTS) - target[part, None]
+        below, finite = g <= 0.0, np.isfinite(g)
+        change = (below[:, :-1] != below[:, 1:]) & finite[:, :-1] & finite[:, 1:]
+        middles = np.broadcast_to(0.5 * (samples[:-1] + samples[1:]), change.shape)
+        if section.root == "nearest":  # the nearest bracket on each side of the value, both refined
+            left = Section(**{**section.__dict__, "root": "largest"})
+            right = Section(**{**section.__dict__, "root": "smallest"})
+            candidates = [_pick(middles, change & (middles <= section.near), left),
+                          _pick(middles, change & (middles >= section.near), right)]
+        else:
+            candidates = [_pick(middles, change, section)]
+        roots = []
+        for _, middle in candidates:
+            index = np.clip(np.searchsorted(samples, middle) - 1, 0, SCAN_POINTS - 2)
+            low, high = samples[index], samples[index + 1]
+            low_below = below[np.arange(size), index]
+            point = np.array(columns[:, part])
+            for _ in range(BISECTIONS):
+                mid = 0.5 * (low + high)
+                point[s] = mid
+                same = (_potential(system, point) - target[part] <= 0.0) == low_below
+                low, high = np.where(same, mid, low), np.where(same, high, mid)
+            roots.append(0.5 * (low + high))
+        found, root = _pick(np.column_stack(roots), np.column_stack([f for f, _ in candidates]), section)
+        allowed[part] = found
+        solved[part] = np.where(found, root, 0.0)
+    return allowed, solved
+
+
+def _potential(system: System, positions: np.ndarray) -> np.ndarray:
+    """V at each column of ``positions`` (shape (n_dof, count), C-contiguous)."""
+    out = np.empty(positions.shape[1])
+    system.kernels.potential_block(positions, out, positions.shape[1])
+    return out

@@ -321,14 +321,7 @@ def test_quartic_with_constant_force_agrees_with_solve_ivp(quartic, direction):
     assert relative(arc.ld, reference[:, 1]).max() < 5e-12
 
 
-# --- 4. non-polynomial potentials ------------------------------------------------------------------
-@pytest.mark.parametrize("term", ["exp(x)", "cos(y)", "1/(1 + x**2)", "x**2.5"])
-def test_non_polynomial_potential_is_refused(term):
-    # Transcendental, rational and fractional-power terms have no finite Taylor recurrence
-    # of this kind: a clear error naming the system, before anything is compiled.
-    system = make_system("not_polynomial", {"formula": f"(x**2 + y**2)/2 + {term}", "coordinates": ["x", "y"]})
-    with pytest.raises(ValueError, match=r"'not_polynomial'.*not a polynomial"):
-        compute_ld(system, np.array([[0.1, 0.2, 0.3, 0.4]]), +1, taylor(FORMULA_ORDER, 1e-10, tau=1.0))
+# --- 4. potentials that are not polynomials: tests/engine/test_taylor_formulas.py ------------------
 
 
 # --- 7. settings -------------------------------------------------------------------------------------

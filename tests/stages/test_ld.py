@@ -11,6 +11,7 @@ from ldpipe.datafile import open_stage_file, stage_parameters
 from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, write_ld_map
+from ldpipe.systems import make_system
 
 BOX = {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}
 
@@ -141,3 +142,43 @@ def test_escaping_fixed_step_map_is_finite_and_records_its_quadrature(equilibria
     assert dataset.escaped_forward.values[allowed].any() or dataset.escaped_backward.values[allowed].any()
     # the quadrature settings in use: LDSettings' defaults for a fixed-step scheme
     assert dataset.attrs["quadrature_window"] == 0.2 and dataset.attrs["quad_nodes"] == 6
+
+
+def test_map_with_a_solved_position_records_it_like_a_momentum(tmp_path):
+    # Hénon–Heiles on ldds' tutorial slice (axes y, p_y; p_x = 0; x solved, the root x >= 0).
+    # Invariant: every allowed point has H = E; closed form: x^2 (1 + 2 y) = 2 E - p_y^2 - y^2
+    # + 2 y^3 / 3, no root (not allowed, never integrated) where the right side over 1 + 2 y is < 0.
+    formula = "(x**2 + y**2)/2 + x**2*y - y**3/3"
+    energy = 0.125
+    ld_map = {
+        "system": "henon_heiles",
+        "section": {
+            "axes": [{"name": "y", "range": [-0.45, 0.8], "points": 11}, {"name": "py", "range": [-0.5, 0.5], "points": 9}],
+            "fixed": {"px": 0.0},
+            "solve": "x",
+            "root": "largest",
+        },
+        "energy": {"total": energy},
+        "tau": 2.0,
+        "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8},
+    }
+    config = validate_config({"systems": {"henon_heiles": {"formula": formula, "coordinates": ["x", "y"]}},
+                              "ld_maps": {"m": ld_map}})
+    system = make_system("henon_heiles", {"formula": formula, "coordinates": ["x", "y"]})
+    parameters = ld_map_parameters(config, "m")
+    dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
+    path = write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False)
+    stored = open_stage_file(path, stage="ld_grid")
+    allowed = stored.allowed.values.astype(bool)
+    y, py = np.meshgrid(stored.y.values, stored.py.values, indexing="ij")
+    x = stored.x.values
+    assert stored.x.dims == ("y", "py") and "solved from the energy" in stored.x.attrs["long_name"]
+    x_squared = (2 * energy - py**2 - y**2 + 2 * y**3 / 3) / (1 + 2 * y)
+    np.testing.assert_array_equal(allowed, x_squared >= 0)
+    assert 0 < allowed.sum() < allowed.size
+    np.testing.assert_allclose(x[allowed], np.sqrt(x_squared[allowed]), rtol=1e-13, atol=1e-15)
+    assert np.all(x[~allowed] == 0)
+    h = 0.5 * py**2 + 0.5 * (x**2 + y**2) + x**2 * y - y**3 / 3
+    np.testing.assert_allclose(h[allowed], energy, rtol=0, atol=1e-12)
+    for name in ("ld_forward", "ld_backward"):
+        assert np.all(stored[name].values[~allowed] == 0) and np.all(stored[name].values[allowed] > 0), name

@@ -6,6 +6,7 @@ import pytest
 from ldpipe.equilibria import equilibria_dataset, select_saddle
 from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states
+from ldpipe.systems import make_system
 
 
 def test_uxpx_allowed_disc_and_solved_momentum(barbanis):
@@ -64,7 +65,7 @@ def test_forbidden_everywhere_gives_no_states(barbanis):
 @pytest.mark.parametrize(
     "kwargs, words",
     [
-        ({"fixed": {"y": 0.0}, "solve": "x"}, ["solve", "not a momentum"]),
+        ({"fixed": {"y": 0.0}, "solve": "x"}, ["'section.root'", "solving the position 'x'"]),
         ({"fixed": {}, "solve": "py"}, ["exactly once", "missing ['y']"]),
         ({"fixed": {"y": 0.0, "z": 1.0}, "solve": "py"}, ["not phase coordinates", "z"]),
         ({"fixed": {"px": 0.0}, "solve": "py"}, ["exactly once"]),
@@ -146,7 +147,7 @@ def test_from_spec_momentum_at_the_saddle_is_zero_and_numbers_pass_through(barba
         (spec({"y": 0.0}, sign=2), None, ["'ld_maps.m.section.sign'"]),
         (spec({"y": 0.0}, axes=(("x", (1, 0), 3), ("px", (0, 1), 3))), None, ["'ld_maps.m.section.axes.x'", "low < high"]),
         (spec({"y": 0.0}, solve="x", axes=(("y", (0, 1), 3), ("px", (0, 1), 3))), None,
-         ["'ld_maps.m.section.solve'", "not a momentum"]),
+         ["'ld_maps.m.section.root'", "largest, smallest or {nearest: VALUE}"]),
     ],
 )
 def test_from_spec_names_the_offending_key(barbanis, bad, saddle, words):
@@ -154,3 +155,121 @@ def test_from_spec_names_the_offending_key(barbanis, bad, saddle, words):
         Section.from_spec(bad, barbanis, None if saddle is None else np.asarray(saddle), key="ld_maps.m.section")
     for word in words:
         assert word in str(info.value)
+
+
+# ----------------------------------------------------------------------------------------------
+# A position solved from the energy (``solve: x``, ``root``)
+HENON_HEILES = {"formula": "(x**2 + y**2)/2 + x**2*y - y**3/3", "coordinates": ["x", "y"]}
+HH_ENERGY = 0.125
+
+
+@pytest.fixture(scope="module")
+def henon_heiles():
+    return make_system("henon_heiles", HENON_HEILES)
+
+
+def henon_heiles_slice(**extra):
+    """ldds' tutorial slice: axes y, p_y, p_x = 0, x solved from the energy."""
+    axes = [{"name": "y", "range": [-0.7, 0.9], "points": 81}, {"name": "py", "range": [-0.6, 0.6], "points": 61}]
+    return {"axes": axes, "fixed": {"px": 0.0}, "solve": "x", **extra}
+
+
+def henon_heiles_x_squared(y, py, energy):
+    """Closed form: with p_x = 0, H = E is quadratic in x, x^2 (1 + 2 y) = 2 E - p_y^2 - y^2 + 2 y^3 / 3."""
+    return (2.0 * energy - py**2 - y**2 + 2.0 * y**3 / 3.0) / (1.0 + 2.0 * y)
+
+
+def henon_heiles_energy(states):
+    x, y, px, py = states.T
+    return 0.5 * (px**2 + py**2) + 0.5 * (x**2 + y**2) + x**2 * y - y**3 / 3.0
+
+
+@pytest.mark.parametrize("root, sign", [("largest", 1.0), ("smallest", -1.0), ({"nearest": -5.0}, -1.0)])
+def test_solved_position_meets_the_closed_form(henon_heiles, root, sign):
+    # Closed form (henon_heiles_x_squared): the roots are +-sqrt(x^2); largest takes +, smallest
+    # and the one nearest -5 take -. Points with x^2 < 0 have no root: not allowed, solved 0.
+    # Invariant: H(state) = E. (Points with |x^2| < 1e-12 sit on the boundary: rounding decides.)
+    section = Section.from_spec(henon_heiles_slice(root=root), henon_heiles)
+    states, allowed, solved = section_states(henon_heiles, section, HH_ENERGY)
+    y, py = np.meshgrid(*section.axis_values(), indexing="ij")
+    x_squared = henon_heiles_x_squared(y, py, HH_ENERGY)
+    clear = np.abs(x_squared) > 1e-12
+    np.testing.assert_array_equal(allowed[clear], x_squared[clear] > 0)
+    assert 0 < allowed.sum() < allowed.size
+    # compared as x^2 (its square root near the boundary would magnify the rounding of either form)
+    np.testing.assert_allclose(solved[allowed] ** 2, x_squared[allowed], rtol=1e-13, atol=1e-15)
+    assert np.all(sign * solved[allowed & clear] > 0)
+    assert np.all(solved[~allowed] == 0.0)
+    np.testing.assert_allclose(henon_heiles_energy(states), HH_ENERGY, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(states[:, 2], 0.0)
+
+
+def test_solved_position_by_scan_meets_the_closed_form(henon_heiles):
+    # The scan (sign changes on 257 samples of search, then bisection) against the closed form,
+    # where the largest root lies inside search = [0, 2] and away from its ends.
+    section = Section.from_spec(henon_heiles_slice(root="largest", search=[0.0, 2.0]), henon_heiles)
+    states, allowed, solved = section_states(henon_heiles, section, HH_ENERGY)
+    y, py = np.meshgrid(*section.axis_values(), indexing="ij")
+    x_squared = henon_heiles_x_squared(y, py, HH_ENERGY)
+    inside = (x_squared > 1e-6) & (x_squared < 1.9**2)
+    assert inside.sum() > 1000 and allowed[inside].all()
+    np.testing.assert_allclose(solved[inside], np.sqrt(x_squared[inside]), rtol=1e-13)
+    np.testing.assert_array_equal(allowed[x_squared < 0], False)
+    np.testing.assert_allclose(henon_heiles_energy(states), HH_ENERGY, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("root", ["largest", "smallest", {"nearest": 0.5}])
+def test_solved_position_of_a_morse_potential(root):
+    # Not a polynomial, so sought on search. Closed form: D (1 - exp(-a x))^2 = W, W = E - |p|^2/2
+    # - y^2/2, has the roots x = -ln(1 -+ sqrt(W / D)) / a (only the + one for W >= D).
+    system = make_system("morse_section", {"formula": "2*(1 - exp(-0.8*x))**2 + y**2/2", "coordinates": ["x", "y"]})
+    spec = {"axes": [{"name": "y", "range": [-1.5, 1.5], "points": 31}, {"name": "px", "range": [-1.5, 1.5], "points": 31}],
+            "fixed": {"py": 0.0}, "solve": "x", "root": root, "search": [-3.0, 20.0]}
+    section = Section.from_spec(spec, system)
+    energy = 1.5
+    states, allowed, solved = section_states(system, section, energy)
+    y, px = np.meshgrid(*section.axis_values(), indexing="ij")
+    w = energy - 0.5 * px**2 - 0.5 * y**2
+    r = np.sqrt(np.clip(w / 2.0, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        outer, inner = -np.log(1.0 - r) / 0.8, -np.log(1.0 + r) / 0.8
+    expected = {"largest": outer, "smallest": inner}.get(root if isinstance(root, str) else "", None)
+    if expected is None:  # nearest 0.5: the outer root when it is the nearer one
+        expected = np.where(np.abs(outer - 0.5) < np.abs(inner - 0.5), outer, inner)
+    clear = w > 1e-6
+    np.testing.assert_array_equal(allowed[clear], True)
+    np.testing.assert_array_equal(allowed[w < 0], False)
+    np.testing.assert_allclose(solved[clear], expected[clear], rtol=1e-12, atol=1e-14)
+    x, y_, px_, py_ = states.T
+    energies = 0.5 * (px_**2 + py_**2) + 2.0 * (1.0 - np.exp(-0.8 * x)) ** 2 + 0.5 * y_**2
+    np.testing.assert_allclose(energies, energy, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        ({}, ["'ld_maps.m.section.root'", "largest, smallest or {nearest: VALUE}"]),
+        ({"root": "nearest"}, ["'ld_maps.m.section.root'", "{nearest: VALUE}"]),
+        ({"root": {"nearest": "zero"}}, ["'ld_maps.m.section.root'", "expected largest, smallest"]),
+        ({"root": "biggest"}, ["'ld_maps.m.section.root'", "'biggest'"]),
+        ({"root": "largest", "search": [1.0]}, ["'ld_maps.m.section.search'", "[low, high]"]),
+        ({"root": "largest", "search": [1.0, 0.0]}, ["'ld_maps.m.section.search'", "low < high"]),
+        ({"root": "largest", "solve": "w"}, ["'ld_maps.m.section'", "not phase coordinates", "'w'"]),
+    ],
+)
+def test_bad_position_specs_name_the_key(henon_heiles, extra, words):
+    with pytest.raises(ConfigError) as info:
+        Section.from_spec(henon_heiles_slice(**extra), henon_heiles, key="ld_maps.m.section")
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_root_for_a_momentum_and_search_for_a_cubic_name_the_key(henon_heiles):
+    momentum = {**henon_heiles_slice(root="largest"), "fixed": {"x": 0.0}, "solve": "px"}
+    with pytest.raises(ConfigError, match=r"'ld_maps.m.section.root'.*a momentum takes 'sign'"):
+        Section.from_spec(momentum, henon_heiles, key="ld_maps.m.section")
+    cubic = {"axes": [{"name": "x", "range": [0, 1], "points": 3}, {"name": "py", "range": [0, 1], "points": 3}],
+             "fixed": {"px": 0.0}, "solve": "y", "root": "largest"}  # V is cubic in y
+    with pytest.raises(ConfigError, match=r"'ld_maps.m.section.search'.*not a quadratic polynomial in 'y'"):
+        Section.from_spec(cubic, henon_heiles, key="ld_maps.m.section")
+    assert Section.from_spec({**cubic, "search": [-1.0, 2.0]}, henon_heiles).search == (-1.0, 2.0)

@@ -75,7 +75,7 @@ class IntegratorSettings:
     scheme : str
         A scheme of the registry :data:`ldpipe.engine.schemes.SCHEMES`: ``dop853`` (adaptive
         Dormand–Prince 8(5,3), per-trajectory step control), ``taylor`` (Taylor series of order
-        ``taylor_order``, Jorba–Zou steps; polynomial potentials only), ``rk4`` (classical
+        ``taylor_order``, Jorba–Zou steps; potentials given by a formula), ``rk4`` (classical
         Runge–Kutta, fixed step), ``sym4``/``sym6`` (fixed-step symplectic compositions of
         Störmer–Verlet, 4th and 6th order). Adaptive schemes use ``rtol``/``atol``, fixed-step
         ones ``dt`` (the record's ``parameters``).

@@ -107,6 +107,10 @@ def _section_text(section: dict) -> str:
     axes = [axis["name"] for axis in section["axes"]]
     sign = "+" if section.get("sign", 1) == 1 else "−"
     fixed = ", ".join(f"{k} = {v if v == 'saddle' else _number(v)}" for k, v in section.get("fixed", {}).items())
+    if "root" in section:  # a solved position
+        root = section["root"]
+        rule = f"nearest {_number(root['nearest'])}" if isinstance(root, dict) else root
+        return f"U_{''.join(axes)}: {fixed}, {section['solve']} the {rule} root"
     return f"U_{''.join(axes)}{sign}: {fixed}, {section['solve']} {'>' if sign == '+' else '<'} 0"
 
 

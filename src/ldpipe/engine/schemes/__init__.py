@@ -44,7 +44,7 @@ def scheme_source(scheme: str, system, lanes: int, order: int | None = None) -> 
 
     ``order``: the order of a scheme that chooses it per call (taylor; required for it,
     ignored by the others). ValueError if the scheme cannot integrate the system (taylor: a
-    potential that is not a polynomial).
+    system without a formula; ConfigError for a term with no Taylor recurrence, such as Abs's sign).
     """
     record = get_scheme(scheme)
     record.check_system(system)

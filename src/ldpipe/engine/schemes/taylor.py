@@ -1,4 +1,4 @@
-"""The ``taylor`` scheme: Taylor series stepping for q'' = a(q) with a polynomial potential.
+"""The ``taylor`` scheme: Taylor series stepping for q'' = a(q), the potential given by a formula.
 
 Along a trajectory q(t) = sum_k q_k t^k, and q'' = a(q) gives the recurrence
 
@@ -9,8 +9,15 @@ term of a contributes at k = 0, a linear term c q_l contributes c q_{l,k}, and a
 degree d >= 2 the k-th coefficient of a product of series, by Cauchy products
 (sum_{l=0}^k f_l g_{k-l}; half of it for a square), chained for d > 2. The acceleration's
 monomials come from the system's formula by sympy, so the scheme serves every polynomial
-potential (the built-ins give their formula too); a potential that is not a polynomial gets
-a clear error.
+potential (the built-ins give their formula too).
+
+A potential that is not a polynomial (exp, log, sin, cos, sqrt, real and negative powers,
+quotients; tan and the hyperbolic functions rewritten in these) takes auxiliary series
+instead: the acceleration's sympy expression tree becomes one series per distinct
+subexpression, each with its standard recurrence (automatic differentiation, Jorba & Zou
+2005; heyoka does the same; see :class:`ExpressionSeries`). A polynomial's source stays that
+of the monomials above. A term with no recurrence (Abs's sign) gets a ConfigError naming the
+system and the term.
 
 With the momentum series p = q' taken to degree m (the *order*; q to degree m + 1), the step
 follows Jorba & Zou (Experiment. Math. 14, 2005): with rho_k = max over the components of
@@ -37,6 +44,7 @@ from dataclasses import dataclass
 
 import sympy
 
+from ...errors import ConfigError
 from ..integrands import is_arclength
 from ..stepping import Layout, SchemeSource
 from .base import AdaptiveScheme
@@ -67,8 +75,9 @@ class Acceleration:
     monomials: dict
 
 
-def acceleration_of(system) -> Acceleration:
-    """The acceleration -grad V of ``system`` as polynomials, from its formula."""
+def acceleration_of(system) -> Acceleration | ExpressionSeries:
+    """The acceleration -grad V of ``system``, from its formula: as polynomials if it is one,
+    else as series nodes (:func:`expression_series`; ConfigError for a term it cannot take)."""
     from ...systems.formula import parse_potential
 
     if not system.formula:
@@ -83,10 +92,8 @@ def acceleration_of(system) -> Acceleration:
         except sympy.PolynomialError:
             polynomial = None
         if polynomial is None or not polynomial.domain.is_Numerical:
-            raise ValueError(
-                f"scheme 'taylor': the potential of system {system.name!r}, V = {system.formula}, is not a "
-                f"polynomial in {list(system.coordinates)}; the Taylor scheme needs one (use dop853)"
-            )
+            gradient = [-sympy.diff(expression, s) for s in symbols]
+            return expression_series(gradient, symbols, system.name, system.formula)
         terms.append(tuple((tuple(m), float(c)) for m, c in polynomial.terms() if float(c) != 0.0))
 
     products: list[tuple[tuple[str, int], tuple[str, int]]] = []
@@ -108,6 +115,137 @@ def acceleration_of(system) -> Acceleration:
                 factors = tuple(l for l, e in enumerate(exponents) for _ in range(e))
                 monomials[exponents] = series_of(factors)[1]
     return Acceleration(tuple(terms), tuple(products), monomials)
+
+
+# --- potentials that are not polynomials: auxiliary series ------------------------------------------
+# Functions the series recurrences take (see ExpressionSeries); others a formula may call are
+# first rewritten in these (REWRITES), and what remains is refused naming the term.
+REWRITES = {
+    sympy.tan: lambda f: sympy.sin(f) / sympy.cos(f),
+    sympy.sinh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / 2,
+    sympy.cosh: lambda f: (sympy.exp(f) + sympy.exp(-f)) / 2,
+    sympy.tanh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / (sympy.exp(f) + sympy.exp(-f)),
+}
+
+
+@dataclass(frozen=True)
+class ExpressionSeries:
+    """The acceleration -grad V as a list of series nodes, each computed degree by degree.
+
+    ``nodes[r]`` is (kind, operands, data) for the auxiliary series r, stored like a product
+    of :class:`Acceleration`; operands are ("q", l), ("aux", r') with r' < r, or
+    ("const", value). Kinds and their k-th coefficient u_k (Jorba & Zou 2005, section 3;
+    f, g the operands' series, u_0 the function's value at f_0):
+
+    - ``sum``: sum of the operands (constants at k = 0); ``scale``: data * f_k;
+    - ``product``: the Cauchy product sum_{j=0..k} f_j g_{k-j} (half of it for a square);
+    - ``exp`` (u' = f' u): u_k = (1/k) sum_{j=1..k} j f_j u_{k-j};
+    - ``log`` (f u' = f'): u_k = (f_k - (1/k) sum_{j=1..k-1} j u_j f_{k-j}) / f_0;
+    - ``sin``/``cos``, a pair (s' = c f', c' = -s f'): s_k = (1/k) sum j f_j c_{k-j},
+      c_k = -(1/k) sum j f_j s_{k-j}; ``data`` of each is the other's index;
+    - ``power`` f^data, data not a natural number (f u' = data f' u):
+      u_k = (1/(k f_0)) sum_{j=0..k-1} (data (k-j) - j) f_{k-j} u_j; data = 1/2 is sqrt.
+
+    ``components[i]`` is the operand holding a_i.
+    """
+
+    nodes: tuple
+    components: tuple
+
+
+def expression_series(expressions, symbols, name: str, formula: str) -> ExpressionSeries:
+    """The series nodes of ``expressions`` (the acceleration's components) in ``symbols``.
+
+    Equal subexpressions share one node (a memo keyed by the sympy expression), so a
+    common factor such as exp(-a x) is one auxiliary series. ConfigError names the system and
+    the term if a function has no recurrence here (Abs, sign, a special function).
+    """
+    index = {symbol: l for l, symbol in enumerate(symbols)}
+    nodes: list = []
+    memo: dict = {}
+
+    def add(kind, operands, data=None):
+        nodes.append((kind, tuple(operands), data))
+        return ("aux", len(nodes) - 1)
+
+    def refuse(term):
+        raise ConfigError(
+            f"scheme 'taylor': system {name!r}, V = {formula}: the term {term} of the acceleration has no "
+            "Taylor recurrence here (the scheme takes + - * /, powers, exp, log, sin, cos, sqrt; use dop853)"
+        )
+
+    def natural_power(base, exponent: int):
+        if exponent == 1:
+            return base
+        half = natural_power(base, exponent // 2)
+        key, square_key = ("power", base, exponent), ("power", base, exponent // 2 * 2)
+        if square_key not in memo:
+            memo[square_key] = add("product", (half, half))
+        if key not in memo:
+            memo[key] = add("product", (memo[square_key], base))
+        return memo[key]
+
+    def product(operands):
+        result = operands[0]
+        for operand in operands[1:]:
+            key = ("product", result, operand)
+            if key not in memo:
+                memo[key] = add("product", (result, operand))
+            result = memo[key]
+        return result
+
+    def build(expression):
+        if expression in memo:
+            return memo[expression]
+        if expression.is_Number:
+            result = ("const", float(expression))
+        elif expression in index:
+            result = ("q", index[expression])
+        elif not expression.free_symbols:
+            value = sympy.N(expression, 17)
+            if not value.is_real or not value.is_Number:
+                refuse(expression)
+            result = ("const", float(value))
+        elif expression.is_Add:
+            operands = [build(arg) for arg in expression.args]
+            constant = sum(value for kind, value in operands if kind == "const")
+            series = [operand for operand in operands if operand[0] != "const"]
+            result = add("sum", series + ([("const", constant)] if constant else []))
+        elif expression.is_Mul:
+            operands = [build(arg) for arg in expression.args]
+            constant = math.prod(value for kind, value in operands if kind == "const")
+            series = product([operand for operand in operands if operand[0] != "const"])
+            result = series if constant == 1.0 else add("scale", (series,), constant)
+        elif expression.is_Pow:
+            base, exponent = expression.args
+            if exponent.free_symbols:  # f^g = exp(g log f)
+                return build(sympy.exp(exponent * sympy.log(base)))
+            exponent = float(exponent)
+            if exponent.is_integer() and exponent >= 1:
+                result = natural_power(build(base), int(exponent))
+            else:
+                result = add("power", (build(base),), exponent)
+        elif isinstance(expression, sympy.exp):
+            result = add("exp", (build(expression.args[0]),))
+        elif isinstance(expression, sympy.log):
+            result = add("log", (build(expression.args[0]),))
+        elif isinstance(expression, (sympy.sin, sympy.cos)):
+            argument = build(expression.args[0])
+            sine = add("sin", (argument,), len(nodes) + 1)
+            cosine = add("cos", (argument,), len(nodes) - 1)
+            memo[sympy.sin(expression.args[0])], memo[sympy.cos(expression.args[0])] = sine, cosine
+            return memo[expression]
+        else:
+            refuse(expression)
+        memo[expression] = result
+        return result
+
+    components = []
+    for expression in expressions:
+        for function, rewrite in REWRITES.items():
+            expression = expression.replace(function, rewrite)
+        components.append(build(expression))
+    return ExpressionSeries(tuple(nodes), tuple(components))
 
 
 def _power_source(name: str, exponent: int) -> str:
@@ -134,7 +272,8 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
     """
     n, B, m = L.n, L.lanes, order
     NB = n * B
-    n_products = len(acceleration.products)
+    general = isinstance(acceleration, ExpressionSeries)
+    n_products = len(acceleration.nodes if general else acceleration.products)
     base_products = L.OTS + (m + 2) * NB
 
     def q(k: int, i: int) -> str:
@@ -145,6 +284,8 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
 
     def operand(ref: tuple[str, int], k: int) -> str:
         kind, index = ref
+        if kind == "const":  # of an ExpressionSeries node: its value at k = 0, then 0
+            return repr(index) if k == 0 else ""
         return q(k, index) if kind == "q" else product(index, k)
 
     def cauchy(left, right, k: int) -> str:
@@ -154,6 +295,46 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
             middle = f"{operand(left, k // 2)} * {operand(left, k // 2)}" if k % 2 == 0 else ""
             return " + ".join(t for t in (total, middle) if t)
         return " + ".join(f"{operand(left, l)} * {operand(right, k - l)}" for l in range(k + 1))
+
+    def weighted(weights, left, right, k: int) -> str:
+        """sum over (j, weight) in weights of weight * left_j * right_{k-j}, zero weights left out."""
+        terms = []
+        for j, weight in weights:
+            if weight == 0.0:
+                continue
+            factor = "" if weight == 1.0 else f"{weight!r} * "
+            terms.append(f"{factor}{operand(left, j)} * {operand(right, k - j)}")
+        return " + ".join(terms) or "0.0"
+
+    def node_source(node, r: int, k: int) -> str:
+        """The k-th coefficient of ExpressionSeries node r (recurrences in its docstring)."""
+        kind, operands, data = node
+        own = ("aux", r)
+        f = operands[0]
+        if kind == "sum":
+            return " + ".join(t for t in (operand(o, k) for o in operands) if t) or "0.0"
+        if kind == "scale":
+            return f"{data!r} * {operand(f, k)}"
+        if kind == "product":
+            return cauchy(operands[0], operands[1], k)
+        if k == 0:
+            if kind == "power":
+                if data == 0.5:
+                    return f"math.sqrt({operand(f, 0)})"
+                return f"1.0 / {operand(f, 0)}" if data == -1.0 else f"{operand(f, 0)} ** {data!r}"
+            return f"math.{kind}({operand(f, 0)})"
+        ones = range(1, k + 1)
+        if kind == "exp":
+            return f"({weighted([(j, float(j)) for j in ones], f, own, k)}) / {float(k)!r}"
+        if kind in ("sin", "cos"):
+            sign = "" if kind == "sin" else "-"
+            return f"{sign}({weighted([(j, float(j)) for j in ones], f, ('aux', data), k)}) / {float(k)!r}"
+        if kind == "log":
+            inner = weighted([(j, float(j)) for j in range(1, k)], own, f, k)
+            return f"({operand(f, k)} - ({inner}) / {float(k)!r}) / {operand(f, 0)}"
+        # power: f^data
+        weights = [(j, data * (k - j) - j) for j in range(k)]
+        return f"({weighted(weights, own, f, k)}) / ({float(k)!r} * {operand(f, 0)})"
 
     lines = [
         "@njit(**JIT)",
@@ -165,6 +346,12 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
     ]
     for k in range(m):  # a^[k] from q_0..q_k, then q_{k+2}
         lines.append(f"    for j in range({B}):")
+        if general:
+            lines += [f"        {product(r, k)} = {node_source(node, r, k)}" for r, node in enumerate(acceleration.nodes)]
+            for i, component in enumerate(acceleration.components):
+                value = operand(component, k) or "0.0"
+                lines.append(f"        {q(k + 2, i)} = ({value}) * {1.0 / ((k + 1) * (k + 2))!r}")
+            continue
         for r, (left, right) in enumerate(acceleration.products):
             lines.append(f"        {product(r, k)} = {cauchy(left, right, k)}")
         for i, component in enumerate(acceleration.terms):
@@ -260,7 +447,7 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
 
 @dataclass(frozen=True)
 class Taylor(AdaptiveScheme):
-    """Taylor series of an order chosen from the tolerance, Jorba–Zou steps; polynomial potentials."""
+    """Taylor series of an order chosen from the tolerance, Jorba–Zou steps; potentials given by a formula."""
 
     def order_for(self, settings) -> int:
         """``settings.taylor_order``, or the default picked from the tolerance and the integrand."""
@@ -299,14 +486,15 @@ class Taylor(AdaptiveScheme):
         return 12 if settings.rtol >= 1e-9 else 16
 
     def check_system(self, system) -> None:
-        """The potential must be a polynomial given by a formula (see :func:`acceleration_of`)."""
+        """The potential must be a formula whose acceleration has series recurrences (see :func:`acceleration_of`)."""
         acceleration_of(system)
 
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         if order is None:
             raise ValueError("scheme 'taylor': the order must be given")
         acceleration = acceleration_of(system)
-        rows = series_rows(system.n_dof, order, len(acceleration.products))
+        auxiliary = acceleration.nodes if isinstance(acceleration, ExpressionSeries) else acceleration.products
+        rows = series_rows(system.n_dof, order, len(auxiliary))
         layout = Layout.build(system.n_dof, lanes, order + 2, 0, series=rows)
         return SchemeSource(layout, True, order, source=taylor_source(layout, acceleration, order), self_sized=True)
 
@@ -314,7 +502,7 @@ class Taylor(AdaptiveScheme):
 TAYLOR = Taylor(
     name="taylor",
     description=(
-        "Taylor series, order from the tolerance (rtol, atol; polynomial potentials; "
+        "Taylor series, order from the tolerance (rtol, atol; potentials given by a formula; "
         "the faster one at rtol 1e-8 and tighter)"
     ),
     order=None,
