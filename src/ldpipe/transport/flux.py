@@ -243,9 +243,9 @@ def _commit_side(samples: np.ndarray, saddle: np.ndarray, normal: np.ndarray, co
 
 
 def classify(line: DividingLine, states: np.ndarray, *, commit: float, duration: float, sample_step: float,
-             flow: FlowSettings, threads: int | None = None) -> np.ndarray:
-    """Weights w ∈ {+1, −1, 0} of states on the line: +1 reactive (from the well to the products),
-    −1 antireactive, 0 otherwise.
+             flow: FlowSettings, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Weights w ∈ {+1, −1, 0} of states on the line (+1 reactive: from the well to the products,
+    −1 antireactive, 0 otherwise), and a mask of the undecided ones (weight 0).
 
     Each state is integrated backward and forward for ``duration``, sampled every ``sample_step``;
     a direction commits to the side where the reaction coordinate s = n·(q − q_s) first leaves
@@ -257,8 +257,8 @@ def classify(line: DividingLine, states: np.ndarray, *, commit: float, duration:
         result = integrate(line.system, states, sign * times[-1], flow, sample_times=sign * times, threads=threads)
         sides.append(_commit_side(result.samples, line.saddle, line.normal, commit))
     backward, forward = sides
-    return np.where((backward < 0) & (forward > 0), 1.0, 0.0) - np.where((backward > 0) & (forward < 0), 1.0, 0.0), \
-        (backward == 0) | (forward == 0)
+    weight = np.where((backward < 0) & (forward > 0), 1.0, 0.0) - np.where((backward > 0) & (forward < 0), 1.0, 0.0)
+    return weight, (backward == 0) | (forward == 0)
 
 
 def reactive_flux_monte_carlo(
