@@ -1,0 +1,196 @@
+"""Transport stage: the flux over a saddle at several energies, three independent ways (2 DoF).
+
+A study is declared under ``transport:`` in the configuration: a periodic-orbit family of a
+2 DoF system (``orbits``) and which of its target energies (``energies``). For each energy
+it writes
+
+* ``flux_action``: ∮ p·dq of the family's orbit (:func:`ldpipe.transport.orbit_action`);
+* ``flux_island_area``: ∮ p_x dx of the first cut of the inward stable and unstable tubes with
+  the section (:func:`ldpipe.transport.closed_curve_area`), from cuts this stage computes with
+  ``island.points`` trajectories (the manifold stage's sets have other energies and are not
+  needed); ``flux_island_area_half`` is the same from every other point, a measure of the
+  quadrature's convergence, and ``flux_island_area_polygon`` the shoelace area for comparison;
+* ``flux_monte_carlo`` and ``flux_monte_carlo_stderr``: the reactive flux through the straight
+  dividing line at the saddle (:func:`ldpipe.transport.reactive_flux_monte_carlo`), with
+  ``flux_dividing_line``, the line's one-way flux that counts recrossings;
+* ``flux_harmonic``: the saddle's linear estimate 2π ΔE / ω, ω its centre frequency (from the
+  equilibria file).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..config import system_spec
+from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..errors import ConfigError, StageFileError
+from ..flow import FlowSettings
+from ..logs import get_logger
+from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
+from ..systems import make_system
+from ..transport import DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo
+from . import equilibria as equilibria_stage
+from . import upo as upo_stage
+from .manifolds import select_orbit
+
+STAGE = "transport"
+VARIABLES = (
+    "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
+    "flux_harmonic", "island",
+)
+log = get_logger(__name__)
+
+
+def transport_parameters(config: dict, name: str) -> dict:
+    """The keyword arguments of :func:`run_transport` for one study of a validated config (besides paths)."""
+    spec = copy.deepcopy(config["transport"][name])
+    family = config["periodic_orbits"][spec["orbits"]]
+    return {"name": name, "system_name": family["system"], "system_spec": system_spec(config, family["system"]),
+            "saddle_near": family.get("saddle_near"), **spec}
+
+
+def harmonic_flux(excess_energy: np.ndarray, frequencies: np.ndarray) -> np.ndarray:
+    """(2π)^{n−1} ΔE^{n−1} / ((n−1)! ∏ ω_i): the flux over a quadratic saddle with centre frequencies ω_i."""
+    m = len(frequencies)
+    return (2 * math.pi * np.asarray(excess_energy)) ** m / (math.factorial(m) * float(np.prod(frequencies)))
+
+
+def _well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The minimum (the well) and the saddle's centre frequencies, from the equilibria file."""
+    minima = np.flatnonzero(equilibria.type.values == "minimum")
+    if not len(minima):
+        raise StageFileError("the equilibria file has no minimum: the transport stage needs the well")
+    positions = equilibria.position.values
+    index = int(np.argmin(np.linalg.norm(positions - saddle, axis=1)))
+    well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
+    imag = equilibria.eigenvalue_imag.values[index]
+    frequencies = imag[imag > 1e-12]  # (+iω, −iω) pairs: one positive value per centre
+    return well, np.sort(frequencies)[::-1]
+
+
+def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path, threads: int | None = None,
+                  **parameters) -> Path:
+    """Flux by action, island area and Monte Carlo at each energy of the study; writes ``output``."""
+    key = f"transport.{parameters['name']}"
+    orbits = open_stage_file(upo, stage=upo_stage.STAGE, variables=upo_stage.VARIABLES)
+    if stage_parameters(orbits)["system_name"] != parameters["system_name"]:
+        raise StageFileError(f"{upo}: orbits of system {orbits.attrs['system']!r}, "
+                             f"expected {parameters['system_name']!r}")
+    eq = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    system = make_system(parameters["system_name"], parameters["system_spec"])
+    if system.n_dof != 2:
+        raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
+                          f"{system.name} has {system.n_dof}")
+    saddle = np.asarray(orbits.attrs["saddle_position"], dtype=float)
+    well, frequencies = _well_and_frequencies(eq, saddle)
+    kind = "excess" if "excess" in parameters["energies"] else "total"
+    values = parameters["energies"][kind]
+    indices = [select_orbit(orbits, {kind: value}, key, upo) for value in values]
+
+    island, mc = parameters["island"], parameters["monte_carlo"]
+    section = island["section"]
+    island_settings = ManifoldSettings(
+        points=island["points"], displacement=island["displacement"], time=island["time"], samples=2,
+        section=(section["coordinate"], section["value"], section["direction"]), crossings=1,
+        orbit_rtol=float(orbits.attrs["rtol"]), orbit_atol=float(orbits.attrs["atol"]),
+    )
+    island_flow = FlowSettings(**island["integrator"])
+    mc_flow = FlowSettings(**mc["integrator"])
+    position_axis = 1 - system.phase_coordinates.index(section["coordinate"])  # the other coordinate (2 DoF)
+    axes = (position_axis, position_axis + 2)
+
+    count, points = len(indices), island["points"]
+    fields = {name: np.empty(count) for name in (
+        "flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_line", "monte_carlo_seconds")}
+    counts = {name: np.empty(count, dtype=np.int64) for name in (
+        "monte_carlo_samples", "monte_carlo_reactive", "monte_carlo_antireactive", "monte_carlo_nonreactive",
+        "monte_carlo_undecided")}
+    area, area_half, area_polygon = (np.empty((count, 2)) for _ in range(3))
+    curves = np.empty((count, 2, points, 2 * system.n_dof))
+    for i, index in enumerate(indices):
+        energy = float(orbits.energy.values[index])
+        excess = float(orbits.excess_energy.values[index])
+        initial_state, period = orbits.initial_state.values[index], float(orbits.period.values[index])
+        fields["flux_action"][i] = orbit_action(orbits.trajectory.values[index], system.n_dof)
+
+        cut = manifold_dataset(system, initial_state, period, island_settings, island_flow, threads=threads)
+        for k, manifold in enumerate(MANIFOLDS):
+            valid = cut.section_valid.values[k, 0, 0]
+            if not valid.all():
+                raise ConfigError(
+                    f"config key '{key}.island.time': at dE = {excess:.6g}, {int((~valid).sum())} of {points} "
+                    f"{manifold} inward trajectories did not cut the section within {island['time']}; raise it")
+            state = cut.section_state.values[k, 0, 0]
+            curves[i, k] = state
+            x, p = state[:, axes[0]], state[:, axes[1]]
+            area[i, k] = abs(closed_curve_area(x, p))
+            area_half[i, k] = abs(closed_curve_area(x[::2], p[::2]))
+            area_polygon[i, k] = abs(closed_curve_area(x, p, method="shoelace"))
+
+        line = DividingLine.at_saddle(system, saddle, energy, well=well)
+        reach = float(np.max(np.abs((orbits.trajectory.values[index][:, :2] - saddle) @ line.normal)))
+        if mc["commit"] <= 2 * reach:
+            raise ConfigError(f"config key '{key}.monte_carlo.commit': {mc['commit']} is not beyond the orbit, which "
+                              f"reaches {reach:.3g} from the dividing line at dE = {excess:.6g}; raise it")
+        start = time.perf_counter()
+        result = reactive_flux_monte_carlo(
+            line, commit=mc["commit"], duration=mc["duration"], target_stderr=mc["target_stderr"],
+            batch=mc["batch"], max_samples=mc["max_samples"], sample_step=mc["sample_step"], flow=mc_flow,
+            seed=mc["seed"] + i, threads=threads,
+        )
+        fields["monte_carlo_seconds"][i] = time.perf_counter() - start
+        fields["flux_monte_carlo"][i], fields["flux_monte_carlo_stderr"][i] = result.flux, result.stderr
+        fields["flux_dividing_line"][i] = result.surface_flux
+        for name in ("samples", "reactive", "antireactive", "nonreactive", "undecided"):
+            counts[f"monte_carlo_{name}"][i] = getattr(result, name)
+        log.info("dE = %.6g: action %.12g, island %.12g / %.12g, Monte Carlo %.8g +- %.2g (%d samples, %.1f s), "
+                 "line %.8g", excess, fields["flux_action"][i], area[i, 0], area[i, 1], result.flux, result.stderr,
+                 result.samples, fields["monte_carlo_seconds"][i], result.surface_flux)
+
+    excess_energy = orbits.excess_energy.values[indices]
+    energy_dim, pair = ("energy",), ("energy", "manifold")
+    data = xr.Dataset(
+        {
+            "excess_energy": (energy_dim, excess_energy, {"long_name": "excess energy E - E_c of the orbit"}),
+            "total_energy": (energy_dim, orbits.energy.values[indices], {"long_name": "energy E"}),
+            "period": (energy_dim, orbits.period.values[indices], {"long_name": "period of the Lyapunov orbit"}),
+            "flux_action": (energy_dim, fields["flux_action"],
+                            {"long_name": "action of the Lyapunov orbit, closed integral of p.dq (spectral rule)"}),
+            "flux_island_area": (pair, area, {"long_name": "area closed integral of p dq of the first cut of the "
+                                              "inward tube with the section (spectral rule)"}),
+            "flux_island_area_half": (pair, area_half, {"long_name": "the same from every other point"}),
+            "flux_island_area_polygon": (pair, area_polygon, {"long_name": "the same by the shoelace (polygon) rule"}),
+            "flux_monte_carlo": (energy_dim, fields["flux_monte_carlo"],
+                                 {"long_name": "reactive flux through the dividing line, Monte Carlo"}),
+            "flux_monte_carlo_stderr": (energy_dim, fields["flux_monte_carlo_stderr"],
+                                        {"long_name": "standard error of flux_monte_carlo"}),
+            "flux_dividing_line": (energy_dim, fields["flux_dividing_line"],
+                                   {"long_name": "one-way flux through the dividing line, recrossings counted "
+                                                 "(area of its allowed region)"}),
+            "flux_harmonic": (energy_dim, harmonic_flux(excess_energy, frequencies),
+                              {"long_name": "harmonic estimate 2 pi dE / omega of the saddle's linearization"}),
+            "monte_carlo_seconds": (energy_dim, fields["monte_carlo_seconds"],
+                                    {"long_name": "wall time of the Monte Carlo estimate", "units": "s"}),
+            **{name: (energy_dim, value) for name, value in counts.items()},
+            "island": (("energy", "manifold", "point", "phase"), curves,
+                       {"long_name": "first cut of the inward tube with the section, ordered by orbit phase"}),
+        },
+        coords={"manifold": list(MANIFOLDS), "phase": list(system.phase_coordinates), "point": np.arange(points)},
+        attrs={
+            "family": orbits.attrs["family"], "system": system.name, "saddle_position": saddle,
+            "well_position": well, "centre_frequencies": frequencies,
+            "critical_energy": float(orbits.attrs["critical_energy"]),
+            "section_coordinate": section["coordinate"], "section_value": float(section["value"]),
+            "section_direction": int(section["direction"]),
+        },
+    )
+    title = f"Flux over the saddle of {orbits.attrs['family']}: action, reactive-island area, Monte Carlo"
+    path = write_stage_file(data, output, stage=STAGE, title=title, parameters=parameters)
+    log.info("wrote %s", path)
+    return path
