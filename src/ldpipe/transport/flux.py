@@ -281,7 +281,8 @@ def reactive_flux_monte_carlo(
     well and goes to the products, −1 if it comes from the products and goes to the well, else 0.
     A reactive trajectory that crosses the line 2k + 1 times crosses it k + 1 times outwards and
     k times inwards; by time reversal (p → −p) each inward crossing of it is an outward sample of
-    weight −1, so its net count is one. The flux is A·mean(w), its standard error A·std(w)/√N.
+    weight −1, so its net count is one. The flux is A·mean(w), its standard error A·std(w)/√N,
+    with var(w) at least 1/N (so never below A/N).
     Batches of ``batch`` samples are drawn until the relative standard error is at most
     ``target_stderr`` or ``max_samples`` is reached.
     """
@@ -297,7 +298,11 @@ def reactive_flux_monte_carlo(
         undecided += int(open_.sum())
         allw = np.concatenate(weights)
         mean = float(allw.mean())
-        stderr = float(allw.std(ddof=1) / math.sqrt(len(allw)))
+        # Floor on the variance of w: 1/N, as if one sample in N had another weight. Without it a
+        # batch of all-reactive samples (common at low energy, where recrossings are rare) would
+        # claim a zero standard error.
+        variance = max(float(allw.var(ddof=1)), 1.0 / len(allw))
+        stderr = math.sqrt(variance / len(allw))
         if (mean != 0 and stderr <= target_stderr * abs(mean)) or len(allw) >= max_samples:
             break
     reactive = int(np.sum(allw > 0))
