@@ -240,6 +240,21 @@ def transport_targets():
     ]
 
 
+def transport_upo_file(wildcards):
+    return f"{RESULTS}/upo/{config['transport'][wildcards.study]['orbits']}.nc"
+
+
+def transport_equilibria_file(wildcards):
+    family = config["transport"][wildcards.study]["orbits"]
+    return f"{RESULTS}/{config['periodic_orbits'][family]['system']}/equilibria.nc"
+
+
+def transport_params(wildcards):
+    from ldpipe.stages.transport import transport_parameters
+
+    return transport_parameters(config, wildcards.study)
+
+
 def accuracy_params(wildcards):
     from ldpipe.stages.accuracy import accuracy_parameters
 

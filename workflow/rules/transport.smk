@@ -3,21 +3,6 @@
 # `snakemake transport_<study>` for one study, `snakemake transport` for all of them.
 
 
-def transport_upo_file(wildcards):
-    return f"{RESULTS}/upo/{config['transport'][wildcards.study]['orbits']}.nc"
-
-
-def transport_equilibria_file(wildcards):
-    family = config["transport"][wildcards.study]["orbits"]
-    return f"{RESULTS}/{config['periodic_orbits'][family]['system']}/equilibria.nc"
-
-
-def transport_params(wildcards):
-    from ldpipe.stages.transport import transport_parameters
-
-    return transport_parameters(config, wildcards.study)
-
-
 rule transport_study:
     """The flux over a saddle at each energy of a study: orbit action, reactive-island area, Monte Carlo."""
     wildcard_constraints:
