@@ -23,7 +23,9 @@ from ldpipe.flow import FlowSettings
 from ldpipe.manifolds import ManifoldSettings, manifold_dataset
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.systems import make_system
-from ldpipe.transport import DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo
+from ldpipe.transport import (
+    DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo, well_area, well_shell_volume,
+)
 
 LAM, OMEGA = 0.8, 1.3
 
@@ -155,3 +157,31 @@ def test_barbanis_action_equals_island_area_and_reactive_flux(barbanis, barbanis
     assert result.stderr < 1e-3 * action
     # The line's directional flux counts recrossings: it is larger than the action.
     assert line.area() > action
+
+
+def test_well_area_of_a_harmonic_well_is_the_ellipse():
+    """V = (a²x² + b²y²)/2, no saddle: {V ≤ E} is an ellipse of area π · 2E/(ab); the shell volume
+    is 2π times that, (2π)² E/(ab)."""
+    system = make_system("ellipse_well", {"formula": "(a**2*x**2 + b**2*y**2)/2", "coordinates": ["x", "y"],
+                                          "parameters": {"a": 1.0, "b": 1.7}})
+    energy = 0.8
+    assert well_area(system, [0.0, 0.0], energy) == pytest.approx(math.pi * 2 * energy / 1.7, rel=1e-10)
+    assert well_shell_volume(system, [0.0, 0.0], energy) == pytest.approx(4 * math.pi**2 * energy / 1.7, rel=1e-10)
+
+
+def test_barbanis_well_area_against_box_monte_carlo(barbanis):
+    """The well of Barbanis 2 DoF at ΔE = 0.5 above both saddles, cut off by their dividing lines, against
+    the fraction of uniform points of a box with V ≤ E on the well side of both lines (plain NumPy
+    potential, no ldpipe kernel; outside the well nothing in the box is allowed on that side)."""
+    energy = 15.125 + 0.5
+    lines = [DividingLine.at_saddle(barbanis, [5.5, sign * math.sqrt(50.0)], energy) for sign in (-1, 1)]
+    area = well_area(barbanis, [0.0, 0.0], energy, lines)
+    rng = np.random.default_rng(3)
+    count, box = 2_000_000, np.array([[-8.0, -10.0], [8.0, 10.0]])
+    q = rng.uniform(box[0], box[1], size=(count, 2))
+    inside = q[:, 0] ** 2 / 2 + 1.21 * q[:, 1] ** 2 / 2 - 0.11 * q[:, 0] * q[:, 1] ** 2 <= energy
+    for line in lines:
+        inside &= (q - line.saddle) @ line.normal < 0
+    box_area = float(np.prod(box[1] - box[0]))
+    fraction = inside.mean()
+    assert abs(area - box_area * fraction) < 4 * box_area * math.sqrt(fraction * (1 - fraction) / count)

@@ -85,3 +85,16 @@ def test_energy_not_in_the_family_is_refused(files):
     with pytest.raises(ConfigError, match="no orbit at excess energy 0.5"):
         transport_stage.run_transport(**transport_stage.transport_parameters(config, "t"), upo=upo,
                                       equilibria=equilibria, output=folder / "bad.nc")
+
+
+def test_tst_rate_is_total_flux_over_well_volume(files):
+    """Barbanis is symmetric under y → −y, so the flux over the top saddle (Monte Carlo through its
+    own line) equals the bottom saddle's action; the rate is their sum over the shell volume."""
+    _, _, _, path = files
+    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    action = data.flux_action.values
+    assert np.all(np.abs(data.flux_other_saddles.values - action) < 3 * data.flux_other_saddles_stderr.values)
+    assert data.rate_tst.values == pytest.approx(
+        (action + data.flux_other_saddles.values) / data.well_volume.values, rel=1e-14)
+    # The volume grows with the energy, less than linearly in relative terms than the flux.
+    assert data.well_volume.values[1] > data.well_volume.values[0]

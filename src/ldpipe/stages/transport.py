@@ -14,7 +14,12 @@ it writes
   dividing line at the saddle (:func:`ldpipe.transport.reactive_flux_monte_carlo`), with
   ``flux_dividing_line``, the line's one-way flux that counts recrossings;
 * ``flux_harmonic``: the saddle's linear estimate 2π ΔE / ω, ω its centre frequency (from the
-  equilibria file).
+  equilibria file);
+* ``well_volume``: the energy-shell volume of the well (2π times the area of the allowed well cut off
+  by the dividing lines of every index-1 saddle, :func:`ldpipe.transport.well_shell_volume`),
+  ``flux_other_saddles`` (± ``flux_other_saddles_stderr``): the Monte Carlo reactive flux over the
+  other saddles, and ``rate_tst`` = (``flux_action`` + ``flux_other_saddles``) / ``well_volume``, the
+  microcanonical transition-state rate.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
 from ..systems import make_system
-from ..transport import DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo
+from ..transport import DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo, well_shell_volume
 from . import equilibria as equilibria_stage
 from . import upo as upo_stage
 from .manifolds import select_orbit
@@ -42,7 +47,7 @@ from .manifolds import select_orbit
 STAGE = "transport"
 VARIABLES = (
     "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
-    "flux_harmonic", "island",
+    "flux_harmonic", "island", "well_volume", "rate_tst",
 )
 log = get_logger(__name__)
 
@@ -89,6 +94,9 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                           f"{system.name} has {system.n_dof}")
     saddle = np.asarray(orbits.attrs["saddle_position"], dtype=float)
     well, frequencies = _well_and_frequencies(eq, saddle)
+    saddles = eq.position.values[eq.saddle_equilibrium.values]
+    others = [(q, float(ec)) for q, ec in zip(saddles, eq.critical_energy.values)
+              if np.linalg.norm(q - saddle) > 1e-8 * (1 + np.linalg.norm(saddle))]
     kind = "excess" if "excess" in parameters["energies"] else "total"
     values = parameters["energies"][kind]
     indices = [select_orbit(orbits, {kind: value}, key, upo) for value in values]
@@ -107,7 +115,8 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
 
     count, points = len(indices), island["points"]
     fields = {name: np.empty(count) for name in (
-        "flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_line", "monte_carlo_seconds")}
+        "flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_line", "monte_carlo_seconds",
+        "flux_other_saddles", "flux_other_saddles_stderr", "well_volume")}
     counts = {name: np.empty(count, dtype=np.int64) for name in (
         "monte_carlo_samples", "monte_carlo_reactive", "monte_carlo_antireactive", "monte_carlo_nonreactive",
         "monte_carlo_undecided")}
@@ -149,6 +158,18 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         fields["flux_dividing_line"][i] = result.surface_flux
         for name in ("samples", "reactive", "antireactive", "nonreactive", "undecided"):
             counts[f"monte_carlo_{name}"][i] = getattr(result, name)
+        # Saddles below the energy are open; the well is closed at the others (no line needed).
+        other_lines = [DividingLine.at_saddle(system, q, energy, well=well) for q, ec in others if ec < energy]
+        other = [reactive_flux_monte_carlo(
+            other_line, commit=mc["commit"], duration=mc["duration"], target_stderr=mc["target_stderr"],
+            batch=mc["batch"], max_samples=mc["max_samples"], sample_step=mc["sample_step"], flow=mc_flow,
+            seed=mc["seed"] + 1000 * (k + 1) + i, threads=threads) for k, other_line in enumerate(other_lines)]
+        fields["flux_other_saddles"][i] = sum(r.flux for r in other)
+        fields["flux_other_saddles_stderr"][i] = math.sqrt(sum(r.stderr**2 for r in other))
+        fields["well_volume"][i] = well_shell_volume(system, well, energy, [line, *other_lines])
+        log.info("dE = %.6g: well volume %.10g, flux over the other saddles %.8g, TST rate %.6g", excess,
+                 fields["well_volume"][i], fields["flux_other_saddles"][i],
+                 (fields["flux_action"][i] + fields["flux_other_saddles"][i]) / fields["well_volume"][i])
         log.info("dE = %.6g: action %.12g, island %.12g / %.12g, Monte Carlo %.8g +- %.2g (%d samples, %.1f s), "
                  "line %.8g", excess, fields["flux_action"][i], area[i, 0], area[i, 1], result.flux, result.stderr,
                  result.samples, fields["monte_carlo_seconds"][i], result.surface_flux)
@@ -175,6 +196,14 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                                                  "(area of its allowed region)"}),
             "flux_harmonic": (energy_dim, harmonic_flux(excess_energy, frequencies),
                               {"long_name": "harmonic estimate 2 pi dE / omega of the saddle's linearization"}),
+            "flux_other_saddles": (energy_dim, fields["flux_other_saddles"],
+                                   {"long_name": "reactive flux over the other index-1 saddles, Monte Carlo"}),
+            "flux_other_saddles_stderr": (energy_dim, fields["flux_other_saddles_stderr"],
+                                          {"long_name": "standard error of flux_other_saddles"}),
+            "well_volume": (energy_dim, fields["well_volume"],
+                            {"long_name": "energy-shell volume of the well, integral of delta(E - H) over it"}),
+            "rate_tst": (energy_dim, (fields["flux_action"] + fields["flux_other_saddles"]) / fields["well_volume"],
+                         {"long_name": "microcanonical transition-state rate: total flux out / well_volume"}),
             "monte_carlo_seconds": (energy_dim, fields["monte_carlo_seconds"],
                                     {"long_name": "wall time of the Monte Carlo estimate", "units": "s"}),
             **{name: (energy_dim, value) for name, value in counts.items()},

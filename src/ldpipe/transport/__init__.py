@@ -21,3 +21,7 @@ __all__ = [
     "orbit_action",
     "reactive_flux_monte_carlo",
 ]
+
+from .well import well_area, well_shell_volume  # noqa: E402
+
+__all__ += ["well_area", "well_shell_volume"]
