@@ -25,3 +25,7 @@ __all__ = [
 from .well import well_area, well_shell_volume  # noqa: E402
 
 __all__ += ["well_area", "well_shell_volume"]
+
+from .survival import decay_rate, exit_times, initial_slope, sample_well, survival  # noqa: E402
+
+__all__ += ["decay_rate", "exit_times", "initial_slope", "sample_well", "survival"]
