@@ -29,7 +29,9 @@ def _config(**transport):
         "periodic_orbits": {"bottom": {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0],
                                        "energies": {"excess": EXCESS}, "samples": 64}},
         "transport": {"t": {"orbits": "bottom", "energies": {"excess": EXCESS}, "island": {"points": 24},
-                            "monte_carlo": {"batch": 1000, "max_samples": 1000}, **transport}},
+                            "monte_carlo": {"batch": 1000, "max_samples": 1000},
+                            "survival": {"initial_count": 20000, "count": 400, "duration": 1.0,
+                                         "decay_window": [0.3, 1.0]}, **transport}},
     })
 
 
@@ -98,3 +100,17 @@ def test_tst_rate_is_total_flux_over_well_volume(files):
         (action + data.flux_other_saddles.values) / data.well_volume.values, rel=1e-14)
     # The volume grows with the energy, less than linearly in relative terms than the flux.
     assert data.well_volume.values[1] > data.well_volume.values[0]
+
+
+def test_survival_initial_slope_is_the_tst_rate(files):
+    """The stage's two survival numbers against its TST rate (flux from the action, volume from the
+    polar quadrature): the initial slope must equal it (exact for t0 below the quickest crossing of
+    the well); the curve starts at 1 and falls."""
+    _, _, _, path = files
+    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    rate = data.rate_tst.values
+    slope, stderr = data.survival_initial_slope.values, data.survival_initial_slope_stderr.values
+    assert np.all(np.abs(slope - rate) < 3 * stderr)
+    p = data.survival_probability.values
+    assert np.all(p[:, 0] == 1.0) and np.all(np.diff(p, axis=1) <= 0) and np.all(p[:, -1] < 1.0)
+    assert np.all(data.survival_decay_rate.values > 0)

@@ -4,7 +4,8 @@
 reactive-island areas, the Monte Carlo reactive flux (with 3 standard errors), the dividing
 line's one-way flux and the harmonic estimate. (b) Each method relative to the action, on a
 symmetric log scale. (c) The reactive islands (first cuts of the inward stable and unstable
-tubes) on the section, with the section's energy boundary at each energy.
+tubes) on the section, with the section's energy boundary at the largest energy. (d) Survival of a
+microcanonical ensemble of the well against k_TST t, with exp(−k_TST t).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def transport_figure(data):
     action = data.flux_action.values
     mc, err = data.flux_monte_carlo.values, data.flux_monte_carlo_stderr.values
     with style.figure_style():
-        figure, axes = plt.subplots(1, 3, figsize=(13.0, 4.0), constrained_layout=True)
+        figure, axes = plt.subplots(1, 4, figsize=(17.5, 4.0), constrained_layout=True)
         ax = axes[0]
         fine = np.linspace(0.0, excess.max() * 1.05, 200)
         scale = data.flux_harmonic.values[0] / excess[0]
@@ -105,6 +106,23 @@ def transport_figure(data):
                      f" ({coordinate} = {data.attrs['section_value']:g})\nsolid: stable tube, dotted: unstable tube")
         ax.legend(loc="upper right")
         style.panel_letter(ax, 2)
+
+        ax = axes[3]
+        rate = data.rate_tst.values
+        for e, color in enumerate(colors):
+            scaled = data.survival_time.values[e] * rate[e]
+            ax.plot(scaled, data.survival_probability.values[e], color=color,
+                    label=rf"$\Delta E$ = {excess[e]:g}: $k_{{TST}}$ = {rate[e]:.3g}, "
+                          rf"slope(0) = {data.survival_initial_slope.values[e] / rate[e]:.3f} $k_{{TST}}$, "
+                          rf"decay = {data.survival_decay_rate.values[e] / rate[e]:.2f} $k_{{TST}}$")
+        top = max(float(np.max(data.survival_time.values[e] * rate[e])) for e in range(len(rate)))
+        x = np.linspace(0.0, top, 100)
+        ax.plot(x, np.exp(-x), "--", color="k", label=r"$\exp(-k_{TST}\,t)$")
+        ax.set_yscale("log")
+        ax.set_xlabel(r"$k_{TST}\, t$")
+        ax.set_ylabel("survival probability in the well")
+        ax.legend(loc="lower left", fontsize=6)
+        style.panel_letter(ax, 3)
     return figure
 
 

@@ -19,7 +19,12 @@ it writes
   by the dividing lines of every index-1 saddle, :func:`ldpipe.transport.well_shell_volume`),
   ``flux_other_saddles`` (± ``flux_other_saddles_stderr``): the Monte Carlo reactive flux over the
   other saddles, and ``rate_tst`` = (``flux_action`` + ``flux_other_saddles``) / ``well_volume``, the
-  microcanonical transition-state rate.
+  microcanonical transition-state rate;
+* survival of a microcanonical ensemble of the well integrated until it crosses a dividing line:
+  ``survival_initial_slope`` (± ``_stderr``; the fraction left by ``survival.t0`` over t0, which
+  must equal ``rate_tst``), ``survival_decay_rate`` (the long-time exponential decay, fitted on
+  ``survival.decay_window`` in units of 1/rate_tst) and the curve ``survival_probability`` at
+  ``survival_time``.
 """
 
 from __future__ import annotations
@@ -39,7 +44,10 @@ from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
 from ..systems import make_system
-from ..transport import DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo, well_shell_volume
+from ..transport import (
+    DividingLine, closed_curve_area, decay_rate, exit_times, initial_slope, orbit_action, reactive_flux_monte_carlo,
+    sample_well, survival, well_shell_volume,
+)
 from . import equilibria as equilibria_stage
 from . import upo as upo_stage
 from .manifolds import select_orbit
@@ -116,7 +124,11 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
     count, points = len(indices), island["points"]
     fields = {name: np.empty(count) for name in (
         "flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_line", "monte_carlo_seconds",
-        "flux_other_saddles", "flux_other_saddles_stderr", "well_volume")}
+        "flux_other_saddles", "flux_other_saddles_stderr", "well_volume", "survival_initial_slope",
+        "survival_initial_slope_stderr", "survival_decay_rate", "survival_seconds")}
+    sv = parameters["survival"]
+    survival_time = np.empty((count, sv["points"]))
+    survival_probability = np.empty((count, sv["points"]))
     counts = {name: np.empty(count, dtype=np.int64) for name in (
         "monte_carlo_samples", "monte_carlo_reactive", "monte_carlo_antireactive", "monte_carlo_nonreactive",
         "monte_carlo_undecided")}
@@ -170,6 +182,26 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         log.info("dE = %.6g: well volume %.10g, flux over the other saddles %.8g, TST rate %.6g", excess,
                  fields["well_volume"][i], fields["flux_other_saddles"][i],
                  (fields["flux_action"][i] + fields["flux_other_saddles"][i]) / fields["well_volume"][i])
+        rate = (fields["flux_action"][i] + fields["flux_other_saddles"][i]) / fields["well_volume"][i]
+        all_lines = [line, *other_lines]
+        rng = np.random.default_rng(sv["seed"] + i)
+        surv_flow = FlowSettings(**sv["integrator"])
+        start = time.perf_counter()
+        early = exit_times(system, sample_well(system, well, energy, all_lines, sv["initial_count"], rng), all_lines,
+                           sv["t0"], sample_step=sv["sample_step"], flow=surv_flow, threads=threads)
+        slope = initial_slope(early, sv["t0"])
+        horizon = sv["duration"] / rate
+        late = exit_times(system, sample_well(system, well, energy, all_lines, sv["count"], rng), all_lines, horizon,
+                          sample_step=sv["sample_step"], segment=max(20.0, horizon / 20), flow=surv_flow,
+                          threads=threads)
+        window = np.asarray(sv["decay_window"]) / rate
+        survival_time[i] = np.linspace(0.0, horizon, survival_time.shape[1])
+        survival_probability[i] = survival(late, survival_time[i])
+        fields["survival_initial_slope"][i], fields["survival_initial_slope_stderr"][i] = slope.rate, slope.stderr
+        fields["survival_decay_rate"][i] = decay_rate(late, window[0], window[1])
+        fields["survival_seconds"][i] = time.perf_counter() - start
+        log.info("dE = %.6g: TST rate %.6g, initial slope %.6g +- %.2g, decay rate %.6g (%.1f s)", excess, rate,
+                 slope.rate, slope.stderr, fields["survival_decay_rate"][i], fields["survival_seconds"][i])
         log.info("dE = %.6g: action %.12g, island %.12g / %.12g, Monte Carlo %.8g +- %.2g (%d samples, %.1f s), "
                  "line %.8g", excess, fields["flux_action"][i], area[i, 0], area[i, 1], result.flux, result.stderr,
                  result.samples, fields["monte_carlo_seconds"][i], result.surface_flux)
@@ -204,6 +236,17 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                             {"long_name": "energy-shell volume of the well, integral of delta(E - H) over it"}),
             "rate_tst": (energy_dim, (fields["flux_action"] + fields["flux_other_saddles"]) / fields["well_volume"],
                          {"long_name": "microcanonical transition-state rate: total flux out / well_volume"}),
+            "survival_initial_slope": (energy_dim, fields["survival_initial_slope"],
+                                       {"long_name": "fraction of the well ensemble left by t0, over t0"}),
+            "survival_initial_slope_stderr": (energy_dim, fields["survival_initial_slope_stderr"],
+                                              {"long_name": "standard error of survival_initial_slope"}),
+            "survival_decay_rate": (energy_dim, fields["survival_decay_rate"],
+                                    {"long_name": "long-time decay rate of the survival probability"}),
+            "survival_time": (("energy", "survival_point"), survival_time, {"long_name": "time"}),
+            "survival_probability": (("energy", "survival_point"), survival_probability,
+                                     {"long_name": "fraction of the well ensemble not yet left"}),
+            "survival_seconds": (energy_dim, fields["survival_seconds"],
+                                 {"long_name": "wall time of the survival ensembles", "units": "s"}),
             "monte_carlo_seconds": (energy_dim, fields["monte_carlo_seconds"],
                                     {"long_name": "wall time of the Monte Carlo estimate", "units": "s"}),
             **{name: (energy_dim, value) for name, value in counts.items()},
