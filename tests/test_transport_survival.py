@@ -63,3 +63,13 @@ def test_decay_rate_of_an_exponential():
     """Exit times drawn from exp(-k t): the fitted decay rate is k (checks the fit, not the dynamics)."""
     times = np.random.default_rng(2).exponential(1 / 0.3, size=200_000)
     assert decay_rate(times, 1.0, 8.0) == pytest.approx(0.3, rel=0.02)
+
+
+def test_exit_times_end_when_the_last_segment_is_shorter_than_a_sample_step(barbanis, setup):
+    """A duration that leaves a remainder below sample_step (here 0.23 = 2 × 0.1 + 0.03) must end
+    (a first version looped for ever on an empty last segment); every time found lies within it."""
+    energy, lines, _ = setup
+    states = sample_well(barbanis, [0.0, 0.0], energy, lines, 200, np.random.default_rng(4))
+    times = exit_times(barbanis, states, lines, 0.23, sample_step=0.1, segment=0.1)
+    finite = times[np.isfinite(times)]
+    assert np.all((finite >= 0) & (finite <= 0.23))

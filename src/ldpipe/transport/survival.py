@@ -63,8 +63,7 @@ def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], durati
     start = 0.0
     while len(alive) and start < duration:
         length = min(segment, duration - start)
-        grid = np.arange(0.0, length + 0.5 * sample_step, sample_step)
-        grid[-1] = min(grid[-1], length)
+        grid = np.linspace(0.0, length, max(1, math.ceil(length / sample_step - 1e-9)) + 1)
         result = integrate(system, current, grid[-1], flow, sample_times=grid, threads=threads)
         s = np.einsum("tsi,ki->tsk", result.samples[:, :, :2], normals) - offsets  # (traj, sample, line)
         s = s.max(axis=2)
