@@ -26,6 +26,7 @@ MANIFOLD_SETS = sorted(config["manifolds"])
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
 FIGURES = list(config["figures"])
 NHIM_STUDIES = list(config["nhim"]["studies"])
+TRANSPORT_STUDIES = list(config.get("transport", {}))
 RESULTS = "results"
 
 
@@ -57,6 +58,7 @@ def all_targets():
         *expand(f"{RESULTS}/poincare/{{section}}.nc", section=POINCARE_SECTIONS),
         *expand(f"{RESULTS}/figures/{{figure}}.{{format}}", figure=FIGURES, format=["png", "pdf"]),
         *nhim_targets(),
+        *transport_targets(),
         *([f"{RESULTS}/accuracy/accuracy_cost.nc", f"{RESULTS}/figures/accuracy_cost.png"]
           if config.get("accuracy_cost") else []),
     ]
@@ -226,6 +228,31 @@ def nhim_targets():
         f"{RESULTS}/figures/nhim_validation.png",
         f"{RESULTS}/figures/nhim_validation.pdf",
     ]
+
+
+def transport_targets():
+    """Every transport study's file and figure (workflow/rules/transport.smk)."""
+    return [
+        path
+        for study in TRANSPORT_STUDIES
+        for path in (f"{RESULTS}/transport/{study}.nc", f"{RESULTS}/figures/transport_{study}.png",
+                     f"{RESULTS}/figures/transport_{study}.pdf")
+    ]
+
+
+def transport_upo_file(wildcards):
+    return f"{RESULTS}/upo/{config['transport'][wildcards.study]['orbits']}.nc"
+
+
+def transport_equilibria_file(wildcards):
+    family = config["transport"][wildcards.study]["orbits"]
+    return f"{RESULTS}/{config['periodic_orbits'][family]['system']}/equilibria.nc"
+
+
+def transport_params(wildcards):
+    from ldpipe.stages.transport import transport_parameters
+
+    return transport_parameters(config, wildcards.study)
 
 
 def accuracy_params(wildcards):

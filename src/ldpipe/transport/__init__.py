@@ -1,0 +1,31 @@
+"""Transport over an index-1 saddle: flux, reactive islands and rates (issue 17).
+
+In 2 DoF three quantities must agree (MacKay 1990; reactive-island theory): the action
+of the Lyapunov orbit, the symplectic area enclosed by a manifold tube's cut with a
+surface of section, and the reactive flux through a dividing surface across the saddle.
+:mod:`ldpipe.transport.flux` computes each of them independently.
+"""
+
+from .flux import (
+    DividingLine,
+    MonteCarloFlux,
+    closed_curve_area,
+    orbit_action,
+    reactive_flux_monte_carlo,
+)
+
+__all__ = [
+    "DividingLine",
+    "MonteCarloFlux",
+    "closed_curve_area",
+    "orbit_action",
+    "reactive_flux_monte_carlo",
+]
+
+from .well import well_area, well_shell_volume  # noqa: E402
+
+__all__ += ["well_area", "well_shell_volume"]
+
+from .survival import decay_rate, exit_times, initial_slope, sample_well, survival  # noqa: E402
+
+__all__ += ["decay_rate", "exit_times", "initial_slope", "sample_well", "survival"]

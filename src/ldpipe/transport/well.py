@@ -1,0 +1,77 @@
+"""The energy-shell volume of the reactant well of a 2 DoF system, and the TST rate.
+
+The microcanonical phase-space volume of the well at energy E is ∫ δ(E − H) dq dp over the well.
+For H = |p|²/2 + V in 2 DoF, ∫ δ(E − |p|²/2 − V) d²p = 2π wherever V < E, so the volume is 2π
+times the area of the energetically allowed well, bounded by the dividing lines of the saddles.
+The transition-state (RRKM) rate is the total flux out of the well over that volume.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from scipy import integrate as sp_integrate
+from scipy import optimize
+
+from .flux import DividingLine
+
+
+def _ray_radius(system, well: np.ndarray, energy: float, lines: Sequence[DividingLine], theta: float,
+                step: float) -> float:
+    """Distance from ``well`` along direction θ to the first of: V = E, or a dividing line (s = 0)."""
+    direction = np.array([math.cos(theta), math.sin(theta)])
+    limit = math.inf
+    for line in lines:
+        approach = float(line.normal @ direction)
+        if approach > 0:
+            limit = min(limit, float(line.normal @ (line.saddle - well)) / approach)
+    inner = 0.0
+    while True:
+        outer = inner + step
+        if outer >= limit:
+            if system.potential(well + limit * direction) < energy:
+                return limit
+            outer = limit
+        if system.potential(well + outer * direction) >= energy:
+            return optimize.brentq(lambda r: system.potential(well + r * direction) - energy, inner, outer,
+                                   xtol=1e-14, rtol=4 * np.finfo(float).eps)
+        inner = outer
+        if inner > 1e6:
+            raise ValueError(f"the well is not bounded in direction θ = {theta:.6g}")
+
+
+def well_area(system, well, energy: float, lines: Sequence[DividingLine] = (), *, step: float = 0.05) -> float:
+    """Area of {q: V(q) ≤ E} seen from the well's minimum, cut off by the dividing ``lines``.
+
+    In polar coordinates about ``well`` the area is ½ ∮ r(θ)² dθ, r(θ) the first point of the ray
+    where V reaches E or a line is crossed (found by steps of ``step`` and bisection). The region
+    must be star-shaped about the well (each ray leaves it once), as a potential well near its
+    minimum is. r(θ) has kinks where the boundary passes from the equipotential to a line, at the
+    angles of the lines' allowed ends; the quadrature is split there, so each piece is smooth.
+    """
+    well = np.asarray(well, dtype=np.float64)
+    if system.potential(well) >= energy:
+        raise ValueError(f"energy {energy!r} is not above the well's potential {system.potential(well)!r}")
+    kinks = [-math.pi, math.pi]
+    for line in lines:
+        for u in line.interval():
+            end = line.saddle + u * line.tangent - well
+            kinks.append(math.atan2(end[1], end[0]))
+    kinks = sorted(set(kinks))
+    total = 0.0
+    for a, b in zip(kinks[:-1], kinks[1:]):
+        if b - a < 1e-15:
+            continue
+        value, _ = sp_integrate.quad(lambda t: 0.5 * _ray_radius(system, well, energy, lines, t, step) ** 2, a, b,
+                                     epsabs=0.0, epsrel=1e-11, limit=200)
+        total += value
+    return float(total)
+
+
+def well_shell_volume(system, well, energy: float, lines: Sequence[DividingLine] = (), **kwargs) -> float:
+    """∫ δ(E − H) dq dp over the well: 2π times :func:`well_area` (2 DoF, H = |p|²/2 + V)."""
+    if system.n_dof != 2:
+        raise ValueError(f"well_shell_volume is for 2 DoF systems; {system.name} has {system.n_dof}")
+    return 2.0 * math.pi * well_area(system, well, energy, lines, **kwargs)
