@@ -43,6 +43,10 @@ UPO = StageFile("upo", (
 MANIFOLDS = StageFile("manifolds", ("trajectory", "start_state", "section_state", "section_valid", "orbit_state"))
 POINCARE = StageFile("poincare", ("initial_state", "crossing_state", "crossing_valid", "crossing_count", "escaped"))
 NHIM = StageFile("nhim", ("refined_point", "reference_point", "distance_refined", "residence_forward"))
+TRANSPORT = StageFile("transport", (
+    "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
+    "flux_harmonic", "island", "well_volume", "rate_tst",
+))
 #: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
 ACCURACY_COST = StageFile(
     "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
@@ -50,5 +54,5 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, ACCURACY_COST,
+    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, TRANSPORT, ACCURACY_COST,
 )}

@@ -37,26 +37,19 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..config import system_spec
+from ..contracts import EQUILIBRIA, TRANSPORT, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
-from ..systems import make_system
+from ..systems import make_system, system_spec
 from ..transport import (
     DividingLine, closed_curve_area, decay_rate, exit_times, initial_slope, orbit_action, reactive_flux_monte_carlo,
     sample_well, survival, well_shell_volume,
 )
-from . import equilibria as equilibria_stage
-from . import upo as upo_stage
 from .manifolds import select_orbit
 
-STAGE = "transport"
-VARIABLES = (
-    "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
-    "flux_harmonic", "island", "well_volume", "rate_tst",
-)
 log = get_logger(__name__)
 
 
@@ -91,11 +84,11 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                   **parameters) -> Path:
     """Flux by action, island area and Monte Carlo at each energy of the study; writes ``output``."""
     key = f"transport.{parameters['name']}"
-    orbits = open_stage_file(upo, stage=upo_stage.STAGE, variables=upo_stage.VARIABLES)
+    orbits = open_stage_file(upo, stage=UPO)
     if stage_parameters(orbits)["system_name"] != parameters["system_name"]:
         raise StageFileError(f"{upo}: orbits of system {orbits.attrs['system']!r}, "
                              f"expected {parameters['system_name']!r}")
-    eq = open_stage_file(equilibria, stage=equilibria_stage.STAGE, variables=equilibria_stage.VARIABLES)
+    eq = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
     if system.n_dof != 2:
         raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
@@ -263,6 +256,6 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         },
     )
     title = f"Flux over the saddle of {orbits.attrs['family']}: action, reactive-island area, Monte Carlo"
-    path = write_stage_file(data, output, stage=STAGE, title=title, parameters=parameters)
+    path = write_stage_file(data, output, stage=TRANSPORT, title=title, parameters=parameters)
     log.info("wrote %s", path)
     return path

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from ldpipe.config import validate_config
+from ldpipe.contracts import TRANSPORT
 from ldpipe.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.transport import draw_transport
@@ -49,7 +50,7 @@ def files(tmp_path_factory):
 
 def test_action_island_area_and_monte_carlo_agree(files):
     _, _, _, path = files
-    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    data = open_stage_file(path, stage=TRANSPORT)
     assert data.excess_energy.values == pytest.approx(EXCESS, abs=1e-10)
     action = data.flux_action.values
     # 24 points along the orbit already give the island area to ~1e-10 (spectral rule).
@@ -64,7 +65,7 @@ def test_action_island_area_and_monte_carlo_agree(files):
 
 def test_harmonic_estimate_is_the_low_energy_limit(files):
     folder, equilibria, _, path = files
-    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    data = open_stage_file(path, stage=TRANSPORT)
     # The 2 DoF saddle's centre frequency by hand: V = x²/2 + 1.21 y²/2 − 0.11 x y² at (5.5, −√50) has
     # Hessian [[1, −0.22 y], [−0.22 y, 1.21 − 0.22 x]] = [[1, 0.22√50], [0.22√50, 0]]; the linearized
     # flow's eigenvalues ±iω satisfy ω² = the positive Hessian eigenvalue.
@@ -93,7 +94,7 @@ def test_tst_rate_is_total_flux_over_well_volume(files):
     """Barbanis is symmetric under y → −y, so the flux over the top saddle (Monte Carlo through its
     own line) equals the bottom saddle's action; the rate is their sum over the shell volume."""
     _, _, _, path = files
-    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    data = open_stage_file(path, stage=TRANSPORT)
     action = data.flux_action.values
     assert np.all(np.abs(data.flux_other_saddles.values - action) < 3 * data.flux_other_saddles_stderr.values)
     assert data.rate_tst.values == pytest.approx(
@@ -107,7 +108,7 @@ def test_survival_initial_slope_is_the_tst_rate(files):
     polar quadrature): the initial slope must equal it (exact for t0 below the quickest crossing of
     the well); the curve starts at 1 and falls."""
     _, _, _, path = files
-    data = open_stage_file(path, stage="transport", variables=transport_stage.VARIABLES)
+    data = open_stage_file(path, stage=TRANSPORT)
     rate = data.rate_tst.values
     slope, stderr = data.survival_initial_slope.values, data.survival_initial_slope_stderr.values
     assert np.all(np.abs(slope - rate) < 3 * stderr)
