@@ -1,0 +1,113 @@
+"""Engine throughput of two versions of ldpipe, side by side in one run.
+
+Did a change cost speed? Each round runs the same LD settings on the same grid in a fresh process
+of each version (``--old`` and ``--new``: the ``src`` folders of two checkouts, put first on the
+path), alternating, so a burst of load from other processes hits both alike. JIT compilation and
+cache loading are excluded (every setting is warmed up on 8 points first). Reported per setting:
+the CPU-time throughput of each version (trajectory time units per CPU second, all threads; the
+best of the rounds) and the ratio new/old with its spread over the rounds, and whether the LDs of
+the two versions are equal bit for bit.
+
+    .venv/bin/python benchmarks/versions.py --old ../baseline/src --new src --rounds 3 --n 200
+
+The grid is compare.py's: Barbanis 2 DoF, U_xpx (y = 0, p_y > 0) at ΔE = -0.125, x and p_x in
+[-5.6, 5.6], tau = 50 forward.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: (label, scheme, tolerance or step, p)
+SETTINGS = (
+    ("dop853 rtol 1e-5, M_1/2", "dop853", 1e-5, 0.5),
+    ("dop853 rtol 1e-8, M_1/2", "dop853", 1e-8, 0.5),
+    ("dop853 rtol 1e-10, M_1/2", "dop853", 1e-10, 0.5),
+    ("taylor rtol 1e-10, M_1/2", "taylor", 1e-10, 0.5),
+    ("rk4 dt 0.05, M_1/2", "rk4", 0.05, 0.5),
+    ("dop853 rtol 1e-10, arc length", "dop853", 1e-10, "arclength"),
+    ("taylor rtol 1e-10, arc length", "taylor", 1e-10, "arclength"),
+    ("taylor rtol 1e-12, arc length", "taylor", 1e-12, "arclength"),
+)
+
+
+def worker(n: int, tau: float) -> None:
+    """Time every setting in this process (the version first on sys.path); JSON on stdout."""
+    import time
+
+    import ldpipe
+    from ldpipe.engine import LDSettings, compute_ld
+    from ldpipe.systems import make_system
+
+    system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
+    energy = 15.125 - 0.125
+    x, px = (a.ravel() for a in np.meshgrid(np.linspace(-5.6, 5.6, n), np.linspace(-5.6, 5.6, n)))
+    kinetic_y = 2.0 * (energy - 0.5 * x**2) - px**2  # V(x, 0) = wx^2 x^2 / 2 with wx = 1
+    keep = kinetic_y > 0.0
+    states = np.column_stack([x[keep], np.zeros(keep.sum()), px[keep], np.sqrt(kinetic_y[keep])])
+    rows = {}
+    for label, scheme, accuracy, p in SETTINGS:
+        step = {"dt": accuracy} if scheme == "rk4" else {"rtol": accuracy, "atol": accuracy}
+        settings = LDSettings(scheme=scheme, p=p, tau=tau, **step)
+        compute_ld(system, states[:8], +1, settings)
+        wall, cpu = time.perf_counter(), time.process_time()
+        result = compute_ld(system, states, +1, settings)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        rows[label] = {"cpu": cpu, "wall": wall, "time_units": float(result.time.sum()),
+                       "ld_sum": float(np.sum(result.ld)), "ld_hash": hashlib.sha256(result.ld.tobytes()).hexdigest()}
+    json.dump({"ldpipe": ldpipe.__file__, "points": int(len(states)), "rows": rows}, sys.stdout)
+
+
+def run(source: Path, n: int, tau: float) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(source.resolve())}
+    done = subprocess.run([sys.executable, __file__, "--worker", "--n", str(n), "--tau", str(tau)],
+                          env=env, capture_output=True, text=True, check=True)
+    result = json.loads(done.stdout)
+    if not Path(result["ldpipe"]).resolve().is_relative_to(source.resolve()):
+        raise SystemExit(f"{source}: the worker imported ldpipe from {result['ldpipe']}")
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--old", type=Path, help="the src folder of the version to compare against")
+    parser.add_argument("--new", type=Path, default=Path(__file__).resolve().parents[1] / "src")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--n", type=int, default=200, help="grid points per side (default 200)")
+    parser.add_argument("--tau", type=float, default=50.0)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        return worker(args.n, args.tau)
+    if args.old is None:
+        parser.error("--old is required")
+    print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}, {os.cpu_count()} CPUs")
+    runs = {"old": [], "new": []}
+    for round_ in range(args.rounds):
+        for version in ("old", "new") if round_ % 2 == 0 else ("new", "old"):
+            runs[version].append(run(getattr(args, version), args.n, args.tau))
+    print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(f"{runs['new'][0]['points']} points, tau = {args.tau}, {args.rounds} rounds, throughput per CPU second")
+    print("| setting | old | new | new/old (best) | new/old per round, min–max | LD equal |")
+    print("| --- | ---: | ---: | ---: | ---: | --- |")
+    for label, *_ in SETTINGS:
+        old = [r["rows"][label] for r in runs["old"]]
+        new = [r["rows"][label] for r in runs["new"]]
+        rate = lambda row: row["time_units"] / row["cpu"]  # noqa: E731
+        best_old, best_new = max(map(rate, old)), max(map(rate, new))
+        ratios = [rate(b) / rate(a) for a, b in zip(old, new)]
+        equal = all(a["ld_hash"] == b["ld_hash"] for a, b in zip(old, new))
+        print(f"| {label} | {best_old:.3g} | {best_new:.3g} | {best_new / best_old:.2f} | "
+              f"{min(ratios):.2f}–{max(ratios):.2f} | {'yes' if equal else 'no'} |")
+
+
+if __name__ == "__main__":
+    main()
