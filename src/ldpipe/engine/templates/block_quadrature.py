@@ -35,8 +35,8 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
 # then scratch rows.
-R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR = range(NC, NC + 14)
-CB_ROWS = NC + 14
+R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS = range(NC, NC + 15)
+CB_ROWS = NC + 15
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path
 KEEP_FAST = 2.0
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
@@ -149,7 +149,10 @@ def fast(W, kind, p, glx, glw, window, SP):
                 # used, and its zero polynomials would each take the scalar path.
                 # (bitwise operators: no branches in the lane loop)
                 crossing = (W[OMIN + j] <= 0.0) & (W[OMAX + j] >= 0.0)
-                SP[c, j] = (crossing | near_left | near_right | pair) & (W[OH + j] != 0.0)
+                # a near-touch within DIP_WIDTH of a sample (``dip_possible``; no crossing, so
+                # min |v| over the samples is OMIN or -OMAX)
+                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < DIP_WIDTH * DIP_WIDTH * W[OCRV + j]
+                SP[c, j] = (crossing | near_left | near_right | pair | dip) & (W[OH + j] != 0.0)
 
 
 @njit(inline="always", **JIT)
@@ -196,6 +199,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         CB[R_B * CBS + t] = 0.0  # a root exactly at x = 0: the bracket [0, 0]
         CB[R_FA * CBS + t] = v0
         CB[R_FB * CBS + t] = v0
+        CB[R_MINABS * CBS + t] = math.inf  # over the interior samples (the nodes)
     x_prev = 0.0
     for s in range(n_nodes + 1):
         x = glx[s] if s < n_nodes else 1.0
@@ -215,12 +219,19 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
             # an exact zero at an interior sample: the scalar path
             CB[R_NSC * CBS + t] = nsc + (1.0 if change else 0.0) + (10.0 if (interior & (v == 0.0)) else 0.0)
             CB[R_PREV * CBS + t] = v
+            CB[R_MINABS * CBS + t] = min(CB[R_MINABS * CBS + t], abs(v) if interior else math.inf)
         x_prev = x
     # The case, the starting guess and the search interval:
     # inside: one sign change, no root near either end outside (an exact zero at 0 or 1 counts
     # as the root, bracket [0, 0] or [1, 1]); left/right: no sign change, a root within
-    # ``window`` outside one end (linear extrapolation). Anything else: the scalar path.
+    # ``window`` outside one end (linear extrapolation). Anything else: the scalar path, and so
+    # is, without a sign change, a possible near-touch (``dip_possible`` over the samples) or a
+    # zero end where v' is small too (a double root within DIP_WIDTH; |v| with p = 1 has none).
+    dip_width = 0.0 if kind == KIND_ONE else DIP_WIDTH
     for t in range(m):
+        bound = 0.0
+        for k in range(2, NC):
+            bound += k * (k - 1.0) * abs(CB[k * CBS + t])
         v0 = CB[t]
         d0 = CB[CBS + t]
         v1 = 0.0
@@ -233,6 +244,11 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         nsc = CB[R_NSC * CBS + t]
         zero0 = v0 == 0.0
         zero1 = v1 == 0.0
+        reach = dip_width * dip_width * bound
+        low = (2.0 * CB[R_MINABS * CBS + t] < reach) | (2.0 * abs(v0) < reach) & (~zero0)
+        low = low | (2.0 * abs(v1) < reach) & (~zero1)
+        double = zero0 & (2.0 * abs(d0) < dip_width * bound) | zero1 & (2.0 * abs(d1) < dip_width * bound)
+        dip = (nsc == 0.0) & (low | double)
         inside = (nsc == 1.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
         at0 = (nsc == 0.0) & zero0 & (~zero1) & (~near_right)
         at1 = (nsc == 0.0) & zero1 & (~zero0) & (~near_left)
@@ -259,7 +275,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         guess = 1.0 if at1 else guess
         lo = 1.0 if at1 else lo
         hi = 1.0 if at1 else hi
-        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0
+        CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & (~dip)) else 0.0
         CB[R_ROOT * CBS + t] = guess
         CB[R_LO * CBS + t] = lo
         CB[R_HI * CBS + t] = hi
