@@ -103,6 +103,7 @@ class ReferenceLD:
     quad_abserr: float  # sum of the quadrature's own error estimates (M_p)
     n_fallback: int = 0  # pieces where Gauss-Jacobi did not converge and QAWS was used
     n_minima: int = 0  # interior minima of some |f_i| that do not reach zero (pieces cut there)
+    deepest_minimum: float = np.inf  # the smallest |f_i| at one of those minima
 
 
 def _crossings(sol, field, t0, t1, component, samples_per_step):
@@ -291,6 +292,8 @@ def reference_ld(
     return ReferenceLD(ld=float(ld), arclength=float(arclength), t_end=t_end, exited=exited,
                        n_crossings=int(sum(len(r) for r in all_roots)),
                        n_minima=int(sum(len(m) for _, m in found)),
+                       deepest_minimum=min([np.inf] + [float(np.min(np.abs(field(sol(m))[i])))
+                                                       for i, (_, m) in enumerate(found) if len(m)]),
                        n_steps=len(sol_ivp.t) - 1, quad_abserr=float(ld_err),
                        n_fallback=ld_fallback + arc_fallback)
 

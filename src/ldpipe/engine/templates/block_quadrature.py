@@ -70,6 +70,7 @@ def fast(W, kind, p, glx, glw, window, SP):
             for j in range(LANES):
                 SP[c, j] = False
         return
+    dip_reach = (DIP_PER_WINDOW * window) ** 2
     for c in range(NCOMP):
         for j in range(LANES):
             base = OVC + c * LANES + j
@@ -149,9 +150,9 @@ def fast(W, kind, p, glx, glw, window, SP):
                 # used, and its zero polynomials would each take the scalar path.
                 # (bitwise operators: no branches in the lane loop)
                 crossing = (W[OMIN + j] <= 0.0) & (W[OMAX + j] >= 0.0)
-                # a near-touch within DIP_WIDTH of a sample (``dip_possible``; no crossing, so
-                # min |v| over the samples is OMIN or -OMAX)
-                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < DIP_WIDTH * DIP_WIDTH * W[OCRV + j]
+                # a near-touch within DIP_PER_WINDOW window of a sample (``dip_possible``; no
+                # crossing, so min |v| over the samples is OMIN or -OMAX)
+                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < dip_reach * W[OCRV + j]
                 SP[c, j] = (crossing | near_left | near_right | pair | dip) & (W[OH + j] != 0.0)
 
 
@@ -226,8 +227,8 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # as the root, bracket [0, 0] or [1, 1]); left/right: no sign change, a root within
     # ``window`` outside one end (linear extrapolation). Anything else: the scalar path, and so
     # is, without a sign change, a possible near-touch (``dip_possible`` over the samples) or a
-    # zero end where v' is small too (a double root within DIP_WIDTH; |v| with p = 1 has none).
-    dip_width = 0.0 if kind == KIND_ONE else DIP_WIDTH
+    # zero end where v' is small too (a double root within the dip width; |v| with p = 1 has none).
+    dip_width = 0.0 if kind == KIND_ONE else DIP_PER_WINDOW * window
     for t in range(m):
         bound = 0.0
         for k in range(2, NC):

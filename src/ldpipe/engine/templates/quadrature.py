@@ -39,9 +39,12 @@ ROOT_ITERATIONS = 60
 # Near-touches (a dip of |v| towards zero that turns back, or a double root): a minimum x_m of
 # |v| with v ~ v_m + v''(x - x_m)^2 / 2 puts the singularities of |v|^p at x_m +- i eps,
 # eps = sqrt(2 v_m / v''), so close to the real axis that Gauss–Legendre stalls. The fast pass
-# flags a component where 2 min|v| < DIP_WIDTH^2 * (a bound of |v''|) over the samples, i.e.
-# where such a pair could lie within DIP_WIDTH step lengths of a sample (``dip_possible``).
-DIP_WIDTH = 0.25
+# flags a component where 2 min|v| < width^2 * (a bound of |v''|) over the samples, i.e.
+# where such a pair could lie within width = DIP_PER_WINDOW * window step lengths of a sample
+# (``dip_possible``): 0.25 at the window 0.1 of loose tolerances, 0.5 at 0.2 (measured on
+# Hénon–Heiles near-touches with dop853 at rtol 1e-12: worst LD error 3e-10 with 0.25, 1.5e-11
+# with 0.5, 3e-12 with 16 nodes).
+DIP_PER_WINDOW = 2.5
 MAX_DIPS = 4  # dips kept per component and step, at the top of the ``roots`` scratch
 SINH_PANEL = 1.0  # panel width in w of the sinh rule (its integrand is analytic for |Im w| < pi / 2)
 DOUBLE_ROOT = 1e-8  # a zero sample whose local quadratic's other root is closer (x units): a double root
@@ -333,7 +336,7 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     Between two samples of one sign, a pair of roots is looked for (``root_pair``) where a
     polynomial of this curvature can dip to the other sign between them (``pair_possible``) or
     come near zero (``dip_possible``); a minimum that does not reach zero, with eps below
-    DIP_WIDTH u, is a dip: the pieces are cut at it when it is inside [0, u], and the pieces
+    DIP_PER_WINDOW window u, is a dip: the pieces are cut at it when it is inside [0, u], and the pieces
     next to it are integrated by the sinh rule (``sinh_piece``). A zero sample where v' vanishes
     too (a double root; DOUBLE_ROOT) is a dip with eps = 0, not a root: the Gauss–Jacobi weight
     (x - r)^p would be wrong there, |v|^p ~ |x - r|^(2p).
@@ -346,7 +349,7 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     m_out = int(math.ceil(window * m))
     dx = u / m
     curvature = curvature_bound(VC, c, j, nc, max(1.0, u) + (m_out + 1) * dx)
-    dip_limit = DIP_WIDTH * u
+    dip_limit = DIP_PER_WINDOW * window * u
     n_roots = 0
     n_dips = 0
     x_prev = -m_out * dx
