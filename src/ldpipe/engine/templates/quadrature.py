@@ -378,6 +378,27 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
                 n_roots += 1
         x_prev = x
         f_prev = f
+    # Two roots outside [0, u] on one side, closer to each other than half their distance from
+    # the step: seen from the step they are a double root (|v|^p ~ |x - x_m|^(2p)), and the
+    # Gauss–Jacobi weight of the nearer one alone would leave the other's cusp just beyond its
+    # anchor. They become one dip of width 0 at their midpoint (the sinh rule).
+    kept = 0
+    i = 0
+    while i < n_roots:
+        r0 = roots[i]
+        if i + 1 < n_roots:
+            r1 = roots[i + 1]
+            gap = r1 - r0
+            outside_left = r1 <= 0.0 and -r1 >= 2.0 * gap
+            outside_right = r0 >= u and r0 - u >= 2.0 * gap
+            if outside_left or outside_right:
+                n_dips = add_dip(roots, n_dips, 0.5 * (r0 + r1), 0.0)
+                i += 2
+                continue
+        roots[kept] = r0
+        kept += 1
+        i += 1
+    n_roots = kept
     # the dips, sorted by position (a few: insertion sort of the (x, eps) pairs at the top)
     top = roots.shape[0]
     for q in range(1, n_dips):
