@@ -75,11 +75,10 @@ def fast(W, kind, p, glx, glw, window, SP):
         for j in range(LANES):
             base = OVC + c * LANES + j
             v0 = W[base]
-            v1 = W[base]
-            for k in range(1, NC):
-                v1 += W[base + k * CS]
-            W[OMIN + j] = min(v0, v1)
-            W[OMAX + j] = max(v0, v1)
+            # OMIN, OMAX: over the nodes (the ends are added at the end, so that min |v| over
+            # the nodes alone is known for the near-touch test)
+            W[OMIN + j] = math.inf
+            W[OMAX + j] = -math.inf
             W[OACC + j] = 0.0
             W[OPRV + j] = v0
             # ORAT: 1 where some sample interval [a, b] (0, the nodes, 1) may hide a pair of
@@ -131,7 +130,9 @@ def fast(W, kind, p, glx, glw, window, SP):
                 for k in range(NC):
                     v1 += W[base + k * CS]
                 pair = max(W[ORAT + j], pair_possible(W[OPRV + j], v1, W[OCRV + j], last_gap)) > 0.0
-                SP[c, j] = ((W[OMIN + j] < 0.0) & (W[OMAX + j] > 0.0) | pair) & (W[OH + j] != 0.0)
+                v_min = min(W[OMIN + j], min(W[base], v1))
+                v_max = max(W[OMAX + j], max(W[base], v1))
+                SP[c, j] = ((v_min < 0.0) & (v_max > 0.0) | pair) & (W[OH + j] != 0.0)
         else:
             for j in range(LANES):
                 W[OFC + c * LANES + j] = W[OACC + j]
@@ -149,10 +150,16 @@ def fast(W, kind, p, glx, glw, window, SP):
                 # An idle lane (h = 0; never loaded: all zero) is never special: its FC is not
                 # used, and its zero polynomials would each take the scalar path.
                 # (bitwise operators: no branches in the lane loop)
-                crossing = (W[OMIN + j] <= 0.0) & (W[OMAX + j] >= 0.0)
-                # a near-touch within DIP_PER_WINDOW window of a sample (``dip_possible``; no
-                # crossing, so min |v| over the samples is OMIN or -OMAX)
-                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < dip_reach * W[OCRV + j]
+                crossing = (min(W[OMIN + j], min(v0, v1)) <= 0.0) & (max(W[OMAX + j], max(v0, v1)) >= 0.0)
+                # A near-touch (complex roots of v) within DIP_PER_WINDOW window of a sample
+                # (``dip_possible``): at the nodes (no crossing: min |v| there is OMIN or -OMAX),
+                # or at an end where also the slope allows complex roots (d^2 < 2 |v| v'', with
+                # the bound for v''; without it, every step next to a simple root was flagged).
+                bound = W[OCRV + j]
+                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < dip_reach * bound
+                dip0 = (2.0 * abs(v0) < dip_reach * bound) & (d0 * d0 < 2.0 * abs(v0) * bound)
+                dip1 = (2.0 * abs(v1) < dip_reach * bound) & (d1 * d1 < 2.0 * abs(v1) * bound)
+                dip = dip | dip0 | dip1
                 SP[c, j] = (crossing | near_left | near_right | pair | dip) & (W[OH + j] != 0.0)
 
 
@@ -246,8 +253,10 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         zero0 = v0 == 0.0
         zero1 = v1 == 0.0
         reach = dip_width * dip_width * bound
-        low = (2.0 * CB[R_MINABS * CBS + t] < reach) | (2.0 * abs(v0) < reach) & (~zero0)
-        low = low | (2.0 * abs(v1) < reach) & (~zero1)
+        # as in ``fast``: the nodes, and the ends where the slope allows complex roots
+        low0 = (2.0 * abs(v0) < reach) & (d0 * d0 < 2.0 * abs(v0) * bound) & (~zero0)
+        low1 = (2.0 * abs(v1) < reach) & (d1 * d1 < 2.0 * abs(v1) * bound) & (~zero1)
+        low = (2.0 * CB[R_MINABS * CBS + t] < reach) | low0 | low1
         double = zero0 & (2.0 * abs(d0) < dip_width * bound) | zero1 & (2.0 * abs(d1) < dip_width * bound)
         dip = (nsc == 0.0) & (low | double)
         inside = (nsc == 1.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
