@@ -12,9 +12,15 @@ Method
 2. Locate every zero crossing of every phase-space velocity component ``f_i(x(t))`` on the dense
    output: each accepted step is sampled at a few interior points, and every sign change is
    refined with ``brentq`` to ~1e-15.  (Sampling inside the steps catches a pair of zeros that
-   falls inside one step, which a sign test at the step ends alone would miss.)
+   falls inside one step, which a sign test at the step ends alone would miss.)  Every local
+   minimum of ``|f_i|`` on the samples is located too (bounded Brent on ``sign * f_i``): where it has
+   the other sign it brackets a pair of crossings closer than the samples; otherwise it is a
+   near-touch (``|f_i|`` dips towards zero and turns back, ``|f_i|**p`` ~ ``(a + b (t - t_m)**2)**p``,
+   nearly singular when a is small) and the pieces are cut there as well.
 3. Between consecutive crossings of component i, ``|f_i|**p`` behaves like ``|t - a|**p`` at an
-   end that is a crossing and is smooth inside.  Each such piece is integrated with
+   end that is a crossing and is smooth inside (nearly singular at most at an end that is a
+   near-touch minimum, where the 48/80-node rules disagree and the piece goes to QAWS, which
+   bisects adaptively towards that end).  Each such piece is integrated with
    ``scipy.integrate.quad(..., weight='alg', wvar=(alpha, beta))`` (QUADPACK QAWS), which takes
    the algebraic end-point factor ``(t - a)**alpha * (b - t)**beta`` out analytically; alpha = p
    at an end that is a crossing, 0 at an end that is t = 0 or t = tau.
@@ -38,7 +44,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.integrate import IntegrationWarning, quad, solve_ivp
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 from scipy.special import roots_jacobi
 
 # Barbanis 2 DoF (Naik & Wiggins, sec. model_prob_2dof)
@@ -96,10 +102,18 @@ class ReferenceLD:
     n_steps: int  # DOP853 steps
     quad_abserr: float  # sum of the quadrature's own error estimates (M_p)
     n_fallback: int = 0  # pieces where Gauss-Jacobi did not converge and QAWS was used
+    n_minima: int = 0  # interior minima of some |f_i| that do not reach zero (pieces cut there)
+    deepest_minimum: float = np.inf  # the smallest |f_i| at one of those minima
 
 
 def _crossings(sol, field, t0, t1, component, samples_per_step):
-    """Zero crossings of field(x(t))[component] on (t0, t1), sorted, from the dense output."""
+    """Zero crossings and near-touch minima of field(x(t))[component] on (t0, t1), from the dense output.
+
+    Returns (roots, minima), each sorted. ``minima`` are the interior local minima of |f| that
+    do not reach zero (a near-touch: |f| dips towards 0 and turns back), located to ~1e-13 by
+    bounded Brent minimisation of sign * f; where the minimum has the other sign, it is a pair of
+    roots closer than the sampling, and both are added to ``roots`` instead.
+    """
     ts = sol.ts
     # sample every step at `samples_per_step` points (ends included)
     frac = np.linspace(0.0, 1.0, samples_per_step + 1)[:-1]
@@ -112,14 +126,30 @@ def _crossings(sol, field, t0, t1, component, samples_per_step):
     def g(t):
         return field(sol(t))[component]
 
-    roots = []
-    for k in np.nonzero(values[:-1] * values[1:] < 0.0)[0]:
-        roots.append(brentq(g, grid[k], grid[k + 1], xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200))
+    def root(a, b):
+        return brentq(g, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+
+    roots = [root(grid[k], grid[k + 1]) for k in np.nonzero(values[:-1] * values[1:] < 0.0)[0]]
     # exact zeros on the sampling grid (rare) are crossings too, except at the ends
     for k in np.nonzero(values == 0.0)[0]:
         if 0 < k < len(grid) - 1:
             roots.append(grid[k])
-    return np.array(sorted(roots))
+    # local minima of |f| between samples of one sign
+    minima = []
+    a = np.abs(values)
+    for k in np.nonzero((a[1:-1] < a[:-2]) & (a[1:-1] <= a[2:]) & (values[:-2] * values[2:] > 0.0)
+                        & (values[1:-1] * values[:-2] > 0.0))[0] + 1:
+        lo, hi = grid[k - 1], grid[k + 1]
+        sign = np.sign(values[k])  # the minimum of sign * f: below zero, a pair of roots
+        best = minimize_scalar(lambda t: sign * float(g(t)), bounds=(lo, hi), method="bounded",
+                               options={"xatol": 1e-14 * max(1.0, abs(hi))})
+        tm = float(best.x)
+        fm = float(g(tm))
+        if fm * values[k] < 0.0:  # a pair of roots between two samples
+            roots += [root(lo, tm), root(tm, hi)]
+        elif lo < tm < hi and fm != 0.0:
+            minima.append(tm)
+    return np.array(sorted(roots)), np.array(sorted(minima))
 
 
 _RULES: dict = {}
@@ -232,13 +262,19 @@ def reference_ld(
 
     n = state0.size
     # the velocity in u differs from f only by the sign `direction`; |.| is unchanged
-    all_roots = [_crossings(sol, field, 0.0, t_end, i, samples_per_step) for i in range(n)]
+    found = [_crossings(sol, field, 0.0, t_end, i, samples_per_step) for i in range(n)]
+    all_roots = [roots for roots, _ in found]
     pieces = []  # (component, a, b, alpha, beta)
-    for i, roots in enumerate(all_roots):
-        ends = np.concatenate([[0.0], roots, [t_end]])
+    for i, (roots, minima) in enumerate(found):
+        # cut at the roots (cusp factor p at a root end) and at the near-touch minima (no factor;
+        # the near-singular end is left to the adaptive fallback when Gauss-Jacobi disagrees)
+        ends = np.concatenate([[0.0], roots, minima, [t_end]])
+        is_root = np.concatenate([[False], np.ones(len(roots), bool), np.zeros(len(minima), bool), [False]])
+        order = np.argsort(ends, kind="stable")
+        ends, is_root = ends[order], is_root[order]
         for k in range(len(ends) - 1):
             if ends[k + 1] > ends[k]:
-                pieces.append((i, ends[k], ends[k + 1], p if k > 0 else 0.0, p if k < len(ends) - 2 else 0.0))
+                pieces.append((i, ends[k], ends[k + 1], p if is_root[k] else 0.0, p if is_root[k + 1] else 0.0))
     breaks = np.unique(np.concatenate([[0.0], *all_roots, [t_end]]))
     arc_pieces = [(-1, a, b, 0.0, 0.0) for a, b in zip(breaks[:-1], breaks[1:])]
 
@@ -255,6 +291,9 @@ def reference_ld(
     arclength, _, arc_fallback = _integrate_pieces(arc_pieces, integrand, quadrature, quad_epsrel, quad_epsabs)
     return ReferenceLD(ld=float(ld), arclength=float(arclength), t_end=t_end, exited=exited,
                        n_crossings=int(sum(len(r) for r in all_roots)),
+                       n_minima=int(sum(len(m) for _, m in found)),
+                       deepest_minimum=min([np.inf] + [float(np.min(np.abs(field(sol(m))[i])))
+                                                       for i, (_, m) in enumerate(found) if len(m)]),
                        n_steps=len(sol_ivp.t) - 1, quad_abserr=float(ld_err),
                        n_fallback=ld_fallback + arc_fallback)
 

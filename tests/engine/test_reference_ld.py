@@ -75,3 +75,42 @@ def test_barbanis_quadratures_agree():
     b = reference.reference_ld(s, 10.0, quadrature="qaws")
     assert a.ld == pytest.approx(b.ld, rel=1e-12)
     assert a.arclength == pytest.approx(b.arclength, rel=1e-12)
+
+
+def _touch_field(centre, a):
+    """u' = 1, w' = (u - centre)^2 + a: w' dips to a at t = centre (a near-touch for small a > 0,
+    a pair of roots 2 sqrt(-a) apart for a < 0)."""
+
+    def field(state):
+        u = np.asarray(state)[0]
+        return np.array([np.ones_like(u), (u - centre) ** 2 + a])
+
+    return field
+
+
+def _sqrt_quadratic_integral(a, lo, hi):
+    """int_lo^hi sqrt|s^2 + a| ds in closed form (antiderivatives of sqrt(s^2 + a) and sqrt(-a - s^2))."""
+    if a > 0.0:
+        def f(s):
+            return 0.5 * (s * np.sqrt(s * s + a) + a * np.log(s + np.sqrt(s * s + a)))
+
+        return f(hi) - f(lo)
+    b = -a
+    r = np.sqrt(b)
+
+    def outer(s):  # s >= r
+        return 0.5 * (s * np.sqrt(s * s - b) - b * np.log(s + np.sqrt(s * s - b)))
+
+    inner = 0.5 * np.pi * b  # int_-r^r sqrt(b - s^2) ds
+    return (outer(hi) - outer(r)) + (outer(-lo) - outer(r)) + inner  # lo < -r < r < hi
+
+
+@pytest.mark.parametrize("a", [1e-2, 1e-6, 1e-10, 1e-14, -1e-2, -1e-6, -1e-10])
+def test_near_touch_and_close_root_pair_closed_form(a):
+    # M_1/2 over tau = 2 of u' = 1 (contributes tau) and w' = (t - 0.7)^2 + a, in closed form.
+    # a > 0: |w'| dips to a without crossing (the minimum is located, no crossing); a < 0: two
+    # crossings closer than the sampling of the steps (found from the minimum's sign).
+    r = reference.reference_ld(np.array([0.0, 0.0]), 2.0, 0.5, field=_touch_field(0.7, a))
+    exact = 2.0 + _sqrt_quadratic_integral(a, -0.7, 1.3)
+    assert r.ld == pytest.approx(exact, rel=1e-13, abs=0)
+    assert (r.n_minima, r.n_crossings) == ((1, 0) if a > 0 else (0, 2))

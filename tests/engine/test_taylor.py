@@ -366,16 +366,16 @@ def test_polynomial_with_symbolic_constant_is_accepted():
     assert terms[0] == pytest.approx({(1, 0): -math.pi}) and terms[1] == {(0, 1): -1.0}
 
 
-# --- a known limit (strict xfail: it fails, as a reminder, once fixed) ------------------------------
+# --- a former known limit (issue 18: a double root is now a near-touch of width 0) -----------------
 
 
-@pytest.mark.xfail(strict=True, reason="double root of a velocity component at a step start: cusp rule floor ~1e-8")
 def test_double_root_at_the_start(barbanis):
     # At x = 5.5 a_y = 0.22 y (x - 5.5) vanishes, and with p_x = 0 x - 5.5 ~ -0.055 t^2: the
     # velocity component p_y' has a double root at t = 0. Reference: dop853 at rtol 1e-13
     # (within 5e-13 of an mpmath Taylor integration at 30 digits, tanh-sinh quadrature cut at
-    # the roots). Measured: Taylor 1.7e-8 over its one step of 0.05; over tau = 0.3, 2.3e-8 at
-    # rtol 1e-10 and 1.2e-8 at 1e-12 (not following the tolerance); 8e-10 with 32 nodes.
+    # the roots). Measured before issue 18: Taylor 1.7e-8 over its one step of 0.05; over
+    # tau = 0.3, 2.3e-8 at rtol 1e-10 and 1.2e-8 at 1e-12 (not following the tolerance). The
+    # same case against the independent reference: tests/engine/test_near_touch.py.
     kinetic = 2.0 * (E_C + 0.2 - barbanis.potential(np.array([5.5, 7.0])))
     state = np.array([[5.5, 7.0, 0.0, math.sqrt(kinetic)]])
     result = compute_ld(barbanis, state, +1, taylor(BARBANIS_ORDER, 1e-12, p=0.5, tau=0.05))

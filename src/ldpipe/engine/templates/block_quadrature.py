@@ -35,8 +35,8 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
 # then scratch rows.
-R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR = range(NC, NC + 14)
-CB_ROWS = NC + 14
+R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS = range(NC, NC + 15)
+CB_ROWS = NC + 15
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path
 KEEP_FAST = 2.0
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
@@ -70,15 +70,15 @@ def fast(W, kind, p, glx, glw, window, SP):
             for j in range(LANES):
                 SP[c, j] = False
         return
+    dip_reach = (DIP_PER_WINDOW * window) ** 2
     for c in range(NCOMP):
         for j in range(LANES):
             base = OVC + c * LANES + j
             v0 = W[base]
-            v1 = W[base]
-            for k in range(1, NC):
-                v1 += W[base + k * CS]
-            W[OMIN + j] = min(v0, v1)
-            W[OMAX + j] = max(v0, v1)
+            # OMIN, OMAX: over the nodes (the ends are added at the end, so that min |v| over
+            # the nodes alone is known for the near-touch test)
+            W[OMIN + j] = math.inf
+            W[OMAX + j] = -math.inf
             W[OACC + j] = 0.0
             W[OPRV + j] = v0
             # ORAT: 1 where some sample interval [a, b] (0, the nodes, 1) may hide a pair of
@@ -130,7 +130,9 @@ def fast(W, kind, p, glx, glw, window, SP):
                 for k in range(NC):
                     v1 += W[base + k * CS]
                 pair = max(W[ORAT + j], pair_possible(W[OPRV + j], v1, W[OCRV + j], last_gap)) > 0.0
-                SP[c, j] = ((W[OMIN + j] < 0.0) & (W[OMAX + j] > 0.0) | pair) & (W[OH + j] != 0.0)
+                v_min = min(W[OMIN + j], min(W[base], v1))
+                v_max = max(W[OMAX + j], max(W[base], v1))
+                SP[c, j] = ((v_min < 0.0) & (v_max > 0.0) | pair) & (W[OH + j] != 0.0)
         else:
             for j in range(LANES):
                 W[OFC + c * LANES + j] = W[OACC + j]
@@ -139,17 +141,32 @@ def fast(W, kind, p, glx, glw, window, SP):
                 d0 = W[base + CS]
                 v1 = 0.0
                 d1 = 0.0
-                for k in range(NC - 1, -1, -1):  # Horner at x = 1: v1 = v(1), d1 = v'(1)
+                a1 = 0.0
+                for k in range(NC - 1, -1, -1):  # Horner at x = 1: v1 = v(1), d1 = v'(1), a1 = v''(1) / 2
+                    a1 = a1 + d1
                     d1 = d1 + v1
                     v1 = v1 + W[base + k * CS]
+                a0 = 2.0 * W[base + 2 * CS]  # v''(0)
+                a1 = 2.0 * a1
                 near_left = (v0 * d0 > 0.0) & (abs(v0) <= window * abs(d0))
                 near_right = (v1 * d1 < 0.0) & (abs(v1) <= window * abs(d1))
                 pair = max(W[ORAT + j], pair_possible(W[OPRV + j], v1, W[OCRV + j], last_gap)) > 0.0
                 # An idle lane (h = 0; never loaded: all zero) is never special: its FC is not
                 # used, and its zero polynomials would each take the scalar path.
                 # (bitwise operators: no branches in the lane loop)
-                crossing = (W[OMIN + j] <= 0.0) & (W[OMAX + j] >= 0.0)
-                SP[c, j] = (crossing | near_left | near_right | pair) & (W[OH + j] != 0.0)
+                crossing = (min(W[OMIN + j], min(v0, v1)) <= 0.0) & (max(W[OMAX + j], max(v0, v1)) >= 0.0)
+                # A near-touch (complex roots of v) within DIP_PER_WINDOW window of a sample:
+                # at an end e, where the quadratic model v + d x + (a / 2) x^2 has complex roots
+                # (a v > 0, d^2 < 2 a v) at distance sqrt(2 v / a) < width; at the nodes (no
+                # crossing: min |v| there is OMIN or -OMAX) by ``dip_possible`` with the larger
+                # |v''| of the ends for the curvature. (With the bound of |v''| of
+                # ``pair_possible`` instead, 1.6x the CPU time at rtol 1e-6.)
+                curv = max(abs(a0), abs(a1))
+                dip = 2.0 * min(abs(W[OMIN + j]), abs(W[OMAX + j])) < dip_reach * curv
+                dip0 = (a0 * v0 > 0.0) & (2.0 * abs(v0) < dip_reach * abs(a0)) & (d0 * d0 < 2.0 * a0 * v0)
+                dip1 = (a1 * v1 > 0.0) & (2.0 * abs(v1) < dip_reach * abs(a1)) & (d1 * d1 < 2.0 * a1 * v1)
+                dip = dip | dip0 | dip1
+                SP[c, j] = (crossing | near_left | near_right | pair | dip) & (W[OH + j] != 0.0)
 
 
 @njit(inline="always", **JIT)
@@ -196,6 +213,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         CB[R_B * CBS + t] = 0.0  # a root exactly at x = 0: the bracket [0, 0]
         CB[R_FA * CBS + t] = v0
         CB[R_FB * CBS + t] = v0
+        CB[R_MINABS * CBS + t] = math.inf  # over the interior samples (the nodes)
     x_prev = 0.0
     for s in range(n_nodes + 1):
         x = glx[s] if s < n_nodes else 1.0
@@ -215,24 +233,40 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
             # an exact zero at an interior sample: the scalar path
             CB[R_NSC * CBS + t] = nsc + (1.0 if change else 0.0) + (10.0 if (interior & (v == 0.0)) else 0.0)
             CB[R_PREV * CBS + t] = v
+            CB[R_MINABS * CBS + t] = min(CB[R_MINABS * CBS + t], abs(v) if interior else math.inf)
         x_prev = x
     # The case, the starting guess and the search interval:
     # inside: one sign change, no root near either end outside (an exact zero at 0 or 1 counts
     # as the root, bracket [0, 0] or [1, 1]); left/right: no sign change, a root within
-    # ``window`` outside one end (linear extrapolation). Anything else: the scalar path.
+    # ``window`` outside one end (linear extrapolation). Anything else: the scalar path, and so
+    # is, without a sign change, a possible near-touch (``dip_possible`` over the samples) or a
+    # zero end where v' is small too (a double root within the dip width; |v| with p = 1 has none).
+    dip_width = 0.0 if kind == KIND_ONE else DIP_PER_WINDOW * window
     for t in range(m):
         v0 = CB[t]
         d0 = CB[CBS + t]
         v1 = 0.0
         d1 = 0.0
+        a1 = 0.0
         for k in range(NC - 1, -1, -1):
+            a1 = a1 + d1
             d1 = d1 + v1
             v1 = v1 + CB[k * CBS + t]
+        a0 = 2.0 * CB[2 * CBS + t]
+        a1 = 2.0 * a1
+        bound = max(abs(a0), abs(a1))
         near_left = (v0 * d0 > 0.0) & (abs(v0) <= window * abs(d0))
         near_right = (v1 * d1 < 0.0) & (abs(v1) <= window * abs(d1))
         nsc = CB[R_NSC * CBS + t]
         zero0 = v0 == 0.0
         zero1 = v1 == 0.0
+        reach = dip_width * dip_width * bound
+        # as in ``fast``: the nodes, and the ends where the quadratic model has complex roots
+        low0 = (a0 * v0 > 0.0) & (2.0 * abs(v0) < dip_width * dip_width * abs(a0)) & (d0 * d0 < 2.0 * a0 * v0)
+        low1 = (a1 * v1 > 0.0) & (2.0 * abs(v1) < dip_width * dip_width * abs(a1)) & (d1 * d1 < 2.0 * a1 * v1)
+        low = (2.0 * CB[R_MINABS * CBS + t] < reach) | low0 | low1
+        double = zero0 & (2.0 * abs(d0) < dip_width * bound) | zero1 & (2.0 * abs(d1) < dip_width * bound)
+        dip = (nsc == 0.0) & (low | double)
         inside = (nsc == 1.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
         at0 = (nsc == 0.0) & zero0 & (~zero1) & (~near_right)
         at1 = (nsc == 0.0) & zero1 & (~zero0) & (~near_left)
@@ -259,7 +293,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         guess = 1.0 if at1 else guess
         lo = 1.0 if at1 else lo
         hi = 1.0 if at1 else hi
-        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0
+        CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & (~dip)) else 0.0
         CB[R_ROOT * CBS + t] = guess
         CB[R_LO * CBS + t] = lo
         CB[R_HI * CBS + t] = hi

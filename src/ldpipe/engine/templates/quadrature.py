@@ -25,6 +25,14 @@ component at a time: ``component_integral`` below)
     The fast path sends a component here also when such a dip is possible between two of its
     samples (``pair_possible``, with a bound of |v''| from the coefficients).
 
+near-touches (a dip of |v| towards zero that turns back, or a double root; issue 18)
+    The fast pass and ``special`` flag a component without a sign change where the local
+    quadratic at an end has complex roots within DIP_PER_WINDOW * window, or where
+    ``dip_possible`` holds at the nodes; the scalar path records such minima (``root_pair``)
+    and double roots as dips, cuts the step at them and integrates the pieces next to them with
+    the sinh substitution x = x_m + eps sinh(w) (``sinh_piece``). Two roots outside the step,
+    close together, count as one double-root dip.
+
 Arc length sqrt(sum_c v_c^2) is smooth unless every component vanishes together, so it always
 takes the Gauss–Legendre path.
 
@@ -36,6 +44,21 @@ Header names used: njit, JIT, math, KIND_HALF, KIND_ONE.
 
 SAMPLES_PER_STEP = 8  # sample grid of the special path, per unit of u
 ROOT_ITERATIONS = 60
+# Near-touches (a dip of |v| towards zero that turns back, or a double root): a minimum x_m of
+# |v| with v ~ v_m + v''(x - x_m)^2 / 2 puts the singularities of |v|^p at x_m +- i eps,
+# eps = sqrt(2 v_m / v''), so close to the real axis that Gauss–Legendre stalls. The fast pass
+# flags a component where 2 min|v| < width^2 * (a bound of |v''|) over the samples, i.e.
+# where such a pair could lie within width = DIP_PER_WINDOW * window step lengths of a sample
+# (``dip_possible``): 0.25 at the window 0.1 of loose tolerances, 0.5 at 0.2 (measured on
+# Hénon–Heiles near-touches with dop853 at rtol 1e-12: worst LD error 3e-10 with 0.25, 1.5e-11
+# with 0.5, 3e-12 with 16 nodes). The cost (Barbanis section, dop853, CPU time against before
+# issue 18): 1.23x at rtol 1e-6 and 1e-8, 1.05x at 1e-10 with 2.5; ~1.08x at 1e-6/1e-8 with 1.5,
+# whose worst error at rtol 1e-12 is 1.6e-10 (no longer falling 10x per two decades of rtol).
+DIP_PER_WINDOW = 2.5
+MAX_DIPS = 4  # dips kept per component and step, at the top of the ``roots`` scratch
+SINH_PANEL = 1.0  # panel width in w of the sinh rule (its integrand is analytic for |Im w| < pi / 2)
+DOUBLE_ROOT = 1e-8  # a zero sample whose local quadratic's other root is closer (x units): a double root
+EPS_FLOOR = 1e-12  # the smallest eps of the sinh rule (x units): a double root's integrand ~ eps^(1 + 2p) below
 
 
 @njit(**JIT)
@@ -127,9 +150,61 @@ def pair_possible(va, vb, bound, gap):
     return 1.0 if possible else 0.0
 
 
+@njit(inline="always", **JIT)
+def dip_possible(va, vb, bound, width):
+    """1.0 if a near-touch (complex roots x_m +- i eps of v) may lie within ``width`` of a sample
+    where v = va or vb, given |v''| <= bound; else 0.0.
+
+    In the quadratic model 2 |v(x)| / v'' = (x - x_m)^2 + eps^2, the squared distance of the
+    singularities from x; with v'' <= bound, 2 |v| / bound is no more than that, so the test
+    2 min(|va|, |vb|) < width^2 bound misses no pair within ``width``.
+    """
+    return 1.0 if 2.0 * min(abs(va), abs(vb)) < width * width * bound else 0.0
+
+
 @njit(**JIT)
-def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots):
+def add_dip(roots, n_dips, x_m, eps):
+    """Keep the dip (x_m, eps) at the top of ``roots`` (pairs from the end); returns the count."""
+    if n_dips >= MAX_DIPS:
+        return n_dips
+    top = roots.shape[0] - 2 * n_dips
+    roots[top - 1] = x_m
+    roots[top - 2] = eps
+    return n_dips + 1
+
+
+@njit(**JIT)
+def sinh_piece(VC, c, j, nc, a, b, x_m, eps, kind, p, glx, glw):
+    """int_a^b |v|^p dx where v has a near-touch at x_m (singularities x_m +- i eps), x_m <= a or x_m >= b.
+
+    The substitution x = x_m + eps sinh(w) (Johnston & Elliott's sinh transformation) maps the
+    near-singularities to w = +- i pi / 2 and spreads the layer of width eps around x_m over
+    O(1) in w: in the quadratic model |v|^p dx = v_m^p cosh(w)^(1 + 2p) eps dw, analytic in the
+    strip |Im w| < pi / 2. The w interval (length ~ log(2 (b - a) / eps)) is cut into panels of
+    width SINH_PANEL, each by Gauss–Legendre. A double root (eps = 0) uses eps = EPS_FLOOR: the
+    integrand near w = 0 is then ~ eps^(1 + 2p), below rounding.
+    """
+    eps = max(eps, EPS_FLOOR)
+    wa = math.asinh((a - x_m) / eps)
+    wb = math.asinh((b - x_m) / eps)
+    n_panels = max(1, int(math.ceil((wb - wa) / SINH_PANEL)))
+    dw = (wb - wa) / n_panels
+    total = 0.0
+    for q in range(n_panels):
+        w0 = wa + q * dw
+        for g in range(glx.shape[0]):
+            w = w0 + dw * glx[g]
+            x = x_m + eps * math.sinh(w)
+            total += glw[g] * math.cosh(w) * _power(abs(horner(VC, c, j, nc, x)), kind, p)
+    return total * eps * dw
+
+
+@njit(**JIT)
+def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots, n_dips, dip_limit):
     """Roots of v in (a, b) when v(a), v(b) have one sign but |v| dips to the other sign between.
+
+    Returns (n_roots, n_dips): where the dip does not reach zero and its eps (see
+    ``dip_possible``) is below ``dip_limit``, the minimum is kept as a dip (``add_dip``).
 
     The samples a, b miss a pair of roots closer together than their spacing. If |v| falls at
     a and rises at b, its minimum (a root of v') is bracketed and found by Newton's method on
@@ -139,8 +214,8 @@ def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots):
     """
     _, da = horner_d(VC, c, j, nc, a)
     _, db = horner_d(VC, c, j, nc, b)
-    if not (fa * da < 0.0 and fb * db > 0.0):
-        return n_roots  # |v| monotone, or a maximum of |v| inside: no pair
+    if not (fa * da <= 0.0 and fb * db >= 0.0):
+        return n_roots, n_dips  # |v| monotone, or a maximum of |v| inside: no pair
     lo = a
     hi = b
     x_min = a - da * (b - a) / (db - da)  # the secant root of v'
@@ -161,12 +236,18 @@ def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots):
         x_min = x_new
         if converged:
             break
-    f_min = horner(VC, c, j, nc, x_min)
-    if f_min * fa >= 0.0:
-        return n_roots  # the dip does not reach zero (a double root exactly at 0 is left to the pieces)
+    f_min, _, dd_min = horner_dd(VC, c, j, nc, x_min)
+    if f_min * fa >= 0.0:  # the dip does not reach zero: a near-touch when it is narrow
+        if f_min * dd_min > 0.0:
+            eps = math.sqrt(2.0 * f_min / dd_min)
+            if eps < dip_limit:
+                n_dips = add_dip(roots, n_dips, x_min, eps)
+        elif f_min == 0.0:
+            n_dips = add_dip(roots, n_dips, x_min, 0.0)
+        return n_roots, n_dips
     roots[n_roots] = refine_root(VC, c, j, nc, 0.0, a, x_min, fa, f_min)
     roots[n_roots + 1] = refine_root(VC, c, j, nc, 0.0, x_min, b, f_min, fb)
-    return n_roots + 2
+    return n_roots + 2, n_dips
 
 
 @njit(**JIT)
@@ -222,22 +303,39 @@ def _one_side(VC, c, j, nc, a, b, anchor, left, kind, p, glx, glw, gjx, gjf):
 
 
 @njit(**JIT)
-def _piece(VC, c, j, nc, a, b, left_root, right_root, kind, p, glx, glw, gjx, gjf):
-    """int_a^b |v|^p, v without roots inside (a, b); left_root <= a, right_root >= b (+-inf: none)."""
+def _side(VC, c, j, nc, a, b, x, eps, left, kind, p, glx, glw, gjx, gjf):
+    """int_a^b |v|^p with one feature beyond or at an end: a root x (eps < 0) or a dip (x, eps)."""
+    if eps < 0.0:
+        return _one_side(VC, c, j, nc, a, b, x, left, kind, p, glx, glw, gjx, gjf)
+    return sinh_piece(VC, c, j, nc, a, b, x, eps, kind, p, glx, glw)
+
+
+@njit(**JIT)
+def _distance(x, eps, e):
+    """Distance from the end e to a root x (eps < 0) or to the singularities x +- i eps of a dip."""
+    if eps < 0.0:
+        return abs(e - x)
+    return math.sqrt((e - x) * (e - x) + eps * eps)
+
+
+@njit(**JIT)
+def _piece(VC, c, j, nc, a, b, left_x, left_eps, right_x, right_eps, kind, p, glx, glw, gjx, gjf):
+    """int_a^b |v|^p, v without roots inside (a, b), with the nearest feature on each side:
+    left_x <= a, right_x >= b (+-inf: none), each a root (eps < 0) or a dip (eps >= 0)."""
     length = b - a
     if length <= 0.0:
         return 0.0
-    near_left = a - left_root <= length
-    near_right = right_root - b <= length
+    near_left = _distance(left_x, left_eps, a) <= length
+    near_right = _distance(right_x, right_eps, b) <= length
     if near_left and near_right:
         middle = 0.5 * (a + b)
-        return _one_side(VC, c, j, nc, a, middle, left_root, True, kind, p, glx, glw, gjx, gjf) + _one_side(
-            VC, c, j, nc, middle, b, right_root, False, kind, p, glx, glw, gjx, gjf
+        return _side(VC, c, j, nc, a, middle, left_x, left_eps, True, kind, p, glx, glw, gjx, gjf) + _side(
+            VC, c, j, nc, middle, b, right_x, right_eps, False, kind, p, glx, glw, gjx, gjf
         )
     if near_left:
-        return _one_side(VC, c, j, nc, a, b, left_root, True, kind, p, glx, glw, gjx, gjf)
+        return _side(VC, c, j, nc, a, b, left_x, left_eps, True, kind, p, glx, glw, gjx, gjf)
     if near_right:
-        return _one_side(VC, c, j, nc, a, b, right_root, False, kind, p, glx, glw, gjx, gjf)
+        return _side(VC, c, j, nc, a, b, right_x, right_eps, False, kind, p, glx, glw, gjx, gjf)
     return _legendre(VC, c, j, nc, a, b, kind, p, glx, glw)
 
 
@@ -246,16 +344,24 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     """int_0^u |v_c(x)|^p dx for lane j, cutting at the roots of v_c (the special path).
 
     Between two samples of one sign, a pair of roots is looked for (``root_pair``) where a
-    polynomial of this curvature can dip to the other sign between them (``pair_possible``).
+    polynomial of this curvature can dip to the other sign between them (``pair_possible``) or
+    come near zero (``dip_possible``); a minimum that does not reach zero, with eps below
+    DIP_PER_WINDOW window u, is a dip: the pieces are cut at it when it is inside [0, u], and the pieces
+    next to it are integrated by the sinh rule (``sinh_piece``). A zero sample where v' vanishes
+    too (a double root; DOUBLE_ROOT) is a dip with eps = 0, not a root: the Gauss–Jacobi weight
+    (x - r)^p would be wrong there, |v|^p ~ |x - r|^(2p).
 
-    ``roots`` is scratch space of at least 3 (2 m_out + SAMPLES_PER_STEP + 1) entries, m_out =
-    ceil(window SAMPLES_PER_STEP): two roots per sample interval, one per sample.
+    ``roots`` is scratch space of at least 3 (2 m_out + SAMPLES_PER_STEP + 1) + 2 MAX_DIPS
+    entries, m_out = ceil(window SAMPLES_PER_STEP): two roots per sample interval, one per
+    sample; the dips are kept at its top.
     """
     m = SAMPLES_PER_STEP
     m_out = int(math.ceil(window * m))
     dx = u / m
     curvature = curvature_bound(VC, c, j, nc, max(1.0, u) + (m_out + 1) * dx)
+    dip_limit = DIP_PER_WINDOW * window * u
     n_roots = 0
+    n_dips = 0
     x_prev = -m_out * dx
     f_prev = horner(VC, c, j, nc, x_prev)
     if f_prev == 0.0:
@@ -269,29 +375,75 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
         if f_prev * f < 0.0:
             roots[n_roots] = refine_root(VC, c, j, nc, 0.0, x_prev, x, f_prev, f)
             n_roots += 1
-        elif pair_possible(f_prev, f, curvature, dx) > 0.0:
-            n_roots = root_pair(VC, c, j, nc, x_prev, x, f_prev, f, roots, n_roots)
+        elif f_prev * f > 0.0 and (
+            pair_possible(f_prev, f, curvature, dx) > 0.0 or dip_possible(f_prev, f, curvature, dip_limit) > 0.0
+        ):
+            n_roots, n_dips = root_pair(VC, c, j, nc, x_prev, x, f_prev, f, roots, n_roots, n_dips, dip_limit)
         if f == 0.0:
-            roots[n_roots] = x
-            n_roots += 1
+            _, d, dd = horner_dd(VC, c, j, nc, x)
+            if abs(2.0 * d) <= DOUBLE_ROOT * abs(dd):
+                n_dips = add_dip(roots, n_dips, x, 0.0)
+            else:
+                roots[n_roots] = x
+                n_roots += 1
         x_prev = x
         f_prev = f
-    # Walk the pieces of [0, u] between interior roots.
-    left_root = -math.inf
+    # Two roots outside [0, u] on one side, closer to each other than half their distance from
+    # the step: seen from the step they are a double root (|v|^p ~ |x - x_m|^(2p)), and the
+    # Gauss–Jacobi weight of the nearer one alone would leave the other's cusp just beyond its
+    # anchor. They become one dip of width 0 at their midpoint (the sinh rule).
+    kept = 0
+    i = 0
+    while i < n_roots:
+        r0 = roots[i]
+        if i + 1 < n_roots:
+            r1 = roots[i + 1]
+            gap = r1 - r0
+            outside_left = r1 <= 0.0 and -r1 >= 2.0 * gap
+            outside_right = r0 >= u and r0 - u >= 2.0 * gap
+            if outside_left or outside_right:
+                n_dips = add_dip(roots, n_dips, 0.5 * (r0 + r1), 0.0)
+                i += 2
+                continue
+        roots[kept] = r0
+        kept += 1
+        i += 1
+    n_roots = kept
+    # the dips, sorted by position (a few: insertion sort of the (x, eps) pairs at the top)
+    top = roots.shape[0]
+    for q in range(1, n_dips):
+        k = q
+        while k > 0 and roots[top - 1 - 2 * k] < roots[top - 1 - 2 * (k - 1)]:
+            for o in range(1, 3):
+                held = roots[top - o - 2 * k]
+                roots[top - o - 2 * k] = roots[top - o - 2 * (k - 1)]
+                roots[top - o - 2 * (k - 1)] = held
+            k -= 1
+    # Walk the pieces of [0, u] between the interior roots and dips; the features left and right
+    # of each piece are the nearest root or dip (eps < 0 marks a root).
+    left_x = -math.inf
+    left_eps = -1.0
     k = 0
-    while k < n_roots and roots[k] <= 0.0:
-        left_root = roots[k]
-        k += 1
+    q = 0
     total = 0.0
     a = 0.0
-    while k < n_roots and roots[k] < u:
-        r = roots[k]
-        total += _piece(VC, c, j, nc, a, r, left_root, r, kind, p, glx, glw, gjx, gjf)
-        a = r
-        left_root = r
-        k += 1
-    right_root = roots[k] if k < n_roots else math.inf
-    total += _piece(VC, c, j, nc, a, u, left_root, right_root, kind, p, glx, glw, gjx, gjf)
+    for _ in range(n_roots + n_dips + 1):
+        rk = roots[k] if k < n_roots else math.inf
+        dq = roots[top - 1 - 2 * q] if q < n_dips else math.inf
+        x_next = min(rk, dq)
+        eps_next = -1.0 if rk <= dq else roots[top - 2 - 2 * q]
+        if x_next > 0.0 and x_next < u:
+            total += _piece(VC, c, j, nc, a, x_next, left_x, left_eps, x_next, eps_next, kind, p, glx, glw, gjx, gjf)
+            a = x_next
+        if x_next >= u:
+            total += _piece(VC, c, j, nc, a, u, left_x, left_eps, x_next, eps_next, kind, p, glx, glw, gjx, gjf)
+            return total
+        left_x = x_next  # a feature at or before 0, or the cut just made
+        left_eps = eps_next
+        if rk <= dq:
+            k += 1
+        else:
+            q += 1
     return total
 
 
