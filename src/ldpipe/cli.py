@@ -19,6 +19,7 @@ from .engine.integrands import ARCLENGTH
 from .errors import ConfigError, LdpipeError
 from .logs import log_to
 from .systems import BUILTINS
+from .text import short_number
 
 EPILOG = """\
 examples:
@@ -34,15 +35,6 @@ examples:
 
 #: The defaults of ``ldpipe ld``: the engine's (as the config schema's).
 INTEGRATOR, DESCRIPTOR, STOPPING = IntegratorSettings(), DescriptorSettings(), StoppingRules()
-
-
-def _short(value: float) -> str:
-    """1e-08 -> '1e-8', 50.0 -> '50': a default as the help texts write it."""
-    text = f"{value:g}"
-    if "e" in text:
-        mantissa, exponent = text.split("e")
-        text = f"{mantissa}e{int(exponent)}"
-    return text
 
 
 def _key_value(text: str) -> tuple[str, str]:
@@ -235,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--energy", type=float, metavar="E", help="total energy")
     ld.add_argument("--excess-energy", type=float, metavar="DE", help="energy above the saddle's critical energy")
     ld.add_argument("--saddle-near", metavar="Q1,Q2,...", help="use the index-1 saddle nearest this point")
-    ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {_short(STOPPING.tau)})")
+    ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
     ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
                     help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")
     ld.add_argument("--time", choices=("fixed", "variable"), default="fixed", help="fixed or variable time (default fixed)")
@@ -245,15 +237,15 @@ def build_parser() -> argparse.ArgumentParser:
     adaptive = " and ".join(name for name, record in SCHEMES.items() if record.adaptive)
     ld.add_argument("--scheme", default=INTEGRATOR.scheme, help=f"integrator: {schemes}")
     ld.add_argument("--rtol", type=float, default=INTEGRATOR.rtol,
-                    help=f"relative tolerance of {adaptive} (default {_short(INTEGRATOR.rtol)})")
+                    help=f"relative tolerance of {adaptive} (default {short_number(INTEGRATOR.rtol)})")
     ld.add_argument("--atol", type=float, default=INTEGRATOR.atol,
-                    help=f"absolute tolerance of {adaptive} (default {_short(INTEGRATOR.atol)})")
+                    help=f"absolute tolerance of {adaptive} (default {short_number(INTEGRATOR.atol)})")
     ld.add_argument("--taylor-order", type=int, metavar="M", default=INTEGRATOR.taylor_order,
                     help="order of the taylor scheme (default: from the tolerance)")
     ld.add_argument("--dt", type=float, default=INTEGRATOR.dt,
-                    help=f"step of the fixed-step schemes (default {_short(INTEGRATOR.dt)})")
+                    help=f"step of the fixed-step schemes (default {short_number(INTEGRATOR.dt)})")
     ld.add_argument("--escape-radius", type=float, default=INTEGRATOR.escape_radius, metavar="R",
-                    help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {_short(INTEGRATOR.escape_radius)})")
+                    help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {short_number(INTEGRATOR.escape_radius)})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")

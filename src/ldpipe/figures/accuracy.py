@@ -31,6 +31,7 @@ from ..contracts import ACCURACY_COST
 from ..datafile import open_stage_file
 from ..engine.schemes import SCHEMES
 from ..logs import get_logger
+from ..text import short_number
 from . import style
 
 log = get_logger(__name__)
@@ -45,15 +46,6 @@ ORBIT_COLORS = ("tab:purple", "tab:brown", "tab:cyan", "tab:olive", "tab:pink", 
 #: Errors are drawn no lower than this on the log axes (an exact 0 has no logarithm).
 ERROR_FLOOR = 1e-16
 DEFAULT_RING = {"s": 140, "facecolors": "none", "edgecolors": "black", "linewidths": 1.2, "zorder": 5}
-
-
-def short_number(value: float) -> str:
-    """1e-08 -> '1e-8', 0.05 -> '0.05': compact point labels."""
-    text = f"{value:g}"
-    if "e" in text:
-        mantissa, exponent = text.split("e")
-        text = f"{mantissa}e{int(exponent)}"
-    return text
 
 
 def _label_points(ax, xs, ys, labels, color) -> None:
