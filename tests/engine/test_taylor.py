@@ -25,7 +25,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.special import ellipeinc
 
 from ldpipe.engine import LDSettings, compute_ld
@@ -34,6 +33,7 @@ from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
 from support.barbanis import E_C, escaping_states
 from support.closed_forms import STATES, WX, WY, oscillator_ld
+from support.scipy_reference import m1_and_arclength
 
 FORMULA_ORDER = 14  # the oscillator and the quartic system
 BARBANIS_ORDER = 13  # = LDSettings(scheme="taylor", rtol=1e-12, p=0.5).order
@@ -262,25 +262,8 @@ def quartic_energy(state):
 
 
 def quartic_reference(state, tau):
-    """M_1 and the arc length over [0, tau] by scipy's DOP853 at rtol = atol = 1e-13.
-
-    The arc length is a fifth state. M_1 needs no quadrature: between consecutive zeros of a
-    velocity component (located by events) its phase coordinate is monotone, so the integral
-    of |velocity| is the coordinate's total variation.
-    """
-
-    def rhs(_t, s):
-        velocity = quartic_field(s[:4])
-        return [*velocity, math.sqrt(velocity @ velocity)]
-
-    zeros = [lambda _t, s, c=c: quartic_field(s[:4])[c] for c in range(4)]
-    solution = solve_ivp(rhs, (0.0, tau), [*state, 0.0], method="DOP853", rtol=1e-13, atol=1e-13, events=zeros)
-    end = solution.y[:, -1]
-    m1 = 0.0
-    for c in range(4):
-        turning = np.reshape(solution.y_events[c], (-1, 5))[:, c]
-        m1 += np.abs(np.diff([state[c], *turning, end[c]])).sum()
-    return m1, end[4]
+    """M_1 and the arc length over [0, tau] by scipy (see support.scipy_reference)."""
+    return m1_and_arclength(quartic_field, state, tau)
 
 
 def test_quartic_acceleration_is_the_hand_derivative(quartic):

@@ -23,12 +23,12 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.engine.schemes.taylor import Acceleration, ExpressionSeries, acceleration_of
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
+from support.scipy_reference import m1_and_arclength
 
 TOLERANCE = 1e-12
 TAU = 10.0
@@ -97,24 +97,8 @@ def start_states(field, count: int = 8) -> np.ndarray:
 
 
 def reference(field, state, tau: float) -> tuple[float, float]:
-    """M_1 and the arc length over [0, tau] by scipy's DOP853 at rtol = atol = 1e-13 on the
-    hand-derived field (see test_taylor.quartic_reference for the M_1 construction)."""
-
-    def velocity(s):
-        return np.concatenate([s[2:4], field(s[:2])[0]])
-
-    def rhs(_t, s):
-        v = velocity(s[:4])
-        return [*v, math.sqrt(v @ v)]
-
-    zeros = [lambda _t, s, c=c: velocity(s[:4])[c] for c in range(4)]
-    solution = solve_ivp(rhs, (0.0, tau), [*state, 0.0], method="DOP853", rtol=1e-13, atol=1e-13, events=zeros)
-    end = solution.y[:, -1]
-    m1 = 0.0
-    for c in range(4):
-        turning = np.reshape(solution.y_events[c], (-1, 5))[:, c]
-        m1 += np.abs(np.diff([state[c], *turning, end[c]])).sum()
-    return m1, end[4]
+    """M_1 and the arc length over [0, tau] by scipy (support.scipy_reference) on the hand-derived field."""
+    return m1_and_arclength(lambda s: np.concatenate([s[2:4], field(s[:2])[0]]), state, tau)
 
 
 def relative(values, reference_values) -> np.ndarray:
