@@ -63,7 +63,14 @@ def test_plain_captions_render_without_docutils_messages(caption):
 # Shows the result named in the URL's hash exactly as the result's "view" button does (the report
 # is a single-page app without routes: `app` and `results` are its globals); with "?bare" the
 # navigation bar is hidden as its own hide button does, so a screenshot holds the figure alone.
+# The bar slides out with a CSS transition; on a loaded machine a screenshot once caught it still
+# on screen (CI, 2026-11-23), so the bare view switches transitions off and the bar goes at once.
 SHOW_RESULT = """<script>
+if (location.search === "?bare") {
+  const still = document.createElement("style");
+  still.textContent = "*, *::before, *::after { transition: none !important; animation: none !important; }";
+  document.head.appendChild(still);
+}
 function ldpipeShow() {
   if (typeof app === "undefined" || !app) { setTimeout(ldpipeShow, 50); return; }
   const path = decodeURIComponent(location.hash.slice(1));
@@ -88,7 +95,7 @@ def _browse(browser: str, page: Path, fragment: str, profile: Path, *, screensho
     url = page.as_uri() + ("?bare" if screenshot else "") + "#" + fragment
     result = subprocess.run(
         [browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
-         "--virtual-time-budget=5000", *action, url],
+         "--virtual-time-budget=10000", *action, url],
         capture_output=True, text=True, timeout=180,
     )
     assert result.returncode == 0, result.stderr[-2000:]
