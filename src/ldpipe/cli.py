@@ -109,12 +109,13 @@ def _map_from_options(args: argparse.Namespace) -> dict:
             "axes": axes,
             "fixed": {name: value if value == "saddle" else _number(value, f"--fixed {name}") for name, value in args.fixed},
             "solve": args.solve,
-            "sign": args.sign,
+            **_solve_options(args),
         },
         "energy": {"total": args.energy} if args.energy is not None else {"excess": args.excess_energy},
         "tau": args.tau,
         "p": ARCLENGTH if args.p == ARCLENGTH else _number(args.p, "--p"),
         "time": args.time,
+        **({"quad_nodes": args.quad_nodes} if args.quad_nodes is not None else {}),
         "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
                        "taylor_order": args.taylor_order, "escape_radius": args.escape_radius},
     }
@@ -128,6 +129,29 @@ def _map_from_options(args: argparse.Namespace) -> dict:
     if args.saddle_near:
         spec["saddle_near"] = [_number(v, "--saddle-near") for v in args.saddle_near.split(",")]
     return spec
+
+
+def _solve_options(args: argparse.Namespace) -> dict:
+    """How the solved coordinate is chosen: a momentum's --sign, or a position's --root and --search."""
+    if args.root is None and args.search is None:
+        return {"sign": args.sign}
+    if args.sign != 1:
+        raise ConfigError("--sign is for a solved momentum; a solved position takes --root (and --search)")
+    options = {}
+    if args.root is not None:
+        rule, sep, value = args.root.partition(":")
+        if rule == "nearest" and sep:
+            options["root"] = {"nearest": _number(value, "--root nearest")}
+        elif rule in ("largest", "smallest") and not sep:
+            options["root"] = rule
+        else:
+            raise ConfigError(f"--root: expected largest, smallest or nearest:VALUE, got {args.root!r}")
+    if args.search is not None:
+        low, sep, high = args.search.partition(":")
+        if not sep:
+            raise ConfigError(f"--search: expected LOW:HIGH, got {args.search!r}")
+        options["search"] = [_number(low, "--search"), _number(high, "--search")]
+    return options
 
 
 def _run_ld(args: argparse.Namespace) -> None:
@@ -222,14 +246,21 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a section axis (give two), e.g. x=4.8:6.0:1500 then px=-0.6:0.6:1500")
     ld.add_argument("--fixed", type=_key_value, action="append", default=[], metavar="NAME=VALUE",
                     help="a fixed phase coordinate (repeatable); VALUE 'saddle' takes the saddle's value")
-    ld.add_argument("--solve", metavar="MOMENTUM", help="the momentum solved from the energy, e.g. py")
+    ld.add_argument("--solve", metavar="COORDINATE", help="the coordinate solved from the energy, e.g. py (or x, with --root)")
     ld.add_argument("--sign", type=int, choices=(1, -1), default=1, help="sign of the solved momentum (default +1)")
+    ld.add_argument("--root", metavar="RULE",
+                    help="the root a solved position takes: largest, smallest or nearest:VALUE")
+    ld.add_argument("--search", metavar="LOW:HIGH",
+                    help="interval a solved position's roots are sought in, for a V not quadratic in it "
+                         "(with a negative LOW write --search=-3:3)")
     ld.add_argument("--energy", type=float, metavar="E", help="total energy")
     ld.add_argument("--excess-energy", type=float, metavar="DE", help="energy above the saddle's critical energy")
     ld.add_argument("--saddle-near", metavar="Q1,Q2,...", help="use the index-1 saddle nearest this point")
     ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
     ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
                     help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")
+    ld.add_argument("--quad-nodes", type=int, metavar="N",
+                    help="Gauss nodes per step of the LD quadrature (default: the scheme's for the tolerance)")
     ld.add_argument("--time", choices=("fixed", "variable"), default="fixed", help="fixed or variable time (default fixed)")
     ld.add_argument("--region", type=_key_value, action="append", default=[], metavar="COORD=LOW:HIGH",
                     help="saddle region interval of one coordinate (repeatable; variable time)")

@@ -61,7 +61,7 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray, critical_energy: float)
     try:
         settings = LDSettings.from_parts(
             IntegratorSettings.from_config(parameters["integrator"]),
-            DescriptorSettings(p=parameters["p"]),
+            DescriptorSettings(p=parameters["p"], quad_nodes=parameters.get("quad_nodes")),
             StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
         )
     except ValueError as error:

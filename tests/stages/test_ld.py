@@ -182,3 +182,33 @@ def test_map_with_a_solved_position_records_it_like_a_momentum(tmp_path):
     np.testing.assert_allclose(h[allowed], energy, rtol=0, atol=1e-12)
     for name in ("ld_forward", "ld_backward"):
         assert np.all(stored[name].values[~allowed] == 0) and np.all(stored[name].values[allowed] > 0), name
+
+
+def test_cli_solves_a_position_with_root_search_and_quad_nodes(tmp_path, capsys):
+    # ldds' Hénon–Heiles slice from the command line: p_x = 0, x solved with --root and --search.
+    # Closed form: x^2 (1 + 2 y) = 2 E - p_y^2 - y^2 + 2 y^3 / 3; nearest:0.3 takes the root x >= 0.
+    config = tmp_path / "hh.yaml"
+    config.write_text('systems:\n  henon_heiles:\n    formula: "(x**2 + y**2)/2 + x**2*y - y**3/3"\n'
+                      "    coordinates: [x, y]\n")
+    out = tmp_path / "hh.nc"
+    energy = 0.125
+    common = ["ld", "--config", str(config), "--system", "henon_heiles", "--axis", "y=-0.45:0.8:7",
+              "--axis", "py=-0.5:0.5:5", "--fixed", "px=0", "--solve", "x", "--energy", str(energy), "--tau", "1",
+              "--quiet", "-o", str(out)]
+    assert main(common + ["--root", "nearest:0.3", "--search=-3:3", "--quad-nodes", "16"]) == 0
+    stored = open_stage_file(out, stage="ld_grid")
+    assert stored.attrs["quad_nodes"] == 16  # the setting reached the engine's record
+    y, py = np.meshgrid(stored.y.values, stored.py.values, indexing="ij")
+    x_squared = (2 * energy - py**2 - y**2 + 2 * y**3 / 3) / (1 + 2 * y)
+    allowed = stored.allowed.values.astype(bool)
+    np.testing.assert_array_equal(allowed, x_squared >= 0)
+    np.testing.assert_allclose(stored.x.values[allowed], np.sqrt(x_squared[allowed]), rtol=1e-12, atol=1e-14)
+
+    out.unlink()
+    for options, message in ((["--root", "middle"], "--root: expected largest, smallest or nearest:VALUE"),
+                             (["--root", "largest", "--search", "3"], "--search: expected LOW:HIGH"),
+                             (["--root", "largest", "--sign", "-1"], "--sign is for a solved momentum"),
+                             (["--root", "largest", "--quad-nodes", "1"], "quad_nodes")):
+        assert main(common + options) == 2, options
+        assert message in capsys.readouterr().err, options
+        assert not out.exists()
