@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import io
 import re
 from importlib import resources
 from pathlib import Path
@@ -293,6 +294,8 @@ def _check_figures(config: dict) -> None:
     for name, spec in config["figures"].items():
         key = f"figures.{name}"
         kind = spec["kind"]
+        if spec.get("caption"):
+            _check_caption(spec["caption"], f"{key}.caption")
         missing = [k for k in _FIGURE_REQUIRED[kind] if k not in spec]
         if missing:
             raise ConfigError(f"config key {key!r}: a figure of kind {kind!r} needs {missing}")
@@ -340,6 +343,19 @@ def _check_figures(config: dict) -> None:
         low, high = spec.get("color_percentiles", (0, 100))
         if not low < high:
             raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
+
+
+def _check_caption(text: str, key: str) -> None:
+    """A figure's caption is reStructuredText in the report: refuse one docutils cannot read cleanly
+    (e.g. ``|v|``, a substitution reference), naming the key, before any stage runs."""
+    from docutils.core import publish_doctree  # only a config with captions pays for the import
+
+    messages = io.StringIO()
+    publish_doctree(text, settings_overrides={"report_level": 2, "halt_level": 5, "warning_stream": messages})
+    if messages.getvalue():
+        said = " ".join(line.strip() for line in messages.getvalue().splitlines() if line.strip())
+        raise ConfigError(f"config key '{key}': the caption is reStructuredText in the report and docutils "
+                          f"reads it with complaints: {said}. Escape a literal | or * as \\| or \\*.")
 
 
 def _check_accuracy_cost(config: dict) -> None:

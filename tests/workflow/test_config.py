@@ -73,3 +73,15 @@ def test_unknown_top_level_key_and_bad_files(tmp_path):
     bad.write_text("systems:\n  b: {builtin: barbanis_2dof, equilibria: {seeds_per_axis: 100}}\n")
     with pytest.raises(ConfigError, match=r"(?s)bad.yaml: .*systems.b.equilibria.seeds_per_axis.*<= 60"):
         load_config(bad)
+
+
+def test_a_caption_docutils_cannot_read_is_refused_before_anything_runs():
+    # In the report a caption is reStructuredText: "|v|" is a substitution reference that is
+    # never defined (docutils: "Undefined substitution referenced"), so the report would show
+    # an error box. The config check names the key; the escaped text passes.
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    config["figures"]["fig1"]["caption"] = "The speed |v| on the section."
+    with pytest.raises(ConfigError, match=r"figures\.fig1\.caption.*Undefined substitution"):
+        validate_config(config)
+    config["figures"]["fig1"]["caption"] = r"The speed \|v\| on the section."
+    validate_config(config)
