@@ -17,7 +17,7 @@ import jsonschema
 import yaml
 
 from .errors import ConfigError
-from .systems import check_builtin_parameters, system_coordinates
+from .systems import check_builtin_parameters, is_vector_field, system_coordinates, system_phase_coordinates
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -86,8 +86,8 @@ def _describe(error: jsonschema.ValidationError) -> str:
         return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}; allowed keys are {allowed}"
     if error.validator == "oneOf" and error.absolute_path and "systems" in error.absolute_path:
         return (
-            f"config key {_key(error.absolute_path)!r}: a system needs exactly one of 'builtin' "
-            "or 'formula' (a formula also needs 'coordinates')"
+            f"config key {_key(error.absolute_path)!r}: a system needs exactly one of 'builtin', "
+            "'formula' or 'vector_field' (a formula or vector field also needs 'coordinates')"
         )
     allowed = _allowed(error.schema)
     return f"config key {_key(error.absolute_path)!r}: {error.message}" + (f" (allowed: {allowed})" if allowed else "")
@@ -120,11 +120,24 @@ def _check_ld_maps(config: dict) -> None:
             raise ConfigError(
                 f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
             )
-        coordinates = system_coordinates(config["systems"][spec["system"]])
-        phase = coordinates + tuple("p" + c for c in coordinates)
+        system = config["systems"][spec["system"]]
+        coordinates = system_coordinates(system)
+        phase = system_phase_coordinates(system)
         axes = [axis["name"] for axis in spec["section"]["axes"]]
         for index, axis in enumerate(spec["section"]["axes"]):
             _check_interval(axis["range"], f"{key}.section.axes.{index}.range")
+        if is_vector_field(system):
+            _check_vector_field_map(spec, key, phase)
+            continue
+        if "energy" not in spec:
+            raise ConfigError(f"config key '{key}.energy': a map of the Hamiltonian system {spec['system']!r} needs an "
+                              "energy (total or excess)")
+        if "t0" in spec:
+            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
+                              "a start time changes nothing, leave t0 out")
+        if "solve" not in spec["section"]:
+            raise ConfigError(f"config key '{key}.section.solve': a section of a Hamiltonian needs the coordinate "
+                              "solved from the energy")
         named = [*axes, *spec["section"]["fixed"], spec["section"]["solve"]]
         if sorted(named) != sorted(phase):
             raise ConfigError(
@@ -142,19 +155,53 @@ def _check_ld_maps(config: dict) -> None:
                 f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
                 "use at most one tile per row of the first axis"
             )
-        region = spec.get("region")
-        if spec["time"] == "variable" and not region:
-            raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
-        if region:
-            if sorted(region) != sorted(coordinates):
-                raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")
-            for coordinate, interval in region.items():
-                _check_interval(interval, f"{key}.region.{coordinate}")
+        _check_region(spec, key, coordinates)
+
+
+def _check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:
+    region = spec.get("region")
+    if spec["time"] == "variable" and not region:
+        raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
+    if region:
+        if sorted(region) != sorted(coordinates):
+            raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")
+        for coordinate, interval in region.items():
+            _check_interval(interval, f"{key}.region.{coordinate}")
+
+
+def _check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None:
+    """A map of a vector field: no energy, nothing solved, every state variable an axis or fixed."""
+    section = spec["section"]
+    # (the schema fills in sign: 1, meaningless without a solved coordinate)
+    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
+    given += [f"{key}.section.{name}" for name in ("solve", "root", "search") if name in section]
+    given += [f"{key}.section.sign"] if section.get("sign", 1) != 1 else []
+    if given:
+        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
+                          "map has two axes, every other state variable fixed, and no energy, saddle or solved coordinate")
+    axes = [axis["name"] for axis in section["axes"]]
+    named = [*axes, *section["fixed"]]
+    if sorted(named) != sorted(state):
+        raise ConfigError(
+            f"config key '{key}.section': the two axes and the fixed variables must name each of {list(state)} "
+            f"exactly once; got axes {axes}, fixed {list(section['fixed'])}"
+        )
+    if any(value == "saddle" for value in section["fixed"].values()):
+        raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
+    if section["axes"][0]["points"] < spec["tiles"]:
+        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
+                          "use at most one tile per row of the first axis")
+    _check_region(spec, key, state)
 
 
 def _check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
+    """The coordinates of the Hamiltonian system ``name`` a stage at ``key`` refers to (orbits,
+    Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
     if name not in config["systems"]:
         raise ConfigError(f"config key '{key}': no system {name!r}; expected one of {sorted(config['systems'])}")
+    if is_vector_field(config["systems"][name]):
+        raise ConfigError(f"config key '{key}': system {name!r} is a vector field (no Hamiltonian); this stage needs "
+                          "a Hamiltonian system ('builtin' or 'formula')")
     return system_coordinates(config["systems"][name])
 
 
@@ -237,6 +284,9 @@ def _check_nhim(config: dict) -> None:
                 raise ConfigError(f"config key {where!r}: no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
             if config["ld_maps"][map_name]["time"] != "variable":
                 raise ConfigError(f"config key {where!r}: map {map_name!r} is fixed time; NHIM detection needs variable time")
+            if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
+                raise ConfigError(f"config key {where!r}: map {map_name!r} is of a vector field (no energy); NHIM "
+                                  "detection needs a Hamiltonian system's map")
             systems.add(config["ld_maps"][map_name]["system"])
         if len(systems) > 1:
             raise ConfigError(f"config key {where!r}: maps of several systems {sorted(systems)}; one system per study")
@@ -352,6 +402,9 @@ def _check_accuracy_cost(config: dict) -> None:
             raise ConfigError(
                 f"config key 'accuracy_cost.ld.maps': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}"
             )
+        if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
+            raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {map_name!r} is of a vector field; the "
+                              "accuracy ladder's reference LD and energy errors need a Hamiltonian system")
     from .engine import IntegratorSettings
     from .engine.schemes import SCHEMES
 

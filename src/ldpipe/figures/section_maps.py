@@ -79,8 +79,9 @@ def draw_ld_panel(ax, path: str | Path, settings: dict, manifolds: list[str | Pa
     ax.set_ylim(ld_map.second[0], ld_map.second[-1])
     style.label_axes(ax, *ld_map.axes)
     mode = ld_map.attrs.get("time_mode", "fixed")
-    ax.set_title(energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
-                 + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
+    where = (energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
+             if "energy" in ld_map.attrs else rf"$t_0 = {float(ld_map.attrs.get('t0', 0.0)):g}$")  # a vector field's
+    ax.set_title(where + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
                  loc="right")
     log.info("LD map %s: colour range %s", path, limits)
 

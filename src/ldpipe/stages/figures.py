@@ -107,6 +107,8 @@ def _section_text(section: dict) -> str:
     axes = [axis["name"] for axis in section["axes"]]
     sign = "+" if section.get("sign", 1) == 1 else "−"
     fixed = ", ".join(f"{k} = {v if v == 'saddle' else _number(v)}" for k, v in section.get("fixed", {}).items())
+    if "solve" not in section:  # a vector field's: nothing solved
+        return f"({', '.join(axes)})" + (f": {fixed}" if fixed else "")
     if "root" in section:  # a solved position
         root = section["root"]
         rule = f"nearest {_number(root['nearest'])}" if isinstance(root, dict) else root
@@ -121,7 +123,9 @@ def ld_map_caption(config: dict, map_name: str) -> str:
     p = integrands.caption(parameters["p"], _number)
     text = (
         f"{map_name}: system {parameters['system_name']}, section {_section_text(parameters['section'])}, "
-        f"{_energy_text(parameters['energy'])}, τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
+        + (f"{_energy_text(parameters['energy'])}" if "energy" in parameters
+           else f"vector field (no energy), start time t0 = {_number(parameters.get('t0', 0.0))}")
+        + f", τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
     )
     if parameters["time"] == "variable":
         region = parameters["region"]

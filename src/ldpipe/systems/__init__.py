@@ -14,11 +14,11 @@ from ..errors import ConfigError
 from .base import Kernels, System
 from .builtin import BUILTINS, make_builtin
 from .formula import make_formula_system
-from .vector_field import VectorFieldSystem, make_vector_field_system, require_hamiltonian
+from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
 
 __all__ = [
     "BUILTINS", "Kernels", "System", "VectorFieldSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
-    "require_hamiltonian", "system_from_config", "system_spec",
+    "has_equilibria", "is_vector_field", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
 ]
 
 
@@ -98,8 +98,30 @@ def system_spec(config: dict, name: str) -> dict:
     return {k: v for k, v in config["systems"][name].items() if k != "equilibria"}
 
 
+def is_vector_field(spec: dict) -> bool:
+    """Whether a ``systems:`` entry is a general vector field (no Hamiltonian)."""
+    return "vector_field" in spec
+
+
+def has_equilibria(name: str, spec: dict) -> bool:
+    """Whether the equilibrium stage applies to system ``name``: every Hamiltonian, and a vector
+    field that does not depend on the time (a time-dependent flow has no fixed equilibria)."""
+    if not is_vector_field(spec):
+        return True
+    parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
+    fields = parse_vector_field(spec["vector_field"], tuple(spec["coordinates"]), parameters, f"systems.{name}")
+    return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
+
+
+def system_phase_coordinates(spec: dict) -> tuple[str, ...]:
+    """The phase-space names of a ``systems:`` entry: (q..., p...) of a Hamiltonian, a vector
+    field's state variables."""
+    coordinates = system_coordinates(spec)
+    return coordinates if is_vector_field(spec) else coordinates + tuple("p" + c for c in coordinates)
+
+
 def system_coordinates(spec: dict) -> tuple[str, ...]:
-    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's list)."""
+    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's or vector field's list)."""
     if "builtin" in spec:
         return BUILTINS[spec["builtin"]]["coordinates"]
     return tuple(spec["coordinates"])
