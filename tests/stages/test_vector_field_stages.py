@@ -3,15 +3,19 @@ field (closed forms), and the refusals of what needs a Hamiltonian, each naming 
 
 import copy
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.errors import ConfigError
+from ldpipe.ld_grid import resolve_ld_map
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile, write_ld_map
+from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
 from support.closed_forms import linear_saddle_ld
 
 LAM, MU = 0.8, 0.5
@@ -122,3 +126,14 @@ def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
     cfg = validate_config({"systems": copy.deepcopy(SYSTEMS)})
     with pytest.raises(ConfigError, match=r"'systems.duffing': system 'duffing' is a time-dependent vector field"):
         run_equilibria(**equilibria_parameters(cfg, "duffing"), output=tmp_path / "eq.nc")
+
+
+def test_the_readme_example_is_a_valid_configuration():
+    # The README's vector_field example validates as written, and its map resolves.
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", readme, flags=re.S | re.M) if "vector_field:" in b]
+    assert len(blocks) == 1
+    cfg = validate_config(yaml.safe_load(blocks[0]))
+    assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
+    system, section, settings, info = resolve_ld_map(ld_map_parameters(cfg, "forced_duffing_t0"), None, None)
+    assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5

@@ -172,6 +172,9 @@ def _system_caption(config: dict, system: str) -> str:
     # '**' and '*' would be emphasis markup in the report: write powers and products as ^ and ·.
     formula = spec.get("formula", "").replace("**", "^").replace("*", "·")
     what = f"built-in {spec['builtin']}" if "builtin" in spec else f"V = {formula}"
+    if "vector_field" in spec:
+        what = "vector field " + ", ".join(f"d{c}/dt = {str(f).replace('**', '^').replace('*', '·')}"
+                                           for c, f in spec["vector_field"].items())
     return f"{system}: {what}" + (f" with {parameters}" if parameters else "")
 
 
@@ -191,6 +194,9 @@ def figure_caption(config: dict, name: str) -> dict:
     if kind == "section_maps":
         lines += ["Poincaré section " + _poincare_caption(config, p) for p in spec.get("poincare", [])]
         lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        flows = sorted({config["ld_maps"][m]["system"] for m in spec["ld_maps"]
+                        if "vector_field" in config["systems"][config["ld_maps"][m]["system"]]})
+        lines += ["system " + _system_caption(config, system) for system in flows]
         for map_name, sets in spec.get("manifold_curves", {}).items():
             lines += [f"manifold curves on {map_name}: " + _manifold_caption(config, s) for s in sets]
     if kind == "ld_slices":

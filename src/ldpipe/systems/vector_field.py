@@ -22,12 +22,12 @@ from typing import Callable, ClassVar
 
 import numpy as np
 import sympy
+from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
 from ..errors import ConfigError
 from ..jitcache import load_generated_module
 from .formula import ALLOWED_FUNCTIONS, SYMPY_LITERALS, _KernelPrinter
-from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
 #: The name of the time in the formulas.
 TIME = "t"
