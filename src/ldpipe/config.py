@@ -196,7 +196,7 @@ def _check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> Non
 
 def _check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
     """The coordinates of the Hamiltonian system ``name`` a stage at ``key`` refers to (orbits,
-    Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
+    Hamiltonian Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
     if name not in config["systems"]:
         raise ConfigError(f"config key '{key}': no system {name!r}; expected one of {sorted(config['systems'])}")
     if is_vector_field(config["systems"][name]):
@@ -246,7 +246,19 @@ def _check_orbits(config: dict) -> None:
         _check_surface(spec["section"], system_coordinates(config["systems"][family["system"]]), f"{key}.section")
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
+        if spec["system"] in config["systems"] and is_vector_field(config["systems"][spec["system"]]):
+            _check_vector_field_poincare(config, spec, key)
+            continue
         coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
+        if "energy" not in spec:
+            raise ConfigError(f"config key '{key}.energy': a Poincaré section of the Hamiltonian system "
+                              f"{spec['system']!r} needs an energy (total or excess)")
+        if "t0" in spec:
+            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
+                              "a start time changes nothing, leave t0 out")
+        if "solve" not in spec["initial_conditions"]:
+            raise ConfigError(f"config key '{key}.initial_conditions.solve': initial conditions of a Hamiltonian "
+                              "need the momentum solved from the energy")
         _check_saddle_near(spec, coordinates, key)
         _check_surface(spec["section"], coordinates, f"{key}.section")
         start = spec["initial_conditions"]
@@ -259,6 +271,28 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.initial_conditions': the two axes, the fixed coordinates and the solved momentum "
                 f"must name each of {list(phase)} exactly once, the solved one a momentum; got {named}"
             )
+
+
+def _check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
+    """A vector field's Poincaré section: no energy or saddle, initial conditions on a grid of two
+    state variables with the others fixed, a surface x_i = value."""
+    state = system_coordinates(config["systems"][spec["system"]])
+    start = spec["initial_conditions"]
+    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
+    given += [f"{key}.initial_conditions.solve"] if "solve" in start else []
+    given += [f"{key}.initial_conditions.sign"] if start.get("sign", 1) != 1 else []
+    if given:
+        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
+                          "Poincaré section starts on a grid of two state variables, the others fixed")
+    if spec["section"]["coordinate"] not in state:
+        raise ConfigError(f"config key '{key}.section.coordinate': {spec['section']['coordinate']!r} is not a state "
+                          f"variable; expected one of {list(state)}")
+    for index, axis in enumerate(start["axes"]):
+        _check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
+    named = [axis["name"] for axis in start["axes"]] + list(start["fixed"])
+    if sorted(named) != sorted(state):
+        raise ConfigError(f"config key '{key}.initial_conditions': the two axes and the fixed variables must name "
+                          f"each of {list(state)} exactly once; got {named}")
 
 
 def _check_nhim(config: dict) -> None:

@@ -9,13 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy.integrate import solve_ivp
 
 from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.errors import ConfigError
+from ldpipe.flow import FlowSettings, integrate
 from ldpipe.ld_grid import resolve_ld_map
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
+from ldpipe.stages.poincare import poincare_parameters, run_poincare
+from ldpipe.systems import make_system
 from support.closed_forms import linear_saddle_ld
 
 LAM, MU = 0.8, 0.5
@@ -137,3 +141,50 @@ def test_the_readme_example_is_a_valid_configuration():
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
     system, section, settings, info = resolve_ld_map(ld_map_parameters(cfg, "forced_duffing_t0"), None, None)
     assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5
+
+
+def test_poincare_section_of_a_vector_field_closed_form(tmp_path):
+    # The oscillator x' = y, y' = -x as a vector field: x = r cos(t - phi), y = -r sin(t - phi) from
+    # (r cos phi, r sin phi) (closed form). y crosses 0 decreasing where x = r > 0, at the times
+    # t = phi + 2 pi k from the start (phi in (0, 2 pi)), whatever t0 (the field is autonomous).
+    cfg = validate_config({
+        "systems": {"osc": {"vector_field": {"x": "y", "y": "-x"}, "coordinates": ["x", "y"]}},
+        "poincare_sections": {"p": {
+            "system": "osc", "t0": 0.7, "time": 20.0, "max_crossings": 10,
+            "initial_conditions": {"axes": [{"name": "x", "range": [0.2, 0.6], "points": 3},
+                                            {"name": "y", "range": [-0.4, 0.4], "points": 3}]},
+            "section": {"coordinate": "y", "value": 0.0, "direction": -1},
+        }},
+    })
+    path = run_poincare(**poincare_parameters(cfg, "p"), equilibria=None, output=tmp_path / "p.nc")
+    data = open_stage_file(path, stage="poincare")
+    assert data.attrs["t0"] == 0.7 and "energy" not in data.attrs
+    for start, crossings, times, count in zip(data.initial_state.values, data.crossing_state.values,
+                                              data.crossing_time.values, data.crossing_count.values):
+        r, phi = np.hypot(*start), math.atan2(start[1], start[0]) % (2 * math.pi)
+        expected = phi + 2 * math.pi * np.arange(10)
+        expected = expected[(expected > 0) & (expected <= 20.0)]
+        assert count == len(expected)
+        np.testing.assert_allclose(times[:count], expected, rtol=1e-9)
+        np.testing.assert_allclose(crossings[:count], [[r, 0.0]] * count, atol=1e-9)
+
+
+def test_forced_duffing_crossings_against_scipy():
+    # Crossings of y = 0 (decreasing: turning points at a maximum of x) by the forced Duffing oscillator from t0 = 1.3, against
+    # scipy's DOP853 at rtol 1e-13 with an event (an independent integrator and root finder).
+    system = make_system("duffing", SYSTEMS["duffing"])
+    p = SYSTEMS["duffing"]["parameters"]
+    start, t0, duration = np.array([0.5, -0.6]), 1.3, 25.0
+
+    def field(t, s):
+        return [s[1], s[0] - s[0] ** 3 - p["delta"] * s[1] + p["F"] * math.cos(p["omega"] * t)]
+
+    event = lambda t, s: s[1]  # noqa: E731
+    event.direction = -1
+    reference = solve_ivp(field, (t0, t0 + duration), start, method="DOP853", rtol=1e-13, atol=1e-13, events=event)
+    result = integrate(system, start[None, :], duration, FlowSettings(rtol=1e-12, atol=1e-12),
+                       section=("y", 0.0, -1), max_crossings=50, t0=t0)
+    count = result.crossing_count[0]
+    assert count == len(reference.t_events[0]) > 2
+    np.testing.assert_allclose(result.crossing_times[0, :count], reference.t_events[0] - t0, rtol=1e-9)
+    np.testing.assert_allclose(result.crossings[0, :count], reference.y_events[0], atol=1e-9)

@@ -166,7 +166,11 @@ def poincare_params(wildcards):
 
 
 def poincare_equilibria_file(wildcards):
-    return f"{RESULTS}/{config['poincare_sections'][wildcards.section]['system']}/equilibria.nc"
+    """The section's system's equilibria (for an excess energy); none for a vector field."""
+    system = config["poincare_sections"][wildcards.section]["system"]
+    if is_vector_field(config["systems"][system]):
+        return []
+    return f"{RESULTS}/{system}/equilibria.nc"
 
 
 def poincare_memory_mb(wildcards):

@@ -22,7 +22,9 @@ from .integrands import KINDS
 
 TEMPLATES = ("quadrature", "events", "vector_field_driver")
 NC = 8  # coefficients of the dense output (degree 7) and of its derivative
-_RUNNERS: dict[int, tuple[weakref.ref, object]] = {}
+_RUNNERS: dict[tuple[int, str], tuple[weakref.ref, object]] = {}
+#: The driver functions of the generated module: LDs, and section crossings (ldpipe.flow).
+ENTRIES = ("vector_field_process", "vector_field_crossings")
 _LOCK = threading.Lock()
 
 
@@ -61,14 +63,17 @@ def vector_field_source(system) -> str:
     return system.kernel_source + engine
 
 
-def get_vector_field_runner(system):
-    """``vector_field_process`` for ``system``, kept per live system (compiled or loaded from disk)."""
-    key = id(system)
+def get_vector_field_runner(system, entry: str = "vector_field_process"):
+    """The driver ``entry`` (one of :data:`ENTRIES`) for ``system``, kept per live system
+    (compiled lazily, or loaded from disk)."""
+    if entry not in ENTRIES:
+        raise ValueError(f"entry: expected one of {ENTRIES}, got {entry!r}")
+    key = (id(system), entry)
     with _LOCK:
         cached = _RUNNERS.get(key)
         if cached is not None and cached[0]() is system:
             return cached[1]
         prefix = re.sub(r"\W", "_", f"vfield_engine_{system.name}")
-        runner = load_generated_module(vector_field_source(system), prefix=prefix).vector_field_process
+        runner = getattr(load_generated_module(vector_field_source(system), prefix=prefix), entry)
         _RUNNERS[key] = (weakref.ref(system, lambda _ref, key=key: _RUNNERS.pop(key, None)), runner)
         return runner

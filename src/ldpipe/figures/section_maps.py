@@ -42,8 +42,13 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     states = dataset.crossing_state.values[valid]
     ax.plot(states[:, phase.index(axes[0])], states[:, phase.index(axes[1])], ".", color="black",
             markersize=point_size, markeredgewidth=0, rasterized=True)
-    # The energy boundary: where the solved momentum of the section vanishes.
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    if "energy" not in dataset.attrs:  # a vector field's: no energy boundary
+        style.label_axes(ax, *axes)
+        ax.set_title(rf"$t_0 = {float(dataset.attrs.get('t0', 0.0)):g}$", loc="right")
+        log.info("Poincaré section %s: %d crossings", path, len(states))
+        return
+    # The energy boundary: where the solved momentum of the section vanishes.
     energy = float(dataset.attrs["energy"])
     section = Section.from_spec(start, system, key=f"poincare_sections.{parameters.get('name', Path(path).stem)}"
                                 ".initial_conditions")

@@ -144,7 +144,8 @@ def _poincare_caption(config: dict, name: str) -> str:
     axes = spec["initial_conditions"]["axes"]
     surface = spec["section"]
     direction = "increasing" if surface["direction"] == 1 else "decreasing"
-    return (f"{name}: system {spec['system']}, {_energy_text(spec['energy'])}, crossings of "
+    where = _energy_text(spec["energy"]) if "energy" in spec else f"start time t0 = {_number(spec.get('t0', 0.0))}"
+    return (f"{name}: system {spec['system']}, {where}, crossings of "
             f"{surface['coordinate']} = {_number(surface['value'])} ({direction}) up to T = {_number(spec['time'])} "
             f"from a {axes[0]['points']} × {axes[1]['points']} grid of initial conditions, "
             f"DOP853 rtol = {_number(spec['integrator']['rtol'])}")

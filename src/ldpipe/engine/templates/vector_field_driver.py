@@ -244,3 +244,120 @@ def vector_field_process(
         o_face[k] = face
         for i in range(N):
             o_end[k, i] = xv[i]
+
+
+FLOW_COMPLETED = 0  # as ldpipe.flow's statuses
+FLOW_ESCAPED = 1
+FLOW_CROSSINGS_FULL = 2
+FLOW_STEP_UNDERFLOW = 3
+
+
+@njit(nogil=True, **JIT)
+def vector_field_crossings(
+    states, start, stop, t0, direction, tau, rtol, atol, radius, max_steps, sec_index, sec_value, sec_direction,
+    o_crossings, o_crossing_times, o_crossing_count, o_status, o_time, o_steps,
+):  # fmt: skip
+    """Crossings of the surface x[sec_index] = sec_value, increasing (sec_direction +1) or
+    decreasing (-1) in forward time, by trajectories start..stop-1 from t0 over |t - t0| <= tau.
+
+    As ``ldpipe.flow``'s Hamiltonian driver: a crossing is a sign change of x_i - value between
+    the ends of an accepted step, located on the step's dense output (``refine_root``); the
+    trajectory stops at the last crossing kept, at the escape radius (located as the LD's), or
+    on a step-size underflow. Times are signed, from t0: direction * |t - t0|.
+    """
+    K = np.zeros((DENSE_STAGES, N))
+    xv = np.zeros(N)
+    xs = np.zeros(N)
+    xn = np.zeros(N)
+    f1 = np.zeros(N)
+    QC = np.zeros((NC, N, 1))
+    VC = np.zeros((NC, N, 1))
+    elo = np.full(N, -radius)
+    ehi = np.full(N, radius)
+    max_cross = o_crossing_times.shape[1]
+    crossing_sign = sec_direction * direction  # the sign change seen in integration order
+    for k in range(start, stop):
+        finite = True
+        for i in range(N):
+            xv[i] = states[k, i]
+            finite = finite and math.isfinite(xv[i])
+        o_crossing_count[k] = 0
+        o_time[k] = 0.0
+        o_steps[k] = 0
+        if not finite:
+            o_status[k] = FLOW_STEP_UNDERFLOW
+            continue
+        if not inside(xv, elo, ehi):
+            o_status[k] = FLOW_ESCAPED
+            continue
+        rhs(xv, t0, K[0])
+        habs = initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, f1)
+        elapsed = 0.0
+        steps = 0
+        crossings = 0
+        rejected = False
+        status = FLOW_COMPLETED
+        while True:
+            if habs > tau - elapsed:
+                habs = tau - elapsed
+            h = direction * habs
+            t = t0 + direction * elapsed
+            err = attempt(xv, t, h, K, xs, xn, rtol, atol)
+            steps += 1
+            finite = True
+            for i in range(N):
+                finite = finite and math.isfinite(xn[i])
+            if finite and err <= 1.0:
+                dense(xv, t, h, K, xs, QC, VC)
+                x_stop = 1.0
+                beyond = False
+                for i in range(N):
+                    beyond = beyond or abs(xn[i]) > radius
+                if beyond:
+                    x_stop = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
+                    status = FLOW_ESCAPED
+                if max_cross > 0:
+                    gp = xv[sec_index] - sec_value
+                    g = xn[sec_index] - sec_value
+                    if (crossing_sign > 0 and gp < 0.0 and g >= 0.0) or (crossing_sign < 0 and gp > 0.0 and g <= 0.0):
+                        xc = 1.0 if g == 0.0 else refine_root(QC, sec_index, 0, NC, sec_value, 0.0, 1.0, gp, g)
+                        if xc <= x_stop:
+                            for i in range(N):
+                                w = QC[NC - 1, i, 0]
+                                for kk in range(NC - 2, -1, -1):
+                                    w = w * xc + QC[kk, i, 0]
+                                o_crossings[k, crossings, i] = w
+                            o_crossing_times[k, crossings] = direction * (elapsed + xc * habs)
+                            crossings += 1
+                            if crossings >= max_cross:
+                                x_stop = xc
+                                status = FLOW_CROSSINGS_FULL
+                if x_stop < 1.0 or status != FLOW_COMPLETED:
+                    elapsed += x_stop * habs
+                    break
+                for i in range(N):
+                    xv[i] = xn[i]
+                    K[0, i] = K[FSAL, i]
+                last = habs >= tau - elapsed
+                elapsed = tau if last else elapsed + habs
+                if last:
+                    break
+                factor = min(MAX_FACTOR, SAFETY * err**(-1.0 / (ORDER + 1.0))) if err > 0.0 else MAX_FACTOR
+                if rejected:
+                    factor = min(1.0, factor)
+                habs *= factor
+                rejected = False
+            else:
+                factor = max(MIN_FACTOR, SAFETY * err**(-1.0 / (ORDER + 1.0))) if (err < math.inf and err > 0.0) else MIN_FACTOR
+                habs *= factor
+                rejected = True
+                if habs < 1e-13 * max(1.0, tau):
+                    status = FLOW_STEP_UNDERFLOW
+                    break
+            if steps >= max_steps:
+                status = FLOW_STEP_UNDERFLOW
+                break
+        o_crossing_count[k] = crossings
+        o_status[k] = status
+        o_time[k] = direction * elapsed
+        o_steps[k] = steps
