@@ -17,7 +17,8 @@ import jsonschema
 import yaml
 
 from .errors import ConfigError
-from .systems import check_builtin_parameters, is_vector_field, system_coordinates, system_phase_coordinates
+from .config_maps import check_interval, check_ld_maps, check_vector_field_poincare
+from .systems import check_builtin_parameters, is_vector_field, system_coordinates
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -93,11 +94,6 @@ def _describe(error: jsonschema.ValidationError) -> str:
     return f"config key {_key(error.absolute_path)!r}: {error.message}" + (f" (allowed: {allowed})" if allowed else "")
 
 
-def _check_interval(value, key: str) -> None:
-    if not value[0] < value[1]:
-        raise ConfigError(f"config key {key!r}: expected an interval [low, high] with low < high, got {value}")
-
-
 def _check_semantics(config: dict) -> None:
     """Rules a JSON schema cannot say: intervals ordered, box keys are coordinates."""
     for name, spec in config["systems"].items():
@@ -105,93 +101,12 @@ def _check_semantics(config: dict) -> None:
         if "builtin" in spec:
             check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
         equilibria = spec["equilibria"]
-        _check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
+        check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
         for coordinate, interval in equilibria["box"].items():
             key = f"systems.{name}.equilibria.box.{coordinate}"
             if coordinate not in coordinates:
                 raise ConfigError(f"config key {key!r}: {coordinate!r} is not a coordinate of {name}; expected one of {list(coordinates)}")
-            _check_interval(interval, key)
-
-
-def _check_ld_maps(config: dict) -> None:
-    for name, spec in config["ld_maps"].items():
-        key = f"ld_maps.{name}"
-        if spec["system"] not in config["systems"]:
-            raise ConfigError(
-                f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
-            )
-        system = config["systems"][spec["system"]]
-        coordinates = system_coordinates(system)
-        phase = system_phase_coordinates(system)
-        axes = [axis["name"] for axis in spec["section"]["axes"]]
-        for index, axis in enumerate(spec["section"]["axes"]):
-            _check_interval(axis["range"], f"{key}.section.axes.{index}.range")
-        if is_vector_field(system):
-            _check_vector_field_map(spec, key, phase)
-            continue
-        if "energy" not in spec:
-            raise ConfigError(f"config key '{key}.energy': a map of the Hamiltonian system {spec['system']!r} needs an "
-                              "energy (total or excess)")
-        if "t0" in spec:
-            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
-                              "a start time changes nothing, leave t0 out")
-        if "solve" not in spec["section"]:
-            raise ConfigError(f"config key '{key}.section.solve': a section of a Hamiltonian needs the coordinate "
-                              "solved from the energy")
-        named = [*axes, *spec["section"]["fixed"], spec["section"]["solve"]]
-        if sorted(named) != sorted(phase):
-            raise ConfigError(
-                f"config key '{key}.section': the two axes, the fixed coordinates and the solved momentum must "
-                f"name each of {list(phase)} exactly once; got axes {axes}, fixed {list(spec['section']['fixed'])}, "
-                f"solve {spec['section']['solve']!r}"
-            )
-        if spec["section"]["solve"] in coordinates and "root" not in spec["section"]:
-            raise ConfigError(
-                f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
-                "to take: largest, smallest or {nearest: VALUE}"
-            )
-        if spec["section"]["axes"][0]["points"] < spec["tiles"]:
-            raise ConfigError(
-                f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
-                "use at most one tile per row of the first axis"
-            )
-        _check_region(spec, key, coordinates)
-
-
-def _check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:
-    region = spec.get("region")
-    if spec["time"] == "variable" and not region:
-        raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
-    if region:
-        if sorted(region) != sorted(coordinates):
-            raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")
-        for coordinate, interval in region.items():
-            _check_interval(interval, f"{key}.region.{coordinate}")
-
-
-def _check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None:
-    """A map of a vector field: no energy, nothing solved, every state variable an axis or fixed."""
-    section = spec["section"]
-    # (the schema fills in sign: 1, meaningless without a solved coordinate)
-    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
-    given += [f"{key}.section.{name}" for name in ("solve", "root", "search") if name in section]
-    given += [f"{key}.section.sign"] if section.get("sign", 1) != 1 else []
-    if given:
-        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
-                          "map has two axes, every other state variable fixed, and no energy, saddle or solved coordinate")
-    axes = [axis["name"] for axis in section["axes"]]
-    named = [*axes, *section["fixed"]]
-    if sorted(named) != sorted(state):
-        raise ConfigError(
-            f"config key '{key}.section': the two axes and the fixed variables must name each of {list(state)} "
-            f"exactly once; got axes {axes}, fixed {list(section['fixed'])}"
-        )
-    if any(value == "saddle" for value in section["fixed"].values()):
-        raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
-    if section["axes"][0]["points"] < spec["tiles"]:
-        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
-                          "use at most one tile per row of the first axis")
-    _check_region(spec, key, state)
+            check_interval(interval, key)
 
 
 def _check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
@@ -247,7 +162,7 @@ def _check_orbits(config: dict) -> None:
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
         if spec["system"] in config["systems"] and is_vector_field(config["systems"][spec["system"]]):
-            _check_vector_field_poincare(config, spec, key)
+            check_vector_field_poincare(config, spec, key)
             continue
         coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
         if "energy" not in spec:
@@ -264,35 +179,13 @@ def _check_orbits(config: dict) -> None:
         start = spec["initial_conditions"]
         phase = coordinates + tuple("p" + c for c in coordinates)
         for index, axis in enumerate(start["axes"]):
-            _check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
+            check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
         named = [axis["name"] for axis in start["axes"]] + list(start["fixed"]) + [start["solve"]]
         if sorted(named) != sorted(phase) or start["solve"] not in phase[len(coordinates):]:
             raise ConfigError(
                 f"config key '{key}.initial_conditions': the two axes, the fixed coordinates and the solved momentum "
                 f"must name each of {list(phase)} exactly once, the solved one a momentum; got {named}"
             )
-
-
-def _check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
-    """A vector field's Poincaré section: no energy or saddle, initial conditions on a grid of two
-    state variables with the others fixed, a surface x_i = value."""
-    state = system_coordinates(config["systems"][spec["system"]])
-    start = spec["initial_conditions"]
-    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
-    given += [f"{key}.initial_conditions.solve"] if "solve" in start else []
-    given += [f"{key}.initial_conditions.sign"] if start.get("sign", 1) != 1 else []
-    if given:
-        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
-                          "Poincaré section starts on a grid of two state variables, the others fixed")
-    if spec["section"]["coordinate"] not in state:
-        raise ConfigError(f"config key '{key}.section.coordinate': {spec['section']['coordinate']!r} is not a state "
-                          f"variable; expected one of {list(state)}")
-    for index, axis in enumerate(start["axes"]):
-        _check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
-    named = [axis["name"] for axis in start["axes"]] + list(start["fixed"])
-    if sorted(named) != sorted(state):
-        raise ConfigError(f"config key '{key}.initial_conditions': the two axes and the fixed variables must name "
-                          f"each of {list(state)} exactly once; got {named}")
 
 
 def _check_nhim(config: dict) -> None:
@@ -335,7 +228,7 @@ def _check_nhim(config: dict) -> None:
             for axis, interval in spec["derived"]["ranges"].items():
                 if axis not in [a["name"] for a in section["axes"]]:
                     raise ConfigError(f"config key '{key}.derived.ranges.{axis}': not an axis of map {maps[0]!r}")
-                _check_interval(interval, f"{key}.derived.ranges.{axis}")
+                check_interval(interval, f"{key}.derived.ranges.{axis}")
         for family in spec["reference"]:
             if family not in config["periodic_orbits"]:
                 raise ConfigError(
@@ -390,7 +283,7 @@ def _check_figures(config: dict) -> None:
                     f"{list(coordinates)} exactly once; got plane {list(spec['plane'])}, fixed {list(spec['fixed'])}"
                 )
             for coordinate, interval in spec["plane"].items():
-                _check_interval(interval, f"{key}.plane.{coordinate}")
+                check_interval(interval, f"{key}.plane.{coordinate}")
         if kind in ("section_maps", "ld_slices"):
             _check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
         if kind == "section_maps":
@@ -417,10 +310,10 @@ def _check_figures(config: dict) -> None:
                 if config["manifolds"][set_name]["orbits"] != spec["family"]:
                     raise ConfigError(f"config key '{key}.manifolds': set {set_name!r} is of another family than {spec['family']!r}")
         for axis, interval in spec.get("configuration", {}).items():
-            _check_interval(interval, f"{key}.configuration.{axis}")
+            check_interval(interval, f"{key}.configuration.{axis}")
         for limits_key in ("color_limits", "potential_range"):
             if spec.get(limits_key) is not None:
-                _check_interval(spec[limits_key], f"{key}.{limits_key}")
+                check_interval(spec[limits_key], f"{key}.{limits_key}")
         low, high = spec.get("color_percentiles", (0, 100))
         if not low < high:
             raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
@@ -526,7 +419,7 @@ def validate_config(config: dict) -> dict:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
     _check_semantics(config)
-    _check_ld_maps(config)
+    check_ld_maps(config)
     _check_orbits(config)
     _check_figures(config)
     _check_nhim(config)
