@@ -12,7 +12,7 @@ import pytest
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.systems import make_system
+from ldpipe.systems import make_system, require_hamiltonian
 from support.closed_forms import forced_growth_solution, linear_saddle_ld
 from support.scipy_reference import flow_m1_and_arclength
 
@@ -149,3 +149,11 @@ def test_time_is_reserved():
     spec = {"vector_field": {"t": "1"}, "coordinates": ["t"]}
     with pytest.raises(ConfigError, match=r"reserved"):
         make_system("bad", spec)
+
+
+def test_stages_needing_a_hamiltonian_refuse_a_vector_field(saddle, oscillator):
+    # The check the orbit, manifold and transport stages make on their system (the config check
+    # refuses such entries earlier; this guards the library calls).
+    with pytest.raises(ConfigError, match=r"'periodic_orbits.f.system': system 'linear_saddle' is a vector field"):
+        require_hamiltonian(saddle, "a periodic-orbit family", key="periodic_orbits.f.system")
+    assert require_hamiltonian(oscillator, "a periodic-orbit family") is None
