@@ -18,7 +18,7 @@ from .engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRul
 from .engine.integrands import ARCLENGTH
 from .errors import ConfigError, LdpipeError
 from .logs import log_to
-from .systems import BUILTINS
+from .systems import BUILTINS, is_vector_field
 from .text import short_number
 
 EPILOG = """\
@@ -87,8 +87,9 @@ def _run_equilibria(args: argparse.Namespace) -> None:
         run_equilibria(**equilibria_parameters(config, args.system), output=args.output)
 
 
-def _map_from_options(args: argparse.Namespace) -> dict:
-    """An ld_maps entry built from the command-line options (validated later with the schema)."""
+def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> dict:
+    """An ld_maps entry built from the command-line options (validated later with the schema);
+    ``vector_field``: the system is one (no energy, nothing solved, a start time)."""
     if len(args.axis) != 2:
         raise ConfigError(f"--axis: give exactly two, NAME=LOW:HIGH:POINTS each; got {len(args.axis)}")
     axes = []
@@ -101,17 +102,12 @@ def _map_from_options(args: argparse.Namespace) -> dict:
             raise ConfigError(f"--axis {name}: POINTS must be a whole number, got {parts[2]!r}")
         axes.append({"name": name, "range": [_number(parts[0], f"--axis {name}"), _number(parts[1], f"--axis {name}")],
                      "points": int(points)})
-    if (args.energy is None) == (args.excess_energy is None):
-        raise ConfigError("give exactly one of --energy (total) or --excess-energy (over the saddle's E_c)")
     spec = {
         "system": args.system,
         "section": {
             "axes": axes,
             "fixed": {name: value if value == "saddle" else _number(value, f"--fixed {name}") for name, value in args.fixed},
-            "solve": args.solve,
-            **_solve_options(args),
         },
-        "energy": {"total": args.energy} if args.energy is not None else {"excess": args.excess_energy},
         "tau": args.tau,
         "p": ARCLENGTH if args.p == ARCLENGTH else _number(args.p, "--p"),
         "time": args.time,
@@ -128,6 +124,24 @@ def _map_from_options(args: argparse.Namespace) -> dict:
             spec["region"][coordinate] = [_number(low, f"--region {coordinate}"), _number(high, f"--region {coordinate}")]
     if args.saddle_near:
         spec["saddle_near"] = [_number(v, "--saddle-near") for v in args.saddle_near.split(",")]
+    if vector_field:  # no energy, nothing solved; a start time
+        given = [option for option, value in (("--solve", args.solve), ("--energy", args.energy),
+                                              ("--excess-energy", args.excess_energy), ("--root", args.root),
+                                              ("--search", args.search)) if value is not None]
+        if given:
+            raise ConfigError(f"{given[0]}: system {args.system!r} is a vector field with no energy; its map has two "
+                              "--axis, every other state variable --fixed, and optionally --t0")
+        if args.t0 is not None:
+            spec["t0"] = args.t0
+        return spec
+    if args.t0 is not None:
+        raise ConfigError(f"--t0: system {args.system!r} is autonomous (a Hamiltonian); a start time changes nothing")
+    if args.solve is None:
+        raise ConfigError("--solve: a map of a Hamiltonian system needs the coordinate solved from the energy")
+    if (args.energy is None) == (args.excess_energy is None):
+        raise ConfigError("give exactly one of --energy (total) or --excess-energy (over the saddle's E_c)")
+    spec["section"].update({"solve": args.solve, **_solve_options(args)})
+    spec["energy"] = {"total": args.energy} if args.energy is not None else {"excess": args.excess_energy}
     return spec
 
 
@@ -167,20 +181,24 @@ def _run_ld(args: argparse.Namespace) -> None:
         if args.map not in config["ld_maps"]:
             raise ConfigError(f"{args.config}: no map {args.map!r} under 'ld_maps'; it declares {sorted(config['ld_maps'])}")
     else:
-        if args.system is None or args.solve is None:
+        if args.system is None:
             raise ConfigError("give --config FILE --map NAME, or describe the map with --system, --axis, --solve, ...")
         config = copy.deepcopy(load_config(args.config)) if args.config is not None else {"systems": {}}
         if args.system not in config["systems"]:
             if args.system not in BUILTINS:
                 raise ConfigError(f"--system {args.system!r} is neither a built-in ({', '.join(sorted(BUILTINS))}) nor in --config")
             config["systems"][args.system] = {"builtin": args.system}
-        config.setdefault("ld_maps", {})["cli"] = _map_from_options(args)
+        vector_field = is_vector_field(config["systems"][args.system])
+        config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field)
         config = validate_config(config)
         args.map = "cli"
     parameters = ld_map_parameters(config, args.map)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
-        path = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
-        equilibria = open_stage_file(path, stage=EQUILIBRIA)
+        if is_vector_field(config["systems"][parameters["system_name"]]):
+            equilibria = None  # a vector field's map has no energy and no saddle
+        else:
+            path = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+            equilibria = open_stage_file(path, stage=EQUILIBRIA)
         dataset = compute_ld_map(parameters, equilibria, threads=args.threads, show_progress=not args.quiet)
         write_ld_map(dataset, parameters, args.output, tile_file=False)
 
@@ -246,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a section axis (give two), e.g. x=4.8:6.0:1500 then px=-0.6:0.6:1500")
     ld.add_argument("--fixed", type=_key_value, action="append", default=[], metavar="NAME=VALUE",
                     help="a fixed phase coordinate (repeatable); VALUE 'saddle' takes the saddle's value")
-    ld.add_argument("--solve", metavar="COORDINATE", help="the coordinate solved from the energy, e.g. py (or x, with --root)")
+    ld.add_argument("--solve", metavar="COORDINATE", help="the coordinate solved from the energy, e.g. py (or x, with --root; Hamiltonian systems)")
     ld.add_argument("--sign", type=int, choices=(1, -1), default=1, help="sign of the solved momentum (default +1)")
     ld.add_argument("--root", metavar="RULE",
                     help="the root a solved position takes: largest, smallest or nearest:VALUE")
@@ -256,6 +274,8 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--energy", type=float, metavar="E", help="total energy")
     ld.add_argument("--excess-energy", type=float, metavar="DE", help="energy above the saddle's critical energy")
     ld.add_argument("--saddle-near", metavar="Q1,Q2,...", help="use the index-1 saddle nearest this point")
+    ld.add_argument("--t0", type=float, metavar="T0",
+                    help="start time (a vector-field system declared in --config; default 0)")
     ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
     ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
                     help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")

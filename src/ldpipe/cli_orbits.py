@@ -16,6 +16,7 @@ from .config import load_config
 from .errors import ConfigError
 from .logs import log_to
 from .stages.equilibria import equilibria_file
+from .systems import is_vector_field
 
 EXAMPLES = """\
   ldpipe upo --config config.yaml --family barbanis_2dof_bottom -o bottom.nc
@@ -62,7 +63,10 @@ def _run_poincare(args: argparse.Namespace) -> None:
     config = _entry(args, "poincare_sections", args.section)
     parameters = poincare_parameters(config, args.section)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
-        equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+        if is_vector_field(config["systems"][parameters["system_name"]]):
+            equilibria = None  # no energy: a vector field's section needs no equilibria
+        else:
+            equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
         run_poincare(**parameters, equilibria=equilibria, threads=args.threads, output=args.output)
 
 

@@ -18,7 +18,8 @@ import jsonschema
 import yaml
 
 from .errors import ConfigError
-from .systems import check_builtin_parameters, system_coordinates
+from .config_maps import check_interval, check_ld_maps, check_vector_field_poincare
+from .systems import check_builtin_parameters, is_vector_field, system_coordinates
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -87,16 +88,11 @@ def _describe(error: jsonschema.ValidationError) -> str:
         return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}; allowed keys are {allowed}"
     if error.validator == "oneOf" and error.absolute_path and "systems" in error.absolute_path:
         return (
-            f"config key {_key(error.absolute_path)!r}: a system needs exactly one of 'builtin' "
-            "or 'formula' (a formula also needs 'coordinates')"
+            f"config key {_key(error.absolute_path)!r}: a system needs exactly one of 'builtin', "
+            "'formula' or 'vector_field' (a formula or vector field also needs 'coordinates')"
         )
     allowed = _allowed(error.schema)
     return f"config key {_key(error.absolute_path)!r}: {error.message}" + (f" (allowed: {allowed})" if allowed else "")
-
-
-def _check_interval(value, key: str) -> None:
-    if not value[0] < value[1]:
-        raise ConfigError(f"config key {key!r}: expected an interval [low, high] with low < high, got {value}")
 
 
 def _check_semantics(config: dict) -> None:
@@ -106,56 +102,22 @@ def _check_semantics(config: dict) -> None:
         if "builtin" in spec:
             check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
         equilibria = spec["equilibria"]
-        _check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
+        check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
         for coordinate, interval in equilibria["box"].items():
             key = f"systems.{name}.equilibria.box.{coordinate}"
             if coordinate not in coordinates:
                 raise ConfigError(f"config key {key!r}: {coordinate!r} is not a coordinate of {name}; expected one of {list(coordinates)}")
-            _check_interval(interval, key)
-
-
-def _check_ld_maps(config: dict) -> None:
-    for name, spec in config["ld_maps"].items():
-        key = f"ld_maps.{name}"
-        if spec["system"] not in config["systems"]:
-            raise ConfigError(
-                f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
-            )
-        coordinates = system_coordinates(config["systems"][spec["system"]])
-        phase = coordinates + tuple("p" + c for c in coordinates)
-        axes = [axis["name"] for axis in spec["section"]["axes"]]
-        for index, axis in enumerate(spec["section"]["axes"]):
-            _check_interval(axis["range"], f"{key}.section.axes.{index}.range")
-        named = [*axes, *spec["section"]["fixed"], spec["section"]["solve"]]
-        if sorted(named) != sorted(phase):
-            raise ConfigError(
-                f"config key '{key}.section': the two axes, the fixed coordinates and the solved momentum must "
-                f"name each of {list(phase)} exactly once; got axes {axes}, fixed {list(spec['section']['fixed'])}, "
-                f"solve {spec['section']['solve']!r}"
-            )
-        if spec["section"]["solve"] in coordinates and "root" not in spec["section"]:
-            raise ConfigError(
-                f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
-                "to take: largest, smallest or {nearest: VALUE}"
-            )
-        if spec["section"]["axes"][0]["points"] < spec["tiles"]:
-            raise ConfigError(
-                f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
-                "use at most one tile per row of the first axis"
-            )
-        region = spec.get("region")
-        if spec["time"] == "variable" and not region:
-            raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
-        if region:
-            if sorted(region) != sorted(coordinates):
-                raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")
-            for coordinate, interval in region.items():
-                _check_interval(interval, f"{key}.region.{coordinate}")
+            check_interval(interval, key)
 
 
 def _check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
+    """The coordinates of the Hamiltonian system ``name`` a stage at ``key`` refers to (orbits,
+    Hamiltonian Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
     if name not in config["systems"]:
         raise ConfigError(f"config key '{key}': no system {name!r}; expected one of {sorted(config['systems'])}")
+    if is_vector_field(config["systems"][name]):
+        raise ConfigError(f"config key '{key}': system {name!r} is a vector field (no Hamiltonian); this stage needs "
+                          "a Hamiltonian system ('builtin' or 'formula')")
     return system_coordinates(config["systems"][name])
 
 
@@ -200,13 +162,25 @@ def _check_orbits(config: dict) -> None:
         _check_surface(spec["section"], system_coordinates(config["systems"][family["system"]]), f"{key}.section")
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
+        if spec["system"] in config["systems"] and is_vector_field(config["systems"][spec["system"]]):
+            check_vector_field_poincare(config, spec, key)
+            continue
         coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
+        if "energy" not in spec:
+            raise ConfigError(f"config key '{key}.energy': a Poincaré section of the Hamiltonian system "
+                              f"{spec['system']!r} needs an energy (total or excess)")
+        if "t0" in spec:
+            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
+                              "a start time changes nothing, leave t0 out")
+        if "solve" not in spec["initial_conditions"]:
+            raise ConfigError(f"config key '{key}.initial_conditions.solve': initial conditions of a Hamiltonian "
+                              "need the momentum solved from the energy")
         _check_saddle_near(spec, coordinates, key)
         _check_surface(spec["section"], coordinates, f"{key}.section")
         start = spec["initial_conditions"]
         phase = coordinates + tuple("p" + c for c in coordinates)
         for index, axis in enumerate(start["axes"]):
-            _check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
+            check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
         named = [axis["name"] for axis in start["axes"]] + list(start["fixed"]) + [start["solve"]]
         if sorted(named) != sorted(phase) or start["solve"] not in phase[len(coordinates):]:
             raise ConfigError(
@@ -238,6 +212,9 @@ def _check_nhim(config: dict) -> None:
                 raise ConfigError(f"config key {where!r}: no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
             if config["ld_maps"][map_name]["time"] != "variable":
                 raise ConfigError(f"config key {where!r}: map {map_name!r} is fixed time; NHIM detection needs variable time")
+            if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
+                raise ConfigError(f"config key {where!r}: map {map_name!r} is of a vector field (no energy); NHIM "
+                                  "detection needs a Hamiltonian system's map")
             systems.add(config["ld_maps"][map_name]["system"])
         if len(systems) > 1:
             raise ConfigError(f"config key {where!r}: maps of several systems {sorted(systems)}; one system per study")
@@ -252,7 +229,7 @@ def _check_nhim(config: dict) -> None:
             for axis, interval in spec["derived"]["ranges"].items():
                 if axis not in [a["name"] for a in section["axes"]]:
                     raise ConfigError(f"config key '{key}.derived.ranges.{axis}': not an axis of map {maps[0]!r}")
-                _check_interval(interval, f"{key}.derived.ranges.{axis}")
+                check_interval(interval, f"{key}.derived.ranges.{axis}")
         for family in spec["reference"]:
             if family not in config["periodic_orbits"]:
                 raise ConfigError(
@@ -309,7 +286,7 @@ def _check_figures(config: dict) -> None:
                     f"{list(coordinates)} exactly once; got plane {list(spec['plane'])}, fixed {list(spec['fixed'])}"
                 )
             for coordinate, interval in spec["plane"].items():
-                _check_interval(interval, f"{key}.plane.{coordinate}")
+                check_interval(interval, f"{key}.plane.{coordinate}")
         if kind in ("section_maps", "ld_slices"):
             _check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
         if kind == "section_maps":
@@ -336,10 +313,10 @@ def _check_figures(config: dict) -> None:
                 if config["manifolds"][set_name]["orbits"] != spec["family"]:
                     raise ConfigError(f"config key '{key}.manifolds': set {set_name!r} is of another family than {spec['family']!r}")
         for axis, interval in spec.get("configuration", {}).items():
-            _check_interval(interval, f"{key}.configuration.{axis}")
+            check_interval(interval, f"{key}.configuration.{axis}")
         for limits_key in ("color_limits", "potential_range"):
             if spec.get(limits_key) is not None:
-                _check_interval(spec[limits_key], f"{key}.{limits_key}")
+                check_interval(spec[limits_key], f"{key}.{limits_key}")
         low, high = spec.get("color_percentiles", (0, 100))
         if not low < high:
             raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
@@ -368,6 +345,9 @@ def _check_accuracy_cost(config: dict) -> None:
             raise ConfigError(
                 f"config key 'accuracy_cost.ld.maps': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}"
             )
+        if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
+            raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {map_name!r} is of a vector field; the "
+                              "accuracy ladder's reference LD and energy errors need a Hamiltonian system")
     from .engine import IntegratorSettings
     from .engine.schemes import SCHEMES
 
@@ -455,7 +435,7 @@ def validate_config(config: dict) -> dict:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
     _check_semantics(config)
-    _check_ld_maps(config)
+    check_ld_maps(config)
     _check_orbits(config)
     _check_figures(config)
     _check_nhim(config)

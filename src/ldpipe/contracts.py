@@ -33,6 +33,11 @@ EQUILIBRIA = StageFile("equilibria", (
     "position", "energy", "type", "morse_index", "eigenvalue_real", "eigenvalue_imag",
     "eigenvector_real", "eigenvector_imag", "critical_energy", "saddle_equilibrium",
 ))
+#: The equilibria of an autonomous vector field (no energy, no saddle selection): roots of f and Df's spectrum.
+FLOW_EQUILIBRIA = StageFile("flow_equilibria", (
+    "position", "type", "unstable_dimension", "eigenvalue_real", "eigenvalue_imag", "eigenvector_real",
+    "eigenvector_imag",
+))
 #: One tile of an LD map, gathered into the map's file.
 LD_TILE = StageFile("ld_tile", ("ld_forward", "ld_backward"))
 LD_GRID = StageFile("ld_grid", ("ld_forward", "ld_backward", "allowed"))
@@ -54,5 +59,5 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, TRANSPORT, ACCURACY_COST,
+    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, TRANSPORT, ACCURACY_COST,
 )}

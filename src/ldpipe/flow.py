@@ -82,8 +82,13 @@ def integrate(
     section: tuple[str, float, int] | None = None,
     max_crossings: int = 0,
     threads: int | None = None,
+    t0: float = 0.0,
 ) -> Trajectories:
     """Integrate every row of ``states`` for ``duration`` (negative: backward in time).
+
+    A vector-field system (:class:`ldpipe.systems.VectorFieldSystem`) runs from the start time
+    ``t0`` on its own driver (``vector_field_crossings``, first-order DOP853), with crossings
+    and escapes as here but no samples; a Hamiltonian is autonomous and takes t0 = 0 only.
 
     ``sample_times`` lie between 0 and ``duration`` (same sign), ordered from 0.
     ``section`` is (phase coordinate, value, direction): crossings where the
@@ -92,6 +97,12 @@ def integrate(
     and the trajectory stops at the last (status ``crossings_full``).
     """
     states = np.ascontiguousarray(states, dtype=np.float64)
+    if not getattr(system, "hamiltonian", True):
+        if sample_times is not None and len(sample_times):
+            raise ValueError(f"sample_times: system {system.name!r} is a vector field; its flow records crossings only")
+        return _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, float(t0))
+    if t0 != 0.0:
+        raise ValueError(f"t0: system {system.name!r} is autonomous (a Hamiltonian); give 0")
     count, m = states.shape
     if m != 2 * system.n_dof:
         raise ValueError(f"states have {m} columns; {system.name} has {2 * system.n_dof} phase coordinates")
@@ -130,3 +141,33 @@ def integrate(
     run_units(runner, states, unit, args, outputs, threads)
     final_time *= 1.0 if duration >= 0 else -1.0
     return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
+
+
+def _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, t0) -> Trajectories:
+    """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring)."""
+    from .engine.vector_field import get_vector_field_runner
+
+    count, m = states.shape
+    if m != system.n_state:
+        raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
+    if section is None:
+        index, value, direction = 0, 0.0, 1
+        max_crossings = 0
+    else:
+        name, value, direction = section
+        index = system.coordinates.index(name)
+    crossings = np.zeros((count, max_crossings, m))
+    crossing_times = np.zeros((count, max_crossings))
+    n_cross = np.zeros(count, dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    final_time = np.zeros(count)
+    steps = np.zeros(count, dtype=np.int64)
+    if count:
+        threads = min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+        runner = get_vector_field_runner(system, "vector_field_crossings")
+        args = (t0, 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
+                settings.escape_radius, settings.max_steps, index, float(value), float(direction))
+        outputs = (crossings, crossing_times, n_cross, status, final_time, steps)
+        run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
+    return Trajectories(np.zeros(0), np.zeros((count, 0, m)), np.zeros(count, dtype=np.int64), crossings,
+                        crossing_times, n_cross, status, final_time, steps)

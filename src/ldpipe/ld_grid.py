@@ -15,6 +15,7 @@ import xarray as xr
 from tqdm import tqdm
 
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
+from .engine.schemes import get_scheme
 from .errors import ConfigError
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
@@ -34,19 +35,35 @@ def tile_rows(rows: int, tile: int, tiles: int) -> slice:
     return slice(rows * tile // tiles, rows * (tile + 1) // tiles)
 
 
-def resolve_ld_map(parameters: dict, saddle: np.ndarray, critical_energy: float) -> tuple:
+def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy: float | None) -> tuple:
     """What an LD map's recorded parameters describe: ``(system, section, settings, info)``.
 
     ``parameters`` are the map's stage parameters (the ``ld_maps`` entry, resolved by the LD
     stage, as recorded in its file); ``saddle`` and ``critical_energy`` those of the saddle it was
-    computed at. ``info`` holds the total, critical and excess energies and the saddle. The LD
-    stage resolves a map with it before computing, later stages to read the map as computed.
+    computed at (None for a vector-field system, which has no energy). ``info`` holds the total,
+    critical and excess energies (None for a vector field), the saddle and the start time
+    ``t0``. The LD stage resolves a map with it before computing, later stages to read the map
+    as computed.
     """
     system = make_system(parameters["system_name"], parameters["system_spec"])
     key = f"ld_maps.{parameters['map_name']}"
     section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
-    energy_spec = parameters["energy"]
-    energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
+    hamiltonian = getattr(system, "hamiltonian", True)
+    t0 = parameters.get("t0", 0.0)
+    if hamiltonian:
+        if "energy" not in parameters:
+            raise ConfigError(f"config key '{key}.energy': a map of the Hamiltonian system {system.name!r} needs an energy")
+        if t0 != 0.0:
+            raise ConfigError(f"config key '{key}.t0': system {system.name!r} is autonomous (a Hamiltonian); "
+                              "a start time changes nothing, leave t0 out")
+        energy_spec = parameters["energy"]
+        energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
+        excess = energy - critical_energy
+    else:
+        if "energy" in parameters:
+            raise ConfigError(f"config key '{key}.energy': system {system.name!r} is a vector field with no energy; "
+                              "leave the energy out")
+        energy = excess = None
     region = parameters.get("region")
     if parameters["time"] == "variable":
         if not region:
@@ -66,36 +83,49 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray, critical_energy: float)
         )
     except ValueError as error:
         raise ConfigError(f"config key '{key}': {error}") from None
-    info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": energy - critical_energy,
-            "saddle": np.asarray(saddle).tolist()}
+    if not hamiltonian:
+        try:
+            get_scheme(settings.scheme).check_system(system)
+        except ValueError as error:
+            raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
+    info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": excess,
+            "saddle": [] if saddle is None else np.asarray(saddle).tolist(), "t0": float(t0)}
     return system, section, settings, info
 
 
-def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None):
+def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None,
+               t0: float = 0.0):
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
-        results.append(compute_ld(system, chunk, direction=direction, settings=settings))
+        results.append(compute_ld(system, chunk, direction=direction, settings=settings, t0=t0))
         if progress is not None:
             progress.update(len(chunk))
     if not results:
-        return compute_ld(system, states, direction=direction, settings=settings)
+        return compute_ld(system, states, direction=direction, settings=settings, t0=t0)
     return type(results[0])(*(np.concatenate(parts) for parts in zip(*results)))
 
 
-def _long_name(name: str) -> str:
+def _long_name(name: str, system=None) -> str:
+    if system is not None and not getattr(system, "hamiltonian", True):
+        return f"state variable {name}"
     return f"momentum conjugate to {name[1:]}" if name.startswith("p") and len(name) > 1 else f"coordinate {name}"
 
 
 def ld_grid_dataset(
     system: System,
     section: Section,
-    energy: float,
+    energy: float | None,
     settings: LDSettings,
     rows: slice | None = None,
     show_progress: bool = False,
+    t0: float = 0.0,
 ) -> xr.Dataset:
-    """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``."""
+    """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
+
+    For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
+    the start time ``t0``, and the file has no energy error and no solved coordinate.
+    """
     rows = rows if rows is not None else slice(0, section.shape[0])
     first = section.axis_values()[0][rows]
     states, allowed, solved = section_states(system, section, energy, rows)
@@ -106,7 +136,7 @@ def ld_grid_dataset(
                     mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
         for direction, label in ((1, "forward"), (-1, "backward")):
-            result = _integrate(system, states, direction, settings, progress)
+            result = _integrate(system, states, direction, settings, progress, t0)
             for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed"):
                 values = getattr(result, name)
                 full = np.zeros(shape, dtype=values.dtype)
@@ -132,12 +162,16 @@ def ld_grid_dataset(
         "energy_error": (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
                          {"long_name": "largest |H(end) - H(start)| of the two directions"}),
         "allowed": (dims, allowed, {"long_name": "point lies in the energetically allowed region"}),
-        section.solve: (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
-                                       "comment": mask_note}),
     }
+    if section.solve is not None:
+        variables[section.solve] = (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
+                                                   "comment": mask_note})
+    else:  # a vector field: no energy, every point integrated
+        del variables["energy_error"]
+        variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
     coords = {
-        section.axes[0]: (section.axes[0], first, {"long_name": _long_name(section.axes[0])}),
-        section.axes[1]: (section.axes[1], section.axis_values()[1], {"long_name": _long_name(section.axes[1])}),
+        section.axes[0]: (section.axes[0], first, {"long_name": _long_name(section.axes[0], system)}),
+        section.axes[1]: (section.axes[1], section.axis_values()[1], {"long_name": _long_name(section.axes[1], system)}),
     }
     return xr.Dataset(variables, coords=coords)
 

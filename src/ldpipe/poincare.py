@@ -22,25 +22,28 @@ from .systems import System
 def poincare_dataset(
     system: System,
     initial_conditions: Section,
-    energy: float,
+    energy: float | None,
     *,
     section: tuple[str, float, int],
     time: float,
     max_crossings: int,
     flow: FlowSettings,
     threads: int | None = None,
+    t0: float = 0.0,
 ) -> xr.Dataset:
-    """Crossings of ``section`` by trajectories started on ``initial_conditions`` at ``energy``."""
+    """Crossings of ``section`` by trajectories started on ``initial_conditions`` at ``energy``
+    (a vector field: ``energy`` None, every grid point, from the start time ``t0``; its crossing
+    times count from t0)."""
     states, allowed, _ = section_states(system, initial_conditions, energy)
     if len(states) == 0:
         raise ValueError(f"no initial condition of the grid is on the energy surface E = {energy!r}")
-    result = integrate(system, states, time, flow, section=section, max_crossings=max_crossings, threads=threads)
+    result = integrate(system, states, time, flow, section=section, max_crossings=max_crossings, threads=threads, t0=t0)
     phase = list(system.phase_coordinates)
     status = result.status.astype(np.int8)
     valid = np.arange(max_crossings)[None, :] < result.crossing_count[:, None]
     data = xr.Dataset(
         {
-            "initial_state": (("trajectory", "phase"), states, {"long_name": "initial condition on the energy surface"}),
+            "initial_state": (("trajectory", "phase"), states, {"long_name": "initial condition (on the energy surface)"}),
             "crossing_state": (("trajectory", "crossing", "phase"), result.crossings,
                                {"long_name": "state at each crossing of the section; 0 beyond crossing_count"}),
             "crossing_time": (("trajectory", "crossing"), result.crossing_times),
@@ -55,8 +58,9 @@ def poincare_dataset(
         coords={"phase": phase, "trajectory": np.arange(len(states)), "crossing": np.arange(max_crossings)},
     )
     coordinate, value, direction = section
+    data.attrs.update({"energy": energy} if energy is not None else {"t0": float(t0)})
     data.attrs.update({
-        "energy": energy, "final_time": time, "section_coordinate": coordinate, "section_value": float(value),
+        "final_time": time, "section_coordinate": coordinate, "section_value": float(value),
         "section_direction": int(direction), "rtol": flow.rtol, "atol": flow.atol, "escape_radius": flow.escape_radius,
         "initial_condition_axes": list(initial_conditions.axes),
     })

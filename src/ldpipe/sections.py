@@ -21,6 +21,10 @@ bisection (a pair of roots closer than the sample spacing can be missed). Hénon
 slice of ldds' tutorial is ``axes=("y", "py"), fixed={"px": 0}, solve="x",
 root="largest"`` (the root x >= 0).
 
+A section of a general flow (:class:`ldpipe.systems.VectorFieldSystem`) has no energy: two
+state variables on the grid, every other one fixed, nothing solved (``solve`` is None); all
+its points are integrated.
+
 A configuration spec of a section (``ld_maps.<name>.section``,
 ``poincare_sections.<name>.initial_conditions``) is resolved into a
 :class:`Section` once, by :meth:`Section.from_spec`, where fixed values given as
@@ -54,7 +58,7 @@ class Section:
     ranges: tuple[tuple[float, float], tuple[float, float]]
     shape: tuple[int, int]
     fixed: dict[str, float]
-    solve: str
+    solve: str | None
     sign: int = 1
     root: str | None = None
     near: float | None = None
@@ -87,9 +91,18 @@ class Section:
             number nor ``'saddle'`` (or is ``'saddle'`` with no saddle given), or the
             coordinates do not split the phase space (:meth:`check`).
         """
-        missing = [name for name in ("axes", "solve") if name not in spec]
+        hamiltonian = getattr(system, "hamiltonian", True)
+        missing = [name for name in ("axes", "solve") if name not in spec and (hamiltonian or name != "solve")]
         if missing:
             raise ConfigError(f"config key {key!r}: lacks {missing}; a section needs 'axes' and 'solve'")
+        if not hamiltonian:
+            given = [name for name in ("solve", "root", "search") if name in spec]
+            given += ["sign"] if spec.get("sign", 1) != 1 else []  # (the schema's default is 1)
+            if given:
+                raise ConfigError(
+                    f"config key '{key}.{given[0]}': system {system.name!r} is a vector field with no energy; its "
+                    "section has two axes and every other state variable fixed, nothing solved"
+                )
         axes = spec["axes"]
         if len(axes) != 2:
             raise ConfigError(f"config key '{key}.axes': expected two axes, got {len(axes)}")
@@ -108,7 +121,7 @@ class Section:
             ranges=(tuple(axes[0]["range"]), tuple(axes[1]["range"])),
             shape=(axes[0]["points"], axes[1]["points"]),
             fixed=fixed_values(spec.get("fixed", {}), system, saddle, key=f"{key}.fixed"),
-            solve=spec["solve"],
+            solve=spec.get("solve"),
             sign=spec.get("sign", 1),
             root=root,
             near=near,
@@ -124,6 +137,9 @@ class Section:
     def check(self, system: System, key: str = "section") -> None:
         """Raise ConfigError unless axes, fixed and solved coordinates split the phase space."""
         phase = system.phase_coordinates
+        if not getattr(system, "hamiltonian", True):
+            self._check_flow(system, key)
+            return
         named = [*self.axes, *self.fixed, self.solve]
         unknown = [name for name in named if name not in phase]
         if unknown:
@@ -153,6 +169,25 @@ class Section:
             )
         if self.sign not in (1, -1):
             raise ConfigError(f"config key '{key}.sign': expected +1 or -1, got {self.sign!r}")
+        for (lo, hi), axis in zip(self.ranges, self.axes):
+            if not lo < hi:
+                raise ConfigError(f"config key '{key}.axes.{axis}': expected [low, high] with low < high, got {[lo, hi]}")
+
+
+    def _check_flow(self, system, key: str) -> None:
+        """A vector field's section: the axes and fixed variables name each state variable once."""
+        named = [*self.axes, *self.fixed]
+        state = system.coordinates
+        unknown = [name for name in named if name not in state]
+        if unknown:
+            raise ConfigError(f"config key {key!r}: {unknown} are not state variables of {system.name}; expected {list(state)}")
+        if self.solve is not None:
+            raise ConfigError(f"config key '{key}.solve': system {system.name!r} is a vector field with no energy; nothing is solved")
+        if len(named) != len(set(named)) or set(named) != set(state):
+            raise ConfigError(
+                f"config key {key!r}: the two axes and the fixed variables must name each of {list(state)} exactly "
+                f"once (missing {sorted(set(state) - set(named))}, given {named})"
+            )
         for (lo, hi), axis in zip(self.ranges, self.axes):
             if not lo < hi:
                 raise ConfigError(f"config key '{key}.axes.{axis}': expected [low, high] with low < high, got {[lo, hi]}")
@@ -213,7 +248,9 @@ def fixed_values(
                 raise ConfigError(f"config key '{key}.{name}': not a phase coordinate of {system.name}")
             if saddle is None:
                 raise ConfigError(f"config key '{key}.{name}': 'saddle' needs a selected index-1 saddle, and none is given")
-            saddle_state = np.concatenate([np.asarray(saddle, dtype=np.float64), np.zeros(system.n_dof)])
+            # a Hamiltonian's saddle is a configuration (momenta 0); a vector field's a state
+            momenta = np.zeros(len(system.phase_coordinates) - len(np.atleast_1d(saddle)))
+            saddle_state = np.concatenate([np.asarray(saddle, dtype=np.float64), momenta])
             value = saddle_state[system.phase_coordinates.index(name)]
         elif not isinstance(value, Real) or isinstance(value, bool):
             raise ConfigError(f"config key '{key}.{name}': expected a number or 'saddle', got {value!r}")
@@ -232,10 +269,12 @@ def section_states(
         The allowed points, in C order of the grid (first axis slowest).
     allowed : ndarray of bool, shape (rows, ``section.shape[1]``)
         Where the solved momentum is real, or the solved position has a root.
-    solved : ndarray, shape (rows, ``section.shape[1]``)
-        The solved coordinate (0 where not allowed).
+    solved : ndarray, shape (rows, ``section.shape[1]``), or None
+        The solved coordinate (0 where not allowed); None for a vector field (nothing solved).
     """
     section.check(system)
+    if not getattr(system, "hamiltonian", True):
+        return _flow_states(system, section, rows)
     n = system.n_dof
     phase = system.phase_coordinates
     first, second = section.axis_values()
@@ -261,6 +300,19 @@ def section_states(
     states[:, solve] = solved
     shape = grid_first.shape
     return states[allowed], allowed.reshape(shape), solved.reshape(shape)
+
+
+def _flow_states(system, section: Section, rows: slice) -> tuple[np.ndarray, np.ndarray, None]:
+    """``section_states`` of a vector field: every grid point, all allowed, nothing solved."""
+    state = system.coordinates
+    first, second = section.axis_values()
+    grid_first, grid_second = np.meshgrid(first[rows], second, indexing="ij")
+    states = np.zeros((grid_first.size, len(state)))
+    states[:, state.index(section.axes[0])] = grid_first.ravel()
+    states[:, state.index(section.axes[1])] = grid_second.ravel()
+    for name, value in section.fixed.items():
+        states[:, state.index(name)] = value
+    return states, np.ones(grid_first.shape, dtype=bool), None
 
 
 def _pick(roots: np.ndarray, valid: np.ndarray, section: Section) -> tuple[np.ndarray, np.ndarray]:

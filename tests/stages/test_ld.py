@@ -212,3 +212,14 @@ def test_cli_solves_a_position_with_root_search_and_quad_nodes(tmp_path, capsys)
         assert main(common + options) == 2, options
         assert message in capsys.readouterr().err, options
         assert not out.exists()
+
+
+def test_cli_refuses_root_and_search_for_a_vector_field(tmp_path, capsys):
+    # A vector field has no energy: nothing is solved, so a root rule is a mistake to name.
+    config = tmp_path / "saddle.yaml"
+    config.write_text('systems:\n  saddle:\n    vector_field: {x: "x", y: "-y"}\n    coordinates: [x, y]\n')
+    out = tmp_path / "m.nc"
+    assert main(["ld", "--config", str(config), "--system", "saddle", "--axis", "x=-1:1:3", "--axis", "y=-1:1:3",
+                 "--root", "largest", "--quiet", "-o", str(out)]) == 2
+    assert "--root: system 'saddle' is a vector field with no energy" in capsys.readouterr().err
+    assert not out.exists()

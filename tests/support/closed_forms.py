@@ -69,3 +69,21 @@ def harmonic_ld(state, omegas, tau: float, p: float, t0: float = 0.0) -> float:
 def oscillator_ld(state, tau: float, p: float) -> float:
     """Closed-form M_p over [0, tau] of the two oscillators of :func:`oscillator_system`."""
     return harmonic_ld(state, (WX, WY), tau, p)
+
+
+def linear_saddle_ld(x0: float, y0: float, lam: float, tau: float, p: float, direction: int = 1) -> float:
+    """M_p of dx/dt = lam x, dy/dt = -lam y from (x0, y0) over |t| <= tau, direction +1 or -1.
+
+    x(t) = x0 e^(lam t), so |dx/dt|^p = |lam x0|^p e^(p lam t), and
+    int_0^tau e^(p lam t) dt = (e^(p lam tau) - 1) / (p lam); y the same with -lam; backward
+    the two exchange.
+    """
+    grow = (math.exp(p * lam * tau) - 1.0) / (p * lam)
+    shrink = (1.0 - math.exp(-p * lam * tau)) / (p * lam)
+    fx, fy = (grow, shrink) if direction == 1 else (shrink, grow)
+    return abs(lam * x0) ** p * fx + abs(lam * y0) ** p * fy
+
+
+def forced_growth_solution(x0: float, t0: float, t: float) -> float:
+    """x(t) of dx/dt = (1 + cos t) x with x(t0) = x0: x0 exp(t - t0 + sin t - sin t0)."""
+    return x0 * math.exp(t - t0 + math.sin(t) - math.sin(t0))

@@ -46,6 +46,11 @@ def test_quick_run_then_rerun_only_what_changed(quick_run):
     for name in ("equilibria.log",):
         assert (workdir / "results/logs/henon_heiles" / name).stat().st_size > 0
     assert (workdir / "results/benchmarks/henon_heiles/equilibria.tsv").is_file()
+    # The time-dependent vector field: its map from t0, its figure, and no equilibria (it has none).
+    duffing = open_stage_file(workdir / "results/ld/forced_duffing_t0.nc", stage="ld_grid")
+    assert duffing.attrs["t0"] == 1.5 and duffing.allowed.values.all() and "energy" not in duffing.attrs
+    assert (workdir / "results/figures/forced_duffing_ld.png").is_file()
+    assert not (workdir / "results/forced_duffing").exists()
 
     result = snakemake(workdir, "--configfile", "config.quick.yaml", "-n")
     assert "Nothing to be done" in result.stdout + result.stderr

@@ -8,6 +8,7 @@ try:
     from ldpipe.config import validate_config
     from ldpipe.errors import ConfigError
     from ldpipe.provenance import library_sources
+    from ldpipe.systems import has_equilibria, is_vector_field
 except ImportError as error:
     raise WorkflowError(
         f"cannot import ldpipe ({error}); install it first (see README.md: pip install -e .)"
@@ -20,6 +21,8 @@ except ConfigError as error:
 
 
 SYSTEMS = sorted(config["systems"])
+# A time-dependent vector field has no fixed equilibria: no equilibrium file for it.
+EQUILIBRIUM_SYSTEMS = [name for name in SYSTEMS if has_equilibria(name, config["systems"][name])]
 LD_MAPS = sorted(config["ld_maps"])
 UPO_FAMILIES = sorted(config["periodic_orbits"])
 MANIFOLD_SETS = sorted(config["manifolds"])
@@ -51,7 +54,7 @@ def library_code(module):
 
 def all_targets():
     return [
-        *expand(f"{RESULTS}/{{system}}/equilibria.nc", system=SYSTEMS),
+        *expand(f"{RESULTS}/{{system}}/equilibria.nc", system=EQUILIBRIUM_SYSTEMS),
         *expand(f"{RESULTS}/ld/{{map}}.nc", map=LD_MAPS),
         *expand(f"{RESULTS}/upo/{{family}}.nc", family=UPO_FAMILIES),
         *expand(f"{RESULTS}/manifolds/{{manifold}}.nc", manifold=MANIFOLD_SETS),
@@ -77,7 +80,11 @@ def ld_params(wildcards):
 
 
 def ld_equilibria_file(wildcards):
-    return f"{RESULTS}/{config['ld_maps'][wildcards.map]['system']}/equilibria.nc"
+    """The map's system's equilibria (its saddle and critical energy); none for a vector field."""
+    system = config["ld_maps"][wildcards.map]["system"]
+    if is_vector_field(config["systems"][system]):
+        return []
+    return f"{RESULTS}/{system}/equilibria.nc"
 
 
 def ld_tile_files(wildcards):
@@ -159,7 +166,11 @@ def poincare_params(wildcards):
 
 
 def poincare_equilibria_file(wildcards):
-    return f"{RESULTS}/{config['poincare_sections'][wildcards.section]['system']}/equilibria.nc"
+    """The section's system's equilibria (for an excess energy); none for a vector field."""
+    system = config["poincare_sections"][wildcards.section]["system"]
+    if is_vector_field(config["systems"][system]):
+        return []
+    return f"{RESULTS}/{system}/equilibria.nc"
 
 
 def poincare_memory_mb(wildcards):

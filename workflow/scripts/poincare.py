@@ -7,7 +7,8 @@ with log_to(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
 
     run_poincare(
         **snakemake.params.stage,  # noqa: F821
-        equilibria=snakemake.input.equilibria,  # noqa: F821
+        # a vector field's section has no equilibria input (an empty list)
+        equilibria=snakemake.input.equilibria or None,  # noqa: F821
         threads=snakemake.threads,  # noqa: F821
         output=snakemake.output[0],  # noqa: F821
     )

@@ -28,7 +28,8 @@ class LDResult(NamedTuple):
     left_region : bool
         Stopped at the first exit from the region box (variable-time LD only).
     energy_error : float64
-        |H(end) - H(start)|, H at the end taken on the interpolant at the stopping time.
+        |H(end) - H(start)|, H at the end taken on the interpolant at the stopping time; 0 for a
+        vector-field system, which has no energy (its LD map files carry no energy error).
     steps : int64
         Step attempts (accepted and rejected): the work spent on the trajectory.
     failed : bool
@@ -65,20 +66,27 @@ def _kind(p) -> tuple[int, float]:
     return integrand.kind, integrand.p_exponent(p)
 
 
-def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings | None = None) -> LDResult:
-    """Lagrangian descriptors of many trajectories of a natural Hamiltonian system.
+def compute_ld(
+    system, initial_states, direction: int = 1, settings: LDSettings | None = None, t0: float = 0.0
+) -> LDResult:
+    """Lagrangian descriptors of many trajectories of a natural Hamiltonian system or a general flow.
 
     Parameters
     ----------
-    system : ldpipe.systems.System
+    system : ldpipe.systems.System or ldpipe.systems.VectorFieldSystem
         The system; its compiled kernels drive the integration.
-    initial_states : array_like, shape (N, 2 n_dof)
-        Rows (q_1..q_n, p_1..p_n).
+    initial_states : array_like, shape (N, 2 n_dof) or (N, n_state)
+        Rows (q_1..q_n, p_1..p_n); for a vector field, rows of its state variables. The region
+        box and the escape radius apply to the configuration q of a Hamiltonian system and to
+        every state variable of a vector field.
     direction : {+1, -1}
         +1 integrates forward in time, -1 backward (the vector field is integrated with
         negative time steps; momenta are not flipped).
     settings : LDSettings, optional
         Numerical settings; defaults to ``LDSettings()``.
+    t0 : float
+        The start time: trajectories run over [t0, t0 + direction tau]. Only a time-dependent
+        vector field depends on it; the Hamiltonian systems are autonomous and must leave it 0.
 
     Returns
     -------
@@ -90,6 +98,13 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
         raise TypeError(f"settings: expected LDSettings, got {type(settings).__name__}")
     if isinstance(direction, bool) or direction not in (1, -1):
         raise ValueError(f"direction: expected +1 (forward) or -1 (backward), got {direction!r}")
+    t0 = float(t0)
+    if not math.isfinite(t0):
+        raise ValueError(f"t0: expected a finite start time, got {t0!r}")
+    if not getattr(system, "hamiltonian", True):
+        return _compute_vector_field_ld(system, initial_states, direction, settings, t0)
+    if t0 != 0.0:
+        raise ValueError(f"t0: system {system.name!r} is autonomous (a Hamiltonian); a start time {t0!r} changes nothing, give 0")
     n = system.n_dof
     states = np.ascontiguousarray(initial_states, dtype=np.float64)
     if states.ndim == 1 and states.shape[0] == 2 * n:
@@ -158,3 +173,48 @@ def compute_ld(system, initial_states, direction: int = 1, settings: LDSettings 
     )
     run_units(runner, states, unit, args, outputs, get_num_threads())
     return LDResult(*outputs)
+
+
+def _region(settings: LDSettings, n: int, names) -> tuple[np.ndarray, np.ndarray]:
+    """The region box as arrays (infinite without variable time), checked against the dimension."""
+    if not settings.variable_time:
+        return np.full(n, -np.inf), np.full(n, np.inf)
+    if len(settings.region_lower) != n:
+        raise ValueError(
+            f"region_lower, region_upper: expected {n} values (one per coordinate {tuple(names)}), "
+            f"got {len(settings.region_lower)}"
+        )
+    return np.array(settings.region_lower, dtype=np.float64), np.array(settings.region_upper, dtype=np.float64)
+
+
+def _compute_vector_field_ld(system, initial_states, direction: int, settings: LDSettings, t0: float) -> LDResult:
+    """compute_ld for a general flow: first-order DOP853 (:mod:`ldpipe.engine.vector_field`)."""
+    from numba import get_num_threads
+
+    from .schemes import get_scheme
+    from .vector_field import get_vector_field_runner
+
+    get_scheme(settings.scheme).check_system(system)
+    n = system.n_state
+    states = np.ascontiguousarray(initial_states, dtype=np.float64)
+    if states.ndim == 1 and states.shape[0] == n:
+        states = states[None, :]
+    if states.ndim != 2 or states.shape[1] != n:
+        raise ValueError(f"initial_states: expected shape (N, {n}) with rows {system.coordinates} for {system.name}, "
+                         f"got {states.shape}")
+    lo, hi = _region(settings, n, system.coordinates)
+    kind, p_exp = _kind(settings.p)
+    glx, glw = legendre_rule(settings.nodes)
+    gjx, gjf = folded_jacobi_rule(settings.nodes, p_exp)
+    N = states.shape[0]
+    outputs = (np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_),
+               np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, n)), np.zeros(N, dtype=np.int64))
+    if N:
+        runner = get_vector_field_runner(system)
+        args = (t0, float(direction), settings.tau, settings.rtol, settings.atol, kind, p_exp, lo, hi,
+                settings.variable_time, settings.escape_radius, settings.max_steps, glx, glw, gjx, gjf,
+                settings.quadrature_window)
+        threads = get_num_threads()
+        run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
+    ld, time, escaped, left, steps, failed, end, face = outputs
+    return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)

@@ -42,8 +42,13 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     states = dataset.crossing_state.values[valid]
     ax.plot(states[:, phase.index(axes[0])], states[:, phase.index(axes[1])], ".", color="black",
             markersize=point_size, markeredgewidth=0, rasterized=True)
-    # The energy boundary: where the solved momentum of the section vanishes.
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    if "energy" not in dataset.attrs:  # a vector field's: no energy boundary
+        style.label_axes(ax, *axes)
+        ax.set_title(rf"$t_0 = {float(dataset.attrs.get('t0', 0.0)):g}$", loc="right")
+        log.info("Poincaré section %s: %d crossings", path, len(states))
+        return
+    # The energy boundary: where the solved momentum of the section vanishes.
     energy = float(dataset.attrs["energy"])
     section = Section.from_spec(start, system, key=f"poincare_sections.{parameters.get('name', Path(path).stem)}"
                                 ".initial_conditions")
@@ -79,8 +84,9 @@ def draw_ld_panel(ax, path: str | Path, settings: dict, manifolds: list[str | Pa
     ax.set_ylim(ld_map.second[0], ld_map.second[-1])
     style.label_axes(ax, *ld_map.axes)
     mode = ld_map.attrs.get("time_mode", "fixed")
-    ax.set_title(energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
-                 + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
+    where = (energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
+             if "energy" in ld_map.attrs else rf"$t_0 = {float(ld_map.attrs.get('t0', 0.0)):g}$")  # a vector field's
+    ax.set_title(where + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
                  loc="right")
     log.info("LD map %s: colour range %s", path, limits)
 

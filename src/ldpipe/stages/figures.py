@@ -107,6 +107,8 @@ def _section_text(section: dict) -> str:
     axes = [axis["name"] for axis in section["axes"]]
     sign = "+" if section.get("sign", 1) == 1 else "−"
     fixed = ", ".join(f"{k} = {v if v == 'saddle' else _number(v)}" for k, v in section.get("fixed", {}).items())
+    if "solve" not in section:  # a vector field's: nothing solved
+        return f"({', '.join(axes)})" + (f": {fixed}" if fixed else "")
     if "root" in section:  # a solved position
         root = section["root"]
         rule = f"nearest {_number(root['nearest'])}" if isinstance(root, dict) else root
@@ -121,7 +123,9 @@ def ld_map_caption(config: dict, map_name: str) -> str:
     p = integrands.caption(parameters["p"], _number)
     text = (
         f"{map_name}: system {parameters['system_name']}, section {_section_text(parameters['section'])}, "
-        f"{_energy_text(parameters['energy'])}, τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
+        + (f"{_energy_text(parameters['energy'])}" if "energy" in parameters
+           else f"vector field (no energy), start time t0 = {_number(parameters.get('t0', 0.0))}")
+        + f", τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
     )
     if parameters["time"] == "variable":
         region = parameters["region"]
@@ -140,7 +144,8 @@ def _poincare_caption(config: dict, name: str) -> str:
     axes = spec["initial_conditions"]["axes"]
     surface = spec["section"]
     direction = "increasing" if surface["direction"] == 1 else "decreasing"
-    return (f"{name}: system {spec['system']}, {_energy_text(spec['energy'])}, crossings of "
+    where = _energy_text(spec["energy"]) if "energy" in spec else f"start time t0 = {_number(spec.get('t0', 0.0))}"
+    return (f"{name}: system {spec['system']}, {where}, crossings of "
             f"{surface['coordinate']} = {_number(surface['value'])} ({direction}) up to T = {_number(spec['time'])} "
             f"from a {axes[0]['points']} × {axes[1]['points']} grid of initial conditions, "
             f"DOP853 rtol = {_number(spec['integrator']['rtol'])}")
@@ -168,6 +173,9 @@ def _system_caption(config: dict, system: str) -> str:
     # '**' and '*' would be emphasis markup in the report: write powers and products as ^ and ·.
     formula = spec.get("formula", "").replace("**", "^").replace("*", "·")
     what = f"built-in {spec['builtin']}" if "builtin" in spec else f"V = {formula}"
+    if "vector_field" in spec:
+        what = "vector field " + ", ".join(f"d{c}/dt = {str(f).replace('**', '^').replace('*', '·')}"
+                                           for c, f in spec["vector_field"].items())
     return f"{system}: {what}" + (f" with {parameters}" if parameters else "")
 
 
@@ -187,6 +195,9 @@ def figure_caption(config: dict, name: str) -> dict:
     if kind == "section_maps":
         lines += ["Poincaré section " + _poincare_caption(config, p) for p in spec.get("poincare", [])]
         lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        flows = sorted({config["ld_maps"][m]["system"] for m in spec["ld_maps"]
+                        if "vector_field" in config["systems"][config["ld_maps"][m]["system"]]})
+        lines += ["system " + _system_caption(config, system) for system in flows]
         for map_name, sets in spec.get("manifold_curves", {}).items():
             lines += [f"manifold curves on {map_name}: " + _manifold_caption(config, s) for s in sets]
     if kind == "ld_slices":

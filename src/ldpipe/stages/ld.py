@@ -50,21 +50,35 @@ def ld_map_tiles(config: dict, map_name: str) -> int:
     return min(spec["tiles"], rows)
 
 
-def resolve_map(parameters: dict, equilibria: xr.Dataset) -> tuple:
+def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
     """The system, section, engine settings and energies a map's parameters describe, at the saddle
-    its ``saddle_near`` selects in the equilibria file (see :func:`ldpipe.ld_grid.resolve_ld_map`)."""
+    its ``saddle_near`` selects in the equilibria file (see :func:`ldpipe.ld_grid.resolve_ld_map`).
+
+    ``equilibria`` None: a map of a vector-field system, which has no energy and no saddle to select.
+    """
+    if equilibria is None:
+        return resolve_ld_map(parameters, None, None)
     saddle, critical_energy = select_saddle(equilibria, parameters.get("saddle_near"))
     return resolve_ld_map(parameters, saddle, critical_energy)
 
 
 def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
-    """Scalar settings as attributes, so a reader sees them without parsing JSON."""
+    """Scalar settings as attributes, so a reader sees them without parsing JSON (a vector field's
+    map has no energies; it has its start time ``t0``)."""
+    if info["energy"] is None:
+        return {**_common_attributes(parameters, settings, info), "t0": info["t0"]}
     return {
-        "map": parameters["map_name"],
-        "system": parameters["system_name"],
+        **_common_attributes(parameters, settings, info),
         "energy": info["energy"],
         "excess_energy": info["excess_energy"],
         "critical_energy": info["critical_energy"],
+    }
+
+
+def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
+    return {
+        "map": parameters["map_name"],
+        "system": parameters["system_name"],
         "saddle_position": np.asarray(info["saddle"]),
         "tau": settings.tau,
         "descriptor": descriptor_attribute(settings.p),
@@ -117,12 +131,15 @@ def compute_ld_map(
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
+    where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
+             else f"E = {info['energy']:.12g} (dE = {info['excess_energy']:.6g})")
     log.info(
-        "map %s, tile %d of %d (rows %d:%d of %d): %s at E = %.12g (dE = %.6g), tau = %g, %s time, %s",
+        "map %s, tile %d of %d (rows %d:%d of %d): %s at %s, tau = %g, %s time, %s",
         parameters["map_name"], tile + 1, tiles, rows.start, rows.stop, section.shape[0], system.name,
-        info["energy"], info["excess_energy"], settings.tau, parameters["time"], settings.scheme,
+        where, settings.tau, parameters["time"], settings.scheme,
     )
-    dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress)
+    dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
+                              t0=info["t0"])
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     note_allowed_points(dataset, whole_map=tiles == 1)
@@ -134,7 +151,7 @@ def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, t
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
     stage = LD_TILE if tile_file else LD_GRID
     title = f"Lagrangian descriptor map {parameters['map_name']}" + (f", tile {tile + 1} of {tiles}" if tile_file else "")
-    resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy")}
+    resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy", "t0") if k in dataset.attrs}
     recorded = {**parameters, "tile": tile, "tiles": tiles, "resolved": resolved}
     path = write_stage_file(dataset, output, stage=stage, title=title, parameters=recorded)
     log.info("wrote %s (%d allowed points)", path, int(dataset.allowed.sum()))
@@ -144,15 +161,16 @@ def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, t
 def run_ld_tile(
     *,
     output: str | Path,
-    equilibria: str | Path,
+    equilibria: str | Path | None,
     tile: int = 0,
     tiles: int = 1,
     threads: int | None = None,
     show_progress: bool = True,
     **parameters,
 ) -> Path:
-    """Compute one tile of an LD map from the system's equilibria file, and write it as a tile file."""
-    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
+    """Compute one tile of an LD map from the system's equilibria file (None for a vector field,
+    which has no energy), and write it as a tile file."""
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria else None
     dataset = compute_ld_map(
         parameters, equilibria_data, tile=tile, tiles=tiles, threads=threads, show_progress=show_progress
     )

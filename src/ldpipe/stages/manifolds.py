@@ -20,7 +20,7 @@ from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import ManifoldSettings, manifold_dataset
-from ..systems import make_system
+from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)
 
@@ -58,6 +58,7 @@ def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = 
         raise StageFileError(f"{upo}: orbits of system {data.attrs['system']!r}, expected {parameters['system_name']!r}")
     index = select_orbit(data, parameters["energy"], key, upo)
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    require_hamiltonian(system, "the manifolds of a periodic orbit", key=f"{key}.orbits")
     section = parameters["section"]
     if section["coordinate"] not in system.phase_coordinates:
         raise ConfigError(f"config key '{key}.section.coordinate': {section['coordinate']!r} is not one of "

@@ -40,11 +40,25 @@ def poincare_parameters(config: dict, name: str) -> dict:
     }
 
 
-def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | None = None, **parameters) -> Path:
-    """Integrate the section's initial conditions and write their crossings to ``output``."""
+def run_poincare(*, output: str | Path, equilibria: str | Path | None, threads: int | None = None,
+                 **parameters) -> Path:
+    """Integrate the section's initial conditions and write their crossings to ``output``.
+
+    ``equilibria`` None: a vector-field system (no energy; its trajectories start at ``t0``)."""
     key = f"poincare_sections.{parameters['name']}"
-    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    t0 = float(parameters.get("t0", 0.0))
+    if not system.hamiltonian:
+        energy = critical_energy = None
+    elif equilibria is None:
+        raise ConfigError(f"config key '{key}.system': the Hamiltonian system {system.name!r} needs its equilibria file")
+    else:
+        energy, critical_energy = _energy(parameters, open_stage_file(equilibria, stage=EQUILIBRIA))
+    return _poincare(key, system, energy, critical_energy, t0, threads, parameters, output)
+
+
+def _energy(parameters: dict, equilibria_data) -> tuple[float, float | None]:
+    """The section's total energy and, where the system has an index-1 saddle, its critical energy."""
     energy_spec = parameters["energy"]
     if "total" in energy_spec:
         energy, critical_energy = energy_spec["total"], None
@@ -53,6 +67,10 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
     else:
         critical_energy = select_saddle(equilibria_data, parameters.get("saddle_near"))[1]
         energy = critical_energy + energy_spec["excess"]
+    return energy, critical_energy
+
+
+def _poincare(key: str, system, energy, critical_energy, t0: float, threads, parameters: dict, output) -> Path:
     start = parameters["initial_conditions"]
     grid = Section.from_spec(start, system, key=f"{key}.initial_conditions")
     section = parameters["section"]
@@ -61,11 +79,12 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
                           f"{list(system.phase_coordinates)}")
     integrator = parameters["integrator"]
     flow = FlowSettings(rtol=integrator["rtol"], atol=integrator["atol"], escape_radius=integrator["escape_radius"])
-    log.info("%s: %s at E = %.12g, T = %g", parameters["name"], system.name, energy, parameters["time"])
+    where = f"E = {energy:.12g}" if energy is not None else f"t0 = {t0:g}"
+    log.info("%s: %s at %s, T = %g", parameters["name"], system.name, where, parameters["time"])
     dataset = poincare_dataset(
         system, grid, energy, section=(section["coordinate"], section["value"], section["direction"]),
         time=parameters["time"], max_crossings=parameters["max_crossings"], flow=flow,
-        threads=threads or numba.get_num_threads(),
+        threads=threads or numba.get_num_threads(), t0=t0,
     )
     dataset.attrs["system"] = system.name
     if critical_energy is not None:

@@ -43,7 +43,7 @@ from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
-from ..systems import make_system, system_spec
+from ..systems import make_system, require_hamiltonian, system_spec
 from ..transport import (
     DividingLine, closed_curve_area, decay_rate, exit_times, initial_slope, orbit_action, reactive_flux_monte_carlo,
     sample_well, survival, well_shell_volume,
@@ -90,6 +90,7 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                              f"expected {parameters['system_name']!r}")
     eq = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    require_hamiltonian(system, "the transport study", key=f"{key}.orbits")
     if system.n_dof != 2:
         raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
                           f"{system.name} has {system.n_dof}")

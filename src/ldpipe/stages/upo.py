@@ -24,7 +24,7 @@ from ..logs import get_logger
 from ..periodic_orbits import (
     CorrectionFailed, CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle, sample_orbit,
 )
-from ..systems import make_system
+from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)
 
@@ -58,6 +58,7 @@ def upo_family_dataset(parameters: dict, equilibria: xr.Dataset) -> xr.Dataset:
     """Continue the family and compute the orbit at every target energy."""
     key = f"periodic_orbits.{parameters['family']}"
     system = make_system(parameters["system_name"], parameters["system_spec"])
+    require_hamiltonian(system, "a periodic-orbit family", key=f"{key}.system")
     position, critical_energy = select_saddle(equilibria, parameters.get("saddle_near"))
     saddle = linearize_saddle(system, position)
     mode = parameters["center_mode"]

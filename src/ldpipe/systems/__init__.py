@@ -14,10 +14,11 @@ from ..errors import ConfigError
 from .base import Kernels, System
 from .builtin import BUILTINS, make_builtin
 from .formula import make_formula_system
+from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
 
 __all__ = [
-    "BUILTINS", "Kernels", "System", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
-    "system_from_config", "system_spec",
+    "BUILTINS", "Kernels", "System", "VectorFieldSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
+    "has_equilibria", "is_vector_field", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
 ]
 
 
@@ -32,7 +33,7 @@ def check_builtin_parameters(builtin: str, parameters: dict, key: str) -> None:
         )
 
 
-def make_system(name: str, spec: dict, key: str | None = None) -> System:
+def make_system(name: str, spec: dict, key: str | None = None) -> System | VectorFieldSystem:
     """Build (and compile) the system described by one ``systems:`` entry of the config.
 
     Parameters
@@ -41,7 +42,9 @@ def make_system(name: str, spec: dict, key: str | None = None) -> System:
         The entry's name.
     spec : dict
         Either ``{"builtin": NAME, "parameters": {...}}`` (parameters override the
-        paper's values) or ``{"formula": "...", "coordinates": [...], "parameters": {...}}``.
+        paper's values), ``{"formula": "...", "coordinates": [...], "parameters": {...}}`` (a
+        potential) or ``{"vector_field": {coordinate: "..."}, "coordinates": [...], "parameters":
+        {...}}`` (a general flow dx/dt = f(x, t), see :mod:`ldpipe.systems.vector_field`).
     key : str, optional
         Where the entry sits in the configuration, for error messages.
     """
@@ -50,15 +53,15 @@ def make_system(name: str, spec: dict, key: str | None = None) -> System:
 
 
 @lru_cache(maxsize=32)
-def _make_system_cached(name: str, spec_json: str, key: str) -> System:
+def _make_system_cached(name: str, spec_json: str, key: str) -> System | VectorFieldSystem:
     spec = json.loads(spec_json)
     parameters = spec.get("parameters") or {}
     for parameter, value in parameters.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"config key '{key}.parameters.{parameter}': expected a number, got {value!r}")
     parameters = {k: float(v) for k, v in parameters.items()}
-    if ("builtin" in spec) == ("formula" in spec):
-        raise ConfigError(f"config key '{key}': give exactly one of 'builtin' or 'formula'")
+    if sum(kind in spec for kind in ("builtin", "formula", "vector_field")) != 1:
+        raise ConfigError(f"config key '{key}': give exactly one of 'builtin', 'formula' or 'vector_field'")
     if "builtin" in spec:
         builtin = spec["builtin"]
         if builtin not in BUILTINS:
@@ -70,6 +73,8 @@ def _make_system_cached(name: str, spec_json: str, key: str) -> System:
         raise ConfigError(f"config key '{key}.coordinates': expected a list of coordinate names, got {coordinates!r}")
     if len(set(coordinates)) != len(coordinates):
         raise ConfigError(f"config key '{key}.coordinates': names repeat in {coordinates!r}")
+    if "vector_field" in spec:
+        return make_vector_field_system(name, spec["vector_field"], tuple(coordinates), parameters, spec, key)
     return make_formula_system(name, spec["formula"], tuple(coordinates), parameters, spec, key)
 
 
@@ -93,8 +98,30 @@ def system_spec(config: dict, name: str) -> dict:
     return {k: v for k, v in config["systems"][name].items() if k != "equilibria"}
 
 
+def is_vector_field(spec: dict) -> bool:
+    """Whether a ``systems:`` entry is a general vector field (no Hamiltonian)."""
+    return "vector_field" in spec
+
+
+def has_equilibria(name: str, spec: dict) -> bool:
+    """Whether the equilibrium stage applies to system ``name``: every Hamiltonian, and a vector
+    field that does not depend on the time (a time-dependent flow has no fixed equilibria)."""
+    if not is_vector_field(spec):
+        return True
+    parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
+    fields = parse_vector_field(spec["vector_field"], tuple(spec["coordinates"]), parameters, f"systems.{name}")
+    return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
+
+
+def system_phase_coordinates(spec: dict) -> tuple[str, ...]:
+    """The phase-space names of a ``systems:`` entry: (q..., p...) of a Hamiltonian, a vector
+    field's state variables."""
+    coordinates = system_coordinates(spec)
+    return coordinates if is_vector_field(spec) else coordinates + tuple("p" + c for c in coordinates)
+
+
 def system_coordinates(spec: dict) -> tuple[str, ...]:
-    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's list)."""
+    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's or vector field's list)."""
     if "builtin" in spec:
         return BUILTINS[spec["builtin"]]["coordinates"]
     return tuple(spec["coordinates"])

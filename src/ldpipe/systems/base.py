@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Callable, NamedTuple
+from typing import Callable, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -87,6 +87,9 @@ class System:
     closed_form_equilibria: Callable[[], np.ndarray] | None = None
     formula: str | None = None
     spec: dict = field(default_factory=dict)
+
+    #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
+    hamiltonian: ClassVar[bool] = True
 
     @property
     def n_dof(self) -> int:

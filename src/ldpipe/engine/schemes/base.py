@@ -34,6 +34,10 @@ class Scheme:
     ladder : tuple of float
         Default values of the scheme's step parameter (``parameters[0]``: the tolerance of an
         adaptive scheme, the step of a fixed-step one) on the accuracy-cost ladder, loosest first.
+    general_flow : bool
+        Whether the scheme integrates a general vector field dx/dt = f(x, t)
+        (:class:`ldpipe.systems.VectorFieldSystem`; :mod:`ldpipe.engine.vector_field`); the
+        others need the (q, p) form of a natural Hamiltonian.
     adaptive : bool (class attribute)
         Per-trajectory step control from ``rtol``/``atol`` (True) or a fixed step ``dt``.
     parameters : tuple of str (class attribute)
@@ -44,6 +48,7 @@ class Scheme:
     description: str
     order: int | None
     ladder: tuple[float, ...]
+    general_flow: bool = False
 
     adaptive: ClassVar[bool]
     parameters: ClassVar[tuple[str, ...]]
@@ -63,12 +68,25 @@ class Scheme:
     def check_system(self, system) -> None:
         """Raise ValueError, saying why, if the scheme cannot integrate ``system`` (the default: it can).
 
-        :func:`ldpipe.engine.schemes.scheme_source` calls it before :meth:`source`.
+        :func:`ldpipe.engine.schemes.scheme_source` calls it before :meth:`source`; a scheme
+        without ``general_flow`` refuses a vector-field system here.
         """
+        if not getattr(system, "hamiltonian", True) and not self.general_flow:
+            able = [s.name for s in _registered() if s.general_flow]
+            raise ValueError(
+                f"scheme {self.name!r} cannot integrate system {system.name!r}: it is a general vector field "
+                f"(no Hamiltonian), which only the schemes {able} integrate"
+            )
 
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         """The compiled parts of the scheme for ``system`` and ``lanes`` lanes."""
         raise NotImplementedError
+
+
+def _registered():
+    from . import SCHEMES  # the registry imports this module
+
+    return SCHEMES.values()
 
 
 @dataclass(frozen=True)

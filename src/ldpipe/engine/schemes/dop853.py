@@ -196,4 +196,5 @@ DOP853 = Dop853(
     description="adaptive 8th order, per-trajectory step control (rtol, atol)",
     order=tableaux.DOP853_ORDER,
     ladder=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12),
+    general_flow=True,  # first-order form: ldpipe.engine.vector_field
 )

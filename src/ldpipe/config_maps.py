@@ -1,0 +1,121 @@
+"""Configuration rules of LD maps and Poincaré sections that a JSON schema cannot say, for
+Hamiltonian and vector-field systems alike (:func:`ldpipe.config.validate_config` calls them).
+
+A Hamiltonian's map has an energy and a coordinate solved from it; a vector field's has neither,
+only two state variables on the grid, the others fixed, and an optional start time ``t0``.
+"""
+
+from __future__ import annotations
+
+from .errors import ConfigError
+from .systems import is_vector_field, system_coordinates, system_phase_coordinates
+
+
+def check_interval(value, key: str) -> None:
+    """An interval [low, high] with low < high, or a ConfigError naming ``key``."""
+    if not value[0] < value[1]:
+        raise ConfigError(f"config key {key!r}: expected an interval [low, high] with low < high, got {value}")
+
+
+def check_ld_maps(config: dict) -> None:
+    """Every map: its system exists, its section splits the phase space (or state), tiles, region."""
+    for name, spec in config["ld_maps"].items():
+        key = f"ld_maps.{name}"
+        if spec["system"] not in config["systems"]:
+            raise ConfigError(
+                f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
+            )
+        system = config["systems"][spec["system"]]
+        coordinates = system_coordinates(system)
+        phase = system_phase_coordinates(system)
+        axes = [axis["name"] for axis in spec["section"]["axes"]]
+        for index, axis in enumerate(spec["section"]["axes"]):
+            check_interval(axis["range"], f"{key}.section.axes.{index}.range")
+        if is_vector_field(system):
+            check_vector_field_map(spec, key, phase)
+            continue
+        if "energy" not in spec:
+            raise ConfigError(f"config key '{key}.energy': a map of the Hamiltonian system {spec['system']!r} needs an "
+                              "energy (total or excess)")
+        if "t0" in spec:
+            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
+                              "a start time changes nothing, leave t0 out")
+        if "solve" not in spec["section"]:
+            raise ConfigError(f"config key '{key}.section.solve': a section of a Hamiltonian needs the coordinate "
+                              "solved from the energy")
+        named = [*axes, *spec["section"]["fixed"], spec["section"]["solve"]]
+        if sorted(named) != sorted(phase):
+            raise ConfigError(
+                f"config key '{key}.section': the two axes, the fixed coordinates and the solved momentum must "
+                f"name each of {list(phase)} exactly once; got axes {axes}, fixed {list(spec['section']['fixed'])}, "
+                f"solve {spec['section']['solve']!r}"
+            )
+        if spec["section"]["solve"] in coordinates and "root" not in spec["section"]:
+            raise ConfigError(
+                f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
+                "to take: largest, smallest or {nearest: VALUE}"
+            )
+        if spec["section"]["axes"][0]["points"] < spec["tiles"]:
+            raise ConfigError(
+                f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
+                "use at most one tile per row of the first axis"
+            )
+        check_region(spec, key, coordinates)
+
+
+def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:
+    region = spec.get("region")
+    if spec["time"] == "variable" and not region:
+        raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
+    if region:
+        if sorted(region) != sorted(coordinates):
+            raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")
+        for coordinate, interval in region.items():
+            check_interval(interval, f"{key}.region.{coordinate}")
+
+
+def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None:
+    """A map of a vector field: no energy, nothing solved, every state variable an axis or fixed."""
+    section = spec["section"]
+    # (the schema fills in sign: 1, meaningless without a solved coordinate)
+    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
+    given += [f"{key}.section.{name}" for name in ("solve", "root", "search") if name in section]
+    given += [f"{key}.section.sign"] if section.get("sign", 1) != 1 else []
+    if given:
+        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
+                          "map has two axes, every other state variable fixed, and no energy, saddle or solved coordinate")
+    axes = [axis["name"] for axis in section["axes"]]
+    named = [*axes, *section["fixed"]]
+    if sorted(named) != sorted(state):
+        raise ConfigError(
+            f"config key '{key}.section': the two axes and the fixed variables must name each of {list(state)} "
+            f"exactly once; got axes {axes}, fixed {list(section['fixed'])}"
+        )
+    if any(value == "saddle" for value in section["fixed"].values()):
+        raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
+    if section["axes"][0]["points"] < spec["tiles"]:
+        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
+                          "use at most one tile per row of the first axis")
+    check_region(spec, key, state)
+
+
+def check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
+    """A vector field's Poincaré section: no energy or saddle, initial conditions on a grid of two
+    state variables with the others fixed, a surface x_i = value."""
+    state = system_coordinates(config["systems"][spec["system"]])
+    start = spec["initial_conditions"]
+    given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]
+    given += [f"{key}.initial_conditions.solve"] if "solve" in start else []
+    given += [f"{key}.initial_conditions.sign"] if start.get("sign", 1) != 1 else []
+    if given:
+        raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
+                          "Poincaré section starts on a grid of two state variables, the others fixed")
+    if spec["section"]["coordinate"] not in state:
+        raise ConfigError(f"config key '{key}.section.coordinate': {spec['section']['coordinate']!r} is not a state "
+                          f"variable; expected one of {list(state)}")
+    for index, axis in enumerate(start["axes"]):
+        check_interval(axis["range"], f"{key}.initial_conditions.axes.{index}.range")
+    named = [axis["name"] for axis in start["axes"]] + list(start["fixed"])
+    if sorted(named) != sorted(state):
+        raise ConfigError(f"config key '{key}.initial_conditions': the two axes and the fixed variables must name "
+                          f"each of {list(state)} exactly once; got {named}")
