@@ -26,6 +26,7 @@ failed slice has none there.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -133,7 +134,8 @@ def run_nhim_orbit_validation(
                   "tolerance": tolerance, "refinement": refinement}
     dataset.attrs.update({"study": study, "tolerance": tolerance, "half_width": half_width, "points": points,
                           "boundary_cells": boundary_cells, "min_transversality": min_transversality})
-    dataset.attrs.update({f"refinement_{k}": v for k, v in refinement.items()})
+    # Every refinement setting in effect (defaults included), not only those the config gave.
+    dataset.attrs.update({f"refinement_{k}": v for k, v in dataclasses.asdict(settings).items()})
     written = write_stage_file(dataset, output, stage=NHIM_ORBITS,
                                title=f"NHIM crossings of slices through periodic orbits, study {study}",
                                parameters=parameters)
@@ -193,7 +195,11 @@ def _slice_row(system, state, axes, half_width, points, family, energy, critical
             f"{len(mine)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
             f"{tolerance:g}"))
     else:
-        row.update(status="ok", reason=f"{len(mine)} crossing(s) in the window" if len(mine) > 1 else "")
+        notes = [f"{len(mine)} crossings in the window"] if len(mine) > 1 else []
+        if row["not_converged"] or row["tangent_candidates"]:
+            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
+                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
+        row.update(status="ok", reason="; ".join(notes))
     return row
 
 
