@@ -289,3 +289,20 @@ def test_orbit_validation_config_errors_name_the_key():
     config["max_grid_points"] = 40
     assert nhim_orbit_parameters(config, "s")["points"] == 39  # capped, and odd
     assert nhim_orbit_inputs(config, "s") == {"orbits": ["mode0"], "systems": ["barbanis_contopoulos_3dof"]}
+
+
+def test_the_readme_example_is_the_configured_study():
+    # The README's example block is config.yaml's 3 DoF study, and valid against the schema.
+    import re
+
+    import yaml
+    from support.workflow import ROOT
+
+    readme = (ROOT / "README.md").read_text()
+    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", readme, flags=re.S | re.M) if "orbit_validation" in b]
+    assert len(blocks) == 1
+    example = yaml.safe_load(blocks[0])["nhim"]["orbit_validation"]
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    assert example["barbanis_contopoulos_3dof"] == config["nhim"]["orbit_validation"]["barbanis_contopoulos_3dof"]
+    config["nhim"]["orbit_validation"] = example
+    validate_config(config)
