@@ -252,6 +252,28 @@ def test_the_same_machinery_returns_the_2dof_orbit_crossings(orbit_files):
         np.testing.assert_allclose(point, crossing, atol=1e-8)
 
 
+def test_slices_below_the_transversality_minimum_are_recorded_as_tangent(orbit_files, tmp_path):
+    # The 2 DoF x-p_x slices meet the orbit at transversality 0.25-0.6 (from the monodromy, as in
+    # the closed-form test); with a minimum of 0.9 each counts as tangent: searched, its crossings
+    # kept in the table, but not checked against the orbit point and not a failure of the run.
+    config = orbit_files["config"]
+    path = run_nhim_orbit_validation(
+        study="tangent", base_map=ld_map_parameters(config, "fig4"), orbits=["bottom"],
+        orbit_files=[orbit_files["bottom"]], equilibria=orbit_files["barbanis_2dof"], energies={"excess": [0.125]},
+        phases=4, slices=[["x", "px"]], half_width=0.2, points=21, boundary_cells=2.0, min_transversality=0.9,
+        tolerance=1e-8, refinement={}, output=tmp_path / "tangent.nc",
+    )
+    data, rows = _rows(path)
+    for phase in (0.25, 0.75):
+        k = rows[("bottom", phase, "x-px")]
+        assert str(data.status.values[k]) == "degenerate:tangent"
+        assert 0 < float(data.transversality.values[k]) < 0.9 and "min_transversality 0.9" in str(data.reason.values[k])
+    outputs = {"csv_output": tmp_path / "v.csv", "markdown_output": tmp_path / "v.md", "tolerance": 1e-7,
+               "residence_ratio": 2.0, "orbits_csv_output": tmp_path / "o.csv", "orbits_markdown_output": tmp_path / "o.md"}
+    nhim_validation.run_nhim_validation(studies=[], orbit_studies=[path], **outputs)
+    assert "degenerate:tangent" in (tmp_path / "o.csv").read_text()
+
+
 def test_validation_table_fails_naming_slice_and_reason(orbit_files, three_dof_file, tmp_path):
     # A passing file gives a table and no error ...
     outputs = {"csv_output": tmp_path / "v.csv", "markdown_output": tmp_path / "v.md", "tolerance": 1e-7,
