@@ -198,7 +198,7 @@ def test_3dof_slices_through_the_lyapunov_orbits_find_the_orbit_points(three_dof
 
 def test_every_crossing_is_found_where_the_slice_meets_the_nhim_twice(three_dof_file):
     # The observation: a z-p_z slice through the x-y orbit (centre mode 1) meets the NHIM
-    # twice, 0.08-0.3 apart. Both are found and refined: the orbit point and another, distinct one.
+    # twice, 0.08-0.3 apart (at E = 24). Both are found and refined: the orbit point and another, distinct one.
     data, rows = _rows(three_dof_file)
     for phase in (0.25, 0.75):
         k = rows[("mode1", phase, "z-pz")]

@@ -228,7 +228,8 @@ def _dataset(slice_rows: list[dict], crossing_rows: list[dict], phase: tuple[str
     long_names = {
         "orbit_point": "the orbit point's values of the slice's two axes (the window's centre)",
         "boundary_distance": "distance to where the solved momentum vanishes, first order (capped at the window's width)",
-        "transversality": "slice's transversality to the NHIM at the orbit point (0: tangent), from the monodromy",
+        "transversality": ("slice's transversality to the NHIM at the orbit point (0: tangent), from the monodromy; "
+                           "0 also where not computed (solved_momentum_vanishes)"),
         "distance": "distance of the nearest refined crossing from the orbit point (-1: none refined)",
         "orbit_phase": "time of the orbit point over the period",
         "candidates": "separated groups of grid cells crossed by both manifold curves",
