@@ -280,6 +280,14 @@ def _check_nhim_orbit_validation(config: dict, key: str, spec: dict) -> None:
                               f"{sorted(config['periodic_orbits'])}")
         if config["periodic_orbits"][family]["system"] != system:
             raise ConfigError(f"config key '{key}.orbits': family {family!r} is not of the map's system {system!r}")
+        # Energies given the same way (both total or both excess) are checked here; mixed ones, which
+        # need the saddle's E_c, when the stage reads the family's file.
+        (kind, wanted), = spec["energies"].items()
+        computed = config["periodic_orbits"][family]["energies"].get(kind)
+        missing = [e for e in wanted if computed is not None and not any(abs(e - c) <= 1e-9 * max(1, abs(e)) for c in computed)]
+        if missing:
+            raise ConfigError(f"config key '{key}.energies': family {family!r} has no orbit at {kind} energies {missing}; "
+                              f"add them to periodic_orbits.{family}.energies")
     for axes in spec["slices"]:
         if axes[1] != "p" + axes[0]:
             raise ConfigError(f"config key '{key}.slices': expected a position and its momentum, e.g. [x, px]; got {axes}")

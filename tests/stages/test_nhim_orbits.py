@@ -305,6 +305,8 @@ def test_orbit_validation_config_errors_name_the_key():
         orbit_config(s={**study, "points": 64})
     with pytest.raises(ConfigError, match=r"nhim.orbit_validation.s.slices.*position and its momentum"):
         orbit_config(s={**study, "slices": [["x", "py"]]})
+    with pytest.raises(ConfigError, match=r"nhim.orbit_validation.s.energies.*no orbit at total energies \[24.5\]"):
+        orbit_config(s={**study, "energies": {"total": [24.0, 24.5]}})
     with pytest.raises(ConfigError, match=r"nhim.orbit_validation.s.tolerance.*below nhim.refinement.tolerance"):
         orbit_config(s={**study, "tolerance": 1e-9})
     config = orbit_config(s=study)
