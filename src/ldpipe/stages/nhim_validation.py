@@ -167,8 +167,8 @@ def run_nhim_validation(
     problems = [f"{r['study']}/{r['slice']}: {r['status'][6:]}" for r in failed]
     if orbits_csv_output is not None:
         orbit_rows = [row for path in orbit_studies for row in orbit_validation_rows(path)]
-        tolerances = {str(open_stage_file(p, stage=NHIM_ORBITS).attrs["study"]):
-                      float(open_stage_file(p, stage=NHIM_ORBITS).attrs["tolerance"]) for p in orbit_studies}
+        attributes = [open_stage_file(p, stage=NHIM_ORBITS).attrs for p in orbit_studies]
+        tolerances = {str(a["study"]): float(a["tolerance"]) for a in attributes}
         _write_tables(orbit_rows, ORBIT_COLUMNS, orbits_csv_output, _orbit_markdown(orbit_rows, tolerances),
                       orbits_markdown_output)
         for row in orbit_rows:
