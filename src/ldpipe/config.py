@@ -238,6 +238,42 @@ def _check_nhim(config: dict) -> None:
                 )
             if config["periodic_orbits"][family]["system"] not in systems:
                 raise ConfigError(f"config key '{key}.reference': family {family!r} is of another system than the maps")
+    for name, spec in nhim["orbit_validation"].items():
+        _check_nhim_orbit_validation(config, f"nhim.orbit_validation.{name}", spec)
+
+
+def _check_nhim_orbit_validation(config: dict, key: str, spec: dict) -> None:
+    """An orbit validation study: its map is variable time, its families are of the map's system,
+    its slice axes are a position and its momentum, its window's grid has a centre point, and its
+    tolerance is no tighter than the refinement's."""
+    map_name = spec["base_map"]
+    if map_name not in config["ld_maps"]:
+        raise ConfigError(f"config key '{key}.base_map': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
+    if config["ld_maps"][map_name]["time"] != "variable":
+        raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; the fates need its saddle region")
+    system = config["ld_maps"][map_name]["system"]
+    for family in spec["orbits"]:
+        if family not in config["periodic_orbits"]:
+            raise ConfigError(f"config key '{key}.orbits': no family {family!r} under periodic_orbits; expected one of "
+                              f"{sorted(config['periodic_orbits'])}")
+        if config["periodic_orbits"][family]["system"] != system:
+            raise ConfigError(f"config key '{key}.orbits': family {family!r} is not of the map's system {system!r}")
+        # Energies given the same way (both total or both excess) are checked here; mixed ones, which
+        # need the saddle's E_c, when the stage reads the family's file.
+        (kind, wanted), = spec["energies"].items()
+        computed = config["periodic_orbits"][family]["energies"].get(kind)
+        missing = [e for e in wanted if computed is not None and not any(abs(e - c) <= 1e-9 * max(1, abs(e)) for c in computed)]
+        if missing:
+            raise ConfigError(f"config key '{key}.energies': family {family!r} has no orbit at {kind} energies {missing}; "
+                              f"add them to periodic_orbits.{family}.energies")
+    for axes in spec["slices"]:
+        if axes[1] != "p" + axes[0]:
+            raise ConfigError(f"config key '{key}.slices': expected a position and its momentum, e.g. [x, px]; got {axes}")
+    if spec["points"] % 2 == 0:
+        raise ConfigError(f"config key '{key}.points': expected an odd number (the orbit point a grid point), got {spec['points']}")
+    if spec["tolerance"] < config["nhim"]["refinement"]["tolerance"]:
+        raise ConfigError(f"config key '{key}.tolerance': {spec['tolerance']} is below nhim.refinement.tolerance "
+                          f"({config['nhim']['refinement']['tolerance']}), the refined points' own accuracy")
 
 
 _FIGURE_REQUIRED = {

@@ -48,6 +48,11 @@ UPO = StageFile("upo", (
 MANIFOLDS = StageFile("manifolds", ("trajectory", "start_state", "section_state", "section_valid", "orbit_state"))
 POINCARE = StageFile("poincare", ("initial_state", "crossing_state", "crossing_valid", "crossing_count", "escaped"))
 NHIM = StageFile("nhim", ("refined_point", "reference_point", "distance_refined", "residence_forward"))
+#: NHIM crossings of slices through periodic-orbit points: per slice, and per refined crossing.
+NHIM_ORBITS = StageFile("nhim_orbits", (
+    "status", "reason", "family", "energy", "orbit_phase", "axis_names", "solve", "orbit_point", "solved_momentum",
+    "transversality", "candidates", "crossings", "distance", "crossing_slice", "crossing_point",
+))
 TRANSPORT = StageFile("transport", (
     "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
     "flux_harmonic", "island", "well_volume", "rate_tst",
@@ -59,5 +64,6 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, TRANSPORT, ACCURACY_COST,
+    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, TRANSPORT,
+    ACCURACY_COST,
 )}

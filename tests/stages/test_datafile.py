@@ -127,7 +127,8 @@ def test_a_contract_names_the_stage_and_the_variables_checked(tmp_path):
 
 def test_contracts_are_indexed_by_their_stage():
     assert all(stage == contract.stage for stage, contract in CONTRACTS.items())
-    assert {"equilibria", "flow_equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim", "transport",
+    assert {"equilibria", "flow_equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim",
+            "nhim_orbits", "transport",
             "accuracy_cost"} == set(CONTRACTS)
 
 

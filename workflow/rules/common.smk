@@ -29,6 +29,7 @@ MANIFOLD_SETS = sorted(config["manifolds"])
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
 FIGURES = list(config["figures"])
 NHIM_STUDIES = list(config["nhim"]["studies"])
+NHIM_ORBIT_STUDIES = list(config["nhim"]["orbit_validation"])
 TRANSPORT_STUDIES = list(config.get("transport", {}))
 RESULTS = "results"
 
@@ -214,6 +215,30 @@ def nhim_study_files():
     return [f"{RESULTS}/nhim/{study}.nc" for study in NHIM_STUDIES]
 
 
+def nhim_orbit_params(wildcards):
+    from ldpipe.stages.nhim_orbits import nhim_orbit_parameters
+
+    return nhim_orbit_parameters(config, wildcards.study)
+
+
+def _nhim_orbit_inputs(study):
+    from ldpipe.stages.nhim_orbits import nhim_orbit_inputs
+
+    return nhim_orbit_inputs(config, study)
+
+
+def nhim_orbit_family_files(wildcards):
+    return [f"{RESULTS}/upo/{family}.nc" for family in _nhim_orbit_inputs(wildcards.study)["orbits"]]
+
+
+def nhim_orbit_equilibria_file(wildcards):
+    return f"{RESULTS}/{_nhim_orbit_inputs(wildcards.study)['systems'][0]}/equilibria.nc"
+
+
+def nhim_orbit_files():
+    return [f"{RESULTS}/nhim/orbits/{study}.nc" for study in NHIM_ORBIT_STUDIES]
+
+
 def nhim_figure_maps():
     """The LD maps of the figure's top row: those of the first study that lists 2 DoF maps."""
     from ldpipe.systems import system_coordinates
@@ -230,14 +255,13 @@ def nhim_figure_memory_mb():
 
 
 def nhim_targets():
-    if not NHIM_STUDIES:
+    if not (NHIM_STUDIES or NHIM_ORBIT_STUDIES):
         return []
     return [
         *nhim_study_files(),
-        f"{RESULTS}/nhim/validation.csv",
-        f"{RESULTS}/nhim/validation.md",
-        f"{RESULTS}/figures/nhim_validation.png",
-        f"{RESULTS}/figures/nhim_validation.pdf",
+        *nhim_orbit_files(),
+        *[f"{RESULTS}/nhim/{table}.{format}" for table in ("validation", "validation_orbits") for format in ("csv", "md")],
+        *([f"{RESULTS}/figures/nhim_validation.png", f"{RESULTS}/figures/nhim_validation.pdf"] if NHIM_STUDIES else []),
     ]
 
 

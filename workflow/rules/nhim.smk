@@ -25,14 +25,44 @@ rule nhim_study:
         "../scripts/nhim_study.py"
 
 
+rule nhim_orbit_validation:
+    """Every NHIM crossing of slices through points of periodic orbits, refined; degenerate slices recorded as such."""
+    wildcard_constraints:
+        study=_one_of(NHIM_ORBIT_STUDIES),
+    input:
+        orbits=nhim_orbit_family_files,
+        equilibria=nhim_orbit_equilibria_file,
+        code=library_code("ldpipe.stages.nhim_orbits"),
+    output:
+        f"{RESULTS}/nhim/orbits/{{study}}.nc",
+    params:
+        stage=nhim_orbit_params,
+    log:
+        f"{RESULTS}/logs/nhim/orbits/{{study}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/nhim/orbits/{{study}}.tsv"
+    conda:
+        "../envs/ldpipe.yaml"
+    threads: 2
+    resources:
+        mem_mb=1500,
+        runtime=60,
+    script:
+        "../scripts/nhim_orbit_validation.py"
+
+
 rule nhim_validation:
-    """The validation tables of every NHIM study; fails when a point is farther from its reference than the tolerance."""
+    """The validation tables of every NHIM study and orbit validation; fails when a point is farther from its
+    reference than the tolerance, or a slice through an orbit has no refined crossing at the orbit point."""
     input:
         studies=nhim_study_files(),
+        orbit_studies=nhim_orbit_files(),
         code=library_code("ldpipe.stages.nhim_validation"),
     output:
         csv=f"{RESULTS}/nhim/validation.csv",
         markdown=f"{RESULTS}/nhim/validation.md",
+        orbits_csv=f"{RESULTS}/nhim/validation_orbits.csv",
+        orbits_markdown=f"{RESULTS}/nhim/validation_orbits.md",
     params:
         tolerance=config["nhim"]["validation"]["tolerance"],
         residence_ratio=config["nhim"]["validation"]["residence_ratio"],

@@ -11,4 +11,7 @@ with log_to(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
         markdown_output=snakemake.output.markdown,  # noqa: F821
         tolerance=snakemake.params.tolerance,  # noqa: F821
         residence_ratio=snakemake.params.residence_ratio,  # noqa: F821
+        orbit_studies=list(snakemake.input.orbit_studies),  # noqa: F821
+        orbits_csv_output=snakemake.output.orbits_csv,  # noqa: F821
+        orbits_markdown_output=snakemake.output.orbits_markdown,  # noqa: F821
     )

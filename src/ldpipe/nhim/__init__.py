@@ -35,16 +35,25 @@ stage (:mod:`ldpipe.stages.nhim`) does the I/O.
 
 The package, by job: :mod:`.slices` (the section slice and its states), :mod:`.detection` (the
 grid cell), :mod:`.fates` (exit fates and their bisection), :mod:`.refinement` (by fates, by LD
-zoom), :mod:`.evidence` (the periodic orbit's crossing, residence times).
+zoom), :mod:`.evidence` (the periodic orbit's crossing, residence times), :mod:`.crossings` (every
+crossing in a slice's window, each refined, degenerate ones recorded as such).
 """
 
-from .detection import Detection, detect_global_argmax, detect_nhim_cell, nhim_score, ridge_level
+from .crossings import CROSSING_STATUS, Crossing, SliceCrossings, find_every_crossing
+from .detection import (
+    Candidate, Detection, crossing_candidates, detect_global_argmax, detect_nhim_cell, nhim_score, ridge_level,
+    switch_cells,
+)
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
 from .fates import Cost, RefinementFailed, RefinementSettings, bisect_fate_switch, exit_fates
-from .refinement import Refined, ld_at_points, refine_by_fates, refine_by_ld_zoom
-from .slices import SliceProblem, make_slice_problem, section_point_states
+from .refinement import ManifoldsTangent, Refined, ld_at_points, refine_by_fates, refine_by_ld_zoom
+from .slices import (
+    SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality,
+)
 
 __all__ = [
+    "CROSSING_STATUS", "Candidate", "boundary_distance", "Crossing", "ManifoldsTangent", "SliceCrossings", "crossing_candidates",
+    "find_every_crossing", "point_slice", "slice_transversality", "switch_cells",
     "Cost", "Detection", "RefinementFailed", "RefinementSettings", "Refined", "SliceProblem", "bisect_fate_switch",
     "detect_global_argmax", "detect_nhim_cell", "exit_fates", "ld_at_points", "make_slice_problem", "nhim_score",
     "orbit_section_crossing", "orbit_section_residual", "refine_by_fates", "refine_by_ld_zoom", "residence_evidence",

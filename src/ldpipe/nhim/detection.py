@@ -78,3 +78,61 @@ def detect_global_argmax(
     """The plain global maximum of ld_forward + ld_backward (the naive criterion, for comparison)."""
     total = np.where(np.asarray(allowed, dtype=bool), ld_forward + ld_backward, -np.inf)
     return _pick(total, axes)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A separated group of grid cells that both manifold curves cross: one NHIM crossing's estimate.
+
+    point : ndarray, shape (2,)
+        Centre of the group's cells (section coordinates).
+    cells : int
+        Cells in the group.
+    """
+
+    point: np.ndarray
+    cells: int
+
+
+def switch_cells(fates: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+    """Grid cells (2 x 2 corners, all allowed) across which a fate switches, shape (m - 1, n - 1).
+
+    A fate is +1 or -1 (the side of the saddle a trajectory leaves by), or 0 for a point that
+    stays in the region to the end of the integration: on the manifold as far as it resolves, so a
+    cell with a 0 corner counts as crossed too.
+    """
+    corners = [fates[:-1, :-1], fates[1:, :-1], fates[:-1, 1:], fates[1:, 1:]]
+    inside = allowed[:-1, :-1] & allowed[1:, :-1] & allowed[:-1, 1:] & allowed[1:, 1:]
+    stack = np.stack(corners)
+    return inside & ((stack.max(axis=0) > stack.min(axis=0)) | (stack == 0).any(axis=0))
+
+
+def crossing_candidates(
+    forward: np.ndarray, backward: np.ndarray, allowed: np.ndarray, axes: tuple[np.ndarray, np.ndarray],
+) -> list[Candidate]:
+    """Every separated place where the stable curve W^s (the forward fate's switch) and the unstable
+    curve W^u (the backward fate's) pass through the same grid cells, most cells first.
+
+    Each group of such cells, connected through edges or corners, is one candidate: two crossings
+    of the NHIM more than about two cells apart give two groups. A group is only a candidate: two
+    curves that come close without crossing give one too, and the refinement tells.
+
+    Parameters
+    ----------
+    forward, backward : ndarray of int, shape (m, n)
+        Fates on the grid (:func:`ldpipe.nhim.exit_fates`).
+    allowed : ndarray of bool, shape (m, n)
+    axes : (ndarray (m,), ndarray (n,))
+    """
+    from scipy import ndimage
+
+    allowed = np.asarray(allowed, dtype=bool)
+    both = switch_cells(np.asarray(forward), allowed) & switch_cells(np.asarray(backward), allowed)
+    labels, count = ndimage.label(both, structure=np.ones((3, 3), dtype=int))
+    centres_a = 0.5 * (axes[0][:-1] + axes[0][1:])
+    centres_b = 0.5 * (axes[1][:-1] + axes[1][1:])
+    candidates = []
+    for label in range(1, count + 1):
+        i, j = np.nonzero(labels == label)
+        candidates.append(Candidate(np.array([centres_a[i].mean(), centres_b[j].mean()]), int(len(i))))
+    return sorted(candidates, key=lambda c: -c.cells)

@@ -29,11 +29,16 @@ def _switch_line(points: np.ndarray, fates: np.ndarray, shape: tuple[int, int]) 
     return centre, vt[0]
 
 
+class ManifoldsTangent(RefinementFailed):
+    """The stable and unstable curves meet at too small an angle to locate their crossing: the slice
+    is (nearly) tangent to the NHIM there, a degenerate slice, not a failed refinement."""
+
+
 def _intersect(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray, name: str) -> np.ndarray:
     """Intersection of the lines p1 + s t1 and p2 + r t2."""
     matrix = np.column_stack([t1, -t2])
     if abs(np.linalg.det(matrix)) < 1e-6:
-        raise RefinementFailed(f"map {name}: the stable and unstable manifold curves are parallel here; no crossing")
+        raise ManifoldsTangent(f"map {name}: the stable and unstable manifold curves are parallel here; no crossing")
     s, _ = np.linalg.solve(matrix, p2 - p1)
     return p1 + s * t1
 
@@ -147,7 +152,7 @@ def refine_by_fates(problem: SliceProblem, guess: np.ndarray, settings: Refineme
     # angle their intersection moves by that over sin(angle).
     uncertainty = max(update, settings.bisection_precision / max(np.sin(angle), 1e-300))
     if uncertainty > settings.tolerance:
-        raise RefinementFailed(
+        raise ManifoldsTangent(
             f"map {problem.name}: the manifolds cross at {angle:.3g} rad, so bisection to "
             f"{settings.bisection_precision:g} locates their crossing only to {uncertainty:.3g} > tolerance "
             f"{settings.tolerance:g}; lower nhim.refinement.bisection_precision"

@@ -1,7 +1,9 @@
 """NHIM validation stage: the tables of the NHIM studies against their references, and the verdict.
 
-It reads only the study files (:data:`ldpipe.contracts.NHIM`), so a change to the NHIM science
-or the engine reruns the studies, and this stage only through their outputs.
+It reads only the study files (:data:`ldpipe.contracts.NHIM`) and the orbit validation files
+(:data:`ldpipe.contracts.NHIM_ORBITS`), so a change to the NHIM science or the engine reruns
+those, and this stage only through their outputs. Two tables: the LD-map studies
+(``validation``) and the slices through periodic-orbit points (``validation_orbits``).
 """
 
 from __future__ import annotations
@@ -9,7 +11,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from ..contracts import NHIM
+from ..contracts import NHIM, NHIM_ORBITS
 from ..datafile import open_stage_file
 from ..errors import LdpipeError
 from ..logs import get_logger
@@ -60,11 +62,7 @@ def validation_rows(study_file: str | Path, tolerance: float, residence_ratio: f
 
 
 def _markdown(rows: list[dict], tolerance: float) -> str:
-    def fmt(value):
-        if isinstance(value, float):
-            return f"{value:.10g}" if abs(value) >= 1e-3 or value == 0 else f"{value:.2e}"
-        return str(value)
-
+    fmt = _format
     lines = [
         "# NHIM points on LD maps against their references",
         "",
@@ -80,30 +78,105 @@ def _markdown(rows: list[dict], tolerance: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+ORBIT_COLUMNS = (
+    "study", "family", "E", "phase", "axes", "solve", "orbit_a", "orbit_b", "solved_momentum", "boundary_distance",
+    "transversality", "candidates", "crossings", "distance", "uncertainty", "trajectories", "wall_time_s", "status",
+    "reason",
+)
+
+
+def orbit_validation_rows(study_file: str | Path) -> list[dict]:
+    """One table row per slice of an orbit validation file (its status as the stage recorded it)."""
+    data = open_stage_file(study_file, stage=NHIM_ORBITS)
+    rows = []
+    for k in range(data.sizes["slice"]):
+        get = lambda v: data[v].values[k]  # noqa: E731
+        rows.append({
+            "study": str(data.attrs["study"]), "family": str(get("family")), "E": float(get("energy")),
+            "phase": float(get("orbit_phase")), "axes": "-".join(str(a) for a in get("axis_names")),
+            "solve": str(get("solve")), "orbit_a": float(get("orbit_point")[0]), "orbit_b": float(get("orbit_point")[1]),
+            "solved_momentum": float(get("solved_momentum")), "boundary_distance": float(get("boundary_distance")),
+            "transversality": float(get("transversality")), "candidates": int(get("candidates")),
+            "crossings": int(get("crossings")),
+            "distance": float(get("distance")) if get("distance") >= 0 else "none",
+            "uncertainty": float(get("uncertainty")), "trajectories": int(get("trajectories")),
+            "wall_time_s": float(get("wall_time")), "status": str(get("status")), "reason": str(get("reason")),
+        })
+    return rows
+
+
+def _orbit_markdown(rows: list[dict], tolerances: dict[str, float]) -> str:
+    counts = {}
+    for row in rows:
+        counts[row["status"]] = counts.get(row["status"], 0) + 1
+    lines = [
+        "# NHIM crossings of slices through periodic-orbit points",
+        "",
+        "Each slice fixes every coordinate but its two axes and the solved momentum at an orbit point's values; "
+        "the orbit lies on the NHIM, so the slice has a NHIM point exactly there. `crossings`: distinct crossings "
+        "refined by fates in the window; `distance`: the nearest one's distance from the orbit point (section "
+        "coordinates); tolerances " + ", ".join(f"{s} {t:g}" for s, t in tolerances.items()) + ". Degenerate "
+        "slices (`solved_momentum_vanishes`: the slice's energy boundary within the refinement's reach, "
+        "`boundary_distance`; `tangent`: `transversality` to the NHIM from the orbit's monodromy below the minimum) "
+        "are recorded, never checked as points.",
+        "",
+        "Statuses: " + ", ".join(f"{status} {count}" for status, count in sorted(counts.items())) + ".",
+        "",
+        "| " + " | ".join(ORBIT_COLUMNS) + " |",
+        "|" + "---|" * len(ORBIT_COLUMNS),
+    ]
+    lines += ["| " + " | ".join(_format(row[c]) for c in ORBIT_COLUMNS) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _format(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.10g}" if abs(value) >= 1e-3 or value == 0 else f"{value:.2e}"
+    return str(value)
+
+
+def _write_tables(rows: list[dict], columns: tuple[str, ...], csv_output: str | Path, markdown: str,
+                  markdown_output: str | Path) -> None:
+    path = Path(markdown_output)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(markdown)
+    with open(csv_output, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run_nhim_validation(
     *, studies: list[str | Path], csv_output: str | Path, markdown_output: str | Path, tolerance: float,
-    residence_ratio: float,
+    residence_ratio: float, orbit_studies: list[str | Path] = (), orbits_csv_output: str | Path | None = None,
+    orbits_markdown_output: str | Path | None = None,
 ) -> list[dict]:
-    """Write the validation table (CSV and Markdown) of the study files, then fail if any slice fails.
+    """Write the validation tables (CSV and Markdown) of the study files and of the orbit validation
+    files, then fail if any slice fails.
 
     Raises
     ------
     NHIMValidationError
-        Naming each failing slice and its distance, after the tables are written.
+        Naming each failing slice and its distance or reason, after the tables are written.
     """
     rows = [row for path in studies for row in validation_rows(path, tolerance, residence_ratio)]
-    for path, text in ((Path(markdown_output), _markdown(rows, tolerance)),):
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-    with open(csv_output, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=TABLE_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    _write_tables(rows, TABLE_COLUMNS, csv_output, _markdown(rows, tolerance), markdown_output)
     failed = [row for row in rows if row["status"] != "ok"]
     for row in rows:
         log.info("%s / %s: distance %.3g, %s", row["study"], row["slice"], row["distance_refined"], row["status"])
-    if failed:
-        raise NHIMValidationError(
-            "NHIM validation failed for " + "; ".join(f"{r['study']}/{r['slice']}: {r['status'][6:]}" for r in failed)
-        )
+    problems = [f"{r['study']}/{r['slice']}: {r['status'][6:]}" for r in failed]
+    if orbits_csv_output is not None:
+        orbit_rows = [row for path in orbit_studies for row in orbit_validation_rows(path)]
+        attributes = [open_stage_file(p, stage=NHIM_ORBITS).attrs for p in orbit_studies]
+        tolerances = {str(a["study"]): float(a["tolerance"]) for a in attributes}
+        _write_tables(orbit_rows, ORBIT_COLUMNS, orbits_csv_output, _orbit_markdown(orbit_rows, tolerances),
+                      orbits_markdown_output)
+        for row in orbit_rows:
+            if row["status"].startswith("fail:"):
+                problems.append(f"{row['study']}/{row['family']}/E{row['E']:.6g}/phase {row['phase']:.4f}/{row['axes']} "
+                                f"slice: {row['status'][5:]} ({row['reason']})")
+        log.info("orbit validation: %d slices, %d failed", len(orbit_rows),
+                 sum(r["status"].startswith("fail:") for r in orbit_rows))
+    if problems:
+        raise NHIMValidationError("NHIM validation failed for " + "; ".join(problems))
     return rows

@@ -1,0 +1,244 @@
+"""NHIM orbit validation stage: slices through points of Lyapunov orbits, every crossing found and refined.
+
+A Lyapunov orbit lies on the NHIM, so a slice that fixes every coordinate but its two axes and
+one solved momentum at the values of an orbit point (:func:`ldpipe.nhim.point_slice`) has a NHIM
+point exactly there. For each family under ``orbits``, each energy, each of ``phases`` points
+along the orbit and each slice kind, the stage searches the window around the orbit point for
+every crossing (:func:`ldpipe.nhim.find_every_crossing`, fates on a ``points`` x ``points`` grid)
+and records per slice a status:
+
+* ``ok``: a refined crossing within ``tolerance`` of the orbit point;
+* ``degenerate:solved_momentum_vanishes``: the solved momentum vanishes (the slice's energy
+  boundary, :func:`ldpipe.nhim.boundary_distance`) closer to the orbit point than
+  ``boundary_cells`` grid cells, as at a turning point of the orbit; not searched;
+* ``degenerate:tangent``: the slice's transversality to the NHIM (from the orbit's monodromy
+  matrix, :func:`ldpipe.nhim.slice_transversality`) is below ``min_transversality``; searched,
+  its crossings recorded, not checked;
+* ``fail:no_crossing``, ``fail:not_converged``, ``fail:missed``: no candidate in the window; no
+  candidate refined; crossings refined but none within the tolerance.
+
+The reference (the orbit point) comes from the periodic-orbit corrector, not from LDs or fates.
+The validation stage (:mod:`ldpipe.stages.nhim_validation`) writes the table and fails the run on
+any ``fail:``. Refined crossings are in their own table (dimension ``crossing``); a degenerate or
+failed slice has none there.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..contracts import EQUILIBRIA, NHIM_ORBITS, UPO
+from ..datafile import open_stage_file, write_stage_file
+from ..equilibria import select_saddle
+from ..errors import ConfigError
+from ..ld_grid import resolve_ld_map
+from ..logs import get_logger
+from ..nhim import (
+    RefinementSettings, boundary_distance, find_every_crossing, make_slice_problem, point_slice, slice_transversality,
+)
+from ..variational import propagate
+from .ld import ld_map_parameters
+
+log = get_logger(__name__)
+
+
+def nhim_orbit_parameters(config: dict, study: str) -> dict:
+    """The keyword arguments of :func:`run_nhim_orbit_validation` for one study (besides paths)."""
+    spec = copy.deepcopy(config["nhim"]["orbit_validation"][study])
+    refinement = {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"}
+    cap = config.get("max_grid_points")
+    base = spec.pop("base_map")
+    return {
+        "study": study, "base_map": ld_map_parameters(config, base), "refinement": refinement,
+        **spec, "points": _odd(min(spec["points"], cap)) if cap else spec["points"],
+    }
+
+
+def _odd(points: int) -> int:
+    """The largest odd number <= points (the window's centre must be a grid point)."""
+    return points if points % 2 else points - 1
+
+
+def nhim_orbit_inputs(config: dict, study: str) -> dict[str, list[str]]:
+    """Names the study reads: periodic-orbit families (``orbits``) and the system (``systems``)."""
+    spec = config["nhim"]["orbit_validation"][study]
+    return {"orbits": list(spec["orbits"]), "systems": [config["ld_maps"][spec["base_map"]]["system"]]}
+
+
+def _orbit_at(data: xr.Dataset, energies: dict, key: str) -> list[int]:
+    """Indices of the family file's orbits at the study's energies (total or excess)."""
+    field, values = ("excess_energy", energies["excess"]) if "excess" in energies else ("energy", energies["total"])
+    indices = []
+    for value in values:
+        match = np.flatnonzero(np.abs(data[field].values - value) <= 1e-9 * max(1.0, abs(value)))
+        if not len(match):
+            raise ConfigError(f"config key '{key}.energies': family {data.attrs['family']} has no orbit at "
+                              f"{field.replace('_', ' ')} {value:g}; add it to periodic_orbits.{data.attrs['family']}")
+        indices.append(int(match[0]))
+    return indices
+
+
+def run_nhim_orbit_validation(
+    *, study: str, base_map: dict, orbits: list[str], orbit_files: list[str | Path], equilibria: str | Path,
+    energies: dict, phases: int, slices: list[list[str]], half_width: float, points: int,
+    boundary_cells: float, min_transversality: float, tolerance: float, refinement: dict,
+    output: str | Path, threads: int | None = None,
+) -> Path:
+    """Search every slice of the study for its NHIM crossings and write the study file.
+
+    ``base_map`` (an LD map's parameters) gives the system, saddle, region and escape radius;
+    ``refinement`` the ``nhim.refinement`` section (without ``zoom``); the rest are the study's
+    config keys (see the schema).
+    """
+    import numba
+
+    if threads:
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    key = f"nhim.orbit_validation.{study}"
+    settings = RefinementSettings(**refinement)
+    if tolerance < settings.tolerance:
+        raise ConfigError(f"config key '{key}.tolerance': {tolerance:g} is below nhim.refinement.tolerance "
+                          f"{settings.tolerance:g} (the refined points' own accuracy)")
+    if points % 2 == 0:
+        raise ConfigError(f"config key '{key}.points': {points} must be odd, so the orbit point is a grid point")
+    eq = open_stage_file(equilibria, stage=EQUILIBRIA)
+    saddle, critical = select_saddle(eq, base_map.get("saddle_near"))
+    system, _, ld_settings, _ = resolve_ld_map(base_map, saddle, critical)
+    phase_names = system.phase_coordinates
+    slice_rows, crossing_rows = [], []
+    for family, path in zip(orbits, orbit_files):
+        data = open_stage_file(path, stage=UPO)
+        for k in _orbit_at(data, energies, key):
+            energy, period = float(data.energy.values[k]), float(data.period.values[k])
+            samples = data.trajectory.values[k]
+            for index in (round(j * (len(samples) - 1) / phases) for j in range(phases)):
+                state = samples[index]
+                monodromy = propagate(system, state, period, rtol=settings.rtol, atol=settings.atol).stm
+                for axes in slices:
+                    row = _slice_row(system, state, axes, half_width, points, family, energy, critical, saddle,
+                                     ld_settings, monodromy, settings, boundary_cells, min_transversality,
+                                     tolerance, crossing_rows, len(slice_rows))
+                    row.update(family=family, energy=energy, excess_energy=energy - critical,
+                               orbit_phase=index / (len(samples) - 1), orbit_state=state)
+                    slice_rows.append(row)
+                    log.info("%s: %s", row["name"], row["status"] + (f" ({row['reason']})" if row["reason"] else ""))
+    dataset = _dataset(slice_rows, crossing_rows, phase_names)
+    parameters = {"study": study, "base_map": base_map["map_name"], "orbits": orbits, "energies": energies,
+                  "phases": phases, "slices": slices, "half_width": half_width, "points": points,
+                  "boundary_cells": boundary_cells, "min_transversality": min_transversality,
+                  "tolerance": tolerance, "refinement": refinement}
+    dataset.attrs.update({"study": study, "tolerance": tolerance, "half_width": half_width, "points": points,
+                          "boundary_cells": boundary_cells, "min_transversality": min_transversality})
+    # Every refinement setting in effect (defaults included), not only those the config gave.
+    dataset.attrs.update({f"refinement_{k}": v for k, v in dataclasses.asdict(settings).items()})
+    written = write_stage_file(dataset, output, stage=NHIM_ORBITS,
+                               title=f"NHIM crossings of slices through periodic orbits, study {study}",
+                               parameters=parameters)
+    log.info("wrote %s (%d slices, %d crossings)", written, len(slice_rows), len(crossing_rows))
+    return written
+
+
+def _slice_row(system, state, axes, half_width, points, family, energy, critical, saddle, ld_settings, monodromy,
+               settings, boundary_cells, min_transversality, tolerance, crossing_rows, slice_index) -> dict:
+    """One slice's record (its refined crossings appended to ``crossing_rows``)."""
+    phase = system.phase_coordinates
+    section = point_slice(system, state, tuple(axes), half_width, points)
+    centre = np.array([state[phase.index(a)] for a in axes])
+    momentum = float(state[phase.index(section.solve)])
+    name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
+    row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
+           "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
+           "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
+           "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
+    boundary = boundary_distance(system, section, state)
+    reach = boundary_cells * 2 * half_width / (points - 1)
+    row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
+    if boundary < reach:
+        row.update(status="degenerate:solved_momentum_vanishes", reason=(
+            f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
+            f"{boundary_cells:g} grid cells ({reach:.3g})"))
+        return row
+    row["transversality"] = slice_transversality(system, section, state, monodromy)
+    problem = make_slice_problem(name, system, section, energy, critical, saddle, ld_settings)
+    found = find_every_crossing(problem, settings)
+    statuses = [c.status for c in found.crossings]
+    row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
+               tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,
+               trajectories=found.cost.trajectories, wall_time=found.cost.wall_time)
+    for crossing in found.crossings:
+        if crossing.status == "refined":
+            crossing_rows.append({"slice": slice_index, "point": crossing.refined.point,
+                                  "uncertainty": crossing.refined.uncertainty, "angle": crossing.refined.angle,
+                                  "distance": float(np.linalg.norm(crossing.refined.point - centre))})
+    mine = [c for c in crossing_rows if c["slice"] == slice_index]
+    if mine:
+        nearest = min(mine, key=lambda c: c["distance"])
+        row.update(distance=nearest["distance"], uncertainty=nearest["uncertainty"])
+    if row["transversality"] < min_transversality:
+        row.update(status="degenerate:tangent", reason=(
+            f"transversality {row['transversality']:.3g} < min_transversality {min_transversality:g}; "
+            f"{row['crossings']} crossing(s) of {row['candidates']} candidate(s) recorded, not checked"))
+    elif not statuses:
+        row.update(status="fail:no_crossing", reason=(
+            f"no grid cell crossed by both manifold curves in the window ({found.forward_cells} crossed by W^s, "
+            f"{found.backward_cells} by W^u)"))
+    elif not mine:
+        messages = "; ".join(c.message for c in found.crossings if c.message)
+        row.update(status="fail:not_converged", reason=f"{len(statuses)} candidate(s), none refined: {messages}")
+    elif row["distance"] > tolerance:
+        row.update(status="fail:missed", reason=(
+            f"{len(mine)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
+            f"{tolerance:g}"))
+    else:
+        notes = [f"{len(mine)} crossings in the window"] if len(mine) > 1 else []
+        if row["not_converged"] or row["tangent_candidates"]:
+            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
+                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
+        row.update(status="ok", reason="; ".join(notes))
+    return row
+
+
+def _dataset(slice_rows: list[dict], crossing_rows: list[dict], phase: tuple[str, ...]) -> xr.Dataset:
+    variables = {}
+    for key in slice_rows[0]:
+        values = [r[key] for r in slice_rows]
+        if key in ("orbit_point",):
+            variables[key] = (("slice", "axis"), np.array(values, dtype=np.float64))
+        elif key == "orbit_state":
+            variables[key] = (("slice", "phase"), np.array(values, dtype=np.float64))
+        elif key == "axis_names":
+            variables[key] = (("slice", "axis"), np.array(values, dtype=str))
+        elif isinstance(values[0], str):
+            variables[key] = ("slice", np.array(values, dtype=str))
+        elif isinstance(values[0], (int, np.integer)):
+            variables[key] = ("slice", np.array(values, dtype=np.int64))
+        else:
+            variables[key] = ("slice", np.array(values, dtype=np.float64))
+    variables["crossing_slice"] = ("crossing", np.array([c["slice"] for c in crossing_rows], dtype=np.int64))
+    variables["crossing_point"] = (("crossing", "axis"), np.array([c["point"] for c in crossing_rows]).reshape(-1, 2))
+    for key in ("uncertainty", "angle", "distance"):
+        variables[f"crossing_{key}"] = ("crossing", np.array([c[key] for c in crossing_rows], dtype=np.float64))
+    dataset = xr.Dataset(variables, coords={"slice": np.arange(len(slice_rows)), "axis": [0, 1], "phase": list(phase),
+                                            "crossing": np.arange(len(crossing_rows))})
+    long_names = {
+        "orbit_point": "the orbit point's values of the slice's two axes (the window's centre)",
+        "boundary_distance": "distance to where the solved momentum vanishes, first order (capped at the window's width)",
+        "transversality": ("slice's transversality to the NHIM at the orbit point (0: tangent), from the monodromy; "
+                           "0 also where not computed (solved_momentum_vanishes)"),
+        "distance": "distance of the nearest refined crossing from the orbit point (-1: none refined)",
+        "orbit_phase": "time of the orbit point over the period",
+        "candidates": "separated groups of grid cells crossed by both manifold curves",
+        "crossings": "distinct refined crossings inside the window",
+        "crossing_point": "a refined crossing (section coordinates of its slice)",
+        "crossing_distance": "distance of the crossing from its slice's orbit point",
+    }
+    for name, text in long_names.items():
+        if name in dataset:
+            dataset[name].attrs["long_name"] = text
+    dataset["wall_time"].attrs["units"] = "s"
+    return dataset
