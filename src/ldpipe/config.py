@@ -18,6 +18,7 @@ import yaml
 
 from .errors import ConfigError
 from .systems import check_builtin_parameters, system_coordinates
+from .systems.kinetic import kinetic_matrix
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -104,6 +105,7 @@ def _check_semantics(config: dict) -> None:
         coordinates = system_coordinates(spec)
         if "builtin" in spec:
             check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
+        kinetic_matrix(spec, coordinates, f"systems.{name}")
         equilibria = spec["equilibria"]
         _check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
         for coordinate, interval in equilibria["box"].items():
