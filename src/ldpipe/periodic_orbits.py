@@ -65,7 +65,7 @@ class SaddleLinearization:
 
 def linearize_saddle(system: System, position: np.ndarray) -> SaddleLinearization:
     position = np.asarray(position, dtype=np.float64)
-    values, vectors = np.linalg.eigh(system.hessian(position))
+    values, vectors = system.normal_modes(position)
     if not (values[0] < 0 < values[1]):
         raise ValueError(f"{system.name}: the point {position} is not an index-1 saddle (Hess V eigenvalues {values})")
     centers = vectors[:, 1:].copy()

@@ -125,6 +125,7 @@ def compute_ld_map(
     dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress)
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
+    dataset.attrs.update(system.kinetic_attributes())
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
 

@@ -68,6 +68,7 @@ def run_poincare(*, output: str | Path, equilibria: str | Path, threads: int | N
         threads=threads or numba.get_num_threads(),
     )
     dataset.attrs["system"] = system.name
+    dataset.attrs.update(system.kinetic_attributes())
     if critical_energy is not None:
         dataset.attrs.update({"critical_energy": critical_energy, "excess_energy": energy - critical_energy})
     log.info("%d trajectories, %d escaped, %d crossings", dataset.sizes["trajectory"], int(dataset.escaped.sum()),
