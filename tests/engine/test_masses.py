@@ -153,6 +153,36 @@ def test_diagonal_masses_equal_the_hand_rescaled_system():
     assert abs(massive.energy(states[0]) - rescaled.energy(states[0] * scale)) < 1e-15
 
 
+def test_p_norm_ld_scales_by_component_under_the_rescaling():
+    # Under q' = s q, p' = p / s (H = |p|^2 / (2 m) + V becomes |p'|^2 s^2 / (2 m) + V(q' / s): masses
+    # m / s^2) the trajectory is the same and each velocity component scales: dq'/dt = s dq/dt,
+    # dp'/dt = (dp/dt) / s. So M_p = s^p A + s^-p B with A, B the position and momentum parts of the
+    # unscaled LD. Two runs (m = 8 at s = 1, and the unit-mass system at s = sqrt(8)) give A and B; a
+    # third (masses 2 at s = 2) must equal 2^p A + 2^-p B.
+    m, p = 8.0, 0.5
+    formula = "wx**2*(x/r)**2/2 + wy**2*(y/r)**2/2 + d*(x/r)*(y/r)**2"
+
+    def scaled(s, name):
+        spec = {"formula": formula, "coordinates": ["x", "y"],
+                "parameters": {"wx": 1.0, "wy": 1.1, "d": -0.11, "r": s}}
+        if m / s**2 != 1.0:
+            spec["masses"] = {"x": m / s**2, "y": m / s**2}
+        return make_system(name, spec)
+
+    states = np.array([[0.3, 0.1, 0.8, -1.2], [-0.5, 0.6, 0.4, 0.9], [1.0, -0.4, -0.7, 0.2]])
+    settings = LDSettings(rtol=1e-12, atol=1e-12, p=p, tau=12.0)
+    lds = {}
+    for s, name in ((1.0, "barbanis_scaled_1"), (math.sqrt(m), "barbanis_rescaled"), (2.0, "barbanis_scaled_2")):
+        scale = np.array([s, s, 1.0 / s, 1.0 / s])
+        lds[s] = compute_ld(scaled(s, name), states * scale, +1, settings).ld
+    root = m ** (p / 2)
+    # A + B = L(1), root A + B / root = L(sqrt m)
+    a = (lds[math.sqrt(m)] - lds[1.0] / root) / (root - 1.0 / root)
+    b = lds[1.0] - a
+    assert np.all(a > 0) and np.all(b > 0)
+    np.testing.assert_allclose(lds[2.0], 2.0**p * a + 2.0**-p * b, rtol=1e-9)
+
+
 def test_unit_masses_are_no_kinetic_matrix():
     # masses of 1 are the identity: no kinetic section in the generated code, the same system as without
     plain = make_system("ho_plain", {"formula": "x**2/2 + y**2", "coordinates": ["x", "y"]})
