@@ -204,7 +204,8 @@ def equilibria_dataset(
                      {"long_name": "type of equilibrium"}),
             "hessian_eigenvalue": (("equilibrium", "hessian_mode"),
                                    np.array([a.hessian_eigenvalues for a in analyses]).reshape(-1, n),
-                                   {"long_name": "eigenvalues of the Hessian of V, ascending"}),
+                                   {"long_name": "eigenvalues of the Hessian of V, ascending" if system.mass_matrix is None
+                                    else "eigenvalues h of Hess V u = h M u (M the mass_matrix), ascending"}),
             "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
                                 {"long_name": "real part of the Jacobian eigenvalue"}),
             "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
