@@ -446,7 +446,22 @@ def validate_config(config: dict) -> dict:
     _check_figures(config)
     _check_nhim(config)
     _check_accuracy_cost(config)
+    _check_transport_masses(config)
     return config
+
+
+def _check_transport_masses(config: dict) -> None:
+    """The transport stage takes |p|^2/2 as the kinetic energy (its well volume and Monte Carlo
+    sampling of momenta): a study of a system with masses is refused before anything runs."""
+    for name, spec in (config.get("transport") or {}).items():
+        family = config.get("periodic_orbits", {}).get(spec.get("orbits"), {})
+        system = family.get("system")
+        if system in config["systems"] and kinetic_matrix(config["systems"][system], system_coordinates(
+                config["systems"][system]), f"systems.{system}") is not None:
+            raise ConfigError(
+                f"config key 'transport.{name}.orbits': the transport stage is for unit masses; system {system!r} "
+                f"has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
+            )
 
 
 def load_config(path: str | Path) -> dict:

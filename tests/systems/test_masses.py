@@ -209,3 +209,16 @@ def test_deleon_berne_linearization():
     # Lyapunov's theorem: the period tends to 2 pi / omega (here 1e-4 above E_c: within 1e-3)
     assert orbit.period == pytest.approx(2.0 * math.pi / saddle.omegas[0], rel=1e-3)
     assert orbit.closure_error < 1e-10
+
+
+def test_transport_of_a_system_with_masses_is_refused():
+    # The transport stage's well volume and Monte Carlo momenta assume |p|^2/2: refused, naming the key.
+    config = {
+        "systems": {"heavy": {"builtin": "barbanis_2dof", "masses": {"x": 8.0, "y": 8.0}}},
+        "periodic_orbits": {"f": {"system": "heavy", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}}},
+        "transport": {"t": {"orbits": "f", "energies": {"excess": [0.125]}}},
+    }
+    with pytest.raises(ConfigError, match=r"transport\.t\.orbits.*unit masses.*systems\.heavy\.masses"):
+        validate_config(config)
+    del config["systems"]["heavy"]["masses"]
+    validate_config(config)  # the same study without masses is valid
