@@ -90,11 +90,6 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
                              f"expected {parameters['system_name']!r}")
     eq = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])
-    if system.mass_matrix is not None:
-        # The well's phase-space volume and the Monte Carlo sampling of momenta (ldpipe.transport) take
-        # |p|^2/2 as the kinetic energy; with masses they would be wrong by factors of det M, so refuse.
-        raise ConfigError(f"config key '{key}.orbits': the transport stage is for unit masses; system "
-                          f"{system.name} has a kinetic matrix (systems.{system.name}.masses or .mass_matrix)")
     if system.n_dof != 2:
         raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
                           f"{system.name} has {system.n_dof}")
