@@ -315,7 +315,7 @@ def _pick(roots: np.ndarray, valid: np.ndarray, section: Section) -> tuple[np.nd
 
 
 def _solve_position(system: System, section: Section, states: np.ndarray, energy: float):
-    """``(allowed, solved)``: the position ``section.solve`` with V = E - |p|^2 / 2, the others fixed.
+    """``(allowed, solved)``: the position ``section.solve`` with V = E - p^T M^-1 p / 2, the others fixed.
 
     V quadratic in it: the closed form (both roots, the stable formula). Otherwise, on
     ``section.search``: the sign changes of V - target on SCAN_POINTS samples, then bisection
