@@ -166,10 +166,18 @@ def _check_saddle_near(spec: dict, coordinates: tuple[str, ...], key: str) -> No
         raise ConfigError(f"config key '{key}.saddle_near': expected {len(coordinates)} numbers ({list(coordinates)}), got {near}")
 
 
-def _check_surface(surface: dict, coordinates: tuple[str, ...], key: str) -> None:
+def _check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system: dict, system_key: str) -> None:
     phase = coordinates + tuple("p" + c for c in coordinates)
     if surface["coordinate"] not in phase:
         raise ConfigError(f"config key '{key}.coordinate': {surface['coordinate']!r} is not a phase coordinate; expected one of {list(phase)}")
+    index = phase.index(surface["coordinate"]) - len(coordinates)
+    matrix = kinetic_matrix(system, coordinates, system_key)
+    if index >= 0 and matrix is not None and sum(v != 0.0 for v in matrix[index]) > 1:
+        # the integrator locates crossings of M^-1 p's components (ldpipe.flow): p_i alone only if M's row i is diagonal
+        raise ConfigError(
+            f"config key '{key}.coordinate': crossings of the momentum {surface['coordinate']} are located for "
+            f"diagonal masses only, and {system_key}.mass_matrix couples it to other momenta; use a coordinate"
+        )
 
 
 def _check_orbits(config: dict) -> None:
@@ -198,12 +206,15 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.energy': {kind} energy {value!r} is not among the energies of family "
                 f"{spec['orbits']!r} ({family['energies']}); add it there"
             )
-        _check_surface(spec["section"], system_coordinates(config["systems"][family["system"]]), f"{key}.section")
+        system = family["system"]
+        _check_surface(spec["section"], system_coordinates(config["systems"][system]), f"{key}.section",
+                       config["systems"][system], f"systems.{system}")
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
         coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
         _check_saddle_near(spec, coordinates, key)
-        _check_surface(spec["section"], coordinates, f"{key}.section")
+        _check_surface(spec["section"], coordinates, f"{key}.section", config["systems"][spec["system"]],
+                       f"systems.{spec['system']}")
         start = spec["initial_conditions"]
         phase = coordinates + tuple("p" + c for c in coordinates)
         for index, axis in enumerate(start["axes"]):

@@ -222,3 +222,21 @@ def test_transport_of_a_system_with_masses_is_refused():
         validate_config(config)
     del config["systems"]["heavy"]["masses"]
     validate_config(config)  # the same study without masses is valid
+
+
+def test_a_momentum_surface_coupled_by_the_kinetic_matrix_is_refused():
+    # The flow locates crossings of (M^-1 p)_i; p_i = c is one of them only where M's row i is diagonal.
+    def config(kinetic):
+        return {
+            "systems": {"s": {"builtin": "barbanis_2dof", **kinetic}},
+            "poincare_sections": {"p": {
+                "system": "s", "energy": {"excess": 0.1}, "section": {"coordinate": "py", "value": 0.0},
+                "initial_conditions": {"axes": [{"name": "x", "range": [-5, 5], "points": 4},
+                                                {"name": "px", "range": [-5, 5], "points": 4}],
+                                       "fixed": {"y": 0.0}, "solve": "py"},
+            }},
+        }
+
+    with pytest.raises(ConfigError, match=r"poincare_sections\.p\.section\.coordinate.*systems\.s\.mass_matrix"):
+        validate_config(config({"mass_matrix": [[1.5, 0.5], [0.5, 1.5]]}))
+    validate_config(config({"masses": {"x": 8.0, "y": 2.0}}))  # diagonal: p_y = c is (M^-1 p)_y = c / m_y
