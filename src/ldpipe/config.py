@@ -20,6 +20,7 @@ import yaml
 from .errors import ConfigError
 from .config_maps import check_interval, check_ld_maps, check_vector_field_poincare
 from .systems import check_builtin_parameters, is_vector_field, system_coordinates
+from .systems.kinetic import kinetic_matrix
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
@@ -101,6 +102,7 @@ def _check_semantics(config: dict) -> None:
         coordinates = system_coordinates(spec)
         if "builtin" in spec:
             check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
+        kinetic_matrix(spec, coordinates, f"systems.{name}")
         equilibria = spec["equilibria"]
         check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")
         for coordinate, interval in equilibria["box"].items():
@@ -127,10 +129,18 @@ def _check_saddle_near(spec: dict, coordinates: tuple[str, ...], key: str) -> No
         raise ConfigError(f"config key '{key}.saddle_near': expected {len(coordinates)} numbers ({list(coordinates)}), got {near}")
 
 
-def _check_surface(surface: dict, coordinates: tuple[str, ...], key: str) -> None:
+def _check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system: dict, system_key: str) -> None:
     phase = coordinates + tuple("p" + c for c in coordinates)
     if surface["coordinate"] not in phase:
         raise ConfigError(f"config key '{key}.coordinate': {surface['coordinate']!r} is not a phase coordinate; expected one of {list(phase)}")
+    index = phase.index(surface["coordinate"]) - len(coordinates)
+    matrix = kinetic_matrix(system, coordinates, system_key)
+    if index >= 0 and matrix is not None and sum(v != 0.0 for v in matrix[index]) > 1:
+        # the integrator locates crossings of M^-1 p's components (ldpipe.flow): p_i alone only if M's row i is diagonal
+        raise ConfigError(
+            f"config key '{key}.coordinate': crossings of the momentum {surface['coordinate']} are located for "
+            f"diagonal masses only, and {system_key}.mass_matrix couples it to other momenta; use a coordinate"
+        )
 
 
 def _check_orbits(config: dict) -> None:
@@ -159,7 +169,9 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.energy': {kind} energy {value!r} is not among the energies of family "
                 f"{spec['orbits']!r} ({family['energies']}); add it there"
             )
-        _check_surface(spec["section"], system_coordinates(config["systems"][family["system"]]), f"{key}.section")
+        system = family["system"]
+        _check_surface(spec["section"], system_coordinates(config["systems"][system]), f"{key}.section",
+                       config["systems"][system], f"systems.{system}")
     for name, spec in config["poincare_sections"].items():
         key = f"poincare_sections.{name}"
         if spec["system"] in config["systems"] and is_vector_field(config["systems"][spec["system"]]):
@@ -176,7 +188,8 @@ def _check_orbits(config: dict) -> None:
             raise ConfigError(f"config key '{key}.initial_conditions.solve': initial conditions of a Hamiltonian "
                               "need the momentum solved from the energy")
         _check_saddle_near(spec, coordinates, key)
-        _check_surface(spec["section"], coordinates, f"{key}.section")
+        _check_surface(spec["section"], coordinates, f"{key}.section", config["systems"][spec["system"]],
+                       f"systems.{spec['system']}")
         start = spec["initial_conditions"]
         phase = coordinates + tuple("p" + c for c in coordinates)
         for index, axis in enumerate(start["axes"]):
@@ -476,7 +489,22 @@ def validate_config(config: dict) -> dict:
     _check_figures(config)
     _check_nhim(config)
     _check_accuracy_cost(config)
+    _check_transport_masses(config)
     return config
+
+
+def _check_transport_masses(config: dict) -> None:
+    """The transport stage takes |p|^2/2 as the kinetic energy (its well volume and Monte Carlo
+    sampling of momenta): a study of a system with masses is refused before anything runs."""
+    for name, spec in (config.get("transport") or {}).items():
+        family = config.get("periodic_orbits", {}).get(spec.get("orbits"), {})
+        system = family.get("system")
+        if system in config["systems"] and kinetic_matrix(config["systems"][system], system_coordinates(
+                config["systems"][system]), f"systems.{system}") is not None:
+            raise ConfigError(
+                f"config key 'transport.{name}.orbits': the transport stage is for unit masses; system {system!r} "
+                f"has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
+            )
 
 
 def load_config(path: str | Path) -> dict:

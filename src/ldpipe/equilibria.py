@@ -1,11 +1,12 @@
-"""Equilibria of H = |p|^2/2 + V(q) in a box, and the linear analysis at each.
+"""Equilibria of H = p^T M^-1 p / 2 + V(q) in a box, and the linear analysis at each.
 
 Equilibria are the critical points of V (with p = 0). The Jacobian of Hamilton's
-equations there is J = [[0, I], [-Hess V, 0]]: if Hess V u = h u, then
-J (u, beta u) = beta (u, beta u) with beta^2 = -h. So every eigenvalue of J is
-real (a saddle direction, h < 0) or imaginary (a centre, h > 0), and the Morse
-index of V (the count of h < 0) gives the type: 0 a minimum, 1 an index-1
-saddle (saddle x centre^(n-1)), and so on.
+equations there is J = [[0, M^-1], [-Hess V, 0]]: if Hess V u = h M u, then
+J (u, beta M u) = beta (u, beta M u) with beta^2 = -h (M = I without masses). So every
+eigenvalue of J is real (a saddle direction, h < 0) or imaginary (a centre, h > 0),
+and the Morse index of V (the count of h < 0; M positive definite leaves it unchanged,
+Sylvester's law of inertia) gives the type: 0 a minimum, 1 an index-1 saddle
+(saddle x centre^(n-1)), and so on.
 """
 
 from __future__ import annotations
@@ -102,8 +103,8 @@ def linear_analysis(system: System, q: np.ndarray, degeneracy_tolerance: float =
     saddle this is the paper's order lambda, -lambda, i omega, -i omega.
     """
     n = system.n_dof
-    hessian = system.hessian(q)
-    values, vectors = np.linalg.eigh(hessian)
+    values, vectors = system.normal_modes(q)
+    mass = system.mass
     scale = max(1.0, float(np.max(np.abs(values))))
     degenerate = bool(np.any(np.abs(values) <= degeneracy_tolerance * scale))
     saddle = [(np.sqrt(-h), vectors[:, i]) for i, h in enumerate(values) if h < -degeneracy_tolerance * scale]
@@ -113,7 +114,8 @@ def linear_analysis(system: System, q: np.ndarray, degeneracy_tolerance: float =
     eigenvectors: list[np.ndarray] = []
 
     def add(beta: complex, u: np.ndarray) -> None:
-        vector = np.concatenate([u, beta * u]).astype(complex)
+        momentum = beta * u if system.mass_matrix is None else beta * (mass @ u)
+        vector = np.concatenate([u, momentum]).astype(complex)
         vector /= np.linalg.norm(vector)
         # Fix the arbitrary phase: the largest position component real and positive.
         pivot = vector[np.argmax(np.abs(vector[:n]))]
@@ -202,7 +204,8 @@ def equilibria_dataset(
                      {"long_name": "type of equilibrium"}),
             "hessian_eigenvalue": (("equilibrium", "hessian_mode"),
                                    np.array([a.hessian_eigenvalues for a in analyses]).reshape(-1, n),
-                                   {"long_name": "eigenvalues of the Hessian of V, ascending"}),
+                                   {"long_name": "eigenvalues of the Hessian of V, ascending" if system.mass_matrix is None
+                                    else "eigenvalues h of Hess V u = h M u (M the mass_matrix), ascending"}),
             "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
                                 {"long_name": "real part of the Jacobian eigenvalue"}),
             "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
@@ -225,6 +228,7 @@ def equilibria_dataset(
     dataset.attrs.update({f"search_{k}": v for k, v in details.items()})
     dataset.attrs["system"] = system.name
     dataset.attrs["system_description"] = system.description
+    dataset.attrs.update(system.kinetic_attributes())
     if system.formula:
         dataset.attrs["potential_formula"] = system.formula
     dataset.attrs["mode_order"] = (

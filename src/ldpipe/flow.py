@@ -24,6 +24,7 @@ import numba
 import numpy as np
 
 from .engine.integrator import get_runner, run_units
+from .engine.kinetic import to_engine_states, to_momenta
 from .engine.settings import DEFAULT_ESCAPE_RADIUS
 from .systems import System
 
@@ -116,6 +117,16 @@ def integrate(
     else:
         name, value, direction = section
         index = system.phase_coordinates.index(name)
+        if index >= system.n_dof and system.mass_matrix is not None:
+            # The driver carries v = M^-1 p (ldpipe.engine.kinetic). With diagonal masses p_i = m_i v_i,
+            # so p_i = c is v_i = c / m_i, crossed the same way; otherwise p_i mixes every v.
+            row = system.mass[index - system.n_dof]
+            if np.count_nonzero(row) != 1:
+                raise ValueError(
+                    f"section {name} = {value}: crossings of a momentum are located for diagonal masses only; "
+                    f"{system.name}'s kinetic matrix couples {name} to other momenta (use a coordinate section)"
+                )
+            value = value / row[index - system.n_dof]
     samples = np.zeros((count, len(sample_times), m))
     crossings = np.zeros((count, max_crossings, m))
     crossing_times = np.zeros((count, max_crossings))
@@ -138,7 +149,10 @@ def integrate(
         settings.max_steps, np.abs(sample_times), index, float(value), float(direction),
     )
     outputs = (samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
-    run_units(runner, states, unit, args, outputs, threads)
+    # With masses the driver carries (q, M^-1 p) (ldpipe.engine.kinetic); results are in (q, p).
+    run_units(runner, to_engine_states(system, states), unit, args, outputs, threads)
+    to_momenta(system, samples)
+    to_momenta(system, crossings)
     final_time *= 1.0 if duration >= 0 else -1.0
     return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
 

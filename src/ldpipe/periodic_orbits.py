@@ -3,14 +3,15 @@
 The method is the paper's appendix (``ssect:tube_mani``, after Koon et al.),
 written for n degrees of freedom:
 
-* **Seed.** At the saddle, Hess V has one negative eigenvalue -lambda^2 (the
-  reaction direction) and n - 1 positive ones omega_j^2 (centres). A centre's
+* **Seed.** At the saddle, Hess V u = h M u (M the kinetic matrix, the identity
+  without masses) has one negative eigenvalue -lambda^2 (the reaction direction)
+  and n - 1 positive ones omega_j^2 (centres). A centre's
   eigenvector u (position part; the phase-space eigenvector is (u, +-i omega u))
   is scaled so that its largest component, the *held* coordinate k, is 1. A
   small orbit starts at rest at q0 = q_eq + A u.
-* **Differential correction.** The Lyapunov orbits of H = |p|^2/2 + V(q) are
-  brake orbits: all momenta vanish at the two turning points, half a period
-  apart. Holding q0_k, the other n - 1 coordinates of q0 are corrected by Newton
+* **Differential correction.** The Lyapunov orbits of H = p^T M^-1 p / 2 + V(q) are
+  brake orbits: all momenta (and so all velocities M^-1 p) vanish at the two
+  turning points, half a period apart. Holding q0_k, the other n - 1 coordinates of q0 are corrected by Newton
   steps until, at the next zero of p_k (the half-period event), every other
   momentum vanishes too. With Phi the state transition matrix at the event and
   f the vector field there, the Jacobian is
@@ -47,7 +48,7 @@ class CorrectionFailed(RuntimeError):
 
 @dataclass(frozen=True)
 class SaddleLinearization:
-    """The linearization at an index-1 saddle, from Hess V there.
+    """The linearization at an index-1 saddle, from Hess V u = h M u there.
 
     ``saddle_rate`` is lambda (eigenvalues +-lambda of the Jacobian); ``omegas``
     are the centre frequencies in increasing order and ``center_vectors[:, j]``
@@ -65,7 +66,7 @@ class SaddleLinearization:
 
 def linearize_saddle(system: System, position: np.ndarray) -> SaddleLinearization:
     position = np.asarray(position, dtype=np.float64)
-    values, vectors = np.linalg.eigh(system.hessian(position))
+    values, vectors = system.normal_modes(position)
     if not (values[0] < 0 < values[1]):
         raise ValueError(f"{system.name}: the point {position} is not an index-1 saddle (Hess V eigenvalues {values})")
     centers = vectors[:, 1:].copy()

@@ -3,7 +3,10 @@
 A section fixes all phase-space coordinates but two (the axes) and one momentum,
 which is solved from the energy with a chosen sign:
 
-    p_s = sign * sqrt(2 (E - V(q)) - sum of the other p_i^2).
+    p_s = sign * sqrt(2 (E - V(q)) - sum of the other p_i^2)
+
+(with a kinetic matrix M, H = p^T M^-1 p / 2 + V = E is a quadratic in p_s, and ``sign`` is
+that of the velocity dq_s/dt; see :func:`solve_momentum`).
 
 Points where the radicand is negative lie outside the energetically allowed
 region and are masked; they are never integrated. The paper's U_xpx (y = 0,
@@ -12,7 +15,7 @@ U_xpx^+ is ``axes=("x", "px"), fixed={"y": y_eq, "z": z_eq, "py": 0},
 solve="pz"``.
 
 The solved coordinate may instead be a position q_s: every momentum is then given, and
-q_s solves V(q) = E - |p|^2 / 2 with the other positions fixed, a 1-D root problem. Which
+q_s solves V(q) = E - p^T M^-1 p / 2 with the other positions fixed, a 1-D root problem. Which
 root is taken is stated (``root``: ``largest``, ``smallest`` or ``nearest`` a value);
 points with no root are not allowed, like those outside the energy surface. If V is a
 polynomial of degree at most 2 in q_s, the roots are a closed form; otherwise they are
@@ -289,14 +292,7 @@ def section_states(
     if solve < n:
         allowed, solved = _solve_position(system, section, states, energy)
     else:
-        potential = np.empty(len(states))
-        positions = np.ascontiguousarray(states[:, :n].T)
-        system.kernels.potential_block(positions, potential, len(states))
-        other_momenta = np.delete(states[:, n:], solve - n, axis=1)
-        radicand = 2.0 * (energy - potential) - np.sum(other_momenta**2, axis=1)
-        allowed = radicand >= 0.0
-        solved = np.zeros(len(states))
-        solved[allowed] = section.sign * np.sqrt(radicand[allowed])
+        allowed, solved = solve_momentum(system, states, solve - n, energy, section.sign)
     states[:, solve] = solved
     shape = grid_first.shape
     return states[allowed], allowed.reshape(shape), solved.reshape(shape)
@@ -315,6 +311,46 @@ def _flow_states(system, section: Section, rows: slice) -> tuple[np.ndarray, np.
     return states, np.ones(grid_first.shape, dtype=bool), None
 
 
+def solve_momentum(
+    system: System, states: np.ndarray, index: int, energy: float, sign: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(allowed, solved)``: the momentum p_index of each row of ``states`` (shape (k, 2 n_dof))
+    with H = ``energy``, the other entries given; ``solved`` is 0 where no real value exists.
+
+    Unit masses: p_s = sign sqrt(2 (E - V) - sum of the other p_i^2). With a kinetic matrix,
+    W = M^-1, H = E is the quadratic W_ss x^2 / 2 + b x + c = 0 in x = p_s, with
+    b = sum_{l != s} W_sl p_l and c = T(other momenta) + V - E, whose roots have the velocity
+    dq_s/dt = W_ss x + b = +-sqrt(b^2 - 2 W_ss c): ``sign`` chooses the sign of that velocity (of
+    p_s itself for diagonal masses, where b = 0). The root is taken in the form without
+    cancellation (x = 2 c / (-b - sign sqrt(D)) where -b and sign sqrt(D) differ in sign).
+    """
+    n = system.n_dof
+    potential = np.empty(len(states))
+    system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
+    solved = np.zeros(len(states))
+    if system.mass_matrix is None:
+        other_momenta = np.delete(states[:, n:], index, axis=1)
+        radicand = 2.0 * (energy - potential) - np.sum(other_momenta**2, axis=1)
+        allowed = radicand >= 0.0
+        solved[allowed] = sign * np.sqrt(radicand[allowed])
+        return allowed, solved
+    inverse = system.inverse_mass
+    others = np.array(states[:, n:], dtype=np.float64)
+    others[:, index] = 0.0
+    w = inverse[index, index]
+    b = others @ inverse[index]
+    c = system.kinetic_energy(others) + potential - energy
+    discriminant = b * b - 2.0 * w * c
+    allowed = discriminant >= 0.0
+    root = sign * np.sqrt(np.where(allowed, discriminant, 0.0))
+    same = (-b) * root >= 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(same, (root - b) / w, 2.0 * c / (-b - root))
+    # -b - root is 0 only where b = root = 0 (then c = 0 and p_s = 0), taken by the first form
+    solved[allowed] = x[allowed]
+    return allowed, solved
+
+
 def _pick(roots: np.ndarray, valid: np.ndarray, section: Section) -> tuple[np.ndarray, np.ndarray]:
     """The root ``section.root`` takes of each row of ``roots`` (candidates where ``valid``)."""
     if section.root == "largest":
@@ -331,7 +367,7 @@ def _pick(roots: np.ndarray, valid: np.ndarray, section: Section) -> tuple[np.nd
 
 
 def _solve_position(system: System, section: Section, states: np.ndarray, energy: float):
-    """``(allowed, solved)``: the position ``section.solve`` with V = E - |p|^2 / 2, the others fixed.
+    """``(allowed, solved)``: the position ``section.solve`` with V = E - p^T M^-1 p / 2, the others fixed.
 
     V quadratic in it: the closed form (both roots, the stable formula). Otherwise, on
     ``section.search``: the sign changes of V - target on SCAN_POINTS samples, then bisection
@@ -340,7 +376,7 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
     """
     n = system.n_dof
     s = system.coordinates.index(section.solve)
-    target = energy - 0.5 * np.sum(states[:, n:] ** 2, axis=1)
+    target = energy - system.kinetic_energy(states[:, n:])
     count = len(states)
     if section.search is None:
         others = [states[:, l] for l in range(n) if l != s]

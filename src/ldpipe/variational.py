@@ -2,8 +2,8 @@
 
 The variational equations dPhi/dt = J(x(t)) Phi, Phi(0) = I are integrated with
 the equations of motion by scipy's DOP853 (``solve_ivp``) at tight tolerances;
-J is the Jacobian of Hamilton's equations, [[0, I], [-Hess V(q), 0]], from the
-system's compiled Hessian. This is the careful, per-trajectory path; the batch
+J is the Jacobian of Hamilton's equations, [[0, M^-1], [-Hess V(q), 0]] (M = I without
+masses), from the system's compiled Hessian. This is the careful, per-trajectory path; the batch
 integrator for many trajectories is :mod:`ldpipe.flow`.
 """
 
@@ -39,6 +39,7 @@ def _rhs_with_stm(system: System) -> Callable:
     m = 2 * n
     gradient = system.kernels.gradient
     hessian = system.kernels.hessian
+    inverse = None if system.mass_matrix is None else system.inverse_mass
 
     def rhs(_t, y):
         q = np.ascontiguousarray(y[:n])
@@ -48,10 +49,14 @@ def _rhs_with_stm(system: System) -> Callable:
         hessian(q, hess)
         phi = y[m:].reshape(m, m)
         out = np.empty_like(y)
-        out[:n] = y[n:m]
         out[n:m] = -grad
         dphi = out[m:].reshape(m, m)
-        dphi[:n] = phi[n:]  # d(Phi_q)/dt = Phi_p
+        if inverse is None:
+            out[:n] = y[n:m]
+            dphi[:n] = phi[n:]  # d(Phi_q)/dt = Phi_p
+        else:
+            out[:n] = inverse @ y[n:m]
+            dphi[:n] = inverse @ phi[n:]  # d(Phi_q)/dt = M^-1 Phi_p
         dphi[n:] = -hess @ phi[:n]  # d(Phi_p)/dt = -Hess V Phi_q
         return out
 
@@ -61,11 +66,12 @@ def _rhs_with_stm(system: System) -> Callable:
 def _rhs(system: System) -> Callable:
     n = system.n_dof
     gradient = system.kernels.gradient
+    inverse = None if system.mass_matrix is None else system.inverse_mass
 
     def rhs(_t, y):
         grad = np.empty(n)
         gradient(np.ascontiguousarray(y[:n]), grad)
-        return np.concatenate([y[n:], -grad])
+        return np.concatenate([y[n:] if inverse is None else inverse @ y[n:], -grad])
 
     return rhs
 

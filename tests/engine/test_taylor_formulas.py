@@ -130,7 +130,8 @@ def test_functions_rewritten_in_the_recurrences_are_taken(formula):
 def test_term_without_recurrence_is_refused():
     # |x|^3 has the force 3 x^2 sign(x): sign has no recurrence. (make_system itself cannot
     # print Abs's Hessian yet, so the scheme sees a system-like record of the formula.)
-    system = SimpleNamespace(name="kinked", formula="Abs(x)**3 + y**2/2", coordinates=("x", "y"), parameters={})
+    system = SimpleNamespace(name="kinked", formula="Abs(x)**3 + y**2/2", coordinates=("x", "y"), parameters={},
+                             mass_matrix=None)
     with pytest.raises(ConfigError, match=r"'kinked'.*sign\(x\)"):
         acceleration_of(system)
 

@@ -223,3 +223,42 @@ def test_cli_refuses_root_and_search_for_a_vector_field(tmp_path, capsys):
                  "--root", "largest", "--quiet", "-o", str(out)]) == 2
     assert "--root: system 'saddle' is a vector field with no energy" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_map_with_masses_solves_momenta_with_them_and_records_them(tmp_path):
+    # Barbanis with m_x = m_y = 8. Closed form of the solved momentum on y = -7 (diagonal masses):
+    # p_y = sqrt(8 (2 (E - V(x, -7)) - p_x^2 / 8)). The LD (p = 1, M_1) at every allowed point against
+    # scipy's DOP853 on Hamilton's equations written out here (dq/dt = p / 8, dp/dt = -grad V).
+    from support.scipy_reference import m1_and_arclength
+
+    spec = {"builtin": "barbanis_2dof", "masses": {"x": 8.0, "y": 8.0}}
+    ld_map = small_config(p=1.0, time="fixed", tau=4.0)["ld_maps"]["m"]
+    ld_map = {**ld_map, "system": "barbanis_m8", "region": {}}
+    ld_map["section"]["axes"] = [{"name": "x", "range": [5.0, 5.8], "points": 4},
+                                 {"name": "px", "range": [-1.0, 1.0], "points": 5}]
+    config = validate_config({"systems": {"barbanis_m8": spec}, "ld_maps": {"m": ld_map}})
+    system = make_system("barbanis_m8", spec)
+    parameters = ld_map_parameters(config, "m")
+    dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
+    stored = open_stage_file(write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False), stage="ld_grid")
+    assert stored.attrs["mass_matrix"] == "[[8.0, 0.0], [0.0, 8.0]]"
+    assert stage_parameters(stored)["system_spec"]["masses"] == {"x": 8.0, "y": 8.0}
+    energy = float(stored.attrs["energy"])
+    x, px = np.meshgrid(stored.x.values, stored.px.values, indexing="ij")
+    y = -7.0
+    potential = x**2 / 2 + 1.21 * y**2 / 2 - 0.11 * x * y**2
+    radicand = 8.0 * (2.0 * (energy - potential) - px**2 / 8.0)
+    allowed = stored.allowed.values.astype(bool)
+    np.testing.assert_array_equal(allowed, radicand >= 0)
+    assert 6 <= allowed.sum() < allowed.size
+    py = stored.py.values
+    np.testing.assert_allclose(py[allowed], np.sqrt(radicand[allowed]), rtol=1e-13)
+
+    def field(s):
+        sx, sy, spx, spy = s
+        return np.array([spx / 8.0, spy / 8.0, -(sx - 0.11 * sy * sy), -(1.21 * sy - 0.22 * sx * sy)])
+
+    for i, j in zip(*np.nonzero(allowed)):
+        state = np.array([x[i, j], y, px[i, j], py[i, j]])
+        forward, _ = m1_and_arclength(field, state, 4.0)
+        assert abs(stored.ld_forward.values[i, j] - forward) / forward < 1e-6

@@ -1,5 +1,7 @@
 """Manifolds of the Lyapunov orbits: start on the orbit, separate at the Floquet rate, cut the section."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -13,6 +15,7 @@ from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.systems import make_system
 
 EXCESS = 0.125
 EPSILON = 1e-6
@@ -172,3 +175,35 @@ def test_stage_writes_manifolds_from_the_upo_file(tmp_path):
     assert data.attrs["excess_energy"] == pytest.approx(2.25, abs=1e-11)
     assert dict(data.trajectory.sizes) == {"manifold": 2, "branch": 2, "point": 8, "sample": 10, "phase": 4}
     assert list(data.manifold.values) == ["stable", "unstable"]
+
+
+def test_manifolds_with_equal_masses(barbanis, bottom):
+    # H = |p|^2 / 16 + V (m_x = m_y = 8) is the unit-mass system slowed down by sqrt(8) (same energy,
+    # q(t) = q_unit(t / sqrt(8))): the orbit's Floquet multiplier is the unit-mass one (an identity,
+    # the exponent times the period is unchanged). The manifolds leave the orbit at that rate and cut
+    # y = 0 with p_y > 0 on this H's energy surface (H written out here).
+    massive = make_system(
+        "barbanis_m8", {"builtin": "barbanis_2dof", "masses": {"x": 8.0, "y": 8.0}})
+    orbit = orbit_at(massive, -1)
+    unit_orbit, unit_data = bottom
+    assert orbit.period == pytest.approx(np.sqrt(8.0) * unit_orbit.period, rel=1e-10)
+    # the same motion sqrt(8) times slower: the unit-mass test's time span scaled to reach the section
+    settings = replace(SETTINGS, time=np.sqrt(8.0) * SETTINGS.time)
+    data = manifold_dataset(massive, orbit.initial_state, orbit.period, settings, FLOW)
+    lam = data.attrs["unstable_multiplier"]
+    assert lam == pytest.approx(unit_data.attrs["unstable_multiplier"], rel=1e-7)
+    start = start_states(massive, orbit.initial_state, orbit.period, settings)
+    states = start["starts"][1].reshape(-1, 4)
+    result = integrate(massive, states, orbit.period, FlowSettings(rtol=1e-13, atol=1e-13),
+                       sample_times=np.array([0.0, orbit.period]))
+    orbit_points = np.tile(start["orbit"], (2, 1))
+    ratio = (np.linalg.norm(result.samples[:, 1] - orbit_points, axis=1)
+             / np.linalg.norm(result.samples[:, 0] - orbit_points, axis=1))
+    np.testing.assert_allclose(ratio, lam, rtol=1e-3)
+    valid = data.section_valid.values
+    cuts = data.section_state.values[valid]
+    assert valid[:, 0, 0].all()
+    assert np.all(np.abs(cuts[:, 1]) < 1e-12) and np.all(cuts[:, 3] > 0)
+    x, y = cuts[:, 0], cuts[:, 1]
+    energies = (cuts[:, 2] ** 2 + cuts[:, 3] ** 2) / 16.0 + x**2 / 2 + 1.21 * y**2 / 2 - 0.11 * x * y**2
+    np.testing.assert_allclose(energies, orbit.energy, atol=1e-7)

@@ -281,3 +281,36 @@ def test_cli_runs_detection_refinement_and_validation(barbanis_files, tmp_path, 
     # Beyond the tolerance: exit status 2 and a message naming the slice and the distance.
     assert main([*arguments, "--validate", "1e-13"]) == 2
     assert "cli/k-7.2: distance to the periodic orbit's crossing" in capsys.readouterr().err
+
+
+def test_linear_saddle_with_masses():
+    # H = p_x^2 / (2 m_x) + p_y^2 / (2 m_y) - kap x^2 / 2 + w^2 y^2 / 2: x(t) = A e^{lam t} + B e^{-lam t}
+    # with lam = sqrt(kap / m_x) and p_x = m_x dx/dt, so A = (x + p_x / (m_x lam)) / 2: the stable
+    # manifold is p_x = -m_x lam x, the unstable p_x = +m_x lam x, the NHIM point (0, 0) (closed form,
+    # the module docstring's with p_x / lam replaced by p_x / (m_x lam)).
+    mx, my, kap = 4.0, 2.0, 9.0
+    lam = np.sqrt(kap / mx)  # 1.5
+    system = make_system("linear_saddle_masses", {
+        "formula": "-kap*x**2/2 + w**2*y**2/2", "coordinates": ["x", "y"], "parameters": {"kap": kap, "w": OMEGA},
+        "masses": {"x": mx, "y": my},
+    })
+    section = Section(axes=("x", "px"), ranges=((-0.5, 0.5), (-2.0, 2.0)), shape=(41, 41), fixed={"y": 0.3},
+                      solve="py", sign=1)
+    ld_settings = LDSettings(rtol=1e-10, atol=1e-10, tau=20.0, region_lower=(-1.0, -2.0), region_upper=(1.0, 2.0))
+    problem = nhim.make_slice_problem("linear_masses", system, section, ENERGY, 0.0, np.zeros(2), ld_settings)
+    rng = np.random.default_rng(5)
+    points = rng.uniform(-0.4, 0.4, size=(30, 2)) * [1.0, 4.0]
+    orientation = np.sign(problem.reaction[0])
+    forward, _ = nhim.exit_fates(problem, points, +1, SETTINGS)
+    backward, _ = nhim.exit_fates(problem, points, -1, SETTINGS)
+    np.testing.assert_array_equal(forward, orientation * np.sign(points[:, 0] + points[:, 1] / (mx * lam)))
+    np.testing.assert_array_equal(backward, orientation * np.sign(points[:, 0] - points[:, 1] / (mx * lam)))
+    c = np.array([0.4, -0.8])
+    starts = np.column_stack([np.full(2, -0.4), c])
+    ends = np.column_stack([np.full(2, 0.4), c])
+    found, widths = nhim.bisect_fate_switch(problem, starts, ends, +1, SETTINGS)
+    np.testing.assert_allclose(found[:, 0], -c / (mx * lam), atol=SETTINGS.bisection_precision)
+    refined = nhim.refine_by_fates(problem, np.array([0.03, -0.1]), SETTINGS)
+    assert np.linalg.norm(refined.point) <= SETTINGS.tolerance
+    slope = mx * lam
+    assert refined.angle == pytest.approx(np.arccos(abs(1 - slope**2) / (1 + slope**2)), abs=1e-6)

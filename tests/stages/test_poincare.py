@@ -205,3 +205,41 @@ def test_a_trajectory_does_not_depend_on_its_batch(barbanis):
             np.testing.assert_array_equal(alone.crossing_times[0], batch.crossing_times[k])
             assert (alone.steps[0], alone.status[0], alone.final_time[0]) == (batch.steps[k], batch.status[k],
                                                                                 batch.final_time[k])
+
+
+def test_stage_with_a_coupled_kinetic_matrix(tmp_path):
+    # H = p^T M^-1 p / 2 + V with M = [[1.5, 0.5], [0.5, 1.5]]: every crossing lies on y = 0 with
+    # dy/dt = (M^-1 p)_y > 0 (the section's direction is the velocity's) and on the energy surface of
+    # this H (written out here with numpy's inverse); the initial conditions too (their solved p_y
+    # has dy/dt of the default sign +1). The file records the matrix.
+    mass = np.array([[1.5, 0.5], [0.5, 1.5]])
+    spec = {"builtin": "barbanis_2dof", "mass_matrix": mass.tolist()}
+    config = validate_config({
+        "systems": {"barbanis_coupled": spec},
+        "poincare_sections": {"p": {
+            "system": "barbanis_coupled", "energy": {"excess": -0.125}, "time": 40, "max_crossings": 10,
+            "initial_conditions": {"axes": [{"name": "x", "range": [-4, 4], "points": 4},
+                                            {"name": "px", "range": [-4, 4], "points": 4}],
+                                   "fixed": {"y": 0.0}, "solve": "py"},
+        }},
+    })
+    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_coupled"), output=tmp_path / "eq.nc")
+    path = poincare_stage.run_poincare(**poincare_stage.poincare_parameters(config, "p"), equilibria=equilibria,
+                                       output=tmp_path / "p.nc")
+    data = open_stage_file(path, stage=contracts.POINCARE)
+    assert data.attrs["mass_matrix"] == "[[1.5, 0.5], [0.5, 1.5]]"
+    inverse = np.linalg.inv(mass)
+
+    def energy(s):
+        x, y, p = s[0], s[1], s[2:]
+        return 0.5 * p @ inverse @ p + x**2 / 2 + 1.21 * y**2 / 2 - 0.11 * x * y**2
+
+    initial = data.initial_state.values
+    assert len(initial) >= 8
+    np.testing.assert_allclose([energy(s) for s in initial], EC - 0.125, atol=1e-12)
+    assert np.all((initial[:, 2:] @ inverse.T)[:, 1] >= 0)
+    states = data.crossing_state.values[data.crossing_valid.values]
+    assert len(states) > 50
+    assert np.all(np.abs(states[:, 1]) < 1e-12)
+    assert np.all((states[:, 2:] @ inverse.T)[:, 1] > 0)
+    np.testing.assert_allclose([energy(s) for s in states], EC - 0.125, atol=1e-8)

@@ -235,3 +235,26 @@ def test_cli_subcommands_write_stage_files(tmp_path):
     args = parser.parse_args(["upo", "--config", str(config), "--family", "nope", "-o", str(tmp_path / "x.nc")])
     with pytest.raises(ConfigError, match="no entry 'nope' under 'periodic_orbits'"):
         args.handler(args)
+
+
+def test_stage_with_equal_masses_scales_the_periods(tmp_path, bottom):
+    # m_x = m_y = 8: the unit-mass orbit at the same energy, sqrt(8) times slower (q(t) = q_unit(t / sqrt 8),
+    # p = sqrt(8) p_unit): periods times sqrt(8), the same Floquet multipliers, the same initial
+    # positions (brake orbits start at rest). The file records the matrix and the stored samples lie on
+    # H = |p|^2 / 16 + V.
+    spec = {"builtin": "barbanis_2dof", "masses": {"x": 8.0, "y": 8.0}}
+    config = validate_config({"systems": {"barbanis_m8": spec}, "periodic_orbits": {"heavy": {
+        "system": "barbanis_m8", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}, "samples": 40}}})
+    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_m8"), output=tmp_path / "eq.nc")
+    path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "heavy"), equilibria=equilibria,
+                             output=tmp_path / "heavy.nc")
+    data = open_stage_file(path, stage=contracts.UPO)
+    assert data.attrs["mass_matrix"] == "[[8.0, 0.0], [0.0, 8.0]]"
+    _, orbits = bottom
+    unit = orbits[0.125]
+    assert float(data.period.values[0]) == pytest.approx(np.sqrt(8.0) * unit.period, rel=1e-11)
+    np.testing.assert_allclose(data.initial_state.values[0, :2], unit.initial_state[:2], atol=1e-9)
+    trajectory = data.trajectory.values[0]
+    x, y = trajectory[:, 0], trajectory[:, 1]
+    energy = (trajectory[:, 2] ** 2 + trajectory[:, 3] ** 2) / 16 + x**2 / 2 + 1.21 * y**2 / 2 - 0.11 * x * y**2
+    np.testing.assert_allclose(energy, 15.125 + 0.125, atol=1e-10)

@@ -87,3 +87,25 @@ def linear_saddle_ld(x0: float, y0: float, lam: float, tau: float, p: float, dir
 def forced_growth_solution(x0: float, t0: float, t: float) -> float:
     """x(t) of dx/dt = (1 + cos t) x with x(t0) = x0: x0 exp(t - t0 + sin t - sin t0)."""
     return x0 * math.exp(t - t0 + math.sin(t) - math.sin(t0))
+
+
+def massive_harmonic_ld(state, stiffnesses, masses, tau: float, p: float) -> float:
+    """Closed-form M_p over [0, tau] of uncoupled oscillators V = sum k_i q_i^2 / 2 with masses m_i.
+
+    H = sum p_i^2 / (2 m_i) + k_i q_i^2 / 2: q = A cos(w t + phase) with w = sqrt(k / m) and
+    q'(0) = p0 / m, so A = hypot(q0, p0 / (m w)); the velocity components are q' = A w cos(w t +
+    phase + pi/2) and p' = -k q = A k cos(w t + phase + pi), each of the form C cos(w t + psi).
+    With every m = 1 this is :func:`harmonic_ld`.
+    """
+    n = len(stiffnesses)
+    total = 0.0
+    for q0, p0, k, m in zip(state[:n], state[n:], stiffnesses, masses):
+        w = math.sqrt(k / m)
+        v0 = p0 / m
+        amplitude = math.hypot(q0, v0 / w)
+        if amplitude == 0.0:
+            continue
+        phase = math.atan2(-v0 / w, q0)
+        for c, psi in ((amplitude * w, phase + math.pi / 2), (amplitude * k, phase + math.pi)):
+            total += c**p / w * (cos_power_antiderivative(w * tau + psi, p) - cos_power_antiderivative(psi, p))
+    return total

@@ -65,6 +65,22 @@ def test_quick_run_then_rerun_only_what_changed(quick_run):
     assert "output: results/barbanis_2dof/equilibria.nc" not in result.stdout
 
 
+def test_adding_masses_reruns_that_system_only(quick_run):
+    # Provenance sees the kinetic matrix: masses on Hénon-Heiles rerun its equilibria (and what reads
+    # them), nothing of Barbanis (a dry run on a changed copy; the shared run's results stay).
+    workdir, result = quick_run
+    assert result.returncode == 0, result.stderr
+    quick = (workdir / "config.quick.yaml").read_text().replace(
+        "    parameters: {lam: 1.0}\n", "    parameters: {lam: 1.0}\n    masses: {x: 2.0}\n")
+    assert "masses: {x: 2.0}" in quick
+    (workdir / "config.masses.yaml").write_text(quick)
+    result = snakemake(workdir, "--configfile", "config.masses.yaml", "-n")
+    assert result.returncode == 0, result.stderr
+    assert job_count(result.stdout, "equilibria") == 1
+    assert "output: results/henon_heiles/equilibria.nc" in result.stdout
+    assert "output: results/barbanis_2dof/equilibria.nc" not in result.stdout
+
+
 def test_bad_config_stops_before_anything_runs(workdir):
     config = (workdir / "config.yaml").read_text().replace("delta: -0.11", "delta: minus")
     (workdir / "config.yaml").write_text(config)

@@ -9,6 +9,7 @@ import numpy as np
 
 from .integrator import get_runner, run_units
 from .integrands import integrand_for
+from .kinetic import to_engine_states, to_momenta
 from .quadrature import folded_jacobi_rule, legendre_rule
 from .settings import LDSettings
 
@@ -70,6 +71,9 @@ def compute_ld(
     system, initial_states, direction: int = 1, settings: LDSettings | None = None, t0: float = 0.0
 ) -> LDResult:
     """Lagrangian descriptors of many trajectories of a natural Hamiltonian system or a general flow.
+
+    The LD integrand is over the phase-space velocity (dq/dt, dp/dt) = (M^-1 p, -grad V)
+    of H = p^T M^-1 p / 2 + V (M = I without masses).
 
     Parameters
     ----------
@@ -171,7 +175,9 @@ def compute_ld(
         gjf,
         settings.quadrature_window,
     )
-    run_units(runner, states, unit, args, outputs, get_num_threads())
+    # With masses the drivers carry (q, M^-1 p) (ldpipe.engine.kinetic); results are in (q, p).
+    run_units(runner, to_engine_states(system, states), unit, args, outputs, get_num_threads())
+    to_momenta(system, outputs[7])
     return LDResult(*outputs)
 
 

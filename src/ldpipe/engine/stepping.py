@@ -16,7 +16,8 @@ Every scheme provides, as compiled code (:class:`SchemeSource`; assembled and co
     one step from (q, p) with acc = a(q) to (qn, pn), accn = a(qn), the scaled error
     estimate ``err`` (0 for fixed-step schemes), and the velocity polynomials
     ``VC[k, c, j]`` in x = (t - t0)/h of the 2 n_dof phase-space velocity components
-    (q', p') = (p, a(q)), k = 0..nc-1.
+    (q', p') = (p, a(q)), k = 0..nc-1. (With masses the p carried is M^-1 p, a = -M^-1 grad V,
+    and the kinetic section turns the p' rows into M a: :mod:`ldpipe.engine.kinetic`.)
 ``qpoly(W)``
     the configuration polynomials ``QC[k, i, j]`` of the same step (for event location),
     from what ``attempt`` left in the workspace.

@@ -19,7 +19,7 @@ def orbit_section_crossing(
 
     The section must fix one coordinate q_j and solve its conjugate momentum p_j with a sign s
     (as U_xpx^+(k): y = k, p_y > 0): the crossing is the orbit's passage through q_j = value with
-    dq_j/dt = p_j of sign s. It is the engine's exit (DOP853 at ``rtol``, ``atol``; the crossing
+    dq_j/dt (= p_j without masses) of sign s. It is the engine's exit (DOP853 at ``rtol``, ``atol``; the crossing
     located on the step's interpolant to machine precision, :attr:`LDResult.end_state`) from the
     half-space s (q_j - value) <= 0 through its face q_j = value; an orbit starting in the other
     half-space is first run out of that one.
@@ -72,7 +72,7 @@ def orbit_section_residual(problem: SliceProblem, samples: np.ndarray) -> tuple[
     -------
     residual : float
         Smallest over the samples of the largest |coordinate - fixed value| (0 on the section),
-        counting only samples whose solved momentum has the section's sign.
+        counting only samples whose solved coordinate's velocity has the section's sign.
     point : ndarray, shape (2,)
         The section coordinates of that sample.
     """
@@ -80,7 +80,10 @@ def orbit_section_residual(problem: SliceProblem, samples: np.ndarray) -> tuple[
     columns = [phase.index(name) for name in problem.section.fixed]
     values = np.array(list(problem.section.fixed.values()))
     residual = np.max(np.abs(samples[:, columns] - values), axis=1)
-    sign_ok = problem.section.sign * samples[:, phase.index(problem.section.solve)] > 0
+    # the section's sign is that of the velocity dq_s/dt of the solved momentum's coordinate (= p_s without masses)
+    n = problem.system.n_dof
+    velocities = problem.system.velocity(samples[:, n:])
+    sign_ok = problem.section.sign * velocities[:, phase.index(problem.section.solve) - n] > 0
     residual = np.where(sign_ok, residual, np.inf)
     best = int(np.argmin(residual))
     axes = [phase.index(a) for a in problem.section.axes]

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..engine import LDSettings
 from ..periodic_orbits import linearize_saddle
-from ..sections import Section
+from ..sections import Section, solve_momentum
 from ..systems import System
 
 
@@ -97,12 +97,8 @@ def section_point_states(problem: SliceProblem, points: np.ndarray) -> tuple[np.
     for name, value in section.fixed.items():
         states[:, phase.index(name)] = value
     solve = phase.index(section.solve)
-    potential = np.empty(len(states))
-    system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
-    other = np.delete(states[:, n:], solve - n, axis=1)
-    radicand = 2.0 * (problem.energy - potential) - np.sum(other**2, axis=1)
-    allowed = radicand >= 0.0
-    states[allowed, solve] = section.sign * np.sqrt(radicand[allowed])
+    allowed, solved = solve_momentum(system, states, solve - n, problem.energy, section.sign)
+    states[allowed, solve] = solved[allowed]
     return states, allowed
 
 

@@ -142,6 +142,7 @@ def compute_ld_map(
                               t0=info["t0"])
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
+    dataset.attrs.update(system.kinetic_attributes())
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
 

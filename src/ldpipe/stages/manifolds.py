@@ -79,7 +79,7 @@ def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = 
     dataset.attrs.update({
         "family": data.attrs["family"], "system": system.name, "excess_energy": float(data.excess_energy.values[index]),
         "critical_energy": float(data.attrs["critical_energy"]), "rtol": flow.rtol, "atol": flow.atol,
-        "escape_radius": flow.escape_radius,
+        "escape_radius": flow.escape_radius, **system.kinetic_attributes(),
     })
     log.info("unstable multiplier %.12g; %d of %d trajectories escaped", dataset.attrs["unstable_multiplier"],
              int(dataset.escaped.sum()), dataset.escaped.size)

@@ -273,6 +273,7 @@ def run_nhim_study(
         records.append(analyse_slice(problem, data.ld_forward.values, data.ld_backward.values,
                                      data.allowed.values.astype(bool), axes, references, settings, zoom=zoom))
     dataset = _study_dataset(records, phase)
+    dataset.attrs.update(problem.system.kinetic_attributes())
     dataset.attrs.update({f"refinement_{k}": (int(v) if isinstance(v, bool) else v) for k, v in refinement.items()})
     dataset.attrs["study"] = study
     recorded = {"study": study, "refinement": refinement, "maps": [str(m) for m in maps], "derived": derived or [],

@@ -87,6 +87,7 @@ def _poincare(key: str, system, energy, critical_energy, t0: float, threads, par
         threads=threads or numba.get_num_threads(), t0=t0,
     )
     dataset.attrs["system"] = system.name
+    dataset.attrs.update(system.kinetic_attributes())
     if critical_energy is not None:
         dataset.attrs.update({"critical_energy": critical_energy, "excess_energy": energy - critical_energy})
     log.info("%d trajectories, %d escaped, %d crossings", dataset.sizes["trajectory"], int(dataset.escaped.sum()),

@@ -253,7 +253,7 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
             "well_position": well, "centre_frequencies": frequencies,
             "critical_energy": float(orbits.attrs["critical_energy"]),
             "section_coordinate": section["coordinate"], "section_value": float(section["value"]),
-            "section_direction": int(section["direction"]),
+            "section_direction": int(section["direction"]), **system.kinetic_attributes(),
         },
     )
     title = f"Flux over the saddle of {orbits.attrs['family']}: action, reactive-island area, Monte Carlo"

@@ -151,6 +151,7 @@ def _dataset(system, saddle, family, targets, orbits, parameters) -> xr.Dataset:
         "held_coordinate": system.coordinates[family.held],
         "tolerance": family.settings.tolerance, "energy_tolerance": parameters["energy_tolerance"],
         "rtol": family.settings.rtol, "atol": family.settings.atol,
+        **system.kinetic_attributes(),
     })
     return data
 

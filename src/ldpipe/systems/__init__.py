@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from functools import lru_cache
 
 from ..errors import ConfigError
@@ -15,6 +16,7 @@ from .base import Kernels, System
 from .builtin import BUILTINS, make_builtin
 from .formula import make_formula_system
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
+from .kinetic import kinetic_matrix
 
 __all__ = [
     "BUILTINS", "Kernels", "System", "VectorFieldSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
@@ -67,15 +69,23 @@ def _make_system_cached(name: str, spec_json: str, key: str) -> System | VectorF
         if builtin not in BUILTINS:
             raise ConfigError(f"config key '{key}.builtin': unknown system {builtin!r}; expected one of {sorted(BUILTINS)}")
         check_builtin_parameters(builtin, parameters, key)
-        return make_builtin(name, builtin, {**BUILTINS[builtin]["defaults"], **parameters}, spec)
+        mass_matrix = kinetic_matrix(spec, BUILTINS[builtin]["coordinates"], key)
+        system = make_builtin(name, builtin, {**BUILTINS[builtin]["defaults"], **parameters}, spec)
+        return system if mass_matrix is None else replace(system, mass_matrix=mass_matrix)
     coordinates = spec.get("coordinates")
     if not coordinates or not all(isinstance(c, str) and c.isidentifier() for c in coordinates):
         raise ConfigError(f"config key '{key}.coordinates': expected a list of coordinate names, got {coordinates!r}")
     if len(set(coordinates)) != len(coordinates):
         raise ConfigError(f"config key '{key}.coordinates': names repeat in {coordinates!r}")
     if "vector_field" in spec:
+        given = [k for k in ("masses", "mass_matrix") if k in spec]
+        if given:
+            raise ConfigError(f"config key '{key}.{given[0]}': a vector field has no kinetic energy to give masses to; "
+                              "write them into its formulas")
         return make_vector_field_system(name, spec["vector_field"], tuple(coordinates), parameters, spec, key)
-    return make_formula_system(name, spec["formula"], tuple(coordinates), parameters, spec, key)
+    mass_matrix = kinetic_matrix(spec, tuple(coordinates), key)
+    system = make_formula_system(name, spec["formula"], tuple(coordinates), parameters, spec, key)
+    return system if mass_matrix is None else replace(system, mass_matrix=mass_matrix)
 
 
 def system_from_config(config: dict, name: str) -> System:

@@ -1,4 +1,4 @@
-"""The natural Hamiltonian H = |p|^2/2 + V(q) as ldpipe sees it.
+"""The natural Hamiltonian H = p^T M^-1 p / 2 + V(q) as ldpipe sees it (M constant; the identity by default).
 
 A :class:`System` carries compiled kernels for the potential and its first two
 derivatives. Every kernel bakes the parameters in as compile-time constants, so
@@ -22,6 +22,7 @@ Kernel signatures (all numba ``njit`` functions, float64 throughout):
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass, field
 from typing import Callable, ClassVar, NamedTuple
@@ -29,6 +30,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ..jitcache import load_generated_module
+from .kinetic import inverse_of
 
 
 class Kernels(NamedTuple):
@@ -76,6 +78,10 @@ class System:
         derived closed form; None where only a numeric search is available.
     formula : str or None
         The potential as text, for formula systems.
+    mass_matrix : tuple of tuples of float, or None
+        The constant kinetic matrix M of H = p^T M^-1 p / 2 + V (rows in coordinate order,
+        symmetric positive definite; :mod:`ldpipe.systems.kinetic`); None for the identity,
+        which keeps every code path of unit masses as it was (bit-identical results).
     """
 
     name: str
@@ -87,6 +93,7 @@ class System:
     closed_form_equilibria: Callable[[], np.ndarray] | None = None
     formula: str | None = None
     spec: dict = field(default_factory=dict)
+    mass_matrix: tuple[tuple[float, ...], ...] | None = None
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
@@ -116,21 +123,69 @@ class System:
         self.kernels.hessian(np.ascontiguousarray(q, dtype=np.float64), out)
         return out
 
+    @property
+    def mass(self) -> np.ndarray:
+        """The kinetic matrix M, shape ``(n_dof, n_dof)`` (the identity without masses)."""
+        return np.eye(self.n_dof) if self.mass_matrix is None else np.array(self.mass_matrix)
+
+    @property
+    def inverse_mass(self) -> np.ndarray:
+        """M^-1 (exact reciprocals for diagonal masses)."""
+        return np.eye(self.n_dof) if self.mass_matrix is None else inverse_of(np.array(self.mass_matrix))
+
+    def kinetic_attributes(self) -> dict[str, str]:
+        """What a stage file records of the kinetic matrix: nothing for unit masses (their files are
+        as they were), else ``mass_matrix`` (the rows, as JSON) and the Hamiltonian's form."""
+        if self.mass_matrix is None:
+            return {}
+        return {
+            "mass_matrix": json.dumps([list(row) for row in self.mass_matrix]),
+            "hamiltonian": "H = p^T M^-1 p / 2 + V(q), M = mass_matrix (rows in coordinate order)",
+        }
+
+    def velocity(self, momenta: np.ndarray) -> np.ndarray:
+        """dq/dt = M^-1 p, for momenta of shape ``(..., n_dof)``."""
+        momenta = np.asarray(momenta, dtype=np.float64)
+        return momenta if self.mass_matrix is None else momenta @ self.inverse_mass.T
+
+    def kinetic_energy(self, momenta: np.ndarray) -> np.ndarray | float:
+        """p^T M^-1 p / 2, for momenta of shape ``(..., n_dof)``."""
+        momenta = np.asarray(momenta, dtype=np.float64)
+        if self.mass_matrix is None:
+            return 0.5 * np.sum(momenta**2, axis=-1)
+        return 0.5 * np.sum(momenta * self.velocity(momenta), axis=-1)
+
     def energy(self, state: np.ndarray) -> float:
         """H at one phase-space point ``state = (q, p)``, shape ``(2 n_dof,)``."""
         state = np.asarray(state, dtype=np.float64)
         momentum = state[self.n_dof :]
-        return 0.5 * float(momentum @ momentum) + self.potential(state[: self.n_dof])
+        if self.mass_matrix is None:
+            return 0.5 * float(momentum @ momentum) + self.potential(state[: self.n_dof])
+        return float(self.kinetic_energy(momentum)) + self.potential(state[: self.n_dof])
 
     def vector_field(self, state: np.ndarray) -> np.ndarray:
-        """Hamilton's equations: d(q, p)/dt = (p, -dV/dq)."""
+        """Hamilton's equations: d(q, p)/dt = (M^-1 p, -dV/dq)."""
         state = np.asarray(state, dtype=np.float64)
-        return np.concatenate([state[self.n_dof :], -self.gradient(state[: self.n_dof])])
+        return np.concatenate([self.velocity(state[self.n_dof :]), -self.gradient(state[: self.n_dof])])
 
     def jacobian(self, state: np.ndarray) -> np.ndarray:
-        """Jacobian of the vector field, [[0, I], [-Hess V, 0]]; it depends on q only."""
+        """Jacobian of the vector field, [[0, M^-1], [-Hess V, 0]]; it depends on q only."""
         n = self.n_dof
         matrix = np.zeros((2 * n, 2 * n))
-        matrix[:n, n:] = np.eye(n)
+        matrix[:n, n:] = self.inverse_mass
         matrix[n:, :n] = -self.hessian(np.asarray(state, dtype=np.float64)[:n])
         return matrix
+
+    def normal_modes(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The generalized eigenproblem Hess V u = h M u at ``q``: h ascending, u as columns.
+
+        At an equilibrium, J (u, beta M u) = beta (u, beta M u) with beta^2 = -h, J the
+        :meth:`jacobian`: h < 0 a saddle rate sqrt(-h), h > 0 a frequency sqrt(h)
+        (det(Hess V - omega^2 M) = 0). The u are M-orthonormal (orthonormal for M = I).
+        """
+        hessian = self.hessian(q)
+        if self.mass_matrix is None:
+            return np.linalg.eigh(hessian)
+        from scipy.linalg import eigh
+
+        return eigh(hessian, self.mass)

@@ -144,6 +144,10 @@ class VectorFieldSystem:
     def time_dependent(self) -> bool:
         return any(sympy.Symbol(TIME, real=True) in e.free_symbols for e in self.expressions)
 
+    def kinetic_attributes(self) -> dict[str, str]:
+        """A flow has no kinetic matrix: stage files record nothing of one (as for unit masses)."""
+        return {}
+
     def vector_field(self, state: np.ndarray, t: float = 0.0) -> np.ndarray:
         out = np.empty(self.n_state)
         self.rhs(np.ascontiguousarray(state, dtype=np.float64), float(t), out)

@@ -76,7 +76,7 @@ class Acceleration:
 
 
 def acceleration_of(system) -> Acceleration | ExpressionSeries:
-    """The acceleration -grad V of ``system``, from its formula: as polynomials if it is one,
+    """The acceleration -M^-1 grad V of ``system`` (-grad V without masses), from its formula: as polynomials if it is one,
     else as series nodes (:func:`expression_series`; ConfigError for a term it cannot take)."""
     from ...systems.formula import parse_potential
 
@@ -84,16 +84,23 @@ def acceleration_of(system) -> Acceleration | ExpressionSeries:
         raise ValueError(f"scheme 'taylor': system {system.name!r} has no formula for V; use dop853")
     expression = parse_potential(system.formula, system.coordinates, system.parameters, f"systems.{system.name}")
     symbols = [sympy.Symbol(name, real=True) for name in system.coordinates]
+    accelerations = [-sympy.diff(expression, s) for s in symbols]
+    if system.mass_matrix is not None:
+        # q'' = -M^-1 grad V (ldpipe.engine.kinetic): the series of q' is that of M^-1 p.
+        inverse = system.inverse_mass
+        accelerations = [
+            sum((sympy.Float(float(c), 17) * f for c, f in zip(inverse[i], accelerations) if c != 0.0), sympy.Integer(0))
+            for i in range(len(symbols))
+        ]
     terms = []
-    for symbol in symbols:
+    for acceleration in accelerations:
         try:
             # numeric coefficients first: pi * x or sqrt(2) * x is a polynomial over the reals
-            polynomial = sympy.Poly(sympy.N(-sympy.diff(expression, symbol), 17), *symbols)
+            polynomial = sympy.Poly(sympy.N(acceleration, 17), *symbols)
         except sympy.PolynomialError:
             polynomial = None
         if polynomial is None or not polynomial.domain.is_Numerical:
-            gradient = [-sympy.diff(expression, s) for s in symbols]
-            return expression_series(gradient, symbols, system.name, system.formula)
+            return expression_series(accelerations, symbols, system.name, system.formula)
         terms.append(tuple((tuple(m), float(c)) for m, c in polynomial.terms() if float(c) != 0.0))
 
     products: list[tuple[tuple[str, int], tuple[str, int]]] = []
