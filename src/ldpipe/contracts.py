@@ -43,6 +43,10 @@ UPO = StageFile("upo", (
 MANIFOLDS = StageFile("manifolds", ("trajectory", "start_state", "section_state", "section_valid", "orbit_state"))
 POINCARE = StageFile("poincare", ("initial_state", "crossing_state", "crossing_valid", "crossing_count", "escaped"))
 NHIM = StageFile("nhim", ("refined_point", "reference_point", "distance_refined", "residence_forward"))
+NHIM_SAMPLING = StageFile("nhim_sampling", (
+    "fixed_values", "sign", "status", "reason", "slice_of_point", "state", "section_point", "uncertainty",
+    "energy_residual",
+))
 TRANSPORT = StageFile("transport", (
     "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
     "flux_harmonic", "island", "well_volume", "rate_tst",
@@ -54,5 +58,5 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, TRANSPORT, ACCURACY_COST,
+    EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_SAMPLING, TRANSPORT, ACCURACY_COST,
 )}
