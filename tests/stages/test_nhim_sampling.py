@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
@@ -27,6 +28,8 @@ from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_
 from ldpipe.sections import Section
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.nhim_sampling import nhim_sampling_parameters, run_nhim_sampling
+from ldpipe.stages.upo import run_upo, upo_parameters
+from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system
 
 LAM, W1, W2 = 1.5, 1.0, 1.3
@@ -172,7 +175,9 @@ def test_continuation_agrees_with_a_whole_window_detection(bc_base):
     assert bc_base.system.energy(second.state) == pytest.approx(BC_ENERGY, abs=1e-12)
 
 
-def test_stage_writes_points_only_for_non_degenerate_slices(tmp_path):
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory):
+    tmp_path = tmp_path_factory.mktemp("sampling")
     config = validate_config({
         "systems": {"barbanis_contopoulos_3dof": {"builtin": "barbanis_contopoulos_3dof"}},
         "ld_maps": {"fig5_xpx": {
@@ -190,6 +195,11 @@ def test_stage_writes_points_only_for_non_degenerate_slices(tmp_path):
     equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_contopoulos_3dof"), output=tmp_path / "eq.nc")
     parameters = nhim_sampling_parameters(config, "small")
     path = run_nhim_sampling(**parameters, equilibria=equilibria, output=tmp_path / "small.nc")
+    return config, equilibria, path
+
+
+def test_stage_writes_points_only_for_non_degenerate_slices(small_study):
+    config, _, path = small_study
     data = open_stage_file(path, stage="nhim_sampling")
     meanings = data.status.attrs["flag_meanings"].split()
     status = [meanings[int(v)] for v in data.status.values]
@@ -204,6 +214,21 @@ def test_stage_writes_points_only_for_non_degenerate_slices(tmp_path):
     # The tolerances are recorded.
     assert data.attrs["refinement_tolerance"] == config["nhim"]["refinement"]["tolerance"]
     assert data.attrs["sampling_window_points"] == 11 and data.attrs["count_ok"] == 1
+
+
+def test_figure_draws_the_points_the_orbit_and_the_coverage(small_study, tmp_path):
+    config, equilibria, path = small_study
+    config = validate_config({**config, "periodic_orbits": {"mode0": {
+        "system": "barbanis_contopoulos_3dof", "saddle_near": [10.29, 5.29, 2.65], "center_mode": 0,
+        "energies": {"total": [24.0]}}}})
+    upo = run_upo(**upo_parameters(config, "mode0"), equilibria=equilibria, output=tmp_path / "mode0.nc")
+    figure = draw_nhim_sample({"projections": [["x", "y", "z"], ["y", "z", "pz"]]}, sampling=path, upo=[upo])
+    top = [ax for ax in figure.axes if ax.name == "3d"]
+    assert len(top) == 2 and all(len(ax.lines) == 1 for ax in top)  # the orbit in each projection
+    (coverage,) = [ax for ax in figure.axes if ax.name != "3d"]
+    labels = [text.get_text() for text in coverage.get_legend().get_texts()]
+    assert "ok (1)" in labels and any(label.endswith("(1)") and label != "ok (1)" for label in labels)
+    plt.close(figure)
 
 
 def test_config_errors_name_the_key():

@@ -189,7 +189,7 @@ def _sampling_caption(config: dict, study: str) -> str:
             f"(widened × {_number(window['widen'])} up to {window['max_widenings']} times, then the whole window on "
             f"{spec['seed_points']} × {spec['seed_points']}), refined by fates to {_number(refinement['tolerance'])} "
             f"(DOP853 rtol = {_number(refinement['rtol'])}); degenerate slices: curves crossing at less than "
-            f"{_number(spec['min_angle'])} rad, |solved momentum| below {_number(spec['min_momentum'])} × √(2ΔE), "
+            f"{_number(spec['min_angle'])} rad, a solved momentum smaller in size than {_number(spec['min_momentum'])} × √(2ΔE), "
             f"no crossing found")
 
 
