@@ -23,7 +23,8 @@ from ldpipe.config import validate_config
 from ldpipe.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
-from ldpipe.nhim.sampling import SamplingSettings, predict, sample_family, sample_slice, walk_order
+from ldpipe.nhim.batched import refine_by_fates_task, run_tasks
+from ldpipe.nhim.sampling import SamplingSettings, predict, sample_family, sample_slice, slice_problem, walk_order
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.sections import Section
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
@@ -196,6 +197,37 @@ def small_study(tmp_path_factory):
     parameters = nhim_sampling_parameters(config, "small")
     path = run_nhim_sampling(**parameters, equilibria=equilibria, output=tmp_path / "small.nc")
     return config, equilibria, path
+
+
+def test_batched_fates_agree_with_exit_fates_both_ways(bc_base):
+    # Independent method: the batched fates run backward trajectories forward from (q, -p) (time
+    # reversal), ldpipe.nhim.exit_fates runs the engine backward; same sides, same exit times.
+    problem = slice_problem(bc_base, {"y": 5.3, "z": 2.65, "py": 0.0}, 1, np.array([10.29, -0.08]),
+                            np.array([0.1, 0.1]), 11)
+    points = np.random.default_rng(3).uniform([10.19, -0.18], [10.39, 0.02], size=(30, 2))
+
+    def task():
+        both = yield problem, "fates", np.vstack([points, points]), np.repeat([1, -1], len(points))
+        return both
+
+    (both,) = run_tasks([task()], REFINEMENT_BC)
+    for k, direction in enumerate((1, -1)):
+        fate, exit_time = nhim.exit_fates(problem, points, direction, REFINEMENT_BC)
+        part = slice(k * len(points), (k + 1) * len(points))
+        np.testing.assert_array_equal(both["fate"][part], fate)
+        np.testing.assert_allclose(both["exit_time"][part], exit_time, rtol=1e-9)
+
+
+def test_refinement_task_agrees_with_refine_by_fates(bc_base):
+    # Independent implementation: the task (both curves bisected together, time-reversed backward
+    # fates) against ldpipe.nhim.refine_by_fates on the same slice from the same guess.
+    problem = slice_problem(bc_base, {"y": 5.35, "z": 2.8, "py": 0.1}, -1, np.array([10.25, 0.05]),
+                            np.array([0.05, 0.05]), 11)
+    guess = np.array([10.25, 0.05])
+    (task,) = run_tasks([refine_by_fates_task(problem, guess, REFINEMENT_BC)], REFINEMENT_BC)
+    direct = nhim.refine_by_fates(problem, guess, REFINEMENT_BC)
+    assert np.linalg.norm(task.point - direct.point) <= task.uncertainty + direct.uncertainty
+    assert task.angle == pytest.approx(direct.angle, abs=1e-3)
 
 
 def test_stage_writes_points_only_for_non_degenerate_slices(small_study):

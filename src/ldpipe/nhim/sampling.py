@@ -8,22 +8,28 @@ yields its NHIM point, where the forward and backward fates both switch
 (:func:`ldpipe.nhim.refine_by_fates`).
 
 A full LD map per slice would cost a map per point. Instead the family is walked from its middle
-outwards (:func:`walk_order`), so each slice has a grid neighbour done before it, and a slice's point is
+outwards in waves (:func:`walk_order`), so each slice has a grid neighbour done before it, the
+slices of a wave searched together (:mod:`ldpipe.nhim.batched`), and a slice's point is
 *predicted* from its refined neighbours (:func:`predict`: linear extrapolation along each grid
 axis where two neighbours in a row are known, the neighbour itself where one is); both LDs are
 computed on a small grid around the prediction (``window_points``^2 points,
 ``window_half_width`` wide), the NHIM cell detected on it (:func:`ldpipe.nhim.detect_nhim_cell`)
-and refined by fates with the window's spacing as the stencil's. When that fails (no allowed
-point, the detection on the window's edge, no fate switch) the window widens by ``widen``, up to
-``max_widenings`` times, and last the base map's whole window on a ``seed_points``^2 grid is
-used (as for the first slice, which has no neighbour).
+and refined by fates with the window's spacing as the stencil's
+(:func:`ldpipe.nhim.batched.refine_by_fates_task`, the algorithm of
+:func:`ldpipe.nhim.refine_by_fates`). When that fails (no allowed point, the detection on the
+window's edge, no fate switch) the window widens by ``widen``, up to ``max_widenings`` times. A
+slice with no neighbour to predict from (the first, the seed) is searched on the base map's whole
+window on a ``seed_points``^2 grid.
 
 A slice yields a point only if it is not degenerate; otherwise it is recorded with a reason
 (:data:`STATUS`) and never written as a point:
 
-* ``forbidden``: no point of the base window is energetically allowed on this slice;
-* ``no_crossing``: no window, however wide, gave a detection the fates confirm (the slice misses
-  the NHIM, which only reaches fixed values inside its projection);
+* ``forbidden``: no point of any window tried is energetically allowed on this slice;
+* ``no_crossing``: no window gave a detection the fates confirm, or no neighbour gave a point
+  (the slice misses the NHIM, which only reaches fixed values inside its projection). Near the
+  edge of that projection the solved momentum at the NHIM point tends to 0 and the allowed region
+  of the slice pinches around the point, along the stable and unstable curves; refinements there
+  fail before a point can be classified, and the slice is recorded here with their messages;
 * ``tangent``: the stable and unstable curves cross at less than ``min_angle`` (the slice is
   nearly tangent to the NHIM, and the crossing is ill-conditioned);
 * ``momentum_vanishes``: the solved momentum at the point is below ``min_momentum`` times
@@ -35,15 +41,13 @@ A slice yields a point only if it is not degenerate; otherwise it is recorded wi
 from __future__ import annotations
 
 import itertools
-import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .batched import refine_by_fates_task, run_tasks
 from .detection import detect_nhim_cell
-from .evidence import residence_evidence
 from .fates import Cost, RefinementFailed, RefinementSettings
-from .refinement import ld_at_points, refine_by_fates
 from .slices import SliceProblem, section_point_states
 
 #: Status codes of a slice (the file's ``status`` variable; flag_values / flag_meanings).
@@ -61,15 +65,17 @@ class SamplingSettings:
     widen : float
         Factor by which the window widens after a failure.
     max_widenings : int
-        Widenings before the base map's whole window is used.
+        Widenings before the slice is given up.
     seed_points : int
-        Points per axis of the whole-window detection grid (first slice, last resort).
+        Points per axis of the whole-window detection grid of a slice without a prediction.
     min_angle : float
         Smallest angle (radians) between the stable and unstable curves of a point; below it the
         slice is ``tangent``.
     min_momentum : float
         Smallest |solved momentum| / sqrt(2 dE) of a point; below it the slice is
         ``momentum_vanishes``.
+    batch : int
+        Most slices searched together (their trajectories integrated in the same engine calls).
     """
 
     window_points: int = 11
@@ -79,6 +85,7 @@ class SamplingSettings:
     seed_points: int = 41
     min_angle: float = 0.05
     min_momentum: float = 1e-3
+    batch: int = 256
 
     def __post_init__(self):
         if self.window_points < 5 or self.window_points % 2 == 0:
@@ -91,6 +98,8 @@ class SamplingSettings:
             raise ValueError(f"widen: expected a number > 1, got {self.widen!r}")
         if self.max_widenings < 0:
             raise ValueError(f"max_widenings: expected an integer >= 0, got {self.max_widenings!r}")
+        if self.batch < 1:
+            raise ValueError(f"batch: expected an integer >= 1, got {self.batch!r}")
         if not (0 <= self.min_angle < np.pi / 2 and 0 <= self.min_momentum < 1):
             raise ValueError("min_angle: expected [0, pi/2); min_momentum: expected [0, 1)")
 
@@ -122,7 +131,6 @@ class SliceSample:
     residence_forward: float = 0.0
     residence_backward: float = 0.0
     neighbour_residence_max: float = 0.0
-    cost: Cost = field(default_factory=Cost)
 
 
 def slice_problem(base: SliceProblem, fixed: dict[str, float], sign: int, centre: np.ndarray,
@@ -173,13 +181,15 @@ def _base_window(base: SliceProblem) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _windows(base: SliceProblem, prediction: np.ndarray | None, settings: SamplingSettings):
-    """(centre, half-width, points, widenings, whole) of each window to try, in order."""
-    if prediction is not None:
-        half = np.array(settings.window_half_width, dtype=np.float64)
-        for k in range(settings.max_widenings + 1):
-            yield prediction, half * settings.widen**k, settings.window_points, k, False
-    centre, half = _base_window(base)
-    yield centre, half, settings.seed_points, settings.max_widenings + (prediction is not None), True
+    """(centre, half-width, points, widenings, whole) of each window to try, in order: around a
+    prediction, widening; without one, the base map's whole window."""
+    if prediction is None:
+        centre, half = _base_window(base)
+        yield centre, half, settings.seed_points, 0, True
+        return
+    half = np.array(settings.window_half_width, dtype=np.float64)
+    for k in range(settings.max_widenings + 1):
+        yield prediction, half * settings.widen**k, settings.window_points, k, False
 
 
 def _is_tangent_failure(error: RefinementFailed) -> bool:
@@ -188,15 +198,14 @@ def _is_tangent_failure(error: RefinementFailed) -> bool:
     return "parallel" in text or "cross at" in text
 
 
-def sample_slice(
+def slice_task(
     base: SliceProblem, fixed: dict[str, float], sign: int, prediction: np.ndarray | None,
     settings: SamplingSettings, refinement: RefinementSettings,
-) -> SliceSample:
-    """The NHIM point of one slice of the family: detected on zoomed windows around ``prediction``
-    (widening on failure, the whole base window last), refined by fates; or its degeneracy."""
-    started = time.perf_counter()
+):
+    """The search of one slice of the family as a task (:mod:`ldpipe.nhim.batched`): detected on zoomed
+    windows around ``prediction`` (widening on failure, the whole base window last), refined by
+    fates; returns its :class:`SliceSample`, a point or a degeneracy."""
     sample = SliceSample(fixed=dict(fixed), sign=int(sign), status="no_crossing")
-    cost = sample.cost
     any_allowed = False
     tangent = False
     reasons = []
@@ -210,7 +219,7 @@ def sample_slice(
             reasons.append(f"{label}: no allowed point")
             continue
         any_allowed = True
-        values = ld_at_points(problem, grid, problem.ld_settings, cost)
+        values = yield problem, "ld", grid, 0
         shape = (points, points)
         try:
             detected = detect_nhim_cell(values["ld_forward"].reshape(shape), values["ld_backward"].reshape(shape),
@@ -223,12 +232,11 @@ def sample_slice(
             reasons.append(f"{label}: the detected cell is on the window's edge")
             continue
         try:
-            refined = refine_by_fates(problem, detected.point, refinement)
+            refined = yield from refine_by_fates_task(problem, detected.point, refinement)
         except RefinementFailed as error:
             tangent = tangent or _is_tangent_failure(error)
             reasons.append(f"{label}: {error}")
             continue
-        cost.add(refined.cost.trajectories, refined.cost.time_units, refined.cost.steps)
         k = i * points + j
         sample.detected_point = detected.point
         sample.detected_score = detected.score
@@ -250,13 +258,18 @@ def sample_slice(
                 f"|{problem.section.solve}| = {momentum:.3g} < min_momentum x sqrt(2 dE) = "
                 f"{settings.min_momentum * scale:.3g}")
         else:
-            evidence = residence_evidence(problem, refined.point, refinement, cost)
+            # Residence evidence as ldpipe.nhim.residence_evidence takes it: the point and the 8 points
+            # one window cell away, DOP853 at the refinement's tolerances, tau = max_time.
+            offsets = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)], dtype=float)
+            around = np.vstack([refined.point, refined.point + offsets * problem.spacing])
+            times = yield problem, "residence", around, 0
+            both = np.minimum(times["exit_time_forward"], times["exit_time_backward"])
             sample.status = "ok"
             sample.point, sample.state = refined.point, state
             sample.uncertainty = refined.uncertainty
-            sample.residence_forward = evidence["residence_forward"]
-            sample.residence_backward = evidence["residence_backward"]
-            sample.neighbour_residence_max = evidence["neighbour_residence_max"]
+            sample.residence_forward = float(times["exit_time_forward"][0])
+            sample.residence_backward = float(times["exit_time_backward"][0])
+            sample.neighbour_residence_max = float(both[1:].max())
         break
     else:
         if not any_allowed:
@@ -265,17 +278,32 @@ def sample_slice(
             sample.status, sample.reason = "tangent", "; ".join(reasons)
         else:
             sample.status, sample.reason = "no_crossing", "; ".join(reasons)
-    cost.wall_time = time.perf_counter() - started
+    return sample
+
+
+def sample_slice(
+    base: SliceProblem, fixed: dict[str, float], sign: int, prediction: np.ndarray | None,
+    settings: SamplingSettings, refinement: RefinementSettings,
+) -> SliceSample:
+    """One slice alone (:func:`slice_task` run by itself)."""
+    (sample,) = run_tasks([slice_task(base, fixed, sign, prediction, settings, refinement)], refinement)
     return sample
 
 
 def sample_family(
     base: SliceProblem, fixed_grid: dict[str, np.ndarray], signs: tuple[int, ...], settings: SamplingSettings,
-    refinement: RefinementSettings, progress=None,
+    refinement: RefinementSettings, progress=None, cost: Cost | None = None,
 ) -> list[SliceSample]:
     """Every slice of a family: the grid of fixed values ``fixed_grid`` (name -> values, the base
-    section's fixed coordinates) for each sign of the solved momentum, walked by continuation from
-    the middle outwards (:func:`walk_order`).
+    section's fixed coordinates) for each sign of the solved momentum, by continuation.
+
+    The slices run in waves: the nodes ``k`` grid steps from the middle (:func:`walk_order`), of
+    every sign, together (:func:`ldpipe.nhim.batched.run_tasks`, at most ``settings.batch`` slices
+    at a time), each predicted from the refined nodes of the earlier waves (:func:`predict`). Until
+    a sign has a point, slices without a prediction are searched on the whole base window (the
+    seeds); afterwards such a slice has only failed neighbours nearer the middle, lies beyond the
+    NHIM's reach, and is recorded as ``no_crossing`` unsearched.
+    ``progress`` is called with each sample as its wave ends; ``cost`` (optional) adds up the work.
 
     Returns the samples in the grid's C order (sign slowest, then the grid axes in the order of
     ``fixed_grid``), whatever the walking order.
@@ -287,15 +315,34 @@ def sample_family(
     names = list(fixed_grid)
     values = [np.atleast_1d(np.asarray(fixed_grid[name], dtype=np.float64)) for name in names]
     shape = tuple(len(v) for v in values)
+    middle = tuple((n - 1) // 2 for n in shape)
+    waves: dict[int, list[tuple[int, ...]]] = {}
+    for index in walk_order(shape):
+        waves.setdefault(sum(abs(a - b) for a, b in zip(index, middle)), []).append(index)
     samples: dict[tuple, SliceSample] = {}
-    for sign in signs:
-        known: dict[tuple[int, ...], np.ndarray] = {}
-        for index in walk_order(shape):
-            fixed = {name: float(v[i]) for name, v, i in zip(names, values, index)}
-            sample = sample_slice(base, fixed, sign, predict(index, known), settings, refinement)
-            if sample.status == "ok":
-                known[index] = sample.point
-            samples[(sign, index)] = sample
+    known: dict[int, dict[tuple[int, ...], np.ndarray]] = {sign: {} for sign in signs}
+    for _, nodes in sorted(waves.items()):
+        jobs = [(sign, index) for sign in signs for index in nodes]
+        for start in range(0, len(jobs), settings.batch):
+            chunk = jobs[start:start + settings.batch]
+            tasks, searched = [], []
+            for sign, index in chunk:
+                fixed = {n: float(v[i]) for n, v, i in zip(names, values, index)}
+                prediction = predict(index, known[sign])
+                if prediction is None and known[sign]:
+                    # The NHIM was found, but not next to this slice: it ends before it (its projection
+                    # onto the fixed values is one connected region), so no search.
+                    samples[(sign, index)] = SliceSample(fixed=fixed, sign=sign, status="no_crossing",
+                                                         reason="no neighbour nearer the middle gave a point")
+                    continue
+                tasks.append(slice_task(base, fixed, sign, prediction, settings, refinement))
+                searched.append((sign, index))
+            for key, sample in zip(searched, run_tasks(tasks, refinement, cost)):
+                samples[key] = sample
             if progress is not None:
-                progress(sample)
+                for key in chunk:
+                    progress(samples[key])
+        for sign, index in jobs:  # after the wave: a wave's slices predict only from earlier waves
+            if samples[(sign, index)].status == "ok":
+                known[sign][index] = samples[(sign, index)].point
     return [samples[(sign, index)] for sign in signs for index in itertools.product(*(range(n) for n in shape))]
