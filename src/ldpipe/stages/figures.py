@@ -186,8 +186,8 @@ def _sampling_caption(config: dict, study: str) -> str:
             f"signs {', '.join(f'{s:+d}' for s in spec['signs'])} of the solved momentum; each slice's point detected "
             f"on a {window['points']} × {window['points']} LD window of half-widths "
             f"{', '.join(_number(w) for w in window['half_width'])} around the prediction from its neighbours "
-            f"(widened × {_number(window['widen'])} up to {window['max_widenings']} times, then the whole window on "
-            f"{spec['seed_points']} × {spec['seed_points']}), refined by fates to {_number(refinement['tolerance'])} "
+            f"(widened × {_number(window['widen'])} up to {window['max_widenings']} times; the first slice on the whole "
+            f"window, {spec['seed_points']} × {spec['seed_points']}), refined by fates to {_number(refinement['tolerance'])} "
             f"(DOP853 rtol = {_number(refinement['rtol'])}); degenerate slices: curves crossing at less than "
             f"{_number(spec['min_angle'])} rad, a solved momentum smaller in size than {_number(spec['min_momentum'])} × √(2ΔE), "
             f"no crossing found")

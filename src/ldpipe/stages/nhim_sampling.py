@@ -14,6 +14,7 @@ residual, residence times and detection evidence.
 from __future__ import annotations
 
 import copy
+import time
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from ..contracts import EQUILIBRIA, NHIM_SAMPLING
 from ..datafile import open_stage_file, write_stage_file
 from ..errors import ConfigError
 from ..logs import get_logger
-from ..nhim import RefinementSettings, make_slice_problem
+from ..nhim import Cost, RefinementSettings, make_slice_problem
 from ..nhim.sampling import STATUS, SamplingSettings, SliceSample, sample_family
 from . import ld as ld_stage
 
@@ -42,7 +43,7 @@ def nhim_sampling_parameters(config: dict, study: str) -> dict:
         "sampling": {"window_points": spec["window"]["points"], "window_half_width": spec["window"]["half_width"],
                      "widen": spec["window"]["widen"], "max_widenings": spec["window"]["max_widenings"],
                      "seed_points": spec["seed_points"], "min_angle": spec["min_angle"],
-                     "min_momentum": spec["min_momentum"]},
+                     "min_momentum": spec["min_momentum"], "batch": spec["batch"]},
         "refinement": refinement,
     }
 
@@ -89,8 +90,6 @@ def _dataset(samples: list[SliceSample], names: list[str], phase: tuple[str, ...
             "reason": ("slice", np.array([s.reason for s in samples], dtype=str),
                        {"long_name": "what made a slice degenerate (empty when ok)"}),
             "point_of_slice": ("slice", index_of_point, {"long_name": "index of the slice's point, -1 if none"}),
-            "slice_trajectories": ("slice", np.array([s.cost.trajectories for s in samples], dtype=np.int64)),
-            "slice_wall_time": ("slice", np.array([s.cost.wall_time for s in samples]), {"units": "s"}),
             "slice_of_point": ("point", np.array(ok, dtype=np.int64), {"long_name": "the point's slice"}),
             "state": (("point", "phase"), states,
                       {"long_name": "phase-space state of the NHIM point (solved momentum from the energy)"}),
@@ -187,12 +186,15 @@ def run_nhim_sampling(
     def progress(sample: SliceSample) -> None:
         text = ", ".join(f"{n} = {v:.6g}" for n, v in sample.fixed.items())
         if sample.status == "ok":
-            log.info("[%s, %+d] point %s +- %.2g (window %d, %.2f s)", text, sample.sign, sample.point,
-                     sample.uncertainty, sample.widenings, sample.cost.wall_time)
+            log.info("[%s, %+d] point %s +- %.2g (window %d)", text, sample.sign, sample.point,
+                     sample.uncertainty, sample.widenings)
         else:
             log.warning("[%s, %+d] degenerate slice, %s: %s", text, sample.sign, sample.status, sample.reason)
 
-    samples = sample_family(base, grid, tuple(signs), settings, refine, progress=progress)
+    cost = Cost()
+    started = time.perf_counter()
+    samples = sample_family(base, grid, tuple(signs), settings, refine, progress=progress, cost=cost)
+    cost.wall_time = time.perf_counter() - started
     dataset = _dataset(samples, list(grid), system.phase_coordinates, section.axes, info["energy"], system)
     counts = {status: sum(s.status == status for s in samples) for status in STATUS}
     if counts["ok"] == 0:
@@ -201,6 +203,8 @@ def run_nhim_sampling(
         "study": study, "base_map": base_map["map_name"], "system": system.name, "energy": info["energy"],
         "excess_energy": info["excess_energy"], "critical_energy": info["critical_energy"], "saddle_position": saddle,
         "solved": section.solve, **{f"count_{k}": v for k, v in counts.items()},
+        "trajectories": cost.trajectories, "time_units": cost.time_units, "steps": cost.steps,
+        "wall_time": cost.wall_time,
         **{f"sampling_{k}": (np.asarray(v, dtype=np.float64) if isinstance(v, (list, tuple)) else v)
            for k, v in sampling.items()},
         **{f"refinement_{k}": v for k, v in refinement.items()},
@@ -209,5 +213,6 @@ def run_nhim_sampling(
                 "refinement": refinement}
     path = write_stage_file(dataset, output, stage=NHIM_SAMPLING, title=f"NHIM sampled over the slices of study {study}",
                             parameters=recorded)
-    log.info("wrote %s: %s", path, counts)
+    log.info("wrote %s: %s; %d trajectories, %.1f s (%.3g points per second)", path, counts, cost.trajectories,
+             cost.wall_time, counts["ok"] / max(cost.wall_time, 1e-9))
     return path
