@@ -132,6 +132,13 @@ def test_degenerate_slices_are_recorded_with_their_reason(linear_base):
     thin = SamplingSettings(window_half_width=(0.05, 0.05), seed_points=21, min_momentum=0.05)
     vanishing = sample_slice(linear_base, {"y": y, "z": 0.0, "py": 0.0}, 1, None, thin, REFINEMENT)
     assert vanishing.status == "momentum_vanishes" and vanishing.point is None and "min_momentum" in vanishing.reason
+    # Beyond the NHIM's reach (w1^2 y^2 > 2E for y = 1.2, 1.5): y = 1.2 is searched around the point
+    # of y = 0 and fails; y = 1.5, whose only neighbour nearer the middle failed, is not searched.
+    family = sample_family(linear_base, {"y": [-0.3, 0.0, 1.2, 1.5], "z": [0.0], "py": [0.0]}, (1,), SAMPLING,
+                           REFINEMENT)
+    assert [s.status for s in family] == ["ok", "ok", "no_crossing", "no_crossing"]
+    assert family[2].predicted and "window 0" in family[2].reason and "whole window" not in family[2].reason
+    assert family[3].reason == "no neighbour nearer the middle gave a point" and family[3].point is None
 
 
 @pytest.fixture(scope="module")

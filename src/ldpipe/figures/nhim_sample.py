@@ -67,6 +67,9 @@ def draw_nhim_sample(settings: dict, *, sampling: str | Path, upo: list[str | Pa
                        label=f"NHIM points, {style.symbol(str(data.attrs['solved']))} {'>' if sign > 0 else '<'} 0")
         for (name, orbit), colour in zip(orbits, ORBIT_COLOURS):
             ax.plot(*(orbit.coordinate(c) for c in axes3), color=colour, lw=1.2, label=f"Lyapunov orbit {name}")
+        # Equal units on the three axes, so the NHIM's shape is not distorted by the axes' ranges.
+        spans = [np.ptp(np.concatenate([states[:, c], *(o.coordinate(a) for _, o in orbits)])) for c, a in zip(columns, axes3)]
+        ax.set_box_aspect([max(span, 1e-6) for span in spans])
         ax.set_xlabel(style.symbol(axes3[0]))
         ax.set_ylabel(style.symbol(axes3[1]))
         ax.set_zlabel(style.symbol(axes3[2]))

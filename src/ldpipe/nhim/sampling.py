@@ -205,7 +205,7 @@ def slice_task(
     """The search of one slice of the family as a task (:mod:`ldpipe.nhim.batched`): detected on zoomed
     windows around ``prediction`` (widening on failure, the whole base window last), refined by
     fates; returns its :class:`SliceSample`, a point or a degeneracy."""
-    sample = SliceSample(fixed=dict(fixed), sign=int(sign), status="no_crossing")
+    sample = SliceSample(fixed=dict(fixed), sign=int(sign), status="no_crossing", predicted=prediction is not None)
     any_allowed = False
     tangent = False
     reasons = []
@@ -244,7 +244,6 @@ def slice_task(
         sample.detected_ld_backward = float(values["ld_backward"][k])
         sample.window_half_width = np.asarray(half, dtype=np.float64)
         sample.widenings, sample.whole_window = int(widenings), bool(whole)
-        sample.predicted = prediction is not None
         sample.prediction_error = float(np.linalg.norm(refined.point - prediction)) if prediction is not None else 0.0
         sample.angle = refined.angle
         state = section_point_states(problem, refined.point[None, :])[0][0]
