@@ -92,7 +92,7 @@ def draw_nhim_sample(settings: dict, *, sampling: str | Path, upo: list[str | Pa
             ax.scatter(values[chosen, 0] + offset, values[chosen, 1], marker=marker, color=colour, s=22,
                        label=f"{name} ({int(chosen.sum())})")
         style.label_axes(ax, fixed[0], fixed[1] if len(fixed) > 1 else fixed[0])
-        rest = f", each node split by {style.symbol(fixed[2])}" if len(fixed) > 2 else ""
+        rest = f", each node split by {style.symbol(fixed[2])}" if len(fixed) > 2 and len(np.unique(values[:, 2])) > 1 else ""
         style.panel_letter(ax, len(projections) + column,
                            f"slices, {style.symbol(str(data.attrs['solved']))} {'>' if sign > 0 else '<'} 0{rest}")
         ax.legend(fontsize="small")

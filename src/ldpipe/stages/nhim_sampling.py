@@ -35,9 +35,14 @@ def nhim_sampling_parameters(config: dict, study: str) -> dict:
     """The keyword arguments of :func:`run_nhim_sampling` for one study of a validated config (besides paths)."""
     spec = copy.deepcopy(config["nhim_sampling"][study])
     refinement = {k: v for k, v in config["nhim"]["refinement"].items() if k not in ("zoom",)}
+    base_map = ld_stage.ld_map_parameters(config, spec["base_map"])
+    # The map's own grid is never computed here; the whole window is searched on seed_points^2, so
+    # that stands in for it (and the map's resolution, or a quick run's cap, does not rerun the study).
+    for axis in base_map["section"]["axes"]:
+        axis["points"] = spec["seed_points"]
     return {
         "study": study,
-        "base_map": ld_stage.ld_map_parameters(config, spec["base_map"]),
+        "base_map": base_map,
         "fixed": spec["fixed"],
         "signs": spec["signs"],
         "sampling": {"window_points": spec["window"]["points"], "window_half_width": spec["window"]["half_width"],
