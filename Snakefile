@@ -20,6 +20,7 @@ include: "workflow/rules/equilibria.smk"
 include: "workflow/rules/ld.smk"
 include: "workflow/rules/orbits.smk"
 include: "workflow/rules/nhim.smk"
+include: "workflow/rules/nhim_sampling.smk"
 include: "workflow/rules/accuracy.smk"
 include: "workflow/rules/transport.smk"
 include: "workflow/rules/figures.smk"  # last: it checks figure names against every rule

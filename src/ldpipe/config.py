@@ -202,6 +202,33 @@ def _check_orbits(config: dict) -> None:
             )
 
 
+def _check_nhim_sampling(config: dict) -> None:
+    """NHIM sampling studies: the base map exists, is variable time and solves a momentum, and the grid
+    names exactly its section's fixed coordinates."""
+    for name, spec in config.get("nhim_sampling", {}).items():
+        key = f"nhim_sampling.{name}"
+        map_name = spec["base_map"]
+        if map_name not in config["ld_maps"]:
+            raise ConfigError(f"config key '{key}.base_map': no LD map {map_name!r}; expected one of "
+                              f"{sorted(config['ld_maps'])}")
+        map_spec = config["ld_maps"][map_name]
+        if map_spec["time"] != "variable":
+            raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; NHIM sampling needs "
+                              f"variable time (a saddle region)")
+        section = map_spec["section"]
+        if not str(section["solve"]).startswith("p"):
+            raise ConfigError(f"config key '{key}.base_map': map {map_name!r} solves {section['solve']!r}; NHIM "
+                              f"sampling needs a section that solves a momentum")
+        if sorted(spec["fixed"]) != sorted(section.get("fixed", {})):
+            raise ConfigError(f"config key '{key}.fixed': expected exactly the fixed coordinates "
+                              f"{sorted(section.get('fixed', {}))} of map {map_name!r}, got {sorted(spec['fixed'])}")
+        for coordinate, axis in spec["fixed"].items():
+            low, high = axis["range"]
+            if not low <= high:
+                raise ConfigError(f"config key '{key}.fixed.{coordinate}.range': expected [low, high] with "
+                                  f"low <= high, got {axis['range']}")
+
+
 def _check_nhim(config: dict) -> None:
     """NHIM studies: maps and families exist, maps are variable time and of one system."""
     nhim = config["nhim"]
@@ -294,6 +321,7 @@ _FIGURE_REQUIRED = {
     "section_maps": ("ld_maps",),
     "ld_slices": ("ld_maps",),
     "orbit_family": ("family",),
+    "nhim_sample": ("sampling",),
 }
 
 
@@ -361,6 +389,21 @@ def _check_figures(config: dict) -> None:
             for set_name in spec["manifolds"]:
                 if config["manifolds"][set_name]["orbits"] != spec["family"]:
                     raise ConfigError(f"config key '{key}.manifolds': set {set_name!r} is of another family than {spec['family']!r}")
+        if kind == "nhim_sample":
+            _check_names([spec["sampling"]], "nhim_sampling", f"{key}.sampling", config)
+            study = config["nhim_sampling"][spec["sampling"]]
+            map_spec = config["ld_maps"][study["base_map"]]
+            _check_names(spec["orbits"], "periodic_orbits", f"{key}.orbits", config)
+            for family in spec["orbits"]:
+                _check_family_energies(config, family, map_spec["energy"],
+                                       f"{key}.orbits (the energy of study {spec['sampling']!r})")
+            coordinates = system_coordinates(config["systems"][map_spec["system"]])
+            phase = [*coordinates, *(f"p{c}" for c in coordinates)]
+            for projection in spec["projections"]:
+                unknown = [c for c in projection if c not in phase]
+                if unknown or len(set(projection)) != 3:
+                    raise ConfigError(f"config key '{key}.projections': {projection} must be three different phase "
+                                      f"coordinates of {map_spec['system']} ({phase})")
         for axis, interval in spec.get("configuration", {}).items():
             check_interval(interval, f"{key}.configuration.{axis}")
         for limits_key in ("color_limits", "potential_range"):
@@ -486,6 +529,7 @@ def validate_config(config: dict) -> dict:
     _check_semantics(config)
     check_ld_maps(config)
     _check_orbits(config)
+    _check_nhim_sampling(config)
     _check_figures(config)
     _check_nhim(config)
     _check_accuracy_cost(config)

@@ -53,6 +53,11 @@ NHIM_ORBITS = StageFile("nhim_orbits", (
     "status", "reason", "family", "energy", "orbit_phase", "axis_names", "solve", "orbit_point", "solved_momentum",
     "transversality", "candidates", "crossings", "distance", "crossing_slice", "crossing_point",
 ))
+#: NHIM points sampled over a family of slices: per slice, and per refined point.
+NHIM_SAMPLING = StageFile("nhim_sampling", (
+    "fixed_values", "sign", "status", "reason", "slice_of_point", "state", "section_point", "uncertainty",
+    "energy_residual",
+))
 TRANSPORT = StageFile("transport", (
     "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
     "flux_harmonic", "island", "well_volume", "rate_tst",
@@ -64,6 +69,6 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, TRANSPORT,
-    ACCURACY_COST,
+    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
+    TRANSPORT, ACCURACY_COST,
 )}

@@ -235,15 +235,15 @@ def test_run_figure_writes_small_png_and_pdf_with_the_map_rasterized(tmp_path, b
 def quick_config():
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     quick = yaml.safe_load((ROOT / "config.quick.yaml").read_text())
-    for key, value in quick.items():  # Snakemake's merge of --configfile over configfile
-        if isinstance(value, dict) and isinstance(config.get(key), dict):
-            for name, entry in value.items():
-                if isinstance(entry, dict) and isinstance(config[key].get(name), dict):
-                    config[key][name] = {**config[key][name], **entry}
-                else:
-                    config[key][name] = entry
-        else:
-            config[key] = value
+
+    def merge(base: dict, over: dict) -> None:  # Snakemake's merge of --configfile over configfile: recursive
+        for key, value in over.items():
+            if isinstance(value, dict) and isinstance(base.get(key), dict):
+                merge(base[key], value)
+            else:
+                base[key] = value
+
+    merge(config, quick)
     return validate_config(config)
 
 

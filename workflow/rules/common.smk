@@ -30,6 +30,7 @@ POINCARE_SECTIONS = sorted(config["poincare_sections"])
 FIGURES = list(config["figures"])
 NHIM_STUDIES = list(config["nhim"]["studies"])
 NHIM_ORBIT_STUDIES = list(config["nhim"]["orbit_validation"])
+NHIM_SAMPLING_STUDIES = list(config.get("nhim_sampling", {}))
 TRANSPORT_STUDIES = list(config.get("transport", {}))
 RESULTS = "results"
 
@@ -62,6 +63,7 @@ def all_targets():
         *expand(f"{RESULTS}/poincare/{{section}}.nc", section=POINCARE_SECTIONS),
         *expand(f"{RESULTS}/figures/{{figure}}.{{format}}", figure=FIGURES, format=["png", "pdf"]),
         *nhim_targets(),
+        *expand(f"{RESULTS}/nhim_sampling/{{study}}.nc", study=NHIM_SAMPLING_STUDIES),
         *transport_targets(),
         *([f"{RESULTS}/accuracy/accuracy_cost.nc", f"{RESULTS}/figures/accuracy_cost.png"]
           if config.get("accuracy_cost") else []),
@@ -263,6 +265,18 @@ def nhim_targets():
         *[f"{RESULTS}/nhim/{table}.{format}" for table in ("validation", "validation_orbits") for format in ("csv", "md")],
         *([f"{RESULTS}/figures/nhim_validation.png", f"{RESULTS}/figures/nhim_validation.pdf"] if NHIM_STUDIES else []),
     ]
+
+
+def nhim_sampling_params(wildcards):
+    from ldpipe.stages.nhim_sampling import nhim_sampling_parameters
+
+    return nhim_sampling_parameters(config, wildcards.study)
+
+
+def nhim_sampling_equilibria_file(wildcards):
+    from ldpipe.stages.nhim_sampling import nhim_sampling_system
+
+    return f"{RESULTS}/{nhim_sampling_system(config, wildcards.study)}/equilibria.nc"
 
 
 def transport_targets():

@@ -30,6 +30,7 @@ KIND_SETTINGS = {
                   "color_percentiles", "color_limits", "view"),
     "orbit_family": ("family", "energies", "manifolds", "configuration", "view3d_axes", "view3d_limits",
                      "trajectories_per_branch", "view"),
+    "nhim_sample": ("sampling", "orbits", "projections", "view"),
 }
 #: What each kind needs, for the configuration check.
 KIND_REQUIRED = {
@@ -37,6 +38,7 @@ KIND_REQUIRED = {
     "section_maps": ("ld_maps",),
     "ld_slices": ("ld_maps",),
     "orbit_family": ("family",),
+    "nhim_sample": ("sampling",),
 }
 FORMATS = ("png", "pdf")
 
@@ -53,7 +55,7 @@ def figure_input_files(config: dict, name: str, results: str = "results") -> dic
     Returns
     -------
     dict
-        Some of 'equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', each a list of paths
+        Some of 'equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', 'nhim_sampling', each a list of paths
         under ``results`` (in the order the figure draws them).
     """
     spec = config["figures"][name]
@@ -75,6 +77,10 @@ def figure_input_files(config: dict, name: str, results: str = "results") -> dic
         files["upo"] = [f"{results}/upo/{spec['family']}.nc"]
         if spec.get("manifolds"):
             files["manifolds"] = [f"{results}/manifolds/{s}.nc" for s in spec["manifolds"]]
+    if kind == "nhim_sample":
+        files["nhim_sampling"] = [f"{results}/nhim_sampling/{spec['sampling']}.nc"]
+        if spec.get("orbits"):
+            files["upo"] = [f"{results}/upo/{family}.nc" for family in spec["orbits"]]
     return files
 
 
@@ -179,6 +185,22 @@ def _system_caption(config: dict, system: str) -> str:
     return f"{system}: {what}" + (f" with {parameters}" if parameters else "")
 
 
+def _sampling_caption(config: dict, study: str) -> str:
+    spec = config["nhim_sampling"][study]
+    grid = ", ".join(f"{c}: {axis['points']} values in {_interval(axis['range'])}" for c, axis in spec["fixed"].items())
+    refinement = config["nhim"]["refinement"]
+    window = spec["window"]
+    return (f"{study}: slices of LD map {ld_map_caption(config, spec['base_map'])}; fixed values on the grid {grid}, "
+            f"signs {', '.join(f'{s:+d}' for s in spec['signs'])} of the solved momentum; each slice's point detected "
+            f"on a {window['points']} × {window['points']} LD window of half-widths "
+            f"{', '.join(_number(w) for w in window['half_width'])} around the prediction from its neighbours "
+            f"(widened × {_number(window['widen'])} up to {window['max_widenings']} times; the first slice on the whole "
+            f"window, {spec['seed_points']} × {spec['seed_points']}), refined by fates to {_number(refinement['tolerance'])} "
+            f"(DOP853 rtol = {_number(refinement['rtol'])}); degenerate slices: curves crossing at less than "
+            f"{_number(spec['min_angle'])} rad, a solved momentum smaller in size than {_number(spec['min_momentum'])} × √(2ΔE), "
+            f"no crossing found")
+
+
 def figure_caption(config: dict, name: str) -> dict:
     """Caption material of figure ``name``: the entry's own text and one line per parameter
     group, each as used (the grid cap of a quick run applied)."""
@@ -213,6 +235,10 @@ def figure_caption(config: dict, name: str) -> dict:
         lines.append("family " + _family_caption(config, spec["family"]))
         lines.append("orbits at " + (_energies_text(spec["energies"]) if spec.get("energies") else "every target energy"))
         lines += ["manifolds " + _manifold_caption(config, s) for s in spec.get("manifolds", [])]
+    if kind == "nhim_sample":
+        lines.append("NHIM sampling " + _sampling_caption(config, spec["sampling"]))
+        lines += ["Lyapunov orbit at the study's energy of family " + _family_caption(config, f) for f in spec["orbits"]]
+        lines.append("3D projections " + "; ".join("(" + ", ".join(p) + ")" for p in spec["projections"]))
     if kind in ("section_maps", "ld_slices"):
         limits = spec.get("color_limits")
         lines.append(f"LD shown: {spec['descriptor']} (forward + backward for 'total'); colour scale "
@@ -261,6 +287,10 @@ def draw_figure(kind: str, settings: dict, inputs: dict):
         from ..figures.orbits import draw_orbit_family
 
         return draw_orbit_family(settings, upo=inputs["upo"][0], manifolds=inputs.get("manifolds", []))
+    if kind == "nhim_sample":
+        from ..figures.nhim_sample import draw_nhim_sample
+
+        return draw_nhim_sample(settings, sampling=inputs["nhim_sampling"][0], upo=inputs.get("upo", []))
     raise ConfigError(f"figure kind {kind!r}: expected one of {sorted(KIND_SETTINGS)}")
 
 
@@ -289,7 +319,7 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     figure_name, kind, settings, caption
         As :func:`figure_parameters` returns them (the caption is for the report only).
     inputs : dict
-        Input files by role ('equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo'), as
+        Input files by role ('equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', 'nhim_sampling'), as
         :func:`figure_input_files` lists them; other roles are ignored.
     png, pdf : path
         Output files.

@@ -1,0 +1,250 @@
+"""Many slices at once: each slice's search as a task that asks for trajectories, answered in batches.
+
+Refining one NHIM point is a chain of small, dependent integrations (each bisection step waits for
+the last), so one slice at a time leaves the engine waiting on a few trajectories per call: its
+cost is the latency of the longest trajectory, ~200 calls a point. Written as a generator (a
+*task*) that yields its requests -- ``("fates", direction, points)``, ``("ld", points)``,
+``("residence", points)`` -- a slice's search runs unchanged alongside hundreds of others:
+:func:`run_tasks` gathers the pending requests of every task, answers each kind with one engine
+call over all their points, and resumes the tasks with their share.
+
+:func:`refine_by_fates_task` is :func:`ldpipe.nhim.refine_by_fates` (same stencil, secant
+iteration, bisection and uncertainty) written as such a task, bisecting the stable and the
+unstable curve in the same rounds; its tests check it against that function on the same slices.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from dataclasses import replace
+
+import numpy as np
+
+from ..engine import compute_ld
+from .fates import Cost, RefinementFailed, RefinementSettings, _clip_to_allowed, fate_settings
+from .refinement import Refined, _intersect, _switch_line
+from .slices import SliceProblem
+
+#: A task: yields requests, receives their answers, returns its result.
+Task = Generator
+
+
+def _states(problems: list[SliceProblem], points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ldpipe.nhim.section_point_states` of rows of many slices of one family at once (one
+    potential call): row k is ``points[k]`` on ``problems[k]``."""
+    first = problems[0]
+    system, section = first.system, first.section
+    phase = system.phase_coordinates
+    n = system.n_dof
+    states = np.zeros((len(points), 2 * n))
+    states[:, phase.index(section.axes[0])] = points[:, 0]
+    states[:, phase.index(section.axes[1])] = points[:, 1]
+    for name in section.fixed:
+        states[:, phase.index(name)] = [p.section.fixed[name] for p in problems]
+    solve = phase.index(section.solve)
+    potential = np.empty(len(states))
+    system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
+    other = np.delete(states[:, n:], solve - n, axis=1)
+    radicand = 2.0 * (first.energy - potential) - np.sum(other**2, axis=1)
+    allowed = radicand >= 0.0
+    signs = np.array([p.section.sign for p in problems], dtype=np.float64)
+    states[allowed, solve] = signs[allowed] * np.sqrt(radicand[allowed])
+    return states, allowed
+
+
+def _reverse(states: np.ndarray, directions: np.ndarray, n: int) -> np.ndarray:
+    """States whose forward flow is the given direction's: H(q, p) = |p|^2/2 + V(q) is reversible,
+    so the trajectory backward in time from (q, p) has the positions of the one forward from
+    (q, -p) (same exit, side and exit time; the same LD, |dq/dt| and |dp/dt| being equal). One
+    forward engine call then serves both directions."""
+    states = states.copy()
+    states[directions < 0, n:] *= -1.0
+    return states
+
+
+def _answer(kind: str, problems: list[SliceProblem], points: np.ndarray, directions: np.ndarray,
+            refinement: RefinementSettings, cost: Cost) -> dict[str, np.ndarray]:
+    """One engine call for every row of one kind of request."""
+    base = problems[0]
+    n = base.system.n_dof
+    states, allowed = _states(problems, points)
+    if kind == "fates":
+        fate = np.zeros(len(states), dtype=np.int64)
+        exit_time = np.full(len(states), refinement.max_time)
+        if allowed.any():
+            start = _reverse(states[allowed], directions[allowed], n)
+            result = compute_ld(base.system, start, +1, fate_settings(base, refinement))
+            left = (result.left_region | result.escaped) & ~result.failed
+            side = np.sign((result.end_state[:, :n] - base.saddle) @ base.reaction).astype(np.int64)
+            fate[allowed] = np.where(left, side, 0)
+            exit_time[allowed] = np.where(left, result.time, refinement.max_time)
+            cost.add(int(allowed.sum()), float(result.time.sum()), int(result.steps.sum()))
+        return {"fate": fate, "exit_time": exit_time, "allowed": allowed}
+    # "ld": the map's LD settings; "residence": DOP853 at the refinement's tolerances to max_time.
+    settings = base.ld_settings
+    if kind == "residence":
+        settings = replace(settings, scheme="dop853", rtol=refinement.rtol, atol=refinement.atol,
+                           tau=refinement.max_time)
+    out = {name: np.zeros(len(states)) for name in ("ld_forward", "ld_backward", "exit_time_forward",
+                                                     "exit_time_backward")}
+    out["allowed"] = allowed
+    if allowed.any():
+        k = int(allowed.sum())
+        both = np.vstack([states[allowed], _reverse(states[allowed], -np.ones(k), n)])
+        result = compute_ld(base.system, both, +1, settings)
+        for suffix, part in (("forward", slice(0, k)), ("backward", slice(k, 2 * k))):
+            out[f"ld_{suffix}"][allowed] = result.ld[part]
+            out[f"exit_time_{suffix}"][allowed] = result.time[part]
+        cost.add(2 * k, float(result.time.sum()), int(result.steps.sum()))
+    return out
+
+
+def run_tasks(tasks: list[Task], refinement: RefinementSettings, cost: Cost | None = None) -> list:
+    """Run tasks of slices of one family together; returns each task's result, in order.
+
+    A task yields ``(problem, kind, points, directions)``: ``kind`` one of ``"fates"``, ``"ld"``,
+    ``"residence"``; ``points`` shape (k, 2) on ``problem``'s slice; ``directions`` shape (k,), +1 or
+    -1, the direction of time of each fate (ignored otherwise: both directions are computed). It
+    receives a dict of arrays of shape (k,): ``fate``, ``exit_time`` and ``allowed`` for fates;
+    ``ld_forward``, ``ld_backward``, ``exit_time_forward``, ``exit_time_backward`` and ``allowed``
+    otherwise. Each round answers every pending request, one engine call per kind.
+    """
+    cost = Cost() if cost is None else cost
+    results: list = [None] * len(tasks)
+    pending: dict[int, tuple] = {}
+
+    def advance(i: int, answer) -> None:
+        try:
+            pending[i] = tasks[i].send(answer)
+        except StopIteration as stop:
+            results[i] = stop.value
+            pending.pop(i, None)
+
+    for i in range(len(tasks)):
+        advance(i, None)
+    while pending:
+        by_kind: dict[str, list[int]] = {}
+        for i, (_, kind, _, _) in pending.items():
+            by_kind.setdefault(kind, []).append(i)
+        answers = {}
+        for kind, indices in by_kind.items():
+            sizes = [len(pending[i][2]) for i in indices]
+            problems = [pending[i][0] for i, size in zip(indices, sizes) for _ in range(size)]
+            points = np.vstack([np.reshape(pending[i][2], (-1, 2)) for i in indices])
+            directions = np.concatenate([np.broadcast_to(pending[i][3], (size,)) for i, size in zip(indices, sizes)])
+            answer = _answer(kind, problems, points, directions, refinement, cost)
+            bounds = np.cumsum([0, *sizes])
+            for i, lo, hi in zip(indices, bounds[:-1], bounds[1:]):
+                answers[i] = {name: values[lo:hi] for name, values in answer.items()}
+        for i, answer in answers.items():
+            advance(i, answer)
+    return results
+
+
+def bisect_task(problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, directions: np.ndarray,
+                settings: RefinementSettings):
+    """:func:`ldpipe.nhim.bisect_fate_switch` as a task, each segment in its own direction of time
+    (so the forward and backward curves are bisected in the same rounds): returns (points, widths)."""
+    directions = np.asarray(directions)
+    lo = _clip_to_allowed(problem, np.array(starts, dtype=np.float64), np.array(ends, dtype=np.float64))
+    hi = _clip_to_allowed(problem, np.array(ends, dtype=np.float64), np.array(starts, dtype=np.float64))
+    fates = (yield problem, "fates", np.vstack([lo, hi]), np.concatenate([directions, directions]))["fate"]
+    f_lo, f_hi = fates[: len(lo)], fates[len(lo):]
+    bad = (f_lo * f_hi) != -1
+    if bad.any():
+        names = sorted({"forward" if d > 0 else "backward" for d in directions[bad]})
+        raise RefinementFailed(
+            f"map {problem.name}: {int(bad.sum())} of {len(lo)} segments do not bracket a switch of the "
+            f"{' and '.join(names)} fate (end fates {f_lo[bad].tolist()}, {f_hi[bad].tolist()})"
+        )
+    width = np.linalg.norm(hi - lo, axis=1)
+    while np.any(width > settings.bisection_precision):
+        active = width > settings.bisection_precision
+        middle = 0.5 * (lo[active] + hi[active])
+        f_mid = (yield problem, "fates", middle, directions[active])["fate"]
+        index = np.flatnonzero(active)
+        same_lo = f_mid == f_lo[index]
+        same_hi = f_mid == f_hi[index]
+        lo[index[same_lo]] = middle[same_lo]
+        hi[index[same_hi]] = middle[same_hi]
+        stuck = ~(same_lo | same_hi)  # still inside after max_time: on the manifold as far as integration tells
+        lo[index[stuck]] = middle[stuck]
+        hi[index[stuck]] = middle[stuck]
+        width = np.linalg.norm(hi - lo, axis=1)
+    return 0.5 * (lo + hi), width
+
+
+def refine_by_fates_task(problem: SliceProblem, guess: np.ndarray, settings: RefinementSettings):
+    """:func:`ldpipe.nhim.refine_by_fates` as a task: returns a :class:`Refined` (its ``cost`` left
+    empty: the batch's cost is shared) or raises :class:`RefinementFailed` as it does."""
+    guess = np.asarray(guess, dtype=np.float64)
+    spacing = problem.spacing
+    m = settings.stencil_points
+    half = settings.stencil_half_width
+    lines = None
+    for _ in range(4):
+        offsets = np.linspace(-half, half, m)
+        grid = np.stack(np.meshgrid(guess[0] + offsets * spacing[0], guess[1] + offsets * spacing[1], indexing="ij"), -1)
+        stencil = grid.reshape(-1, 2)
+        both = (yield problem, "fates", np.vstack([stencil, stencil]),
+                np.repeat([1, -1], len(stencil)))["fate"]
+        forward, backward = both[: len(stencil)], both[len(stencil):]
+        lines = [_switch_line(stencil, forward, (m, m)), _switch_line(stencil, backward, (m, m))]
+        if all(line is not None for line in lines):
+            break
+        half *= 2
+        lines = None
+    if lines is None:
+        raise RefinementFailed(
+            f"map {problem.name}: no switch of both the forward and the backward fate within {half / 2:g} grid "
+            f"cells of the detected point {guess.tolist()}; the detection missed the NHIM"
+        )
+    (p_s, t_s), (p_u, t_u) = lines
+    estimate = _intersect(p_s, t_s, p_u, t_u, problem.name)
+    history = [estimate]
+    h = float(np.hypot(*(half * spacing)) / 2)
+    bracket = float(np.hypot(*(half * spacing)))
+    update = np.inf
+    for iteration in range(1, settings.max_iterations + 1):
+        # Two segments across each curve, at +-h along it; the stable curve's by forward fates, the
+        # unstable curve's by backward fates, all four bisected together.
+        normals = [np.array([-t[1], t[0]]) for t in (t_s, t_s, t_u, t_u)]
+        centres = [estimate + h * t_s, estimate - h * t_s, estimate + h * t_u, estimate - h * t_u]
+        directions = np.array([1, 1, -1, -1])
+        for attempt in range(6):
+            try:
+                found, _ = yield from bisect_task(
+                    problem, np.array([c - bracket * m for c, m in zip(centres, normals)]),
+                    np.array([c + bracket * m for c, m in zip(centres, normals)]), directions, settings)
+                break
+            except RefinementFailed:
+                if attempt == 5:
+                    raise
+                bracket *= 4
+        new_lines = []
+        for pair in (found[:2], found[2:]):
+            chord = pair[1] - pair[0]
+            new_lines.append((pair[0], chord / np.linalg.norm(chord)))
+        (p_s, t_s), (p_u, t_u) = new_lines
+        new = _intersect(p_s, t_s, p_u, t_u, problem.name)
+        update = float(np.linalg.norm(new - estimate))
+        estimate = new
+        history.append(estimate)
+        if update <= settings.tolerance and h * h <= settings.tolerance:
+            break
+        h = max(h * settings.shrink, 10 * settings.bisection_precision)
+        bracket = max(4 * update, 4 * h * h + 20 * settings.bisection_precision)
+    else:
+        raise RefinementFailed(
+            f"map {problem.name}: fate refinement did not reach tolerance {settings.tolerance:g} in "
+            f"{settings.max_iterations} iterations (last update {update:.3g})"
+        )
+    angle = float(np.arccos(min(1.0, abs(float(t_s @ t_u)))))
+    uncertainty = max(update, settings.bisection_precision / max(np.sin(angle), 1e-300))
+    if uncertainty > settings.tolerance:
+        raise RefinementFailed(
+            f"map {problem.name}: the manifolds cross at {angle:.3g} rad, so bisection to "
+            f"{settings.bisection_precision:g} locates their crossing only to {uncertainty:.3g} > tolerance "
+            f"{settings.tolerance:g}; lower nhim.refinement.bisection_precision"
+        )
+    return Refined(estimate, uncertainty, iteration, Cost(), angle, history)
