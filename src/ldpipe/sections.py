@@ -312,7 +312,7 @@ def _flow_states(system, section: Section, rows: slice) -> tuple[np.ndarray, np.
 
 
 def solve_momentum(
-    system: System, states: np.ndarray, index: int, energy: float, sign: int
+    system: System, states: np.ndarray, index: int, energy: float, sign: int | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(allowed, solved)``: the momentum p_index of each row of ``states`` (shape (k, 2 n_dof))
     with H = ``energy``, the other entries given; ``solved`` is 0 where no real value exists.
@@ -323,8 +323,10 @@ def solve_momentum(
     dq_s/dt = W_ss x + b = +-sqrt(b^2 - 2 W_ss c): ``sign`` chooses the sign of that velocity (of
     p_s itself for diagonal masses, where b = 0). The root is taken in the form without
     cancellation (x = 2 c / (-b - sign sqrt(D)) where -b and sign sqrt(D) differ in sign).
+    ``sign`` is one for all rows or one per row (slices of a family solved together).
     """
     n = system.n_dof
+    sign = np.broadcast_to(np.asarray(sign, dtype=np.float64), (len(states),))
     potential = np.empty(len(states))
     system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
     solved = np.zeros(len(states))
@@ -332,7 +334,7 @@ def solve_momentum(
         other_momenta = np.delete(states[:, n:], index, axis=1)
         radicand = 2.0 * (energy - potential) - np.sum(other_momenta**2, axis=1)
         allowed = radicand >= 0.0
-        solved[allowed] = sign * np.sqrt(radicand[allowed])
+        solved[allowed] = sign[allowed] * np.sqrt(radicand[allowed])
         return allowed, solved
     inverse = system.inverse_mass
     others = np.array(states[:, n:], dtype=np.float64)

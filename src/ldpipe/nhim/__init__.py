@@ -45,7 +45,8 @@ from .detection import (
     switch_cells,
 )
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
-from .fates import Cost, RefinementFailed, RefinementSettings, bisect_fate_switch, exit_fates
+from .batched import bisect_fate_switch
+from .fates import Cost, RefinementFailed, RefinementSettings, exit_fates
 from .refinement import ManifoldsTangent, Refined, ld_at_points, refine_by_fates, refine_by_ld_zoom
 from .slices import (
     SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality,

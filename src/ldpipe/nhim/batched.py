@@ -8,9 +8,10 @@ cost is the latency of the longest trajectory, ~200 calls a point. Written as a 
 :func:`run_tasks` gathers the pending requests of every task, answers each kind with one engine
 call over all their points, and resumes the tasks with their share.
 
-:func:`refine_by_fates_task` is :func:`ldpipe.nhim.refine_by_fates` (same stencil, secant
-iteration, bisection and uncertainty) written as such a task, bisecting the stable and the
-unstable curve in the same rounds; its tests check it against that function on the same slices.
+:func:`bisect_task` is the bisection of fate switches as such a task (each segment in its own
+direction of time); :func:`bisect_fate_switch` runs it alone. The refinement of a point
+(:func:`ldpipe.nhim.refinement.refine_by_fates_task`) is built on it, and
+:func:`ldpipe.nhim.refine_by_fates` runs that alone: one algorithm, batched or not.
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..engine import compute_ld
+from ..sections import solve_momentum
 from .fates import Cost, RefinementFailed, RefinementSettings, _clip_to_allowed, fate_settings
-from .refinement import Refined, _intersect, _switch_line
 from .slices import SliceProblem
 
 #: A task: yields requests, receives their answers, returns its result.
@@ -41,14 +42,10 @@ def _states(problems: list[SliceProblem], points: np.ndarray) -> tuple[np.ndarra
     states[:, phase.index(section.axes[1])] = points[:, 1]
     for name in section.fixed:
         states[:, phase.index(name)] = [p.section.fixed[name] for p in problems]
-    solve = phase.index(section.solve)
-    potential = np.empty(len(states))
-    system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
-    other = np.delete(states[:, n:], solve - n, axis=1)
-    radicand = 2.0 * (first.energy - potential) - np.sum(other**2, axis=1)
-    allowed = radicand >= 0.0
     signs = np.array([p.section.sign for p in problems], dtype=np.float64)
-    states[allowed, solve] = signs[allowed] * np.sqrt(radicand[allowed])
+    # the one solver of a section's momentum (kinetic matrix included), each row with its slice's sign
+    allowed, solved = solve_momentum(system, states, phase.index(section.solve) - n, first.energy, signs)
+    states[allowed, phase.index(section.solve)] = solved[allowed]
     return states, allowed
 
 
@@ -174,77 +171,31 @@ def bisect_task(problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, dir
     return 0.5 * (lo + hi), width
 
 
-def refine_by_fates_task(problem: SliceProblem, guess: np.ndarray, settings: RefinementSettings):
-    """:func:`ldpipe.nhim.refine_by_fates` as a task: returns a :class:`Refined` (its ``cost`` left
-    empty: the batch's cost is shared) or raises :class:`RefinementFailed` as it does."""
-    guess = np.asarray(guess, dtype=np.float64)
-    spacing = problem.spacing
-    m = settings.stencil_points
-    half = settings.stencil_half_width
-    lines = None
-    for _ in range(4):
-        offsets = np.linspace(-half, half, m)
-        grid = np.stack(np.meshgrid(guess[0] + offsets * spacing[0], guess[1] + offsets * spacing[1], indexing="ij"), -1)
-        stencil = grid.reshape(-1, 2)
-        both = (yield problem, "fates", np.vstack([stencil, stencil]),
-                np.repeat([1, -1], len(stencil)))["fate"]
-        forward, backward = both[: len(stencil)], both[len(stencil):]
-        lines = [_switch_line(stencil, forward, (m, m)), _switch_line(stencil, backward, (m, m))]
-        if all(line is not None for line in lines):
-            break
-        half *= 2
-        lines = None
-    if lines is None:
-        raise RefinementFailed(
-            f"map {problem.name}: no switch of both the forward and the backward fate within {half / 2:g} grid "
-            f"cells of the detected point {guess.tolist()}; the detection missed the NHIM"
-        )
-    (p_s, t_s), (p_u, t_u) = lines
-    estimate = _intersect(p_s, t_s, p_u, t_u, problem.name)
-    history = [estimate]
-    h = float(np.hypot(*(half * spacing)) / 2)
-    bracket = float(np.hypot(*(half * spacing)))
-    update = np.inf
-    for iteration in range(1, settings.max_iterations + 1):
-        # Two segments across each curve, at +-h along it; the stable curve's by forward fates, the
-        # unstable curve's by backward fates, all four bisected together.
-        normals = [np.array([-t[1], t[0]]) for t in (t_s, t_s, t_u, t_u)]
-        centres = [estimate + h * t_s, estimate - h * t_s, estimate + h * t_u, estimate - h * t_u]
-        directions = np.array([1, 1, -1, -1])
-        for attempt in range(6):
-            try:
-                found, _ = yield from bisect_task(
-                    problem, np.array([c - bracket * m for c, m in zip(centres, normals)]),
-                    np.array([c + bracket * m for c, m in zip(centres, normals)]), directions, settings)
-                break
-            except RefinementFailed:
-                if attempt == 5:
-                    raise
-                bracket *= 4
-        new_lines = []
-        for pair in (found[:2], found[2:]):
-            chord = pair[1] - pair[0]
-            new_lines.append((pair[0], chord / np.linalg.norm(chord)))
-        (p_s, t_s), (p_u, t_u) = new_lines
-        new = _intersect(p_s, t_s, p_u, t_u, problem.name)
-        update = float(np.linalg.norm(new - estimate))
-        estimate = new
-        history.append(estimate)
-        if update <= settings.tolerance and h * h <= settings.tolerance:
-            break
-        h = max(h * settings.shrink, 10 * settings.bisection_precision)
-        bracket = max(4 * update, 4 * h * h + 20 * settings.bisection_precision)
-    else:
-        raise RefinementFailed(
-            f"map {problem.name}: fate refinement did not reach tolerance {settings.tolerance:g} in "
-            f"{settings.max_iterations} iterations (last update {update:.3g})"
-        )
-    angle = float(np.arccos(min(1.0, abs(float(t_s @ t_u)))))
-    uncertainty = max(update, settings.bisection_precision / max(np.sin(angle), 1e-300))
-    if uncertainty > settings.tolerance:
-        raise RefinementFailed(
-            f"map {problem.name}: the manifolds cross at {angle:.3g} rad, so bisection to "
-            f"{settings.bisection_precision:g} locates their crossing only to {uncertainty:.3g} > tolerance "
-            f"{settings.tolerance:g}; lower nhim.refinement.bisection_precision"
-        )
-    return Refined(estimate, uncertainty, iteration, Cost(), angle, history)
+def bisect_fate_switch(
+    problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, direction: int, settings: RefinementSettings,
+    cost: Cost | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bisect each segment [start, end] to the point where the fate in ``direction`` switches.
+
+    All segments are bisected together (one batch of trajectories per halving): :func:`bisect_task`
+    run alone.
+
+    Parameters
+    ----------
+    starts, ends : ndarray, shape (m, 2)
+
+    Returns
+    -------
+    points : ndarray, shape (m, 2)
+        Midpoints of the final brackets.
+    widths : ndarray, shape (m,)
+        Final bracket lengths (<= ``bisection_precision``, or 0 where a midpoint never left).
+
+    Raises
+    ------
+    RefinementFailed
+        If a segment's ends have the same fate (or none): the segment does not bracket the manifold.
+    """
+    directions = np.full(len(starts), direction)
+    (result,) = run_tasks([bisect_task(problem, starts, ends, directions, settings)], settings, cost)
+    return result

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..engine import LDSettings, compute_ld
-from .fates import Cost, RefinementFailed, RefinementSettings, bisect_fate_switch, exit_fates
+from .batched import bisect_task, run_tasks
+from .fates import Cost, RefinementFailed, RefinementSettings, exit_fates
 from .slices import SliceProblem, section_point_states
 
 
@@ -67,6 +68,87 @@ class Refined:
     history: list = field(default_factory=list)
 
 
+def refine_by_fates_task(problem: SliceProblem, guess: np.ndarray, settings: RefinementSettings):
+    """The refinement of a detected NHIM point by bisection on forward and backward fates, as a task
+    of :func:`ldpipe.nhim.batched.run_tasks` (the stable curve's segments by forward fates, the
+    unstable curve's by backward fates, bisected in the same rounds): returns a :class:`Refined`
+    (its ``cost`` left empty: a batch's cost is shared) or raises :class:`RefinementFailed`
+    (:class:`ManifoldsTangent` where the curves cross too flatly for the tolerance)."""
+    guess = np.asarray(guess, dtype=np.float64)
+    spacing = problem.spacing
+    m = settings.stencil_points
+    half = settings.stencil_half_width
+    lines = None
+    for _ in range(4):
+        offsets = np.linspace(-half, half, m)
+        grid = np.stack(np.meshgrid(guess[0] + offsets * spacing[0], guess[1] + offsets * spacing[1], indexing="ij"), -1)
+        stencil = grid.reshape(-1, 2)
+        both = (yield problem, "fates", np.vstack([stencil, stencil]),
+                np.repeat([1, -1], len(stencil)))["fate"]
+        forward, backward = both[: len(stencil)], both[len(stencil):]
+        lines = [_switch_line(stencil, forward, (m, m)), _switch_line(stencil, backward, (m, m))]
+        if all(line is not None for line in lines):
+            break
+        half *= 2
+        lines = None
+    if lines is None:
+        raise RefinementFailed(
+            f"map {problem.name}: no switch of both the forward and the backward fate within {half / 2:g} grid "
+            f"cells of the detected point {guess.tolist()}; the detection missed the NHIM"
+        )
+    (p_s, t_s), (p_u, t_u) = lines
+    estimate = _intersect(p_s, t_s, p_u, t_u, problem.name)
+    history = [estimate]
+    h = float(np.hypot(*(half * spacing)) / 2)
+    bracket = float(np.hypot(*(half * spacing)))
+    update = np.inf
+    for iteration in range(1, settings.max_iterations + 1):
+        # Two segments across each curve, at +-h along it; the stable curve's by forward fates, the
+        # unstable curve's by backward fates, all four bisected together.
+        normals = [np.array([-t[1], t[0]]) for t in (t_s, t_s, t_u, t_u)]
+        centres = [estimate + h * t_s, estimate - h * t_s, estimate + h * t_u, estimate - h * t_u]
+        directions = np.array([1, 1, -1, -1])
+        for attempt in range(6):
+            try:
+                found, _ = yield from bisect_task(
+                    problem, np.array([c - bracket * m for c, m in zip(centres, normals)]),
+                    np.array([c + bracket * m for c, m in zip(centres, normals)]), directions, settings)
+                break
+            except RefinementFailed:
+                if attempt == 5:
+                    raise
+                bracket *= 4
+        new_lines = []
+        for pair in (found[:2], found[2:]):
+            chord = pair[1] - pair[0]
+            new_lines.append((pair[0], chord / np.linalg.norm(chord)))
+        (p_s, t_s), (p_u, t_u) = new_lines
+        new = _intersect(p_s, t_s, p_u, t_u, problem.name)
+        update = float(np.linalg.norm(new - estimate))
+        estimate = new
+        history.append(estimate)
+        if update <= settings.tolerance and h * h <= settings.tolerance:
+            break
+        h = max(h * settings.shrink, 10 * settings.bisection_precision)
+        bracket = max(4 * update, 4 * h * h + 20 * settings.bisection_precision)
+    else:
+        raise RefinementFailed(
+            f"map {problem.name}: fate refinement did not reach tolerance {settings.tolerance:g} in "
+            f"{settings.max_iterations} iterations (last update {update:.3g})"
+        )
+    angle = float(np.arccos(min(1.0, abs(float(t_s @ t_u)))))
+    # Each secant is known to the bisection precision across it; where the curves cross at a small
+    # angle their intersection moves by that over sin(angle).
+    uncertainty = max(update, settings.bisection_precision / max(np.sin(angle), 1e-300))
+    if uncertainty > settings.tolerance:
+        raise ManifoldsTangent(
+            f"map {problem.name}: the manifolds cross at {angle:.3g} rad, so bisection to "
+            f"{settings.bisection_precision:g} locates their crossing only to {uncertainty:.3g} > tolerance "
+            f"{settings.tolerance:g}; lower nhim.refinement.bisection_precision"
+        )
+    return Refined(estimate, uncertainty, iteration, Cost(), angle, history)
+
+
 def refine_by_fates(problem: SliceProblem, guess: np.ndarray, settings: RefinementSettings) -> Refined:
     """Refine a detected NHIM point by bisection on forward and backward fates; see the module docstring.
 
@@ -87,77 +169,9 @@ def refine_by_fates(problem: SliceProblem, guess: np.ndarray, settings: Refineme
     """
     started = time.perf_counter()
     cost = Cost()
-    guess = np.asarray(guess, dtype=np.float64)
-    spacing = problem.spacing
-    m = settings.stencil_points
-    half = settings.stencil_half_width
-    lines = None
-    for _ in range(4):
-        offsets = np.linspace(-half, half, m)
-        grid = np.stack(np.meshgrid(guess[0] + offsets * spacing[0], guess[1] + offsets * spacing[1], indexing="ij"), -1)
-        stencil = grid.reshape(-1, 2)
-        forward, _ = exit_fates(problem, stencil, +1, settings, cost)
-        backward, _ = exit_fates(problem, stencil, -1, settings, cost)
-        lines = [_switch_line(stencil, forward, (m, m)), _switch_line(stencil, backward, (m, m))]
-        if all(line is not None for line in lines):
-            break
-        half *= 2
-        lines = None
-    if lines is None:
-        raise RefinementFailed(
-            f"map {problem.name}: no switch of both the forward and the backward fate within {half / 2:g} grid "
-            f"cells of the detected point {guess.tolist()}; the detection missed the NHIM"
-        )
-    (p_s, t_s), (p_u, t_u) = lines
-    estimate = _intersect(p_s, t_s, p_u, t_u, problem.name)
-    history = [estimate]
-    # Secant spacing and bracket half-length, in section units.
-    h = float(np.hypot(*(half * spacing)) / 2)
-    bracket = float(np.hypot(*(half * spacing)))
-    update = np.inf
-    for iteration in range(1, settings.max_iterations + 1):
-        new_lines = []
-        for direction, tangent in ((+1, t_s), (-1, t_u)):
-            normal = np.array([-tangent[1], tangent[0]])
-            centres = np.array([estimate + h * tangent, estimate - h * tangent])
-            for attempt in range(6):
-                try:
-                    found, _ = bisect_fate_switch(
-                        problem, centres - bracket * normal, centres + bracket * normal, direction, settings, cost,
-                    )
-                    break
-                except RefinementFailed:
-                    if attempt == 5:
-                        raise
-                    bracket *= 4
-            chord = found[1] - found[0]
-            new_lines.append((found[0], chord / np.linalg.norm(chord)))
-        (p_s, t_s), (p_u, t_u) = new_lines
-        new = _intersect(p_s, t_s, p_u, t_u, problem.name)
-        update = float(np.linalg.norm(new - estimate))
-        estimate = new
-        history.append(estimate)
-        if update <= settings.tolerance and h * h <= settings.tolerance:
-            break
-        h = max(h * settings.shrink, 10 * settings.bisection_precision)
-        bracket = max(4 * update, 4 * h * h + 20 * settings.bisection_precision)
-    else:
-        raise RefinementFailed(
-            f"map {problem.name}: fate refinement did not reach tolerance {settings.tolerance:g} in "
-            f"{settings.max_iterations} iterations (last update {update:.3g})"
-        )
+    (refined,) = run_tasks([refine_by_fates_task(problem, guess, settings)], settings, cost)
     cost.wall_time = time.perf_counter() - started
-    angle = float(np.arccos(min(1.0, abs(float(t_s @ t_u)))))
-    # Each secant is known to the bisection precision across it; where the curves cross at a small
-    # angle their intersection moves by that over sin(angle).
-    uncertainty = max(update, settings.bisection_precision / max(np.sin(angle), 1e-300))
-    if uncertainty > settings.tolerance:
-        raise ManifoldsTangent(
-            f"map {problem.name}: the manifolds cross at {angle:.3g} rad, so bisection to "
-            f"{settings.bisection_precision:g} locates their crossing only to {uncertainty:.3g} > tolerance "
-            f"{settings.tolerance:g}; lower nhim.refinement.bisection_precision"
-        )
-    return Refined(estimate, uncertainty, iteration, cost, angle, history)
+    return replace(refined, cost=cost)
 
 
 def ld_at_points(

@@ -15,7 +15,7 @@ axis where two neighbours in a row are known, the neighbour itself where one is)
 computed on a small grid around the prediction (``window_points``^2 points,
 ``window_half_width`` wide), the NHIM cell detected on it (:func:`ldpipe.nhim.detect_nhim_cell`)
 and refined by fates with the window's spacing as the stencil's
-(:func:`ldpipe.nhim.batched.refine_by_fates_task`, the algorithm of
+(:func:`ldpipe.nhim.refinement.refine_by_fates_task`, the algorithm of
 :func:`ldpipe.nhim.refine_by_fates`). When that fails (no allowed point, the detection on the
 window's edge, no fate switch) the window widens by ``widen``, up to ``max_widenings`` times. A
 slice with no neighbour to predict from (the first, the seed) is searched on the base map's whole
@@ -45,9 +45,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .batched import refine_by_fates_task, run_tasks
+from .batched import run_tasks
 from .detection import detect_nhim_cell
 from .fates import Cost, RefinementFailed, RefinementSettings
+from .refinement import refine_by_fates_task
 from .slices import SliceProblem, section_point_states
 
 #: Status codes of a slice (the file's ``status`` variable; flag_values / flag_meanings).
