@@ -29,3 +29,7 @@ __all__ += ["well_area", "well_shell_volume"]
 from .survival import decay_rate, exit_times, initial_slope, sample_well, survival  # noqa: E402
 
 __all__ += ["decay_rate", "exit_times", "initial_slope", "sample_well", "survival"]
+
+from .gap_times import GapTimes, entering_states, gap_times  # noqa: E402
+
+__all__ += ["GapTimes", "entering_states", "gap_times"]
