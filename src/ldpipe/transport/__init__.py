@@ -33,3 +33,7 @@ __all__ += ["decay_rate", "exit_times", "initial_slope", "sample_well", "surviva
 from .gap_times import GapTimes, entering_states, gap_times  # noqa: E402
 
 __all__ += ["GapTimes", "entering_states", "gap_times"]
+
+from .plane import DividingPlane  # noqa: E402
+
+__all__ += ["DividingPlane"]

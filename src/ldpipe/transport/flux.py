@@ -235,7 +235,7 @@ class MonteCarloFlux:
 
 def _commit_side(samples: np.ndarray, saddle: np.ndarray, normal: np.ndarray, commit: float) -> np.ndarray:
     """+1 / −1 for the side (sign of s = n·(q − q_s)) where |s| first exceeds ``commit``; 0 if never."""
-    s = (samples[:, :, 0] - saddle[0]) * normal[0] + (samples[:, :, 1] - saddle[1]) * normal[1]
+    s = (samples[:, :, : len(saddle)] - saddle) @ normal
     beyond = np.abs(s) > commit
     first = np.argmax(beyond, axis=1)
     hit = beyond[np.arange(len(s)), first]
@@ -275,6 +275,9 @@ def reactive_flux_monte_carlo(
     threads: int | None = None,
 ) -> MonteCarloFlux:
     """The reactive flux through ``line`` at its energy, by Monte Carlo with recrossings counted once.
+
+    ``line`` is a :class:`DividingLine` (2 DoF) or a :class:`~ldpipe.transport.plane.DividingPlane`
+    (3 DoF): anything with ``area``, ``sample``, ``states``, ``system``, ``saddle`` and ``normal``.
 
     Points (u, p_u) are drawn uniformly on the allowed region of the line (area A, the directional
     flux), each crossing outwards (p_n > 0), and weighted w = +1 if its trajectory comes from the
