@@ -10,6 +10,7 @@ from .flux import (
     DividingLine,
     MonteCarloFlux,
     closed_curve_area,
+    harmonic_flux,
     orbit_action,
     reactive_flux_monte_carlo,
 )
@@ -18,6 +19,7 @@ __all__ = [
     "DividingLine",
     "MonteCarloFlux",
     "closed_curve_area",
+    "harmonic_flux",
     "orbit_action",
     "reactive_flux_monte_carlo",
 ]

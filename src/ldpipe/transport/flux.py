@@ -233,6 +233,17 @@ class MonteCarloFlux:
     undecided: int
 
 
+def harmonic_flux(excess_energy, frequencies) -> np.ndarray:
+    """(2π)^{n−1} ΔE^{n−1} / ((n−1)! ∏ ω_i): the flux over a quadratic saddle with centre frequencies ω_i.
+
+    The centre–centre part of phase space at energy ΔE above the saddle is {Σ ω_i I_i ≤ ΔE} in
+    actions times (2π)^{n−1} in angles, a simplex of volume ΔE^{n−1}/((n−1)! ∏ ω_i): 2πΔE/ω in 2 DoF
+    (:class:`DividingLine`), (2π)² ΔE²/(2 ω_1 ω_2) in 3 DoF (derived in :mod:`ldpipe.transport.plane`).
+    """
+    m = len(frequencies)
+    return (2 * math.pi * np.asarray(excess_energy)) ** m / (math.factorial(m) * float(np.prod(frequencies)))
+
+
 def _commit_side(samples: np.ndarray, saddle: np.ndarray, normal: np.ndarray, commit: float) -> np.ndarray:
     """+1 / −1 for the side (sign of s = n·(q − q_s)) where |s| first exceeds ``commit``; 0 if never."""
     s = (samples[:, :, : len(saddle)] - saddle) @ normal
