@@ -212,6 +212,13 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.initial_conditions': the two axes, the fixed coordinates and the solved momentum "
                 f"must name each of {list(phase)} exactly once, the solved one a momentum; got {named}"
             )
+    for name, spec in config["saddle_flux"].items():
+        key = f"saddle_flux.{name}"
+        coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
+        if len(coordinates) not in (2, 3):
+            raise ConfigError(f"config key '{key}.system': the saddle-flux stage is for 2 and 3 DoF systems; "
+                              f"{spec['system']!r} has {len(coordinates)}")
+        _check_saddle_near(spec, coordinates, key)
 
 
 def _check_nhim(config: dict) -> None:

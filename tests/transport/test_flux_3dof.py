@@ -1,9 +1,9 @@
 """Flux through the dividing plane of a 3 DoF saddle (issue 17), against closed forms.
 
-Quadratic saddle V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 in rotated coordinates (a, b, c) = R (x, y, z),
-E_c = 0, excess ΔE: the plane a = 0 carries the one-way flux (2π)² ΔE² / (2 ω_1 ω_2) (derived in
-ldpipe.transport.plane), every crossing of it is reactive (a(t) is monotone through 0, uncoupled),
-and a uniform sample of the allowed (u, p_u) 4-volume has uniform mode energies (e_1, e_2) on the
+Quadratic saddle (support.quadratic_saddle) V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 in rotated
+coordinates (a, b, c) = R (x, y, z), E_c = 0, excess ΔE: the plane a = 0 carries the one-way flux
+(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.transport.plane), every crossing of it is reactive (a(t)
+is monotone through 0, uncoupled), and a uniform sample of the allowed (u, p_u) 4-volume has uniform mode energies (e_1, e_2) on the
 triangle e_1 + e_2 ≤ ΔE (the volume element is (2π)² de_1 de_2 / (ω_1 ω_2)): Pr(e_1 + e_2 ≤ ΔE/2)
 = 1/4 and Pr(e_1 ≤ ΔE/2) = 3/4.
 
@@ -20,26 +20,15 @@ import pytest
 from ldpipe.flow import FlowSettings
 from ldpipe.systems import make_system
 from ldpipe.transport import DividingPlane, reactive_flux_monte_carlo
+from support import quadratic_saddle as quadratic
+from support.quadratic_saddle import OM1, OM2
 
-LAM, OM1, OM2 = 0.9, 1.3, 0.6
 FLOW = FlowSettings(rtol=1e-9, atol=1e-9, escape_radius=60.0)
-
-
-def _rotation():
-    """A fixed rotation (QR of fixed numbers, determinant +1) so the plane is no coordinate plane."""
-    q, r = np.linalg.qr(np.array([[1.0, 0.4, -0.3], [0.2, 1.0, 0.5], [-0.6, 0.1, 1.0]]))
-    q = q * np.sign(np.diag(r))
-    return q if np.linalg.det(q) > 0 else -q
 
 
 @pytest.fixture(scope="module")
 def quadratic_saddle():
-    rot = _rotation()
-    a, b, c = (" + ".join(f"({float(rot[i, j])!r})*{v}" for j, v in enumerate("xyz")) for i in range(3))
-    formula = f"-lam**2*({a})**2/2 + om1**2*({b})**2/2 + om2**2*({c})**2/2"
-    system = make_system("quadratic_saddle_3dof", {"formula": formula, "coordinates": ["x", "y", "z"],
-                                                   "parameters": {"lam": LAM, "om1": OM1, "om2": OM2}})
-    return system, rot
+    return make_system("quadratic_saddle_3dof", quadratic.spec()), quadratic.rotation()
 
 
 @pytest.mark.parametrize("excess", [0.02, 0.7])
@@ -47,7 +36,7 @@ def test_quadratic_plane_flux_is_the_centre_action_volume(quadratic_saddle, exce
     system, rot = quadratic_saddle
     plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
     assert abs(abs(plane.normal @ rot[0]) - 1) < 1e-12
-    exact = (2 * math.pi * excess) ** 2 / (2 * OM1 * OM2)
+    exact = quadratic.plane_flux(excess)
     assert plane.area() == pytest.approx(exact, rel=1e-12)
 
 
@@ -70,11 +59,11 @@ def test_quadratic_plane_monte_carlo_counts_every_crossing_reactive(quadratic_sa
     plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
     result = reactive_flux_monte_carlo(plane, commit=1.0, duration=12.0, batch=500, max_samples=500, flow=FLOW)
     assert (result.reactive, result.antireactive, result.undecided) == (500, 0, 0)
-    assert result.flux == pytest.approx((2 * math.pi * excess) ** 2 / (2 * OM1 * OM2), rel=1e-12)
+    assert result.flux == pytest.approx(quadratic.plane_flux(excess), rel=1e-12)
 
 
 @pytest.fixture(scope="module")
-def barbanis_contopoulos():
+def bc_saddle():
     system = make_system("barbanis_contopoulos_3dof", {"builtin": "barbanis_contopoulos_3dof", "parameters": {
         "omega_x2": 0.9, "omega_y2": 1.6, "omega_z2": 0.4, "epsilon": 0.08, "eta": 0.01}})
     saddle = system.closed_form_equilibria()[1]
@@ -82,8 +71,8 @@ def barbanis_contopoulos():
     return system, saddle, system.potential(saddle), frequencies
 
 
-def test_barbanis_contopoulos_flux_tends_to_the_harmonic_value(barbanis_contopoulos):
-    system, saddle, critical, (om1, om2) = barbanis_contopoulos
+def test_barbanis_contopoulos_flux_tends_to_the_harmonic_value(bc_saddle):
+    system, saddle, critical, (om1, om2) = bc_saddle
     deviation = []
     for excess in (0.01, 0.02):
         harmonic = (2 * math.pi * excess) ** 2 / (2 * om1 * om2)
@@ -92,10 +81,10 @@ def test_barbanis_contopoulos_flux_tends_to_the_harmonic_value(barbanis_contopou
     assert deviation[1] / deviation[0] == pytest.approx(2.0, rel=0.02)
 
 
-def test_barbanis_contopoulos_reactive_flux_at_most_the_one_way_flux(barbanis_contopoulos):
+def test_barbanis_contopoulos_reactive_flux_at_most_the_one_way_flux(bc_saddle):
     """At E = 24 (the paper's energy): the classified Monte Carlo flux does not exceed the plane's
     one-way flux, and every sample committed within the integration time."""
-    system, saddle, _, _ = barbanis_contopoulos
+    system, saddle, _, _ = bc_saddle
     plane = DividingPlane.at_saddle(system, saddle, 24.0)
     result = reactive_flux_monte_carlo(plane, commit=2.0, duration=20.0, batch=400, max_samples=400, flow=FLOW)
     assert result.undecided == 0

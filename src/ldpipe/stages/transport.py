@@ -67,14 +67,19 @@ def transport_parameters(config: dict, name: str) -> dict:
             "saddle_near": family.get("saddle_near"), **spec}
 
 
-def _well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The minimum (the well) and the saddle's centre frequencies, from the equilibria file."""
+def well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray, *,
+                         require_well: bool = True) -> tuple[np.ndarray | None, np.ndarray]:
+    """The minimum nearest the saddle (the well; None if there is none and ``require_well`` is
+    false) and the saddle's centre frequencies, from the equilibria file."""
     minima = np.flatnonzero(equilibria.type.values == "minimum")
-    if not len(minima):
-        raise StageFileError("the equilibria file has no minimum: the transport stage needs the well")
     positions = equilibria.position.values
     index = int(np.argmin(np.linalg.norm(positions - saddle, axis=1)))
-    well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
+    if len(minima):
+        well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
+    elif require_well:
+        raise StageFileError("the equilibria file has no minimum: the transport stage needs the well")
+    else:
+        well = None
     imag = equilibria.eigenvalue_imag.values[index]
     frequencies = imag[imag > 1e-12]  # (+iω, −iω) pairs: one positive value per centre
     return well, np.sort(frequencies)[::-1]
@@ -94,7 +99,7 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
                           f"{system.name} has {system.n_dof}")
     saddle = np.asarray(orbits.attrs["saddle_position"], dtype=float)
-    well, frequencies = _well_and_frequencies(eq, saddle)
+    well, frequencies = well_and_frequencies(eq, saddle)
     saddles = eq.position.values[eq.saddle_equilibrium.values]
     others = [(q, float(ec)) for q, ec in zip(saddles, eq.critical_energy.values)
               if np.linalg.norm(q - saddle) > 1e-8 * (1 + np.linalg.norm(saddle))]
