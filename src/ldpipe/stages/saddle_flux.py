@@ -30,13 +30,12 @@ import xarray as xr
 
 from ..contracts import EQUILIBRIA, SADDLE_FLUX
 from ..datafile import open_stage_file, write_stage_file
-from ..equilibria import select_saddle
+from ..equilibria import select_saddle, well_and_frequencies
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..systems import make_system, system_spec
 from ..transport import DividingLine, DividingPlane, harmonic_flux, reactive_flux_monte_carlo
-from .transport import well_and_frequencies
 from .upo import target_energies
 
 log = get_logger(__name__)

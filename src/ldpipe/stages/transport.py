@@ -45,6 +45,7 @@ import xarray as xr
 
 from ..contracts import EQUILIBRIA, TRANSPORT, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..equilibria import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
@@ -65,24 +66,6 @@ def transport_parameters(config: dict, name: str) -> dict:
     family = config["periodic_orbits"][spec["orbits"]]
     return {"name": name, "system_name": family["system"], "system_spec": system_spec(config, family["system"]),
             "saddle_near": family.get("saddle_near"), **spec}
-
-
-def well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray, *,
-                         require_well: bool = True) -> tuple[np.ndarray | None, np.ndarray]:
-    """The minimum nearest the saddle (the well; None if there is none and ``require_well`` is
-    false) and the saddle's centre frequencies, from the equilibria file."""
-    minima = np.flatnonzero(equilibria.type.values == "minimum")
-    positions = equilibria.position.values
-    index = int(np.argmin(np.linalg.norm(positions - saddle, axis=1)))
-    if len(minima):
-        well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
-    elif require_well:
-        raise StageFileError("the equilibria file has no minimum: the transport stage needs the well")
-    else:
-        well = None
-    imag = equilibria.eigenvalue_imag.values[index]
-    frequencies = imag[imag > 1e-12]  # (+iω, −iω) pairs: one positive value per centre
-    return well, np.sort(frequencies)[::-1]
 
 
 def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path, threads: int | None = None,
