@@ -2,9 +2,9 @@
 
 (a) Flux through the dividing surface against excess energy on log–log axes: the Monte Carlo
 reactive flux (3 standard errors), the surface's one-way flux and the harmonic estimate
-(2π)^{n−1} ΔE^{n−1}/((n−1)! ∏ ω_i). (b) Each relative to the harmonic estimate, flux/harmonic − 1,
-which tends to 0 linearly as ΔE → 0; the gap between the one-way and the reactive flux is the
-recrossing flux, the fraction of samples not reactive is printed by each point.
+(2π)^{n−1} ΔE^{n−1}/((n−1)! ∏ ω_i). (b) Each relative to the harmonic estimate, |flux/harmonic − 1| on log–log axes
+(circles where below the harmonic value), which tends to 0 linearly as ΔE → 0, with the Monte
+Carlo's 3 standard errors; the samples not reactive (the recrossing flux) are printed by each.
 """
 
 from __future__ import annotations
@@ -49,19 +49,25 @@ def saddle_flux_figure(data):
         style.panel_letter(ax, 0)
 
         ax = axes[1]
-        ax.errorbar(excess, mc / harmonic - 1, yerr=3 * err / harmonic, fmt="x", color="tab:blue", ms=6,
-                    label=r"reactive (Monte Carlo, $\pm 3\sigma$)")
-        ax.plot(excess, one_way / harmonic - 1, "+", color="tab:orange", ms=9, label="one-way")
+        # Log scale of |flux / harmonic − 1|: the anharmonic correction is linear in ΔE and spans decades.
+        deviation = {"one-way": (one_way / harmonic - 1, "+", "tab:orange"),
+                     "reactive (Monte Carlo)": (mc / harmonic - 1, "x", "tab:blue")}
+        for name, (value, marker, color) in deviation.items():
+            for sign, shape in ((1, marker), (-1, "o")):
+                keep = np.sign(value) == sign
+                ax.plot(excess[keep], np.abs(value[keep]), shape, color=color, mfc="none", ms=8,
+                        label=f"{name}, {'above' if sign > 0 else 'below'} harmonic" if keep.any() else None)
+        ax.plot(excess, 3 * err / harmonic, "_", color="tab:blue", ms=12, mew=2, label=r"Monte Carlo $3\sigma$")
         samples = data.monte_carlo_samples.values
         reactive = data.monte_carlo_reactive.values
-        for x, y, n, r in zip(excess, mc / harmonic - 1, samples, reactive):
-            ax.annotate(f"{n - r}/{n}", (x, y), textcoords="offset points", xytext=(4, -10), fontsize=6)
-        ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
+        for x, y, n, r in zip(excess, 3 * err / harmonic, samples, reactive):
+            ax.annotate(f"{n - r}/{n}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=6)
         ax.set_xscale("log")
+        ax.set_yscale("log")
         ax.set_xlabel(r"$\Delta E = E - E_c$")
-        ax.set_ylabel("flux / harmonic - 1")
+        ax.set_ylabel("|flux / harmonic - 1|")
         ax.set_title("relative to the harmonic estimate\n(labels: samples not reactive / samples)")
-        ax.legend(loc="upper left")
+        ax.legend(loc="lower right", fontsize=7)
         style.panel_letter(ax, 1)
     return figure
 
