@@ -53,7 +53,10 @@ def transport_figure(data):
     action = data.flux_action.values
     mc, err = data.flux_monte_carlo.values, data.flux_monte_carlo_stderr.values
     with style.figure_style():
-        figure, axes = plt.subplots(1, 5, figsize=(22.0, 4.0), constrained_layout=True)
+        # Two rows: five panels in one row make a strip too wide to read (or to show in the report).
+        figure, grid = plt.subplots(2, 3, figsize=(16.0, 8.5), constrained_layout=True)
+        axes = grid.ravel()
+        figure.delaxes(axes[5])
         ax = axes[0]
         fine = np.linspace(0.0, excess.max() * 1.05, 200)
         scale = data.flux_harmonic.values[0] / excess[0]
