@@ -200,6 +200,13 @@ def _check_orbits(config: dict) -> None:
                 f"config key '{key}.initial_conditions': the two axes, the fixed coordinates and the solved momentum "
                 f"must name each of {list(phase)} exactly once, the solved one a momentum; got {named}"
             )
+    for name, spec in config["saddle_flux"].items():
+        key = f"saddle_flux.{name}"
+        coordinates = _check_system_reference(config, spec["system"], f"{key}.system")
+        if len(coordinates) not in (2, 3):
+            raise ConfigError(f"config key '{key}.system': the saddle-flux stage is for 2 and 3 DoF systems; "
+                              f"{spec['system']!r} has {len(coordinates)}")
+        _check_saddle_near(spec, coordinates, key)
 
 
 def _check_nhim_sampling(config: dict) -> None:
@@ -538,16 +545,18 @@ def validate_config(config: dict) -> dict:
 
 
 def _check_transport_masses(config: dict) -> None:
-    """The transport stage takes |p|^2/2 as the kinetic energy (its well volume and Monte Carlo
-    sampling of momenta): a study of a system with masses is refused before anything runs."""
-    for name, spec in (config.get("transport") or {}).items():
-        family = config.get("periodic_orbits", {}).get(spec.get("orbits"), {})
-        system = family.get("system")
+    """The transport and saddle-flux stages take |p|^2/2 as the kinetic energy (their well volume,
+    one-way flux and Monte Carlo sampling of momenta): a study of a system with masses is refused
+    before anything runs."""
+    studies = [(f"transport.{name}.orbits", config.get("periodic_orbits", {}).get(spec.get("orbits"), {}).get("system"))
+               for name, spec in (config.get("transport") or {}).items()]
+    studies += [(f"saddle_flux.{name}.system", spec.get("system")) for name, spec in (config.get("saddle_flux") or {}).items()]
+    for key, system in studies:
         if system in config["systems"] and kinetic_matrix(config["systems"][system], system_coordinates(
                 config["systems"][system]), f"systems.{system}") is not None:
             raise ConfigError(
-                f"config key 'transport.{name}.orbits': the transport stage is for unit masses; system {system!r} "
-                f"has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
+                f"config key '{key}': the {key.split('.')[0].replace('_', '-')} stage is for unit masses; system "
+                f"{system!r} has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
             )
 
 

@@ -62,6 +62,9 @@ TRANSPORT = StageFile("transport", (
     "excess_energy", "flux_action", "flux_island_area", "flux_monte_carlo", "flux_monte_carlo_stderr",
     "flux_harmonic", "island", "well_volume", "rate_tst",
 ))
+SADDLE_FLUX = StageFile("saddle_flux", (
+    "excess_energy", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_surface", "flux_harmonic",
+))
 #: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
 ACCURACY_COST = StageFile(
     "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
@@ -70,5 +73,5 @@ ACCURACY_COST = StageFile(
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
     EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
-    TRANSPORT, ACCURACY_COST,
+    TRANSPORT, SADDLE_FLUX, ACCURACY_COST,
 )}

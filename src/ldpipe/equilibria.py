@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 from scipy.optimize import root
 
-from .errors import ConfigError
+from .errors import ConfigError, StageFileError
 from .systems import System
 
 
@@ -255,3 +255,21 @@ def select_saddle(equilibria: xr.Dataset, near: list[float] | None) -> tuple[np.
             raise ConfigError(f"saddle_near: expected {positions.shape[1]} numbers, got {near}")
         choice = int(np.argmin(np.linalg.norm(positions - np.asarray(near), axis=1)))
     return positions[choice], float(energies[choice])
+
+
+def well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray, *,
+                         require_well: bool = True) -> tuple[np.ndarray | None, np.ndarray]:
+    """The minimum nearest the saddle (the well; None if there is none and ``require_well`` is
+    false) and the saddle's centre frequencies, from the equilibria file."""
+    minima = np.flatnonzero(equilibria.type.values == "minimum")
+    positions = equilibria.position.values
+    index = int(np.argmin(np.linalg.norm(positions - saddle, axis=1)))
+    if len(minima):
+        well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
+    elif require_well:
+        raise StageFileError("the equilibria file has no minimum: a well is needed (the transport stage)")
+    else:
+        well = None
+    imag = equilibria.eigenvalue_imag.values[index]
+    frequencies = imag[imag > 1e-12]  # (+iω, −iω) pairs: one positive value per centre
+    return well, np.sort(frequencies)[::-1]

@@ -247,3 +247,15 @@ def test_a_vector_field_with_masses_is_refused_naming_the_key():
     spec = {"vector_field": {"x": "y", "y": "-x"}, "coordinates": ["x", "y"], "masses": {"x": 2.0}}
     with pytest.raises(ConfigError, match=r"'systems\.osc\.masses': a vector field has no kinetic energy"):
         make_system("osc", spec, key="systems.osc")
+
+
+def test_saddle_flux_of_a_system_with_masses_is_refused():
+    # The saddle-flux stage's one-way flux and sampled momenta assume |p|^2/2, like transport's.
+    config = {
+        "systems": {"heavy": {"builtin": "barbanis_2dof", "masses": {"x": 8.0}}},
+        "saddle_flux": {"s": {"system": "heavy", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}}},
+    }
+    with pytest.raises(ConfigError, match=r"saddle_flux\.s\.system.*saddle-flux stage is for unit masses"):
+        validate_config(config)
+    del config["systems"]["heavy"]["masses"]
+    validate_config(config)  # the same study without masses is valid

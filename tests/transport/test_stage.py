@@ -32,7 +32,8 @@ def _config(**transport):
         "transport": {"t": {"orbits": "bottom", "energies": {"excess": EXCESS}, "island": {"points": 24},
                             "monte_carlo": {"batch": 1000, "max_samples": 1000},
                             "survival": {"initial_count": 20000, "count": 400, "duration": 1.0,
-                                         "decay_window": [0.3, 1.0]}, **transport}},
+                                         "decay_window": [0.3, 1.0]},
+                            "gap_times": {"count": 600}, **transport}},
     })
 
 
@@ -105,8 +106,9 @@ def test_tst_rate_is_total_flux_over_well_volume(files):
 
 def test_survival_initial_slope_is_the_tst_rate(files):
     """The stage's two survival numbers against its TST rate (flux from the action, volume from the
-    polar quadrature): the initial slope must equal it (exact for t0 below the quickest crossing of
-    the well); the curve starts at 1 and falls."""
+    polar quadrature): the initial slope must equal it (to the lines' recrossing flux and the entries
+    that leave within t0, both far below its error; ldpipe.transport.survival); the curve starts at
+    1 and falls."""
     _, _, _, path = files
     data = open_stage_file(path, stage=TRANSPORT)
     rate = data.rate_tst.values
@@ -115,3 +117,21 @@ def test_survival_initial_slope_is_the_tst_rate(files):
     p = data.survival_probability.values
     assert np.all(p[:, 0] == 1.0) and np.all(np.diff(p, axis=1) <= 0) and np.all(p[:, -1] < 1.0)
     assert np.all(data.survival_decay_rate.values > 0)
+
+
+def test_gap_times_and_survival_satisfy_the_flux_volume_identity(files):
+    """Both sides of Φ E[min(τ, T)] = V (1 − P(T)) (exact; derived in ldpipe.transport.survival), each
+    from its own ensemble, agree within 4 combined standard errors; Φ is the two lines' one-way flux,
+    twice one line's by the y → −y symmetry, and above the total reactive flux (recrossings)."""
+    _, _, _, path = files
+    data = open_stage_file(path, stage=TRANSPORT)
+    gap, survival = data.left_volume_gap_times.values, data.left_volume_survival.values
+    error = np.hypot(data.left_volume_gap_times_stderr.values, data.left_volume_survival_stderr.values)
+    assert np.all(np.abs(gap - survival) < 4 * error)
+    assert data.gap_identity_deviation.values == pytest.approx((gap - survival) / error, rel=1e-12)
+    assert data.flux_dividing_lines.values == pytest.approx(2 * data.flux_dividing_line.values, rel=1e-12)
+    assert np.all(data.flux_dividing_lines.values > data.flux_action.values + data.flux_other_saddles.values)
+    g = data.gap_time_survival.values
+    assert np.all(g[:, 0] == 1.0) and np.all(np.diff(g, axis=1) <= 0) and np.all(g[:, -1] < 1.0)
+    # The volume that has left by T is part of the well.
+    assert np.all(survival < data.well_volume.values)

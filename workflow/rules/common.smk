@@ -32,6 +32,7 @@ NHIM_STUDIES = list(config["nhim"]["studies"])
 NHIM_ORBIT_STUDIES = list(config["nhim"]["orbit_validation"])
 NHIM_SAMPLING_STUDIES = list(config.get("nhim_sampling", {}))
 TRANSPORT_STUDIES = list(config.get("transport", {}))
+SADDLE_FLUX_STUDIES = list(config.get("saddle_flux", {}))
 RESULTS = "results"
 
 
@@ -65,6 +66,7 @@ def all_targets():
         *nhim_targets(),
         *expand(f"{RESULTS}/nhim_sampling/{{study}}.nc", study=NHIM_SAMPLING_STUDIES),
         *transport_targets(),
+        *saddle_flux_targets(),
         *([f"{RESULTS}/accuracy/accuracy_cost.nc", f"{RESULTS}/figures/accuracy_cost.png"]
           if config.get("accuracy_cost") else []),
     ]
@@ -302,6 +304,26 @@ def transport_params(wildcards):
     from ldpipe.stages.transport import transport_parameters
 
     return transport_parameters(config, wildcards.study)
+
+
+def saddle_flux_targets():
+    """Every saddle-flux study's file and figure (workflow/rules/saddle_flux.smk)."""
+    return [
+        path
+        for study in SADDLE_FLUX_STUDIES
+        for path in (f"{RESULTS}/saddle_flux/{study}.nc", f"{RESULTS}/figures/saddle_flux_{study}.png",
+                     f"{RESULTS}/figures/saddle_flux_{study}.pdf")
+    ]
+
+
+def saddle_flux_equilibria_file(wildcards):
+    return f"{RESULTS}/{config['saddle_flux'][wildcards.study]['system']}/equilibria.nc"
+
+
+def saddle_flux_params(wildcards):
+    from ldpipe.stages.saddle_flux import saddle_flux_parameters
+
+    return saddle_flux_parameters(config, wildcards.study)
 
 
 def accuracy_params(wildcards):

@@ -5,7 +5,9 @@ reactive-island areas, the Monte Carlo reactive flux (with 3 standard errors), t
 line's one-way flux and the harmonic estimate. (b) Each method relative to the action, on a
 symmetric log scale. (c) The reactive islands (first cuts of the inward stable and unstable
 tubes) on the section, with the section's energy boundary at the largest energy. (d) Survival of a
-microcanonical ensemble of the well against k_TST t, with exp(−k_TST t).
+microcanonical ensemble of the well against k_TST t, with exp(−k_TST t). (e) Gap-time survival
+of the flux-weighted ensemble entering through the dividing lines, against k_TST t; the legend
+gives both sides of the identity Φ E[min(τ, T)] = V (1 − P(T)).
 """
 
 from __future__ import annotations
@@ -51,7 +53,10 @@ def transport_figure(data):
     action = data.flux_action.values
     mc, err = data.flux_monte_carlo.values, data.flux_monte_carlo_stderr.values
     with style.figure_style():
-        figure, axes = plt.subplots(1, 4, figsize=(17.5, 4.0), constrained_layout=True)
+        # Two rows: five panels in one row make a strip too wide to read (or to show in the report).
+        figure, grid = plt.subplots(2, 3, figsize=(16.0, 8.5), constrained_layout=True)
+        axes = grid.ravel()
+        figure.delaxes(axes[5])
         ax = axes[0]
         fine = np.linspace(0.0, excess.max() * 1.05, 200)
         scale = data.flux_harmonic.values[0] / excess[0]
@@ -123,6 +128,20 @@ def transport_figure(data):
         ax.set_ylabel("survival probability in the well")
         ax.legend(loc="lower left", fontsize=6)
         style.panel_letter(ax, 3)
+
+        ax = axes[4]
+        for e, color in enumerate(colors):
+            scaled = data.survival_time.values[e] * rate[e]
+            ax.plot(scaled, np.maximum(data.gap_time_survival.values[e], 1e-16), color=color,
+                    label=rf"$\Delta E$ = {excess[e]:g}: $\Phi\langle\min(\tau,T)\rangle$ = "
+                          rf"{data.left_volume_gap_times.values[e]:.4g}, $V(1-P(T))$ = "
+                          rf"{data.left_volume_survival.values[e]:.4g} "
+                          rf"({data.gap_identity_deviation.values[e]:+.1f}$\sigma$)")
+        ax.set_yscale("log")
+        ax.set_xlabel(r"$k_{TST}\, t$")
+        ax.set_ylabel(r"gap-time survival $G(t) = \Pr(\tau > t)$")
+        ax.legend(loc="lower left", fontsize=6)
+        style.panel_letter(ax, 4)
     return figure
 
 

@@ -24,7 +24,13 @@ it writes
   ``survival_initial_slope`` (± ``_stderr``; the fraction left by ``survival.t0`` over t0, which
   must equal ``rate_tst``), ``survival_decay_rate`` (the long-time exponential decay, fitted on
   ``survival.decay_window`` in units of 1/rate_tst) and the curve ``survival_probability`` at
-  ``survival_time``.
+  ``survival_time``;
+* gap times of a flux-weighted ensemble entering the well through the dividing lines, followed to
+  the survival curve's horizon T (:func:`ldpipe.transport.gap_times`): their survival
+  ``gap_time_survival`` at ``survival_time``, and the exact identity Φ E[min(τ, T)] = V (1 − P(T))
+  as its two sides, ``left_volume_gap_times`` and ``left_volume_survival`` (± ``_stderr``), with
+  ``flux_dividing_lines`` = Φ, the lines' one-way flux; a violation beyond 4 standard errors is
+  logged as a warning (``gap_identity_deviation`` records it in standard errors).
 """
 
 from __future__ import annotations
@@ -39,14 +45,15 @@ import xarray as xr
 
 from ..contracts import EQUILIBRIA, TRANSPORT, UPO
 from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..equilibria import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
 from ..systems import make_system, require_hamiltonian, system_spec
 from ..transport import (
-    DividingLine, closed_curve_area, decay_rate, exit_times, initial_slope, orbit_action, reactive_flux_monte_carlo,
-    sample_well, survival, well_shell_volume,
+    DividingLine, closed_curve_area, decay_rate, exit_times, gap_times, harmonic_flux, initial_slope, orbit_action,
+    reactive_flux_monte_carlo, sample_well, survival, well_shell_volume,
 )
 from .manifolds import select_orbit
 
@@ -59,25 +66,6 @@ def transport_parameters(config: dict, name: str) -> dict:
     family = config["periodic_orbits"][spec["orbits"]]
     return {"name": name, "system_name": family["system"], "system_spec": system_spec(config, family["system"]),
             "saddle_near": family.get("saddle_near"), **spec}
-
-
-def harmonic_flux(excess_energy: np.ndarray, frequencies: np.ndarray) -> np.ndarray:
-    """(2π)^{n−1} ΔE^{n−1} / ((n−1)! ∏ ω_i): the flux over a quadratic saddle with centre frequencies ω_i."""
-    m = len(frequencies)
-    return (2 * math.pi * np.asarray(excess_energy)) ** m / (math.factorial(m) * float(np.prod(frequencies)))
-
-
-def _well_and_frequencies(equilibria: xr.Dataset, saddle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The minimum (the well) and the saddle's centre frequencies, from the equilibria file."""
-    minima = np.flatnonzero(equilibria.type.values == "minimum")
-    if not len(minima):
-        raise StageFileError("the equilibria file has no minimum: the transport stage needs the well")
-    positions = equilibria.position.values
-    index = int(np.argmin(np.linalg.norm(positions - saddle, axis=1)))
-    well = positions[minima[np.argmin(np.linalg.norm(positions[minima] - saddle, axis=1))]]
-    imag = equilibria.eigenvalue_imag.values[index]
-    frequencies = imag[imag > 1e-12]  # (+iω, −iω) pairs: one positive value per centre
-    return well, np.sort(frequencies)[::-1]
 
 
 def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path, threads: int | None = None,
@@ -95,7 +83,7 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         raise ConfigError(f"config key '{key}.orbits': the transport stage's flux study is for 2 DoF systems; "
                           f"{system.name} has {system.n_dof}")
     saddle = np.asarray(orbits.attrs["saddle_position"], dtype=float)
-    well, frequencies = _well_and_frequencies(eq, saddle)
+    well, frequencies = well_and_frequencies(eq, saddle)
     saddles = eq.position.values[eq.saddle_equilibrium.values]
     others = [(q, float(ec)) for q, ec in zip(saddles, eq.critical_energy.values)
               if np.linalg.norm(q - saddle) > 1e-8 * (1 + np.linalg.norm(saddle))]
@@ -119,10 +107,14 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
     fields = {name: np.empty(count) for name in (
         "flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_line", "monte_carlo_seconds",
         "flux_other_saddles", "flux_other_saddles_stderr", "well_volume", "survival_initial_slope",
-        "survival_initial_slope_stderr", "survival_decay_rate", "survival_seconds")}
+        "survival_initial_slope_stderr", "survival_decay_rate", "survival_seconds", "flux_dividing_lines",
+        "left_volume_gap_times", "left_volume_gap_times_stderr", "left_volume_survival", "left_volume_survival_stderr",
+        "gap_identity_deviation", "gap_times_seconds")}
+    gp = parameters["gap_times"]
     sv = parameters["survival"]
     survival_time = np.empty((count, sv["points"]))
     survival_probability = np.empty((count, sv["points"]))
+    gap_time_survival = np.empty((count, sv["points"]))
     counts = {name: np.empty(count, dtype=np.int64) for name in (
         "monte_carlo_samples", "monte_carlo_reactive", "monte_carlo_antireactive", "monte_carlo_nonreactive",
         "monte_carlo_undecided")}
@@ -194,6 +186,28 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
         fields["survival_initial_slope"][i], fields["survival_initial_slope_stderr"][i] = slope.rate, slope.stderr
         fields["survival_decay_rate"][i] = decay_rate(late, window[0], window[1])
         fields["survival_seconds"][i] = time.perf_counter() - start
+        start = time.perf_counter()
+        gaps = gap_times(system, all_lines, gp["count"], horizon, np.random.default_rng(gp["seed"] + i),
+                         sample_step=sv["sample_step"], segment=max(20.0, horizon / 20), flow=surv_flow, threads=threads)
+        fields["gap_times_seconds"][i] = time.perf_counter() - start
+        gap_time_survival[i] = gaps.survival(survival_time[i])
+        fields["flux_dividing_lines"][i] = gaps.flux
+        gap_side = gaps.reactive_volume(horizon)
+        left = float(np.mean(late <= horizon))
+        survival_side = (fields["well_volume"][i] * left,
+                         fields["well_volume"][i] * math.sqrt(max(left * (1 - left), 1.0 / len(late)) / len(late)))
+        deviation = (gap_side[0] - survival_side[0]) / math.hypot(gap_side[1], survival_side[1])
+        (fields["left_volume_gap_times"][i], fields["left_volume_gap_times_stderr"][i]) = gap_side
+        (fields["left_volume_survival"][i], fields["left_volume_survival_stderr"][i]) = survival_side
+        fields["gap_identity_deviation"][i] = deviation
+        log.info("dE = %.6g: volume left by T = %.4g: %.6g +- %.2g from gap times, %.6g +- %.2g from survival "
+                 "(%.2f sigma); mean gap time bound %.4g, V/Phi %.4g", excess, horizon, gap_side[0], gap_side[1],
+                 survival_side[0], survival_side[1], deviation, gap_side[0] / gaps.flux,
+                 fields["well_volume"][i] / gaps.flux)
+        if abs(deviation) > 4:
+            log.warning("dE = %.6g: gap times and survival disagree by %.1f standard errors on the volume left by "
+                        "T (an exact identity): check survival.sample_step and the integrator tolerances",
+                        excess, deviation)
         log.info("dE = %.6g: TST rate %.6g, initial slope %.6g +- %.2g, decay rate %.6g (%.1f s)", excess, rate,
                  slope.rate, slope.stderr, fields["survival_decay_rate"][i], fields["survival_seconds"][i])
         log.info("dE = %.6g: action %.12g, island %.12g / %.12g, Monte Carlo %.8g +- %.2g (%d samples, %.1f s), "
@@ -239,6 +253,26 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
             "survival_time": (("energy", "survival_point"), survival_time, {"long_name": "time"}),
             "survival_probability": (("energy", "survival_point"), survival_probability,
                                      {"long_name": "fraction of the well ensemble not yet left"}),
+            "gap_time_survival": (("energy", "survival_point"), gap_time_survival,
+                                  {"long_name": "fraction of the flux-weighted entering ensemble still in the well "
+                                                "(gap time beyond t)"}),
+            "flux_dividing_lines": (energy_dim, fields["flux_dividing_lines"],
+                                    {"long_name": "one-way flux through all dividing lines of the well"}),
+            "left_volume_gap_times": (energy_dim, fields["left_volume_gap_times"],
+                                      {"long_name": "flux_dividing_lines x mean of min(gap time, T), T the last "
+                                                    "survival_time"}),
+            "left_volume_gap_times_stderr": (energy_dim, fields["left_volume_gap_times_stderr"],
+                                             {"long_name": "standard error of left_volume_gap_times"}),
+            "left_volume_survival": (energy_dim, fields["left_volume_survival"],
+                                     {"long_name": "well_volume x fraction of the well ensemble left by T: equals "
+                                                   "left_volume_gap_times exactly in expectation"}),
+            "left_volume_survival_stderr": (energy_dim, fields["left_volume_survival_stderr"],
+                                            {"long_name": "standard error of left_volume_survival (binomial)"}),
+            "gap_identity_deviation": (energy_dim, fields["gap_identity_deviation"],
+                                       {"long_name": "(left_volume_gap_times - left_volume_survival) in combined "
+                                                     "standard errors"}),
+            "gap_times_seconds": (energy_dim, fields["gap_times_seconds"],
+                                  {"long_name": "wall time of the gap-time ensemble", "units": "s"}),
             "survival_seconds": (energy_dim, fields["survival_seconds"],
                                  {"long_name": "wall time of the survival ensembles", "units": "s"}),
             "monte_carlo_seconds": (energy_dim, fields["monte_carlo_seconds"],

@@ -10,6 +10,7 @@ from .flux import (
     DividingLine,
     MonteCarloFlux,
     closed_curve_area,
+    harmonic_flux,
     orbit_action,
     reactive_flux_monte_carlo,
 )
@@ -18,6 +19,7 @@ __all__ = [
     "DividingLine",
     "MonteCarloFlux",
     "closed_curve_area",
+    "harmonic_flux",
     "orbit_action",
     "reactive_flux_monte_carlo",
 ]
@@ -29,3 +31,11 @@ __all__ += ["well_area", "well_shell_volume"]
 from .survival import decay_rate, exit_times, initial_slope, sample_well, survival  # noqa: E402
 
 __all__ += ["decay_rate", "exit_times", "initial_slope", "sample_well", "survival"]
+
+from .gap_times import GapTimes, entering_states, gap_times  # noqa: E402
+
+__all__ += ["GapTimes", "entering_states", "gap_times"]
+
+from .plane import DividingPlane  # noqa: E402
+
+__all__ += ["DividingPlane"]

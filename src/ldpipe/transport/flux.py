@@ -233,9 +233,20 @@ class MonteCarloFlux:
     undecided: int
 
 
+def harmonic_flux(excess_energy, frequencies) -> np.ndarray:
+    """(2π)^{n−1} ΔE^{n−1} / ((n−1)! ∏ ω_i): the flux over a quadratic saddle with centre frequencies ω_i.
+
+    The centre–centre part of phase space at energy ΔE above the saddle is {Σ ω_i I_i ≤ ΔE} in
+    actions times (2π)^{n−1} in angles, a simplex of volume ΔE^{n−1}/((n−1)! ∏ ω_i): 2πΔE/ω in 2 DoF
+    (:class:`DividingLine`), (2π)² ΔE²/(2 ω_1 ω_2) in 3 DoF (derived in :mod:`ldpipe.transport.plane`).
+    """
+    m = len(frequencies)
+    return (2 * math.pi * np.asarray(excess_energy)) ** m / (math.factorial(m) * float(np.prod(frequencies)))
+
+
 def _commit_side(samples: np.ndarray, saddle: np.ndarray, normal: np.ndarray, commit: float) -> np.ndarray:
     """+1 / −1 for the side (sign of s = n·(q − q_s)) where |s| first exceeds ``commit``; 0 if never."""
-    s = (samples[:, :, 0] - saddle[0]) * normal[0] + (samples[:, :, 1] - saddle[1]) * normal[1]
+    s = (samples[:, :, : len(saddle)] - saddle) @ normal
     beyond = np.abs(s) > commit
     first = np.argmax(beyond, axis=1)
     hit = beyond[np.arange(len(s)), first]
@@ -275,6 +286,9 @@ def reactive_flux_monte_carlo(
     threads: int | None = None,
 ) -> MonteCarloFlux:
     """The reactive flux through ``line`` at its energy, by Monte Carlo with recrossings counted once.
+
+    ``line`` is a :class:`DividingLine` (2 DoF) or a :class:`~ldpipe.transport.plane.DividingPlane`
+    (3 DoF): anything with ``area``, ``sample``, ``states``, ``system``, ``saddle`` and ``normal``.
 
     Points (u, p_u) are drawn uniformly on the allowed region of the line (area A, the directional
     flux), each crossing outwards (p_n > 0), and weighted w = +1 if its trajectory comes from the

@@ -1,0 +1,32 @@
+"""The transport and saddle-flux captions are Jinja templates over a study's parameters: rendered
+with the shipped configuration's studies, they must be clean reStructuredText (no docutils
+message: e.g. |x| is read as a substitution). The report test renders them only in a full run."""
+
+import io
+from pathlib import Path
+from types import SimpleNamespace
+
+import jinja2
+import pytest
+from docutils.core import publish_parts
+
+from ldpipe.config import load_config
+from ldpipe.stages.saddle_flux import saddle_flux_parameters
+from ldpipe.stages.transport import transport_parameters
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("caption, section, parameters", [
+    ("transport.rst", "transport", transport_parameters),
+    ("saddle_flux.rst", "saddle_flux", saddle_flux_parameters),
+])
+def test_caption_renders_without_docutils_messages(caption, section, parameters):
+    config = load_config(ROOT / "config.yaml")
+    template = jinja2.Template((ROOT / "workflow/report" / caption).read_text())
+    for study in config[section]:
+        rst = template.render(snakemake=SimpleNamespace(params=SimpleNamespace(study=parameters(config, study))))
+        stream = io.StringIO()
+        html = publish_parts(rst, writer="html", settings_overrides={"report_level": 1, "warning_stream": stream})
+        assert stream.getvalue() == "" and "System Message" not in html["body"], stream.getvalue()
+        assert study in rst

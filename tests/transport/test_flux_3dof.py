@@ -1,0 +1,92 @@
+"""Flux through the dividing plane of a 3 DoF saddle (issue 17), against closed forms.
+
+Quadratic saddle (support.quadratic_saddle) V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 in rotated
+coordinates (a, b, c) = R (x, y, z), E_c = 0, excess ΔE: the plane a = 0 carries the one-way flux
+(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.transport.plane), every crossing of it is reactive (a(t)
+is monotone through 0, uncoupled), and a uniform sample of the allowed (u, p_u) 4-volume has uniform mode energies (e_1, e_2) on the
+triangle e_1 + e_2 ≤ ΔE (the volume element is (2π)² de_1 de_2 / (ω_1 ω_2)): Pr(e_1 + e_2 ≤ ΔE/2)
+= 1/4 and Pr(e_1 ≤ ΔE/2) = 3/4.
+
+Barbanis–Contopoulos 3 DoF: the one-way flux tends to the harmonic value as ΔE → 0, with a
+relative deviation linear in ΔE (first-order perturbation of the quadratic flux), so doubling ΔE
+doubles it; the reactive flux (Monte Carlo) is at most the one-way flux.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from ldpipe.flow import FlowSettings
+from ldpipe.systems import make_system
+from ldpipe.transport import DividingPlane, reactive_flux_monte_carlo
+from support import quadratic_saddle as quadratic
+from support.quadratic_saddle import OM1, OM2
+
+FLOW = FlowSettings(rtol=1e-9, atol=1e-9, escape_radius=60.0)
+
+
+@pytest.fixture(scope="module")
+def quadratic_saddle():
+    return make_system("quadratic_saddle_3dof", quadratic.spec()), quadratic.rotation()
+
+
+@pytest.mark.parametrize("excess", [0.02, 0.7])
+def test_quadratic_plane_flux_is_the_centre_action_volume(quadratic_saddle, excess):
+    system, rot = quadratic_saddle
+    plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
+    assert abs(abs(plane.normal @ rot[0]) - 1) < 1e-12
+    exact = quadratic.plane_flux(excess)
+    assert plane.area() == pytest.approx(exact, rel=1e-12)
+
+
+def test_quadratic_plane_samples_are_uniform_in_the_mode_energies(quadratic_saddle):
+    system, rot = quadratic_saddle
+    excess = 0.7
+    plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
+    u, pu = plane.sample(100_000, np.random.default_rng(3))
+    q, p = u @ plane.tangents, pu @ plane.tangents
+    modes = [0.5 * (p @ rot[i]) ** 2 + 0.5 * om**2 * (q @ rot[i]) ** 2 for i, om in ((1, OM1), (2, OM2))]
+    for fraction, exact in ((np.mean(modes[0] + modes[1] <= excess / 2), 0.25),
+                            (np.mean(modes[0] <= excess / 2), 0.75)):
+        assert abs(fraction - exact) < 4 * math.sqrt(exact * (1 - exact) / len(u))
+    assert np.all(modes[0] + modes[1] <= excess * (1 + 1e-12))
+
+
+def test_quadratic_plane_monte_carlo_counts_every_crossing_reactive(quadratic_saddle):
+    system, _ = quadratic_saddle
+    excess = 0.7
+    plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
+    result = reactive_flux_monte_carlo(plane, commit=1.0, duration=12.0, batch=500, max_samples=500, flow=FLOW)
+    assert (result.reactive, result.antireactive, result.undecided) == (500, 0, 0)
+    assert result.flux == pytest.approx(quadratic.plane_flux(excess), rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def bc_saddle():
+    system = make_system("barbanis_contopoulos_3dof", {"builtin": "barbanis_contopoulos_3dof", "parameters": {
+        "omega_x2": 0.9, "omega_y2": 1.6, "omega_z2": 0.4, "epsilon": 0.08, "eta": 0.01}})
+    saddle = system.closed_form_equilibria()[1]
+    frequencies = np.sqrt(np.linalg.eigvalsh(system.hessian(saddle))[1:])
+    return system, saddle, system.potential(saddle), frequencies
+
+
+def test_barbanis_contopoulos_flux_tends_to_the_harmonic_value(bc_saddle):
+    system, saddle, critical, (om1, om2) = bc_saddle
+    deviation = []
+    for excess in (0.01, 0.02):
+        harmonic = (2 * math.pi * excess) ** 2 / (2 * om1 * om2)
+        deviation.append(DividingPlane.at_saddle(system, saddle, critical + excess).area() / harmonic - 1)
+    assert abs(deviation[0]) < 1e-4
+    assert deviation[1] / deviation[0] == pytest.approx(2.0, rel=0.02)
+
+
+def test_barbanis_contopoulos_reactive_flux_at_most_the_one_way_flux(bc_saddle):
+    """At E = 24 (the paper's energy): the classified Monte Carlo flux does not exceed the plane's
+    one-way flux, and every sample committed within the integration time."""
+    system, saddle, _, _ = bc_saddle
+    plane = DividingPlane.at_saddle(system, saddle, 24.0)
+    result = reactive_flux_monte_carlo(plane, commit=2.0, duration=20.0, batch=400, max_samples=400, flow=FLOW)
+    assert result.undecided == 0
+    assert result.surface_flux == pytest.approx(plane.area(), rel=1e-14)
+    assert result.flux <= result.surface_flux * (1 + 1e-14)
