@@ -32,14 +32,6 @@ KIND_SETTINGS = {
                      "trajectories_per_branch", "view"),
     "nhim_sample": ("sampling", "orbits", "projections", "view"),
 }
-#: What each kind needs, for the configuration check.
-KIND_REQUIRED = {
-    "potential": ("system", "plane", "energies"),
-    "section_maps": ("ld_maps",),
-    "ld_slices": ("ld_maps",),
-    "orbit_family": ("family",),
-    "nhim_sample": ("sampling",),
-}
 FORMATS = ("png", "pdf")
 
 

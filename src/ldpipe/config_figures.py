@@ -1,0 +1,107 @@
+"""Configuration checks of the figures: what each kind needs, the stage outputs it names, and a
+caption the report can render. :func:`ldpipe.config.validate_config` runs them.
+"""
+
+from __future__ import annotations
+
+import io
+
+from .config_maps import check_interval
+from .config_studies import check_family_energies, check_names, check_saddle_near, check_system_reference
+from .errors import ConfigError
+from .systems import system_coordinates
+
+
+FIGURE_REQUIRED = {
+    "potential": ("system", "plane", "energies"),
+    "section_maps": ("ld_maps",),
+    "ld_slices": ("ld_maps",),
+    "orbit_family": ("family",),
+    "nhim_sample": ("sampling",),
+}
+
+
+
+def check_figures(config: dict) -> None:
+    """Figures: what each kind needs is there, and every stage output it names is declared."""
+    for name, spec in config["figures"].items():
+        key = f"figures.{name}"
+        kind = spec["kind"]
+        if spec.get("caption"):
+            check_caption(spec["caption"], f"{key}.caption")
+        missing = [k for k in FIGURE_REQUIRED[kind] if k not in spec]
+        if missing:
+            raise ConfigError(f"config key {key!r}: a figure of kind {kind!r} needs {missing}")
+        if kind == "potential":
+            coordinates = check_system_reference(config, spec["system"], f"{key}.system")
+            check_saddle_near(spec, coordinates, key)
+            named = [*spec["plane"], *spec["fixed"]]
+            if sorted(named) != sorted(coordinates):
+                raise ConfigError(
+                    f"config key '{key}.plane': the plane's two coordinates and 'fixed' must name each of "
+                    f"{list(coordinates)} exactly once; got plane {list(spec['plane'])}, fixed {list(spec['fixed'])}"
+                )
+            for coordinate, interval in spec["plane"].items():
+                check_interval(interval, f"{key}.plane.{coordinate}")
+        if kind in ("section_maps", "ld_slices"):
+            check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+        if kind == "section_maps":
+            check_names(spec["poincare"], "poincare_sections", f"{key}.poincare", config)
+            for map_name, sets in spec["manifold_curves"].items():
+                if map_name not in spec["ld_maps"]:
+                    raise ConfigError(f"config key '{key}.manifold_curves.{map_name}': not one of the figure's ld_maps {spec['ld_maps']}")
+                check_names(sets, "manifolds", f"{key}.manifold_curves.{map_name}", config)
+        if kind == "ld_slices" and "orbit" in spec:
+            family = spec["orbit"]["family"]
+            check_names([family], "periodic_orbits", f"{key}.orbit.family", config)
+            if "energy" in spec["orbit"]:
+                check_family_energies(config, family, spec["orbit"]["energy"], f"{key}.orbit.energy")
+            else:  # the orbit at each map's own energy
+                for map_name in spec["ld_maps"]:
+                    check_family_energies(config, family, config["ld_maps"][map_name]["energy"],
+                                           f"{key}.orbit (the energy of map {map_name!r})")
+        if kind == "orbit_family":
+            check_names([spec["family"]], "periodic_orbits", f"{key}.family", config)
+            if "energies" in spec:
+                check_family_energies(config, spec["family"], spec["energies"], f"{key}.energies")
+            check_names(spec["manifolds"], "manifolds", f"{key}.manifolds", config)
+            for set_name in spec["manifolds"]:
+                if config["manifolds"][set_name]["orbits"] != spec["family"]:
+                    raise ConfigError(f"config key '{key}.manifolds': set {set_name!r} is of another family than {spec['family']!r}")
+        if kind == "nhim_sample":
+            check_names([spec["sampling"]], "nhim_sampling", f"{key}.sampling", config)
+            study = config["nhim_sampling"][spec["sampling"]]
+            map_spec = config["ld_maps"][study["base_map"]]
+            check_names(spec["orbits"], "periodic_orbits", f"{key}.orbits", config)
+            for family in spec["orbits"]:
+                check_family_energies(config, family, map_spec["energy"],
+                                       f"{key}.orbits (the energy of study {spec['sampling']!r})")
+            coordinates = system_coordinates(config["systems"][map_spec["system"]])
+            phase = [*coordinates, *(f"p{c}" for c in coordinates)]
+            for projection in spec["projections"]:
+                unknown = [c for c in projection if c not in phase]
+                if unknown or len(set(projection)) != 3:
+                    raise ConfigError(f"config key '{key}.projections': {projection} must be three different phase "
+                                      f"coordinates of {map_spec['system']} ({phase})")
+        for axis, interval in spec.get("configuration", {}).items():
+            check_interval(interval, f"{key}.configuration.{axis}")
+        for limits_key in ("color_limits", "potential_range"):
+            if spec.get(limits_key) is not None:
+                check_interval(spec[limits_key], f"{key}.{limits_key}")
+        low, high = spec.get("color_percentiles", (0, 100))
+        if not low < high:
+            raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
+
+
+
+def check_caption(text: str, key: str) -> None:
+    """A figure's caption is reStructuredText in the report: refuse one docutils cannot read cleanly
+    (e.g. ``|v|``, a substitution reference), naming the key, before any stage runs."""
+    from docutils.core import publish_doctree  # only a config with captions pays for the import
+
+    messages = io.StringIO()
+    publish_doctree(text, settings_overrides={"report_level": 2, "halt_level": 5, "warning_stream": messages})
+    if messages.getvalue():
+        said = " ".join(line.strip() for line in messages.getvalue().splitlines() if line.strip())
+        raise ConfigError(f"config key '{key}': the caption is reStructuredText in the report and docutils "
+                          f"reads it with complaints: {said}. Escape a literal | or * as \\| or \\*.")
