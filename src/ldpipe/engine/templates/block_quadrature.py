@@ -35,10 +35,17 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
 # then scratch rows.
-R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS = range(NC, NC + 15)
-CB_ROWS = NC + 15
-# R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path
+(R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
+ R_ENDS) = range(NC, NC + 17)
+CB_ROWS = NC + 17
+# R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
+# 3 a near-touch alone: the scalar path only if ``touch_matters``
 KEEP_FAST = 2.0
+TOUCH_CHECK = 3.0
+# SP codes written by ``fast``: a root, a root pair or a root near an end possible (the special
+# path), or a near-touch alone (no sign change, no root near an end or between two samples)
+SP_SPECIAL = 1
+SP_TOUCH = 2
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
 N_NEWTON = 6  # from the regula falsi point: converged after 4-5 (measured: as many unconverged at 5 as at 8)
 
@@ -68,7 +75,7 @@ def fast(W, kind, p, glx, glw, window, SP):
             W[OFC + j] = W[OACC + j]
         for c in range(NCOMP):
             for j in range(LANES):
-                SP[c, j] = False
+                SP[c, j] = 0
         return
     dip_reach = (DIP_PER_WINDOW * window) ** 2
     for c in range(NCOMP):
@@ -132,7 +139,7 @@ def fast(W, kind, p, glx, glw, window, SP):
                 pair = max(W[ORAT + j], pair_possible(W[OPRV + j], v1, W[OCRV + j], last_gap)) > 0.0
                 v_min = min(W[OMIN + j], min(W[base], v1))
                 v_max = max(W[OMAX + j], max(W[base], v1))
-                SP[c, j] = ((v_min < 0.0) & (v_max > 0.0) | pair) & (W[OH + j] != 0.0)
+                SP[c, j] = SP_SPECIAL if (((v_min < 0.0) & (v_max > 0.0) | pair) & (W[OH + j] != 0.0)) else 0
         else:
             for j in range(LANES):
                 W[OFC + c * LANES + j] = W[OACC + j]
@@ -166,7 +173,9 @@ def fast(W, kind, p, glx, glw, window, SP):
                 dip0 = (a0 * v0 > 0.0) & (2.0 * abs(v0) < dip_reach * abs(a0)) & (d0 * d0 < 2.0 * a0 * v0)
                 dip1 = (a1 * v1 > 0.0) & (2.0 * abs(v1) < dip_reach * abs(a1)) & (d1 * d1 < 2.0 * a1 * v1)
                 dip = dip | dip0 | dip1
-                SP[c, j] = (crossing | near_left | near_right | pair | dip) & (W[OH + j] != 0.0)
+                root = crossing | near_left | near_right | pair
+                code = SP_SPECIAL if root else (SP_TOUCH if dip else 0)
+                SP[c, j] = code if W[OH + j] != 0.0 else 0
 
 
 @njit(inline="always", **JIT)
@@ -195,10 +204,11 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     m = 0
     for c in range(NCOMP):
         for j in range(LANES):
-            if SP[c, j]:
+            if SP[c, j] != 0:
                 ITEM[m] = c * LANES + j
                 for k in range(NC):
                     CB[k * CBS + m] = W[OVC + k * CS + c * LANES + j]
+                CB[R_TOUCH * CBS + m] = 1.0 if SP[c, j] == SP_TOUCH else 0.0
                 m += 1
     if m == 0:
         return
@@ -293,7 +303,18 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         guess = 1.0 if at1 else guess
         lo = 1.0 if at1 else lo
         hi = 1.0 if at1 else hi
-        CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & (~dip)) else 0.0
+        # A near-touch flag without a root inside (no zero sample, no double root): where the
+        # minimum lies and how deep it is decides (``touch_matters``) before the scalar path is
+        # paid for. Alone (``fast``: no root possible), TOUCH_CHECK; beside a root near one end
+        # (left/right), the Jacobi pieces here, checked after (R_TOUCH = 2). R_ENDS: the ends
+        # whose quadratic's vertex the minimum is looked for from.
+        clean = dip & (~double) & (~zero0) & (~zero1)
+        touch = clean & (CB[R_TOUCH * CBS + t] == 1.0)
+        beside = clean & (left | right)
+        CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & ((~dip) | beside)) else 0.0
+        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]
+        CB[R_TOUCH * CBS + t] = 2.0 if beside else CB[R_TOUCH * CBS + t]
+        CB[R_ENDS * CBS + t] = (1.0 if (low0 | left) else 0.0) + (2.0 if (low1 | right) else 0.0)
         CB[R_ROOT * CBS + t] = guess
         CB[R_LO * CBS + t] = lo
         CB[R_HI * CBS + t] = hi
@@ -345,7 +366,8 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
             v_far = v_far * x_far + CB[k * CBS + t]
         no_root = v_far * CB[R_NEAR * CBS + t] > 0.0
         ok = CB[R_OK * CBS + t]
-        CB[R_OK * CBS + t] = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)
+        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)
+        CB[R_OK * CBS + t] = TOUCH_CHECK if ok == TOUCH_CHECK else keep
         CB[R_J0 * CBS + t] = 0.0
         CB[R_J1 * CBS + t] = 0.0
     # J(r -> 0) and J(r -> 1): Gauss–Jacobi for the weight |s - r|^p with the weights folded
@@ -386,7 +408,17 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         ok = CB[R_OK * CBS + t]
         if ok == 1.0:
             W[OFC + item] = CB[R_J0 * CBS + t]
+        if ((ok == 1.0) | (ok == KEEP_FAST)) & (CB[R_TOUCH * CBS + t] == 2.0):
+            c = item // LANES
+            j = item - c * LANES
+            if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window, True):
+                W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
         elif ok == 0.0:
             c = item // LANES
             j = item - c * LANES
             W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
+        elif ok == TOUCH_CHECK:
+            c = item // LANES
+            j = item - c * LANES
+            if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window, False):
+                W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
