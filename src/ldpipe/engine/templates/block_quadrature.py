@@ -27,7 +27,15 @@ where J(r -> e) is the Gauss–Jacobi integral from the root r to e with the wei
 The workspace sizes are compile-time constants, so the Horner loops unroll and the lane
 loops vectorize. The loops over items are written with selects instead of branches, and
 tests of the run-time ``kind`` stay outside them: either in a loop body stops LLVM from
-vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test inside). Header names used: NC (coefficients per polynomial), NCOMP (= 2 n_dof),
+vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test inside).
+
+A flag of ``fast`` that is only a possible near-touch (SP_TOUCH), and a near-touch flag beside a
+root just outside an end (the left/right case), go to the scalar path only where
+``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of |v| that
+``component_integral`` would take as a dip; elsewhere the Gauss–Legendre value (or the Jacobi
+pieces) stand.
+
+Header names used: NC (coefficients per polynomial), NCOMP (= 2 n_dof),
 LANES, CS (= NCOMP * LANES, the stride between coefficients in VC), the offsets OVC, OFC,
 OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 """
@@ -47,6 +55,7 @@ TOUCH_CHECK = 3.0
 SP_SPECIAL = 1
 SP_TOUCH = 2
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
+TOUCH_ITERATIONS = 12  # Newton on v' in ``touch_matters`` (quadratic convergence from a node)
 N_NEWTON = 6  # from the regula falsi point: converged after 4-5 (measured: as many unconverged at 5 as at 8)
 
 
@@ -196,6 +205,85 @@ def _at_both_sides(CB, t, s0, s1):
         v0 = v0 * s0 + CB[k * CBS + t]
         v1 = v1 * s1 + CB[k * CBS + t]
     return v0, v1
+
+
+@njit(**JIT)
+def touch_matters(VC, c, j, nc, glx, ends, window, beside_root):
+    """False if the near-touch flagged on a step of lane j, component c, would not be taken as a
+    dip by ``component_integral`` (the Gauss–Legendre value, or the Jacobi pieces at a root near
+    an end, stand); True where it would, or where that is not certain.
+
+    ``block_quadrature.special`` calls it for a component without a sign change on its samples
+    (0, the nodes ``glx``, 1), flagged because a near-touch may lie within DIP_PER_WINDOW *
+    window of a sample. The minima of |v| are looked for by Newton's method on v' from every
+    sample where |v| is a local minimum over the samples, and from the vertex of the local
+    quadratic at the end 0 (``ends`` & 1) and 1 (& 2), flagged where that quadratic has complex
+    roots, or beside a root just beyond that end (``beside_root``, the left/right case, where
+    the nodes next to the root are small because of it and a search from the vertex that ends
+    on the range's bound found no minimum). As in ``root_pair``, each minimum's eps =
+    sqrt(2 v(x_m) / v''(x_m)) is compared with the dip width; outside the scalar path's sample
+    range (where ``component_integral`` does not look), or with eps at least the width, it is no
+    dip. Most flags are of this kind (the flag bounds eps from below by the samples), and the
+    test costs a few Horner evaluations per start where the scalar path costs ~50.
+    """
+    m_out = int(math.ceil(window * SAMPLES_PER_STEP))
+    lo = -m_out / SAMPLES_PER_STEP
+    hi = 1.0 + m_out / SAMPLES_PER_STEP
+    width = DIP_PER_WINDOW * window
+    v0, d0, a0 = horner_dd(VC, c, j, nc, 0.0)
+    v1, d1, a1 = horner_dd(VC, c, j, nc, 1.0)
+    n_nodes = glx.shape[0]
+    f_prev = math.inf
+    f_here = abs(v0)
+    for start in range(n_nodes + 4):
+        if start < n_nodes + 2:  # a sample (0, the nodes, 1) where |v| is a local minimum over them
+            x = 0.0 if start == 0 else (glx[start - 1] if start <= n_nodes else 1.0)
+            if start <= n_nodes:
+                f_next = abs(horner(VC, c, j, nc, glx[start])) if start < n_nodes else abs(v1)
+            else:
+                f_next = math.inf
+            local = f_here <= f_prev and f_here <= f_next
+            f_prev = f_here
+            f_here = f_next
+            if not local:
+                continue
+        elif start == n_nodes + 2:  # the vertex of the quadratic at 0 (the bound for a straight line)
+            if not ends & 1:
+                continue
+            x = -d0 / a0 if a0 != 0.0 else (lo if d0 * v0 > 0.0 else hi)
+        else:
+            if not ends & 2:
+                continue
+            x = 1.0 - d1 / a1 if a1 != 0.0 else (hi if d1 * v1 < 0.0 else lo)
+        x = min(max(x, lo), hi)
+        converged = False
+        for _ in range(TOUCH_ITERATIONS):
+            _, d, dd = horner_dd(VC, c, j, nc, x)
+            if dd == 0.0:
+                break
+            x_new = min(max(x - d / dd, lo), hi)
+            converged = abs(x_new - x) <= 1e-12
+            x = x_new
+            if converged:
+                break
+        if not converged:
+            return True
+        inside = lo < x < hi
+        if beside_root and not inside:
+            continue  # v' keeps its sign towards the bound: no minimum that way
+        v_m, _, dd_m = horner_dd(VC, c, j, nc, x)
+        minimum = v_m * dd_m > 0.0  # a minimum of |v| that does not reach zero
+        if beside_root and not minimum:
+            if v_m * v0 <= 0.0:
+                return True  # beyond the root: a second root there (a root pair outside)
+            continue  # a maximum of |v| on the step's side of the root
+        if not minimum and (v_m * v0 <= 0.0 or inside):
+            return True  # a root pair, a maximum of |v| (the minimum near the start not found): not certain
+        if not beside_root and inside and v_m * v0 <= 0.0:
+            return True  # a root in the range that the samples did not show
+        if minimum and inside and 2.0 * abs(v_m) < width * width * abs(dd_m):  # eps < width
+            return True
+    return False
 
 
 @njit(**JIT)
