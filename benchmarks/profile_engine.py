@@ -28,7 +28,7 @@ PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass"
 # part of "special": the scatter with the scalar fallbacks (not added to the total)
 SCATTER = "  of which scalar"
 COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks", "inside", "near left",
-            "near right", "other case", "not converged")
+            "near right", "other case", "not converged", "near-touch alone", "near-touch to scalar")
 N_TIMERS = len(PHASES) + len(COUNTERS) + 1
 
 CYCLES_SOURCE = '''
@@ -61,8 +61,8 @@ def instrumented_source(source: str) -> str:
     s = source.replace('"cache": True', '"cache": False')
     s = _replace(s, "from numba import njit\n", "from numba import njit\nfrom ldpipe_cycles import tick\n")
     # process gets the timer array as its last argument; special gets it too
-    s = _replace(s, "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed,\n):",
-                 "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, PT,\n):")
+    s = _replace(s, "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,\n):",
+                 "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face, PT,\n):")
     s = _replace(s, "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):",
                  "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT):")
     s = _replace(s, "special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots)",
@@ -70,13 +70,17 @@ def instrumented_source(source: str) -> str:
     base = len(PHASES)
     s = _replace(s, "    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n",
                  f"    PT[{base + 2}] += m\n    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n")
-    s = _replace(s, "        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0\n",
-                 "        CB[R_OK * CBS + t] = 1.0 if (inside | left | right | at0 | at1) else 0.0\n"
+    s = _replace(s, "        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]\n",
+                 "        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]\n"
+                 f"        PT[{base + 9}] += touch\n"
                  f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
                  f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
-    s = _replace(s, "        CB[R_OK * CBS + t] = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
-                 f"        PT[{base + 8}] += 0.0 if good else ok\n"
-                 "        CB[R_OK * CBS + t] = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
+    s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
+                 f"        PT[{base + 8}] += 0.0 if (good | (ok == TOUCH_CHECK)) else ok\n"
+                 "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
+    for beside in ("False", "True"):  # near-touch checks that go on to the scalar path
+        s = _replace(s, f"window, {beside}):\n                W[OFC + item] = component_integral(",
+                     f"window, {beside}):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
     s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
     s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
     s = _replace(s, "window, roots)\n\n\n# ---- events ----",
@@ -101,8 +105,8 @@ def instrumented_source(source: str) -> str:
     s = _replace(s, "\n        for j in range(lanes):\n            if not active[j]:\n                continue\n",
                  "\n        _u = tick(); PT[5] += _u - _t; _t = _u\n"
                  "        for j in range(lanes):\n            if not active[j]:\n                continue\n")
-    s = _replace(s, "                o_steps[k] = nsteps[j]\n                active[j] = False\n",
-                 "                o_steps[k] = nsteps[j]\n                active[j] = False\n"
+    s = _replace(s, "                o_face[k] = face\n                active[j] = False\n",
+                 "                o_face[k] = face\n                active[j] = False\n"
                  "        PT[6] += tick() - _t\n")
     return s
 

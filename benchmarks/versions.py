@@ -39,7 +39,7 @@ SETTINGS = (
 )
 
 
-def worker(n: int, tau: float, repeat: int) -> None:
+def worker(n: int, tau: float, repeat: int, only: list[str] | None = None) -> None:
     """Time every setting in this process (the version first on sys.path); JSON on stdout."""
     import time
 
@@ -54,7 +54,7 @@ def worker(n: int, tau: float, repeat: int) -> None:
     keep = kinetic_y > 0.0
     states = np.column_stack([x[keep], np.zeros(keep.sum()), px[keep], np.sqrt(kinetic_y[keep])])
     rows = {}
-    for label, scheme, accuracy, p in SETTINGS:
+    for label, scheme, accuracy, p in selected(only):
         step = {"dt": accuracy} if scheme == "rk4" else {"rtol": accuracy, "atol": accuracy}
         settings = LDSettings(scheme=scheme, p=p, tau=tau, **step)
         compute_ld(system, states[:8], +1, settings)
@@ -68,10 +68,15 @@ def worker(n: int, tau: float, repeat: int) -> None:
     json.dump({"ldpipe": ldpipe.__file__, "points": int(len(states)), "rows": rows}, sys.stdout)
 
 
-def run(source: Path, n: int, tau: float, repeat: int) -> dict:
+def selected(only: list[str] | None) -> list[tuple]:
+    """The SETTINGS whose label contains one of ``only`` (all of them without it)."""
+    return [row for row in SETTINGS if not only or any(part in row[0] for part in only)]
+
+
+def run(source: Path, n: int, tau: float, repeat: int, only: list[str] | None) -> dict:
     env = {**os.environ, "PYTHONPATH": str(source.resolve())}
     done = subprocess.run([sys.executable, __file__, "--worker", "--n", str(n), "--tau", str(tau),
-                           "--repeat", str(repeat)],
+                           "--repeat", str(repeat), *(["--only", *only] if only else [])],
                           env=env, capture_output=True, text=True, check=True)
     result = json.loads(done.stdout)
     if not Path(result["ldpipe"]).resolve().is_relative_to(source.resolve()):
@@ -87,22 +92,26 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=200, help="grid points per side (default 200)")
     parser.add_argument("--tau", type=float, default=50.0)
     parser.add_argument("--repeat", type=int, default=3, help="calls per setting in a round; the fastest counts")
+    parser.add_argument("--only", nargs="+", metavar="PART",
+                        help='run the settings whose label contains one of these, e.g. "dop853 rtol 1e-5, M"')
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        return worker(args.n, args.tau, args.repeat)
+        return worker(args.n, args.tau, args.repeat, args.only)
     if args.old is None:
         parser.error("--old is required")
+    if not selected(args.only):
+        parser.error(f"--only {args.only}: no setting matches; the labels are {[row[0] for row in SETTINGS]}")
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}, {os.cpu_count()} CPUs")
     runs = {"old": [], "new": []}
     for round_ in range(args.rounds):
         for version in ("old", "new") if round_ % 2 == 0 else ("new", "old"):
-            runs[version].append(run(getattr(args, version), args.n, args.tau, args.repeat))
+            runs[version].append(run(getattr(args, version), args.n, args.tau, args.repeat, args.only))
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(f"{runs['new'][0]['points']} points, tau = {args.tau}, {args.rounds} rounds, throughput per CPU second")
     print("| setting | old | new | new/old (best) | new/old per round, min–max | LD equal |")
     print("| --- | ---: | ---: | ---: | ---: | --- |")
-    for label, *_ in SETTINGS:
+    for label, *_ in selected(args.only):
         old = [r["rows"][label] for r in runs["old"]]
         new = [r["rows"][label] for r in runs["new"]]
         rate = lambda row: row["time_units"] / row["cpu"]  # noqa: E731

@@ -61,7 +61,7 @@ def test_idle_lanes_are_never_special(barbanis, scheme):
     # must not reach the special path, which would run the scalar root search on it every step.
     module = load_engine(barbanis, scheme, 64)
     W = np.zeros(module.SIZE)
-    SP = np.ones((module.NCOMP, module.LANES), dtype=np.bool_)
+    SP = np.ones((module.NCOMP, module.LANES), dtype=np.int8)
     glx = np.array([0.1127016653792583, 0.5, 0.8872983346207417])
     glw = np.array([5.0, 8.0, 5.0]) / 18.0
     module.fast(W, module.KIND_HALF, 0.5, glx, glw, 0.2, SP)

@@ -149,7 +149,7 @@ def process(
     VC = W[OVC : OVC + NC * NCOMP * LANES].reshape((NC, NCOMP, LANES))
     QC = W[OQC : OQC + NC * NB].reshape((NC, N, LANES))
     FC = W[OFC : OFC + NCOMP * LANES].reshape((NCOMP, LANES))
-    SP = np.zeros((NCOMP, LANES), dtype=np.bool_)
+    SP = np.zeros((NCOMP, LANES), dtype=np.int8)  # SP_* codes of block_quadrature.py
     fac_accept = np.zeros(LANES)
     fac_reject = np.zeros(LANES)
     inc_step = np.zeros(LANES)
