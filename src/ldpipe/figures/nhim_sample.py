@@ -14,6 +14,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from ..contracts import NHIM_SAMPLING
 from ..datafile import open_stage_file
@@ -73,10 +74,15 @@ def draw_nhim_sample(settings: dict, *, sampling: str | Path, upo: list[str | Pa
         ax.set_xlabel(style.symbol(axes3[0]))
         ax.set_ylabel(style.symbol(axes3[1]))
         ax.set_zlabel(style.symbol(axes3[2]))
+        # Equal units leave a short axis where the NHIM is thin: three ticks keep its labels apart.
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(3))
         ax.view_init(elevation, azimuth)
         style.panel_letter(ax, index, f"({', '.join(style.symbol(c) for c in axes3)})")
         if index == 0:
-            ax.legend(loc="upper left", fontsize="small", bbox_to_anchor=(0.0, -0.02))
+            handles, labels = ax.get_legend_handles_labels()
+    # One legend for the projections, above them, clear of the 3D axes' tick labels.
+    figure.legend(handles, labels, loc="upper center", ncol=2, fontsize="small", frameon=False)
     fixed = [str(f) for f in data.fixed.values]
     values = data.fixed_values.values
     for column, sign in enumerate(signs):
@@ -96,7 +102,7 @@ def draw_nhim_sample(settings: dict, *, sampling: str | Path, upo: list[str | Pa
         style.panel_letter(ax, len(projections) + column,
                            f"slices, {style.symbol(str(data.attrs['solved']))} {'>' if sign > 0 else '<'} 0{rest}")
         ax.legend(fontsize="small")
-    figure.tight_layout()
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 0.95))  # the top strip is the legend's
     return figure
 
 
