@@ -117,9 +117,14 @@ def rel_errors(values, reference_values):
 
 # ------------------------------------------------------------------------------------------
 class Runner:
-    def __init__(self, states, ref_idx, ref_ld, ref_arc, tau):
+    def __init__(self, states, ref_idx, ref_ld, ref_arc, tau, only=None):
         self.states, self.ref_idx, self.ref_ld, self.ref_arc, self.tau = states, ref_idx, ref_ld, ref_arc, tau
+        self.only = only  # parts of method keys (see ``wanted``); None: every method
         self.rows: list[dict] = []
+
+    def wanted(self, key: str) -> bool:
+        """Whether the method with this key runs: every one, or those whose key contains a part of --only."""
+        return self.only is None or any(part in key for part in self.only)
 
     def run(self, group, name, settings, quantity, fn, states_idx=None, **extra):
         """fn(states) -> (ld (N,), time_units, info); states_idx: which grid points (default all)."""
@@ -143,7 +148,7 @@ class Runner:
                "threads_seen": threads, "time_units": float(time_units),
                "throughput_total": time_units / wall, "throughput_per_core": time_units / cpu if cpu > 0 else None,
                "n_nonfinite_all": int((~np.isfinite(ld)).sum()), **rel_errors(got, refv),
-               "info": _jsonable(info), **extra}
+               "per_core_rounds": [time_units / cpu if cpu > 0 else None], "info": _jsonable(info), **extra}
         key = (group, name, settings, quantity, row["n"])
         previous = next((r for r in self.rows if "error" not in r and
                          (r["group"], r["method"], r["settings"], r["quantity"], r["n"]) == key), None)
@@ -152,6 +157,7 @@ class Runner:
             self.rows.append(row)
         else:  # a repeated round: keep the fastest wall and CPU time seen (errors are reproducible)
             previous["runs"] += 1
+            previous["per_core_rounds"].append(time_units / cpu if cpu > 0 else None)
             previous["wall_s"] = min(previous["wall_s"], wall)
             previous["cpu_s"] = min(previous["cpu_s"], cpu)
             previous["cpu_per_wall"] = previous["cpu_s"] / previous["wall_s"]
@@ -181,7 +187,7 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
 
     Rows: rk4 dt 0.1, 0.05, 0.01; dop853 rtol 1e-4, 1e-5, 1e-6, 1e-8, 1e-10 (atol = rtol); and
     dop853 1e-6, 1e-8, 1e-10, 1e-12 with the arc-length LD (to put next to heyoka); taylor at
-    1e-8, 1e-10, 1e-12 (default order) for both integrands.  Skipped, with a note, when ldpipe.engine does not
+    1e-8, 1e-10, 1e-12 (default order) with M_1/2 and 1e-8 ... 1e-12 by decades with the arc length.  Skipped, with a note, when ldpipe.engine does not
     import.
     """
     notes = []
@@ -210,11 +216,13 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
         ("taylor", dict(scheme="taylor", rtol=1e-8, atol=1e-8), 0.5, "rtol 1e-8"),
         ("taylor", dict(scheme="taylor", rtol=1e-10, atol=1e-10), 0.5, "rtol 1e-10"),
         ("taylor", dict(scheme="taylor", rtol=1e-12, atol=1e-12), 0.5, "rtol 1e-12"),
-        ("taylor", dict(scheme="taylor", rtol=1e-8, atol=1e-8), "arclength", "rtol 1e-8"),
-        ("taylor", dict(scheme="taylor", rtol=1e-10, atol=1e-10), "arclength", "rtol 1e-10"),
-        ("taylor", dict(scheme="taylor", rtol=1e-12, atol=1e-12), "arclength", "rtol 1e-12"),
+    ] + [  # a ladder of one decade steps: the work–precision curve of the matched-error table
+        ("taylor", dict(scheme="taylor", rtol=rtol, atol=rtol), "arclength", f"rtol {rtol:g}")
+        for rtol in (1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
     ]
     for scheme, kw, p, label in configs:
+        if not runner.wanted(f"{scheme} {'arclength' if p == 'arclength' else 'M_1/2'}"):
+            continue
         settings = LDSettings(p=p, tau=tau, **kw)
 
         def fn(states, settings=settings):
@@ -236,10 +244,11 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
 def run_alternatives(runner: Runner, tau, args, per_traj_idx) -> dict:
     extra = {}
     # a. per-trajectory scipy DOP853
-    runner.run("scipy per trajectory", "solve_ivp DOP853, LD as state", "rtol 1e-8 atol 1e-10", "M_1/2",
-               lambda s: alt.scipy_per_trajectory(s, tau, 0.5, rtol=1e-8, atol=1e-10), states_idx=per_traj_idx)
+    if runner.wanted("scipy-per-trajectory"):
+            runner.run("scipy per trajectory", "solve_ivp DOP853, LD as state", "rtol 1e-8 atol 1e-10", "M_1/2",
+                   lambda s: alt.scipy_per_trajectory(s, tau, 0.5, rtol=1e-8, atol=1e-10), states_idx=per_traj_idx)
     # b. flattened grid, RK45 (ldds)
-    for rtol in args.flat_rtols:
+    for rtol in args.flat_rtols if runner.wanted("scipy-flattened") else ():
         runner.run("scipy flattened (ldds)", "solve_ivp RK45, whole grid one system", f"rtol=atol {rtol:g}",
                    "M_1/2", lambda s, rtol=rtol: alt.scipy_flattened(s, tau, 0.5, rtol=rtol))
     # c. heyoka
@@ -250,25 +259,27 @@ def run_alternatives(runner: Runner, tau, args, per_traj_idx) -> dict:
         print("NOTE: heyoka not installed; heyoka rows skipped")
         return extra
     hy.set_nthreads(1)  # heyoka's own TBB parallelism off; the ensemble row uses a Python thread pool
-    for tol in args.heyoka_tols:
+    for tol in args.heyoka_tols if runner.wanted("heyoka-batch") else ():
         ta, compile_s = alt.heyoka_build(tol, "arclength")
         runner.run("heyoka batch", f"taylor_adaptive_batch (SIMD {ta.batch_size}), arc length",
                    f"tol {tol:g}", "arclength", lambda s, ta=ta, tol=tol: alt.heyoka_batch(s, tau, tol, ta=ta),
                    compile_s=compile_s)
     workers = len(os.sched_getaffinity(0))
-    ta, compile_s = alt.heyoka_build(args.heyoka_tols[0], "arclength")
-    runner.run("heyoka ensemble (threads)", f"ensemble_propagate_until_batch, {workers} threads, arc length",
-               f"tol {args.heyoka_tols[0]:g}", "arclength",
-               lambda s: alt.heyoka_ensemble(s, tau, args.heyoka_tols[0], ta=ta, max_workers=workers),
-               compile_s=compile_s)
-    for tol in args.heyoka_tols:
+    if runner.wanted("heyoka-ensemble"):
+        ta, compile_s = alt.heyoka_build(args.heyoka_tols[0], "arclength")
+        runner.run("heyoka ensemble (threads)", f"ensemble_propagate_until_batch, {workers} threads, arc length",
+                   f"tol {args.heyoka_tols[0]:g}", "arclength",
+                   lambda s: alt.heyoka_ensemble(s, tau, args.heyoka_tols[0], ta=ta, max_workers=workers),
+                   compile_s=compile_s)
+    for tol in args.heyoka_tols if runner.wanted("heyoka-p-half") else ():
         ta_plain, c1 = alt.heyoka_build(tol, "arclength")
         ta_half, c2 = alt.heyoka_build(tol, "sqrt_abs")
         runner.run("heyoka batch", f"taylor_adaptive_batch (SIMD {ta_half.batch_size}), p=1/2 from t=1e-6",
                    f"tol {tol:g}", "M_1/2",
                    lambda s, a=ta_plain, b=ta_half, tol=tol: alt.heyoka_p_half_offset(s, tau, tol, ta_plain=a, ta_half=b),
                    compile_s=c1 + c2)
-    extra["heyoka_p_half_attempt"] = alt.heyoka_p_half_attempt(runner.states[runner.ref_idx[0]], tau)
+    if runner.wanted("heyoka-p-half"):
+        extra["heyoka_p_half_attempt"] = alt.heyoka_p_half_attempt(runner.states[runner.ref_idx[0]], tau)
     extra["heyoka_threads_setting"] = hy.get_nthreads()
     return extra
 
@@ -290,8 +301,57 @@ def matched_accuracy(rows):
         out.append({"alternative": f"{r['method']} {r['settings']}", "alt_err_median": r["err_median"],
                     "engine": f"{best['method']} {best['settings']}", "engine_err_median": best["err_median"],
                     "ratio_per_core": best["throughput_per_core"] / r["throughput_per_core"],
-                    "ratio_total": best["throughput_total"] / r["throughput_total"]})
+                    "ratio_total": best["throughput_total"] / r["throughput_total"],
+                    "ratio_per_core_rounds": _round_ratios(best, r)})
     return out
+
+
+def _round_ratios(engine_row, alternative_row):
+    """Per-core throughput ratios round by round (the rounds are interleaved, so round i of each ran close in time)."""
+    return [e / a for e, a in zip(engine_row["per_core_rounds"], alternative_row["per_core_rounds"]) if e and a]
+
+
+def loglog_at(points, error):
+    """Throughput at ``error`` on a work–precision curve, linear in (log error, log throughput) between
+    the two neighbouring (error, throughput) points that bracket it; None outside the curve."""
+    points = sorted(points)
+    for (e0, t0), (e1, t1) in zip(points, points[1:]):
+        if e0 <= error <= e1:
+            w = 0.0 if e1 == e0 else (np.log(error) - np.log(e0)) / (np.log(e1) - np.log(e0))
+            return float(np.exp((1.0 - w) * np.log(t0) + w * np.log(t1)))
+    return None
+
+
+def work_precision(rows):
+    """For every alternative row and every engine scheme with >= 2 rows of its quantity: the engine's
+    per-core throughput interpolated log-log at the alternative's median error (the work–precision
+    curve through the engine's tolerance ladder), and the ratio engine / alternative, overall (fastest
+    times) and round by round."""
+    engine = [r for r in rows if r["group"] == "ldpipe engine" and r.get("err_median")]
+    out = []
+    for r in rows:
+        if r["group"] == "ldpipe engine" or not r.get("err_median"):
+            continue
+        for method in sorted({e["method"] for e in engine if e["quantity"] == r["quantity"]}):
+            curve = [e for e in engine if e["method"] == method and e["quantity"] == r["quantity"]]
+            if len(curve) < 2:
+                continue
+            best = loglog_at([(e["err_median"], e["throughput_per_core"]) for e in curve], r["err_median"])
+            rounds = []
+            for i, alt_round in enumerate(r["per_core_rounds"]):
+                points = [(e["err_median"], e["per_core_rounds"][i]) for e in curve if len(e["per_core_rounds"]) > i]
+                value = loglog_at(points, r["err_median"]) if len(points) == len(curve) else None
+                if value and alt_round:
+                    rounds.append(value / alt_round)
+            out.append({"alternative": f"{r['method']} {r['settings']}", "alt_err_median": r["err_median"],
+                        "engine": method, "engine_errors": [min(e["err_median"] for e in curve), max(e["err_median"] for e in curve)],
+                        "engine_per_core": best, "ratio_per_core": None if best is None else best / r["throughput_per_core"],
+                        "ratio_per_core_rounds": rounds})
+    return out
+
+
+def _spread(values) -> str:
+    return f"{min(values):.3g}–{max(values):.3g}" if values else "—"
 
 
 def fmt(v, spec=".2g"):
@@ -337,12 +397,23 @@ def markdown(report) -> str:
     else:
         L += ["For each alternative: the fastest engine row (per core) whose median error is no larger, and "
               "the throughput ratio engine / alternative.", "",
-              "| alternative | its err median | engine row | engine err median | ratio per core | ratio total |",
-              "| --- | ---: | --- | ---: | ---: | ---: |"]
+              "| alternative | its err median | engine row | engine err median | ratio per core | per core, rounds min–max | ratio total |",
+              "| --- | ---: | --- | ---: | ---: | ---: | ---: |"]
         for x in report["matched"]:
             L.append(f"| {x['alternative']} | {x['alt_err_median']:.1e} | {x['engine'] or '—'} | "
                      f"{fmt(x.get('engine_err_median'), '.1e')} | {fmt(x.get('ratio_per_core'), '.3g')} | "
-                     f"{fmt(x.get('ratio_total'), '.3g')} |")
+                     f"{_spread(x.get('ratio_per_core_rounds'))} | {fmt(x.get('ratio_total'), '.3g')} |")
+        L += ["", "## Engine vs alternative on the work–precision curve", "",
+              "For each alternative and engine scheme with a tolerance ladder: the engine's per-core throughput "
+              "interpolated log-log (log throughput linear in log median error) between the two ladder rows that "
+              "bracket the alternative's median error; — where the ladder does not reach it. Not a rule that "
+              "picks a row: a row whose median error is a hair above the alternative's counts by how close it is.", "",
+              "| alternative | its err median | engine | engine err medians (ladder) | engine tu/s per core there | ratio per core | per core, rounds min–max |",
+              "| --- | ---: | --- | --- | ---: | ---: | ---: |"]
+        for x in report.get("work_precision", []):
+            L.append(f"| {x['alternative']} | {x['alt_err_median']:.1e} | {x['engine']} | "
+                     f"{x['engine_errors'][0]:.1e} – {x['engine_errors'][1]:.1e} | {fmt(x['engine_per_core'], '.3g')} | "
+                     f"{fmt(x['ratio_per_core'], '.3g')} | {_spread(x['ratio_per_core_rounds'])} |")
     ev = report.get("alternatives_extra", {}).get("heyoka_p_half_attempt")
     if ev:
         L += ["", "## heyoka with the p = 1/2 integrand (scalar integrator, tol 1e-10)", "",
@@ -374,6 +445,9 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds over all methods (interleaved); each row keeps its fastest wall and CPU time")
     ap.add_argument("--no-engine", action="store_true", help="skip the ldpipe engine rows")
+    ap.add_argument("--only", nargs="+", metavar="PART", default=None,
+                    help="the methods whose key contains a part (keys in benchmarks/README.md), e.g. "
+                         "--only 'taylor arclength' heyoka-batch (default: all)")
     ap.add_argument("--seed", type=int, default=12345)
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args(argv)
@@ -391,7 +465,7 @@ def main(argv=None):
     acc = ref.estimate_accuracy(states[ref_idx[:args.n_ref_accuracy]], args.tau, 0.5)
     print("reference accuracy:", acc)
 
-    runner = Runner(states, ref_idx, ref_ld, ref_arc, args.tau)
+    runner = Runner(states, ref_idx, ref_ld, ref_arc, args.tau, args.only)
     notes = []
     load_before = os.getloadavg()
     for round_ in range(args.repeat):
@@ -403,6 +477,8 @@ def main(argv=None):
             round_notes += run_engine(runner, args.tau, args)
         extra = run_alternatives(runner, args.tau, args, ref_idx[:args.n_per_traj])
     notes += round_notes
+    if args.only:
+        notes.append(f"methods run: --only {' '.join(args.only)}")
     if args.repeat > 1:
         notes.append(f"{args.repeat} interleaved rounds over all methods; every row shows its fastest wall and CPU time.")
     notes.append(f"load average (1, 5, 15 min) at the start {tuple(round(v, 2) for v in load_before)}, "
@@ -424,6 +500,7 @@ def main(argv=None):
         "reference_accuracy": acc,
         "rows": runner.rows,
         "matched": matched_accuracy(runner.rows),
+        "work_precision": work_precision(runner.rows),
         "alternatives_extra": _jsonable(extra),
         "notes": notes,
     }

@@ -33,7 +33,7 @@ system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
 states = np.array([[0.5, 0.0, 0.3, 2.0], [1.0, 0.2, -0.3, 1.5], [-1.0, 0.5, 0.8, 1.0], [2.0, -1.0, 0.0, 2.5]])
 settings = LDSettings(scheme="sym4", dt=0.05, tau=5.0, block=8)
 result = compute_ld(system, states, +1, settings)
-stats = get_runner(system, settings.scheme, settings.block).stats
+stats = get_runner(system, settings.scheme, settings.lanes).stats
 print(json.dumps({
     "ld": [float(x).hex() for x in result.ld],
     "hits": sum(stats.cache_hits.values()),

@@ -88,7 +88,7 @@ class TimedLD:
 
 def warm_up(system: System, states: np.ndarray, settings: LDSettings) -> None:
     """Compile (or load from numba's cache) the engine for this scheme, outside any timing."""
-    count = min(len(states), settings.block)
+    count = min(len(states), settings.lanes)
     if count:
         compute_ld(system, states[:count], 1, settings)
 

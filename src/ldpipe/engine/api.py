@@ -148,7 +148,7 @@ def compute_ld(
     )
     if N == 0:
         return LDResult(*outputs)
-    lanes = settings.block
+    lanes = settings.lanes
     from numba import get_num_threads
 
     # Units of whole blocks, at least ~8 per thread for load balance, at most 16 blocks each.

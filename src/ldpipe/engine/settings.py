@@ -258,7 +258,7 @@ class LDSettings:
     escape_radius), :class:`DescriptorSettings` (p, quad_nodes, window) and
     :class:`StoppingRules` (tau, region_lower, region_upper, max_steps), with their defaults
     and validation, and ``block``: trajectories per structure-of-arrays block (lanes advanced
-    together). :attr:`integrator`, :attr:`descriptor` and :attr:`stopping` give the parts
+    together; None: the scheme's default, see :attr:`lanes`). :attr:`integrator`, :attr:`descriptor` and :attr:`stopping` give the parts
     back; :meth:`from_parts` builds one from them.
     """
 
@@ -272,7 +272,7 @@ class LDSettings:
     region_lower: tuple[float, ...] | None = _STOPPING.region_lower
     region_upper: tuple[float, ...] | None = _STOPPING.region_upper
     escape_radius: float = _INTEGRATOR.escape_radius
-    block: int = 64
+    block: int | None = None
     max_steps: int = _STOPPING.max_steps
     quad_nodes: int | None = _DESCRIPTOR.quad_nodes
     window: float | None = _DESCRIPTOR.window
@@ -283,7 +283,8 @@ class LDSettings:
             part = cls(**{name: getattr(self, name) for name in names})  # validates
             for name in names:
                 _set(self, name, getattr(part, name))
-        _integer("block", self.block, 1)
+        if self.block is not None:
+            _integer("block", self.block, 1)
 
     @classmethod
     def from_parts(
@@ -337,6 +338,13 @@ class LDSettings:
         if self.window is not None:
             return self.window
         return self.record.window(self)
+
+    @property
+    def lanes(self) -> int:
+        """The block size in use: ``block``, or the scheme's default for these settings."""
+        if self.block is not None:
+            return self.block
+        return self.record.lanes(self)
 
     @property
     def nodes(self) -> int:

@@ -107,7 +107,7 @@ def _map_dataset(name: str, parameters: dict, equilibria: xr.Dataset, ld: dict, 
     states, allowed, _ = section_states(system, section, info["energy"])
     if len(states) == 0:
         raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {name!r} has no energetically allowed point")
-    chosen = sample_indices(len(states), ld["points"], ld["seed"], multiple_of=settings.block)
+    chosen = sample_indices(len(states), ld["points"], ld["seed"], multiple_of=settings.lanes)
     grid_index = np.argwhere(allowed)[chosen]  # C order of the grid, as section_states orders the states
     log.info("map %s: %d of %d allowed points sampled (grid %s), %s time, tau %g", name, len(chosen), len(states),
              section.shape, parameters["time"], settings.tau)

@@ -61,6 +61,10 @@ class Scheme:
         """Default Gauss nodes per step of the LD quadrature."""
         raise NotImplementedError
 
+    def lanes(self, settings) -> int:
+        """Default trajectories per block (lanes advanced together): 64."""
+        return 64
+
     def window(self, settings) -> float:
         """Default quadrature window (see :mod:`ldpipe.engine.quadrature`), in step lengths."""
         raise NotImplementedError

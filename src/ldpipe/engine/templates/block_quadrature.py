@@ -64,24 +64,7 @@ def fast(W, kind, p, glx, glw, window, SP):
     n_nodes = glx.shape[0]
     last_gap = 1.0 - glx[n_nodes - 1]
     if kind == KIND_ARCLENGTH:
-        for j in range(LANES):
-            W[OACC + j] = 0.0
-        for g in range(n_nodes):
-            x = glx[g]
-            w = glw[g]
-            for j in range(LANES):
-                W[OMIN + j] = 0.0
-            for c in range(NCOMP):
-                for j in range(LANES):
-                    base = OVC + c * LANES + j
-                    v = W[base + (NC - 1) * CS]
-                    for k in range(NC - 2, -1, -1):
-                        v = v * x + W[base + k * CS]
-                    W[OMIN + j] += v * v
-            for j in range(LANES):
-                W[OACC + j] += w * math.sqrt(W[OMIN + j])
-        for j in range(LANES):
-            W[OFC + j] = W[OACC + j]
+        arclength_fast(W, glx, glw)  # block_arclength.py
         for c in range(NCOMP):
             for j in range(LANES):
                 SP[c, j] = 0
