@@ -11,9 +11,9 @@ Every expected value is a closed form, an invariant or an independent integratio
   constant term): scipy's DOP853 at rtol 1e-13, energy, and the hand-derived acceleration;
 - the settings: the order rule and the validation of ``taylor_order``.
 
-A known limit is kept as a strict xfail (it fails, as a reminder, once fixed): a double root
-of a velocity component at a step's start leaves an LD error of ~1e-8 that no tolerance
-removes (the cusp rule assumes a simple root).
+A former limit has its test (``test_double_root_at_the_start``): a double root of a velocity
+component at a step's start left an LD error of ~1e-8 that no tolerance removed, until the
+quadrature took double roots as dips (issue 18).
 
 Engines are compiled per (system, scheme, order, lanes), ~15 s each: this file uses order 14
 for the formula systems and 13 for the Barbanis system (the default at rtol 1e-12 for |v|^p).
