@@ -10,6 +10,7 @@ as compile-time constants, exactly as closure variables would be.
 
 - ``quadrature.py`` — scalar polynomial helpers and the cusp-aware LD quadrature of one lane;
 - ``block_quadrature.py`` — the vectorized LD quadrature passes over a block (``fast``, ``special``);
+- ``flag_checks.py`` — the cheap checks that spare the scalar path a false flag of ``fast``;
 - ``events.py`` — region exit and escape located on a step's configuration polynomial;
 - ``hermite.py``, ``rk4.py``, ``composition.py`` — the fixed-step schemes (``attempt``,
   ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.schemes.dop853`;
