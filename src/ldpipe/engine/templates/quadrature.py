@@ -23,7 +23,8 @@ component at a time: ``component_integral`` below)
     Other pieces use Gauss–Legendre. Two roots between one pair of samples (where v dips to
     the other sign and back) are found from the minimum of |v| (``root_pair``).
     The fast path sends a component here also when such a dip is possible between two of its
-    samples (``pair_possible``, with a bound of |v''| from the coefficients).
+    samples (``pair_possible``, with a bound of |v''| from the coefficients), unless ``pair_check``
+    (flag_checks.py) rules the pair out with a bound over each sample interval.
 
 near-touches (a dip of |v| towards zero that turns back, or a double root; issue 18)
     The fast pass and ``special`` flag a component without a sign change where the local
@@ -31,7 +32,7 @@ near-touches (a dip of |v| towards zero that turns back, or a double root; issue
     ``dip_possible`` holds at the nodes; the scalar path records such minima (``root_pair``)
     and double roots as dips, cuts the step at them and integrates the pieces next to them with
     the sinh substitution x = x_m + eps sinh(w) (``sinh_piece``). A flag with no root possible
-    reaches the scalar path only where ``touch_matters`` (block_quadrature.py) finds a minimum
+    reaches the scalar path only where ``touch_matters`` (flag_checks.py) finds a minimum
     of |v| narrower than the dip width. Two roots outside the step,
     close together, count as one double-root dip.
 
