@@ -83,7 +83,7 @@ def instrumented_source(source: str) -> str:
                      f"window, {beside}):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
     s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
     s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
-    s = _replace(s, "window, roots)\n\n\n# ---- events ----",
+    s = _replace(s, "window, roots)\n\n\n# ---- flag_checks ----",
                  f"window, roots)\n    PT[{N_TIMERS - 1}] += tick() - _ts\n\n\n# ---- events ----")
     # phases of the main loop
     s = _replace(s, "    while True:\n        for j in range(lanes):\n            # an idle lane",

@@ -28,6 +28,7 @@ import numpy as np
 
 #: (label, scheme, tolerance or step, p)
 SETTINGS = (
+    ("dop853 rtol 1e-4, M_1/2", "dop853", 1e-4, 0.5),
     ("dop853 rtol 1e-5, M_1/2", "dop853", 1e-5, 0.5),
     ("dop853 rtol 1e-8, M_1/2", "dop853", 1e-8, 0.5),
     ("dop853 rtol 1e-10, M_1/2", "dop853", 1e-10, 0.5),

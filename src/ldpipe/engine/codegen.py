@@ -7,7 +7,7 @@ The generated module is, in this order:
 2. a header: imports, the numba options ``JIT`` (with ``cache=True``), the kernels wrapped in
    ``njit``, and every compile-time constant of the block (sizes, workspace offsets, scheme
    data, integrand kinds) as an upper-case module global;
-3. the templates of :mod:`ldpipe.engine.templates` (quadrature, block quadrature, events, the
+3. the templates of :mod:`ldpipe.engine.templates` (quadrature, block quadrature, flag checks, events, the
    scheme's own, the driver) and the generated DOP853 step, if that is the scheme;
 4. for a system with masses only, the kinetic section of :mod:`ldpipe.engine.kinetic`.
 
@@ -37,7 +37,7 @@ from .integrands import KINDS
 from .kinetic import kinetic_source
 from .schemes import scheme_source
 
-COMMON_TEMPLATES = ("quadrature", "block_arclength", "block_quadrature", "events")
+COMMON_TEMPLATES = ("quadrature", "block_arclength", "block_quadrature", "flag_checks", "events")
 DRIVER_TEMPLATE = "driver"
 # The templates of each entry point, by the name of its compiled function.
 DRIVERS = {"process": (DRIVER_TEMPLATE,), "flow_process": (DRIVER_TEMPLATE, "flow_driver")}

@@ -12,6 +12,7 @@ as compile-time constants, exactly as closure variables would be.
 - ``block_quadrature.py`` — the vectorized LD quadrature passes over a block (``fast``, ``special``);
 - ``block_arclength.py`` — ``fast``'s arc-length pass (four Gauss nodes per pass over the coefficients);
 - ``roots.py`` — ``inverse_root``, x ** (-1/m) without ``pow`` (the taylor scheme's step rule);
+- ``flag_checks.py`` — the cheap checks that spare the scalar path a false flag of ``fast``;
 - ``events.py`` — region exit and escape located on a step's configuration polynomial;
 - ``hermite.py``, ``rk4.py``, ``composition.py`` — the fixed-step schemes (``attempt``,
   ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.schemes.dop853`;

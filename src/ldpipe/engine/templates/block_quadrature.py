@@ -32,8 +32,10 @@ vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test i
 A flag of ``fast`` that is only a possible near-touch (SP_TOUCH), and a near-touch flag beside a
 root just outside an end (the left/right case), go to the scalar path only where
 ``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of |v| that
-``component_integral`` would take as a dip; elsewhere the Gauss–Legendre value (or the Jacobi
-pieces) stand.
+``component_integral`` would take as a dip; a flag that is only a possible root pair between two
+samples, only where ``pair_check`` (vectorized) cannot rule the pair out with a bound of |v''|
+over each sample interval. Elsewhere the Gauss–Legendre value (or the Jacobi pieces) stand. Both
+checks are in flag_checks.py.
 
 Header names used: NC (coefficients per polynomial), NCOMP (= 2 n_dof),
 LANES, CS (= NCOMP * LANES, the stride between coefficients in VC), the offsets OVC, OFC,
@@ -44,18 +46,19 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
 # then scratch rows.
 (R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
- R_ENDS) = range(NC, NC + 17)
-CB_ROWS = NC + 17
+ R_ENDS, R_PAIR) = range(NC, NC + 18)
+CB_ROWS = NC + 18
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
-# 3 a near-touch alone: the scalar path only if ``touch_matters``
+# 3 a near-touch alone: the scalar path only if ``touch_matters``; 4 a possible root pair alone:
+# the scalar path only if ``pair_check`` keeps it possible
 KEEP_FAST = 2.0
 TOUCH_CHECK = 3.0
+PAIR_CHECK = 4.0
 # SP codes written by ``fast``: a root, a root pair or a root near an end possible (the special
 # path), or a near-touch alone (no sign change, no root near an end or between two samples)
 SP_SPECIAL = 1
 SP_TOUCH = 2
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
-TOUCH_ITERATIONS = 12  # Newton on v' in ``touch_matters`` (quadratic convergence from a node)
 N_NEWTON = 6  # from the regula falsi point: converged after 4-5 (measured: as many unconverged at 5 as at 8)
 
 
@@ -191,85 +194,6 @@ def _at_both_sides(CB, t, s0, s1):
 
 
 @njit(**JIT)
-def touch_matters(VC, c, j, nc, glx, ends, window, beside_root):
-    """False if the near-touch flagged on a step of lane j, component c, would not be taken as a
-    dip by ``component_integral`` (the Gauss–Legendre value, or the Jacobi pieces at a root near
-    an end, stand); True where it would, or where that is not certain.
-
-    ``block_quadrature.special`` calls it for a component without a sign change on its samples
-    (0, the nodes ``glx``, 1), flagged because a near-touch may lie within DIP_PER_WINDOW *
-    window of a sample. The minima of |v| are looked for by Newton's method on v' from every
-    sample where |v| is a local minimum over the samples, and from the vertex of the local
-    quadratic at the end 0 (``ends`` & 1) and 1 (& 2), flagged where that quadratic has complex
-    roots, or beside a root just beyond that end (``beside_root``, the left/right case, where
-    the nodes next to the root are small because of it and a search from the vertex that ends
-    on the range's bound found no minimum). As in ``root_pair``, each minimum's eps =
-    sqrt(2 v(x_m) / v''(x_m)) is compared with the dip width; outside the scalar path's sample
-    range (where ``component_integral`` does not look), or with eps at least the width, it is no
-    dip. Most flags are of this kind (the flag bounds eps from below by the samples), and the
-    test costs a few Horner evaluations per start where the scalar path costs ~50.
-    """
-    m_out = int(math.ceil(window * SAMPLES_PER_STEP))
-    lo = -m_out / SAMPLES_PER_STEP
-    hi = 1.0 + m_out / SAMPLES_PER_STEP
-    width = DIP_PER_WINDOW * window
-    v0, d0, a0 = horner_dd(VC, c, j, nc, 0.0)
-    v1, d1, a1 = horner_dd(VC, c, j, nc, 1.0)
-    n_nodes = glx.shape[0]
-    f_prev = math.inf
-    f_here = abs(v0)
-    for start in range(n_nodes + 4):
-        if start < n_nodes + 2:  # a sample (0, the nodes, 1) where |v| is a local minimum over them
-            x = 0.0 if start == 0 else (glx[start - 1] if start <= n_nodes else 1.0)
-            if start <= n_nodes:
-                f_next = abs(horner(VC, c, j, nc, glx[start])) if start < n_nodes else abs(v1)
-            else:
-                f_next = math.inf
-            local = f_here <= f_prev and f_here <= f_next
-            f_prev = f_here
-            f_here = f_next
-            if not local:
-                continue
-        elif start == n_nodes + 2:  # the vertex of the quadratic at 0 (the bound for a straight line)
-            if not ends & 1:
-                continue
-            x = -d0 / a0 if a0 != 0.0 else (lo if d0 * v0 > 0.0 else hi)
-        else:
-            if not ends & 2:
-                continue
-            x = 1.0 - d1 / a1 if a1 != 0.0 else (hi if d1 * v1 < 0.0 else lo)
-        x = min(max(x, lo), hi)
-        converged = False
-        for _ in range(TOUCH_ITERATIONS):
-            _, d, dd = horner_dd(VC, c, j, nc, x)
-            if dd == 0.0:
-                break
-            x_new = min(max(x - d / dd, lo), hi)
-            converged = abs(x_new - x) <= 1e-12
-            x = x_new
-            if converged:
-                break
-        if not converged:
-            return True
-        inside = lo < x < hi
-        if beside_root and not inside:
-            continue  # v' keeps its sign towards the bound: no minimum that way
-        v_m, _, dd_m = horner_dd(VC, c, j, nc, x)
-        minimum = v_m * dd_m > 0.0  # a minimum of |v| that does not reach zero
-        if beside_root and not minimum:
-            if v_m * v0 <= 0.0:
-                return True  # beyond the root: a second root there (a root pair outside)
-            continue  # a maximum of |v| on the step's side of the root
-        if not minimum and (v_m * v0 <= 0.0 or inside):
-            return True  # a root pair, a maximum of |v| (the minimum near the start not found): not certain
-        if not beside_root and inside and v_m * v0 <= 0.0:
-            return True  # a root in the range that the samples did not show
-        if minimum and inside and 2.0 * abs(v_m) < width * width * abs(dd_m):  # eps < width
-            return True
-    return False
-
-
-@njit(**JIT)
 def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # gather the flagged components: coefficient rows 0..NC-1 of the flat buffer CB
     m = 0
@@ -323,6 +247,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # is, without a sign change, a possible near-touch (``dip_possible`` over the samples) or a
     # zero end where v' is small too (a double root within the dip width; |v| with p = 1 has none).
     dip_width = 0.0 if kind == KIND_ONE else DIP_PER_WINDOW * window
+    n_pair = 0
     for t in range(m):
         v0 = CB[t]
         d0 = CB[CBS + t]
@@ -384,6 +309,10 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         beside = clean & (left | right)
         CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & ((~dip) | beside)) else 0.0
         CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]
+        # flagged by ``fast`` for a possible root pair between two samples and nothing else
+        pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & (~dip)
+        CB[R_OK * CBS + t] = PAIR_CHECK if pair else CB[R_OK * CBS + t]
+        n_pair += 1 if pair else 0
         CB[R_TOUCH * CBS + t] = 2.0 if beside else CB[R_TOUCH * CBS + t]
         CB[R_ENDS * CBS + t] = (1.0 if (low0 | left) else 0.0) + (2.0 if (low1 | right) else 0.0)
         CB[R_ROOT * CBS + t] = guess
@@ -393,6 +322,8 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         # for left/right: the far end of the search interval and the value at the near end
         CB[R_FAR * CBS + t] = lo if left else (hi if right else 0.0)
         CB[R_NEAR * CBS + t] = v0 if left else (v1 if right else 0.0)
+    if n_pair > 0:
+        pair_check(CB, m, glx)
     # Newton, kept inside [lo, hi]; inside a sign-change bracket it bisects when it leaves
     for _ in range(N_NEWTON):
         for t in range(m):
@@ -438,7 +369,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         no_root = v_far * CB[R_NEAR * CBS + t] > 0.0
         ok = CB[R_OK * CBS + t]
         keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)
-        CB[R_OK * CBS + t] = TOUCH_CHECK if ok == TOUCH_CHECK else keep
+        CB[R_OK * CBS + t] = ok if ok >= KEEP_FAST else keep  # the checks' answers stand
         CB[R_J0 * CBS + t] = 0.0
         CB[R_J1 * CBS + t] = 0.0
     # J(r -> 0) and J(r -> 1): Gauss–Jacobi for the weight |s - r|^p with the weights folded

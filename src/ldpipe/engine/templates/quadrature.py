@@ -26,7 +26,8 @@ component at a time: ``component_integral`` below)
     Where a root has another beyond it closer than the piece is long, Gauss–Jacobi takes only
     that gap and Gauss–Legendre the rest, on pieces growing geometrically (``_from_root``).
     The fast path sends a component here also when such a dip is possible between two of its
-    samples (``pair_possible``, with a bound of |v''| from the coefficients).
+    samples (``pair_possible``, with a bound of |v''| from the coefficients), unless ``pair_check``
+    (flag_checks.py) rules the pair out with a bound over each sample interval.
 
 near-touches (a dip of |v| towards zero that turns back, or a double root; issue 18)
     The fast pass and ``special`` flag a component without a sign change where the local
@@ -34,7 +35,7 @@ near-touches (a dip of |v| towards zero that turns back, or a double root; issue
     ``dip_possible`` holds at the nodes; the scalar path records such minima (``root_pair``)
     and double roots as dips, cuts the step at them and integrates the pieces next to them with
     the sinh substitution x = x_m + eps sinh(w) (``sinh_piece``). A flag with no root possible
-    reaches the scalar path only where ``touch_matters`` (block_quadrature.py) finds a minimum
+    reaches the scalar path only where ``touch_matters`` (flag_checks.py) finds a minimum
     of |v| narrower than the dip width. Two roots outside the step,
     close together, count as one double-root dip.
 
@@ -198,17 +199,21 @@ def sinh_piece(VC, c, j, nc, a, b, x_m, eps, kind, p, glx, glw):
     for q in range(n_panels):
         w0 = wa + q * dw
         for g in range(glx.shape[0]):
-            w = w0 + dw * glx[g]
-            x = x_m + eps * math.sinh(w)
-            total += glw[g] * math.cosh(w) * _power(abs(horner(VC, c, j, nc, x)), kind, p)
+            # sinh and cosh from one exp (two transcendental calls were most of the rule's cost);
+            # sinh loses relative accuracy near w = 0, but x = x_m + eps sinh(w) only an absolute
+            # ~1e-16 eps
+            e = math.exp(w0 + dw * glx[g])
+            inverse = 1.0 / e
+            x = x_m + 0.5 * eps * (e - inverse)
+            total += glw[g] * 0.5 * (e + inverse) * _power(abs(horner(VC, c, j, nc, x)), kind, p)
     return total * eps * dw
 
 
 @njit(**JIT)
-def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots, n_dips, dip_limit):
+def root_pair(VC, c, j, nc, a, b, fa, fb, da, db, roots, n_roots, n_dips, dip_limit):
     """Roots of v in (a, b) when v(a), v(b) have one sign but |v| dips to the other sign between.
 
-    Returns (n_roots, n_dips): where the dip does not reach zero and its eps (see
+    fa, fb, da, db: v and v' at a and b. Returns (n_roots, n_dips): where the dip does not reach zero and its eps (see
     ``dip_possible``) is below ``dip_limit``, the minimum is kept as a dip (``add_dip``).
 
     The samples a, b miss a pair of roots closer together than their spacing. If |v| falls at
@@ -217,8 +222,6 @@ def root_pair(VC, c, j, nc, a, b, fa, fb, roots, n_roots, n_dips, dip_limit):
     plain bisection took ~50 and dominated the scalar path's time); where v has the other sign
     there, each half holds one root. Appends them to ``roots`` and returns the new count.
     """
-    _, da = horner_d(VC, c, j, nc, a)
-    _, db = horner_d(VC, c, j, nc, b)
     if not (fa * da <= 0.0 and fb * db >= 0.0):
         return n_roots, n_dips  # |v| monotone, or a maximum of |v| inside: no pair
     lo = a
@@ -401,8 +404,10 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     dip_limit = DIP_PER_WINDOW * window * u
     n_roots = 0
     n_dips = 0
+    # v and v' at each sample in one Horner pass: root_pair needs v' at both ends of an
+    # interval, and each sample is the end of two
     x_prev = -m_out * dx
-    f_prev = horner(VC, c, j, nc, x_prev)
+    f_prev, d_prev = horner_d(VC, c, j, nc, x_prev)
     # A sample exactly at a simple root r hides a second root between it and a neighbour of the
     # same sign (no sign change, and no pair test with a zero end): v leaves r towards the other
     # sign, so another root lies before that neighbour. d_zero is v' at the last zero sample
@@ -411,19 +416,20 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     if f_prev == 0.0:
         roots[n_roots] = x_prev
         n_roots += 1
-        _, d_zero = horner_d(VC, c, j, nc, x_prev)
+        d_zero = d_prev
     for s in range(-m_out + 1, m + m_out + 1):
         x = s * dx
         if s == m:
             x = u  # exactly the end, whatever the rounding of s * dx
-        f = horner(VC, c, j, nc, x)
+        f, d_here = horner_d(VC, c, j, nc, x)
         if f_prev * f < 0.0:
             roots[n_roots] = refine_root(VC, c, j, nc, 0.0, x_prev, x, f_prev, f)
             n_roots += 1
         elif f_prev * f > 0.0 and (
             pair_possible(f_prev, f, curvature, dx) > 0.0 or dip_possible(f_prev, f, curvature, dip_limit) > 0.0
         ):
-            n_roots, n_dips = root_pair(VC, c, j, nc, x_prev, x, f_prev, f, roots, n_roots, n_dips, dip_limit)
+            n_roots, n_dips = root_pair(VC, c, j, nc, x_prev, x, f_prev, f, d_prev, d_here, roots, n_roots, n_dips,
+                                        dip_limit)
         elif f_prev == 0.0 and d_zero * f < 0.0:  # leaves the zero sample towards the other sign
             roots[n_roots] = refine_root(VC, c, j, nc, 0.0, x_prev, x, d_zero, f)
             n_roots += 1
@@ -441,6 +447,7 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
                 d_zero = d
         x_prev = x
         f_prev = f
+        d_prev = d_here
     # Two roots outside [0, u] on one side, closer to each other than half their distance from
     # the step: seen from the step they are a double root (|v|^p ~ |x - x_m|^(2p)), and the
     # Gauss–Jacobi weight of the nearer one alone would leave the other's cusp just beyond its
