@@ -265,7 +265,7 @@ def run_alternatives(runner: Runner, tau, args, per_traj_idx) -> dict:
                    f"tol {tol:g}", "arclength", lambda s, ta=ta, tol=tol: alt.heyoka_batch(s, tau, tol, ta=ta),
                    compile_s=compile_s)
     workers = len(os.sched_getaffinity(0))
-    if runner.wanted("heyoka-ensemble"):
+    if args.heyoka_tols and runner.wanted("heyoka-ensemble"):  # at the first tolerance given
         ta, compile_s = alt.heyoka_build(args.heyoka_tols[0], "arclength")
         runner.run("heyoka ensemble (threads)", f"ensemble_propagate_until_batch, {workers} threads, arc length",
                    f"tol {args.heyoka_tols[0]:g}", "arclength",
