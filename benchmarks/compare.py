@@ -209,6 +209,9 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
         ("dop853", dict(scheme="dop853", rtol=1e-6, atol=1e-6), 0.5, "rtol 1e-6"),
         ("dop853", dict(scheme="dop853", rtol=1e-8, atol=1e-8), 0.5, "rtol 1e-8"),
         ("dop853", dict(scheme="dop853", rtol=1e-10, atol=1e-10), 0.5, "rtol 1e-10"),
+        # the smooth arc length at loose tolerances: what M_1/2 would cost with a free cusp quadrature
+        ("dop853", dict(scheme="dop853", rtol=1e-4, atol=1e-4), "arclength", "rtol 1e-4"),
+        ("dop853", dict(scheme="dop853", rtol=1e-5, atol=1e-5), "arclength", "rtol 1e-5"),
         ("dop853", dict(scheme="dop853", rtol=1e-6, atol=1e-6), "arclength", "rtol 1e-6"),
         ("dop853", dict(scheme="dop853", rtol=1e-8, atol=1e-8), "arclength", "rtol 1e-8"),
         ("dop853", dict(scheme="dop853", rtol=1e-10, atol=1e-10), "arclength", "rtol 1e-10"),
