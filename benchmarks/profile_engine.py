@@ -64,6 +64,11 @@ def _replace(text: str, old: str, new: str, count: int = 1) -> str:
     return text.replace(old, new)
 
 
+# "not converged": items whose Newton did not meet the test (a left/right one whose root does not
+# exist keeps the fast value: "no root" of REASONS). It added R_OK before, so that each pair flag
+# cleared by ``pair_check`` (no root to converge to) counted 2.
+
+
 def instrumented_source(source: str) -> str:
     """``source`` with timers in ``process`` and counters in ``special`` (see the module docstring)."""
     s = source.replace('"cache": True', '"cache": False')
@@ -84,7 +89,7 @@ def instrumented_source(source: str) -> str:
                  f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
                  f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
     s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
-                 f"        PT[{base + 8}] += 0.0 if (good | (ok == TOUCH_CHECK)) else ok\n"
+                 f"        PT[{base + 8}] += (ok == 1.0) & (~good)\n"
                  "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
     for beside in ("False", "True"):  # near-touch checks that go on to the scalar path
         s = _replace(s, f"window, {beside}):\n                W[OFC + item] = component_integral(",
