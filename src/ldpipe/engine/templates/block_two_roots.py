@@ -200,7 +200,9 @@ def two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf):
         r1 = TB[T_R1 * CBS + t]
         r2 = TB[T_R2 * CBS + t]
         gap = r2 - r1
-        good = _is_root(TB, t, r1) & _is_root(TB, t, r2)
+        # (the scan repeats special's, so the count is 2; tested so that a bracket never comes
+        # from the uninitialised buffer)
+        good = (TB[T_COUNT * CBS + t] == 2.0) & _is_root(TB, t, r1) & _is_root(TB, t, r2)
         good = good & (TB[T_LO1 * CBS + t] <= r1) & (r1 <= TB[T_HI1 * CBS + t])
         good = good & (TB[T_LO2 * CBS + t] <= r2) & (r2 <= TB[T_HI2 * CBS + t])
         # the graded rule reaches reach * gap from each root
