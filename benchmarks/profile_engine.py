@@ -29,7 +29,15 @@ PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass"
 SCATTER = "  of which scalar"
 COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks", "inside", "near left",
             "near right", "other case", "not converged", "near-touch alone", "near-touch to scalar")
-N_TIMERS = len(PHASES) + len(COUNTERS) + 1
+# why an item goes to the scalar path, counted where ``special`` decides it (see ``_count_reasons``)
+# ("2 changes clean": ``two_roots``'s case, 0 once routed there; "dip (flagged as a pair)": no sign
+# change, ``fast`` flagged a possible root pair and ``special`` sees a possible near-touch, so
+# neither the pair check nor the touch check alone may clear it)
+REASONS = ("zero sample", "2 changes clean", "2 changes, root near an end", "3+ changes",
+           "1 change, root near an end", "0 changes, dip (flagged as a pair)", "0 changes, dip (other)",
+           "0 changes, other", "pair kept", "inside: Newton failed", "left/right: Newton failed",
+           "left/right: no root (keep fast)", "two roots: to scalar")
+N_TIMERS = len(PHASES) + len(COUNTERS) + len(REASONS) + 1
 
 CYCLES_SOURCE = '''
 from llvmlite import ir
@@ -56,6 +64,11 @@ def _replace(text: str, old: str, new: str, count: int = 1) -> str:
     return text.replace(old, new)
 
 
+# "not converged": items whose Newton did not meet the test (a left/right one whose root does not
+# exist keeps the fast value: "no root" of REASONS). It added R_OK before, so that each pair flag
+# cleared by ``pair_check`` (no root to converge to) counted 2.
+
+
 def instrumented_source(source: str) -> str:
     """``source`` with timers in ``process`` and counters in ``special`` (see the module docstring)."""
     s = source.replace('"cache": True', '"cache": False')
@@ -76,11 +89,12 @@ def instrumented_source(source: str) -> str:
                  f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
                  f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
     s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
-                 f"        PT[{base + 8}] += 0.0 if (good | (ok == TOUCH_CHECK)) else ok\n"
+                 f"        PT[{base + 8}] += (ok == 1.0) & (~good)\n"
                  "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
     for beside in ("False", "True"):  # near-touch checks that go on to the scalar path
         s = _replace(s, f"window, {beside}):\n                W[OFC + item] = component_integral(",
                      f"window, {beside}):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
+    s = _count_reasons(s, base + len(COUNTERS))
     s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
     s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
     s = _replace(s, "window, roots)\n\n\n# ---- flag_checks ----",
@@ -108,6 +122,41 @@ def instrumented_source(source: str) -> str:
     s = _replace(s, "                o_face[k] = face\n                active[j] = False\n",
                  "                o_face[k] = face\n                active[j] = False\n"
                  "        PT[6] += tick() - _t\n")
+    return s
+
+
+def _count_reasons(s: str, r: int) -> str:
+    """Counters of REASONS (from PT[r] on) in ``special``: the case of each item left to the scalar
+    path by the case section, the pair flags ``pair_check`` keeps, and Newton's failures."""
+    s = _replace(s, "        n_pair += 1 if pair else 0\n",
+                 "        n_pair += 1 if pair else 0\n"
+                 "        _scalar = CB[R_OK * CBS + t] == 0.0\n"
+                 "        _ends = near_left | near_right | zero0 | zero1\n"
+                 f"        PT[{r}] += _scalar & (nsc >= 10.0)\n"
+                 f"        PT[{r + 1}] += _scalar & (nsc == 2.0) & (~_ends)\n"
+                 f"        PT[{r + 2}] += _scalar & (nsc == 2.0) & _ends\n"
+                 f"        PT[{r + 3}] += _scalar & (nsc >= 3.0) & (nsc < 10.0)\n"
+                 f"        PT[{r + 4}] += _scalar & (nsc == 1.0)\n"
+                 f"        PT[{r + 5}] += _scalar & (nsc == 0.0) & dip & clean & (CB[R_TOUCH * CBS + t] == 0.0)\n"
+                 f"        PT[{r + 6}] += _scalar & (nsc == 0.0) & dip & ~(clean & (CB[R_TOUCH * CBS + t] == 0.0))\n"
+                 f"        PT[{r + 7}] += _scalar & (nsc == 0.0) & (~dip)\n")
+    s = _replace(s, "        pair_check(CB, m, glx)\n",
+                 "        _n0 = 0\n        for t in range(m):\n            _n0 += CB[R_OK * CBS + t] == 0.0\n"
+                 "        pair_check(CB, m, glx)\n"
+                 f"        for t in range(m):\n            PT[{r + 8}] += CB[R_OK * CBS + t] == 0.0\n"
+                 f"        PT[{r + 8}] -= _n0\n")
+    s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
+                 "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n"
+                 "        _failed = (ok == 1.0) & (~good)\n"
+                 "        _inside = CB[R_FA * CBS + t] != 0.0\n"
+                 f"        PT[{r + 9}] += _failed & _inside\n"
+                 f"        PT[{r + 10}] += _failed & (~_inside) & (~no_root)\n"
+                 f"        PT[{r + 11}] += _failed & (~_inside) & no_root\n")
+    s = _replace(s, "    two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf)",
+                 "    _n0 = 0\n    for t in range(m):\n        _n0 += CB[R_OK * CBS + t] == 0.0\n"
+                 "    two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf)\n"
+                 f"    for t in range(m):\n        PT[{r + 12}] += CB[R_OK * CBS + t] == 0.0\n"
+                 f"    PT[{r + 12}] -= _n0\n   ")
     return s
 
 
@@ -188,7 +237,8 @@ def main() -> None:
             timers, wall = profile(process, system, states, settings)
             cycles = timers[: len(PHASES)]
             total = cycles.sum()
-            counts = dict(zip(COUNTERS, timers[len(PHASES):-1]))
+            counts = dict(zip(COUNTERS, timers[len(PHASES):len(PHASES) + len(COUNTERS)]))
+            reasons = dict(zip(REASONS, timers[len(PHASES) + len(COUNTERS):-1]))
             lane_steps = counts["lane steps"]
             order = "" if settings.order is None else f" order {settings.order}"
             print(f"\n{args.scheme}{order} rtol {rtol:g}: wall {wall:.2f} s, {50.0 * len(states) / wall:.3g} time units/s "
@@ -202,6 +252,8 @@ def main() -> None:
                     print(f"  {SCATTER:>10}: {c / total:6.1%}  {c / lane_steps:7.1f} cycles/lane step")
             print("  per lane step: " + ", ".join(f"{k} {v / lane_steps:.3f}" for k, v in counts.items()
                                                     if k not in ("block iterations", "lane steps")))
+            print("  to the scalar path, per 1000 lane steps: "
+                  + ", ".join(f"{k} {1000.0 * v / lane_steps:.1f}" for k, v in reasons.items()))
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ so that the common cases run vectorized across items:
 
 where J(r -> e) is the Gauss–Jacobi integral from the root r to e with the weight
 |s - r|^p taken out (folded into the weights ``gjf``, so nothing is divided). Anything else
-(several roots, a sample exactly at zero, Newton not converged) goes to the scalar
+(more roots, a sample exactly at zero, Newton not converged) goes to the scalar
 ``component_integral``.
 
 The workspace sizes are compile-time constants, so the Horner loops unroll and the lane
@@ -309,6 +309,9 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         beside = clean & (left | right)
         CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & ((~dip) | beside)) else 0.0
         CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]
+        # two sign changes and no root near an end: both roots vectorized (block_two_roots.py)
+        two = (nsc == 2.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
+        CB[R_OK * CBS + t] = TWO_ROOTS if two else CB[R_OK * CBS + t]
         # flagged by ``fast`` for a possible root pair between two samples and nothing else
         pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & (~dip)
         CB[R_OK * CBS + t] = PAIR_CHECK if pair else CB[R_OK * CBS + t]
@@ -403,6 +406,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         sigma0 = 1.0 if r > 0.0 else -1.0
         sigma1 = 1.0 if r < 1.0 else -1.0
         CB[R_J0 * CBS + t] = sigma0 * abs(r) * CB[R_J0 * CBS + t] + sigma1 * abs(1.0 - r) * CB[R_J1 * CBS + t]
+    two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf)  # R_OK TWO_ROOTS: done there, or 0
     # scatter; the rest by the scalar path
     VC = W[OVC : OVC + NC * CS].reshape((NC, NCOMP, LANES))
     for t in range(m):

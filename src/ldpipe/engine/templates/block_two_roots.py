@@ -1,0 +1,229 @@
+"""Template: the vectorized LD quadrature of the special path's items with two roots in the step.
+
+``special`` (block_quadrature.py) marks R_OK = TWO_ROOTS for an item with exactly two sign
+changes on its samples (0, the Gauss nodes, 1), no root near either end outside and no zero
+end; ``two_roots`` then does what ``component_integral`` would for it, vectorized across those
+items: both roots r1 < r2 by Newton from the regula falsi point of their sample brackets, kept
+inside them (as the one-root case of ``special``), then
+
+    int_0^1 |v|^p = F(r1 -> 0) + J(r1 -> m) + J(r2 -> m) + F(r2 -> 1),   m = (r1 + r2) / 2,
+
+where J(r -> e) is the Gauss–Jacobi integral from the root r with the weight |s - r|^p taken
+out, and F(r -> e) is ``_from_root``'s graded rule with the other root gap = r2 - r1 beyond r:
+J over [r, r +- min(gap, |e - r|)], then Gauss–Legendre on pieces each as long as their
+distance from r (so that the other root's cusp never lies closer to a piece than its length).
+GRADING_LEVELS such pieces are laid out for every item (empty where the end is reached
+earlier); an item that needs more (gap < |e - r| 2^-GRADING_LEVELS), whose Newton did not
+converge, or whose roots coincide in floating point, gets R_OK = 0: the scalar path.
+
+The items are gathered into a buffer of their own (rows of CBS items: NC coefficients, then
+the rows below), allocated per call only when there are such items, so that CB's layout stays
+``special``'s.
+
+Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST of block_quadrature.py.
+"""
+# ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
+
+TWO_ROOTS = 5.0  # R_OK code set by ``special``: two sign changes on the samples, done here
+# Legendre pieces of the graded rule per side: handles gap >= |e - r| / 16; with 4, fewer than
+# 0.05 per 1000 lane steps go on to the scalar path, of 17.3 (rtol 1e-4) and 7.8 (1e-5) routed
+# here (benchmarks/profile_engine.py --n 150)
+GRADING_LEVELS = 4
+# Newton iterations per root: more than ``special``'s N_NEWTON, because with the roots close the
+# regula falsi start of each bracket lies near the extremum between them, where the first step
+# leaves the bracket and bisects (roots 0.3 and 0.36 between the 4-node samples: not converged after 6)
+N_TWO_NEWTON = 10
+(T_PREV, T_COUNT, T_LO1, T_HI1, T_F1, T_LO2, T_HI2, T_F2, T_R1, T_R2, T_START, T_STEP, T_SUM,
+ T_OK) = range(NC, NC + 14)
+T_ROWS = NC + 14
+
+
+@njit(inline="always", **JIT)
+def _bracketed_newton(TB, t, x, lo, hi, f_lo):
+    """One Newton step for item t's root in [lo, hi] (f_lo: v at the bracket's start, nonzero):
+    the bracket shrinks to the side of x that keeps the sign change, and a step that leaves it
+    (or a zero derivative) bisects. Selects only, as the lanes of a vector."""
+    v = TB[(NC - 1) * CBS + t]
+    d = 0.0
+    for k in range(NC - 2, -1, -1):
+        d = d * x + v
+        v = v * x + TB[k * CBS + t]
+    same = (v < 0.0) == (f_lo < 0.0)
+    lo = x if same else lo
+    hi = hi if same else x
+    x_new = x - v / (d if d != 0.0 else 1.0)
+    leaves = (d == 0.0) | (x_new < lo) | (x_new > hi)
+    return (0.5 * (lo + hi) if leaves else x_new), lo, hi
+
+
+@njit(inline="always", **JIT)
+def _is_root(TB, t, x):
+    """|v(x)| at the rounding level of the coefficients (``special``'s convergence test)."""
+    v = TB[(NC - 1) * CBS + t]
+    scale = abs(v)
+    ax = abs(x)
+    for k in range(NC - 2, -1, -1):
+        v = v * x + TB[k * CBS + t]
+        scale = scale * ax + abs(TB[k * CBS + t])
+    return abs(v) <= 1e-12 * scale
+
+
+@njit(**JIT)
+def _add_rule(TB, n, kind, p, nodes, weights):
+    """T_SUM += |T_STEP| sum_g weights_g |v(T_START + T_STEP nodes_g)|^p for every item: a rule
+    on [0, 1] mapped onto the segment from T_START, T_STEP long (signed). One item loop per kind
+    (a test of ``kind`` inside it stops LLVM from vectorizing it)."""
+    for g in range(nodes.shape[0]):
+        xi = nodes[g]
+        w = weights[g]
+        if kind == KIND_HALF:
+            for t in range(n):
+                x = TB[T_START * CBS + t] + TB[T_STEP * CBS + t] * xi
+                v = TB[(NC - 1) * CBS + t]
+                for k in range(NC - 2, -1, -1):
+                    v = v * x + TB[k * CBS + t]
+                TB[T_SUM * CBS + t] += abs(TB[T_STEP * CBS + t]) * w * math.sqrt(abs(v))
+        elif kind == KIND_ONE:
+            for t in range(n):
+                x = TB[T_START * CBS + t] + TB[T_STEP * CBS + t] * xi
+                v = TB[(NC - 1) * CBS + t]
+                for k in range(NC - 2, -1, -1):
+                    v = v * x + TB[k * CBS + t]
+                TB[T_SUM * CBS + t] += abs(TB[T_STEP * CBS + t]) * w * abs(v)
+        else:
+            for t in range(n):
+                x = TB[T_START * CBS + t] + TB[T_STEP * CBS + t] * xi
+                v = TB[(NC - 1) * CBS + t]
+                for k in range(NC - 2, -1, -1):
+                    v = v * x + TB[k * CBS + t]
+                TB[T_SUM * CBS + t] += abs(TB[T_STEP * CBS + t]) * w * abs(v) ** p
+
+
+@njit(**JIT)
+def _graded(TB, n, kind, p, glx, glw, gjx, gjf, left):
+    """T_SUM += F(r1 -> 0) (left) or F(r2 -> 1): Gauss–Jacobi from the root over
+    min(gap, length), then GRADING_LEVELS Gauss–Legendre pieces [r + near, r + 2 near] cut at
+    the end (``_from_root``, vectorized; empty pieces add nothing)."""
+    for t in range(n):
+        r = TB[(T_R1 if left else T_R2) * CBS + t]
+        gap = TB[T_R2 * CBS + t] - TB[T_R1 * CBS + t]
+        length = r if left else 1.0 - r
+        TB[T_START * CBS + t] = r
+        TB[T_STEP * CBS + t] = -min(gap, length) if left else min(gap, length)
+    _add_rule(TB, n, kind, p, gjx, gjf)
+    for level in range(GRADING_LEVELS):
+        scale = 2.0**level
+        for t in range(n):
+            r = TB[(T_R1 if left else T_R2) * CBS + t]
+            gap = TB[T_R2 * CBS + t] - TB[T_R1 * CBS + t]
+            length = r if left else 1.0 - r
+            near = min(scale * gap, length)
+            far = min(2.0 * scale * gap, length)
+            TB[T_START * CBS + t] = r - near if left else r + near
+            TB[T_STEP * CBS + t] = near - far if left else far - near
+        _add_rule(TB, n, kind, p, glx, glw)
+
+
+@njit(**JIT)
+def two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf):
+    """FC of every item of ``special`` with R_OK == TWO_ROOTS (see the module docstring); the
+    items it cannot do get R_OK = 0 (the scalar path)."""
+    n = 0
+    for t in range(m):
+        n += 1 if CB[R_OK * CBS + t] == TWO_ROOTS else 0
+    if n == 0:
+        return
+    TB = np.empty(T_ROWS * CBS)
+    SOURCE = np.empty(n, dtype=np.int64)
+    i = 0
+    for t in range(m):
+        if CB[R_OK * CBS + t] == TWO_ROOTS:
+            SOURCE[i] = t
+            for k in range(NC):
+                TB[k * CBS + i] = CB[k * CBS + t]
+            i += 1
+    # the two sample brackets: [T_LO1, T_HI1] holds the first sign change, [T_LO2, T_HI2] the second
+    for t in range(n):
+        TB[T_PREV * CBS + t] = TB[t]
+        TB[T_COUNT * CBS + t] = 0.0
+    x_prev = 0.0
+    n_nodes = glx.shape[0]
+    for s in range(n_nodes + 1):
+        x = glx[s] if s < n_nodes else 1.0
+        for t in range(n):
+            v = TB[(NC - 1) * CBS + t]
+            for k in range(NC - 2, -1, -1):
+                v = v * x + TB[k * CBS + t]
+            prev = TB[T_PREV * CBS + t]
+            count = TB[T_COUNT * CBS + t]
+            change = prev * v < 0.0
+            first = change & (count == 0.0)
+            second = change & (count == 1.0)
+            TB[T_LO1 * CBS + t] = x_prev if first else TB[T_LO1 * CBS + t]
+            TB[T_HI1 * CBS + t] = x if first else TB[T_HI1 * CBS + t]
+            TB[T_F1 * CBS + t] = prev if first else TB[T_F1 * CBS + t]
+            TB[T_LO2 * CBS + t] = x_prev if second else TB[T_LO2 * CBS + t]
+            TB[T_HI2 * CBS + t] = x if second else TB[T_HI2 * CBS + t]
+            TB[T_F2 * CBS + t] = prev if second else TB[T_F2 * CBS + t]
+            TB[T_COUNT * CBS + t] = count + (1.0 if change else 0.0)
+            TB[T_PREV * CBS + t] = v
+        x_prev = x
+    # regula falsi starts (v at the bracket's end is T_PREV of the next sample: recomputed here)
+    for t in range(n):
+        lo1 = TB[T_LO1 * CBS + t]
+        hi1 = TB[T_HI1 * CBS + t]
+        lo2 = TB[T_LO2 * CBS + t]
+        hi2 = TB[T_HI2 * CBS + t]
+        f1 = TB[T_F1 * CBS + t]
+        f2 = TB[T_F2 * CBS + t]
+        g1 = TB[(NC - 1) * CBS + t]
+        g2 = g1
+        for k in range(NC - 2, -1, -1):
+            g1 = g1 * hi1 + TB[k * CBS + t]
+            g2 = g2 * hi2 + TB[k * CBS + t]
+        TB[T_R1 * CBS + t] = lo1 - f1 * (hi1 - lo1) / (g1 - f1)
+        TB[T_R2 * CBS + t] = lo2 - f2 * (hi2 - lo2) / (g2 - f2)
+    for _ in range(N_TWO_NEWTON):
+        for t in range(n):
+            f1 = TB[T_F1 * CBS + t]
+            f2 = TB[T_F2 * CBS + t]
+            r1, lo1, hi1 = _bracketed_newton(TB, t, TB[T_R1 * CBS + t], TB[T_LO1 * CBS + t], TB[T_HI1 * CBS + t], f1)
+            r2, lo2, hi2 = _bracketed_newton(TB, t, TB[T_R2 * CBS + t], TB[T_LO2 * CBS + t], TB[T_HI2 * CBS + t], f2)
+            TB[T_R1 * CBS + t] = r1
+            TB[T_LO1 * CBS + t] = lo1
+            TB[T_HI1 * CBS + t] = hi1
+            TB[T_R2 * CBS + t] = r2
+            TB[T_LO2 * CBS + t] = lo2
+            TB[T_HI2 * CBS + t] = hi2
+    reach = 2.0**GRADING_LEVELS
+    for t in range(n):
+        r1 = TB[T_R1 * CBS + t]
+        r2 = TB[T_R2 * CBS + t]
+        gap = r2 - r1
+        # (the scan repeats special's, so the count is 2; tested so that a bracket never comes
+        # from the uninitialised buffer)
+        good = (TB[T_COUNT * CBS + t] == 2.0) & _is_root(TB, t, r1) & _is_root(TB, t, r2)
+        good = good & (TB[T_LO1 * CBS + t] <= r1) & (r1 <= TB[T_HI1 * CBS + t])
+        good = good & (TB[T_LO2 * CBS + t] <= r2) & (r2 <= TB[T_HI2 * CBS + t])
+        # the graded rule reaches reach * gap from each root
+        good = good & (gap > 0.0) & (r1 <= reach * gap) & (1.0 - r2 <= reach * gap)
+        TB[T_OK * CBS + t] = 1.0 if good else 0.0
+        TB[T_SUM * CBS + t] = 0.0
+    # the middle piece, halved: J(r1 -> m) + J(r2 -> m), the other root one half-length beyond m
+    for side in range(2):
+        for t in range(n):
+            r1 = TB[T_R1 * CBS + t]
+            r2 = TB[T_R2 * CBS + t]
+            half = 0.5 * (r2 - r1)
+            TB[T_START * CBS + t] = r1 if side == 0 else r2
+            TB[T_STEP * CBS + t] = half if side == 0 else -half
+        _add_rule(TB, n, kind, p, gjx, gjf)
+    _graded(TB, n, kind, p, glx, glw, gjx, gjf, True)
+    _graded(TB, n, kind, p, glx, glw, gjx, gjf, False)
+    for i in range(n):
+        t = SOURCE[i]
+        if TB[T_OK * CBS + i] == 1.0:
+            W[OFC + ITEM[t]] = TB[T_SUM * CBS + i]
+            CB[R_OK * CBS + t] = KEEP_FAST  # done: the scatter leaves FC as it is
+        else:
+            CB[R_OK * CBS + t] = 0.0
