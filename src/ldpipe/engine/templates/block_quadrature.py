@@ -34,8 +34,7 @@ root just outside an end (the left/right case), go to the scalar path only where
 ``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of |v| that
 ``component_integral`` would take as a dip; a flag that is only a possible root pair between two
 samples, only where ``pair_check`` (vectorized) cannot rule the pair out with a bound of |v''|
-over each sample interval; a flag for both, only where the pair stays possible or, once it is
-ruled out, ``touch_matters`` finds a dip. Elsewhere the Gauss–Legendre value (or the Jacobi pieces) stand. Both
+over each sample interval. Elsewhere the Gauss–Legendre value (or the Jacobi pieces) stand. Both
 checks are in flag_checks.py.
 
 Header names used: NC (coefficients per polynomial), NCOMP (= 2 n_dof),
@@ -55,9 +54,6 @@ CB_ROWS = NC + 18
 KEEP_FAST = 2.0
 TOUCH_CHECK = 3.0
 PAIR_CHECK = 4.0
-# R_TOUCH of an item flagged for a possible root pair that also has a possible near-touch: once
-# ``pair_check`` has ruled the pair out, ``touch_matters`` decides as for a near-touch alone
-PAIR_THEN_TOUCH = 3.0
 # SP codes written by ``fast``: a root, a root pair or a root near an end possible (the special
 # path), or a near-touch alone (no sign change, no root near an end or between two samples)
 SP_SPECIAL = 1
@@ -316,14 +312,9 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         # two sign changes and no root near an end: both roots vectorized (block_two_roots.py)
         two = (nsc == 2.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
         CB[R_OK * CBS + t] = TWO_ROOTS if two else CB[R_OK * CBS + t]
-        # flagged by ``fast`` for a possible root pair between two samples and nothing else, or
-        # with a possible near-touch too (R_TOUCH 0: ``fast`` saw a root possible): without a pair
-        # the step is a near-touch alone, and both checks together spare the scalar path
-        # (measured: at rtol 1e-4 and 1e-5 most of its calls were these)
-        pair_dip = clean & (CB[R_TOUCH * CBS + t] == 0.0) & (~near_left) & (~near_right)
-        pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & ((~dip) | pair_dip)
+        # flagged by ``fast`` for a possible root pair between two samples and nothing else
+        pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & (~dip)
         CB[R_OK * CBS + t] = PAIR_CHECK if pair else CB[R_OK * CBS + t]
-        CB[R_TOUCH * CBS + t] = PAIR_THEN_TOUCH if pair_dip else CB[R_TOUCH * CBS + t]
         n_pair += 1 if pair else 0
         CB[R_TOUCH * CBS + t] = 2.0 if beside else CB[R_TOUCH * CBS + t]
         CB[R_ENDS * CBS + t] = (1.0 if (low0 | left) else 0.0) + (2.0 if (low1 | right) else 0.0)
@@ -432,7 +423,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
             c = item // LANES
             j = item - c * LANES
             W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
-        elif (ok == TOUCH_CHECK) | ((ok == KEEP_FAST) & (CB[R_TOUCH * CBS + t] == PAIR_THEN_TOUCH)):
+        elif ok == TOUCH_CHECK:
             c = item // LANES
             j = item - c * LANES
             if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window, False):
