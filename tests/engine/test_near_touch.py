@@ -21,6 +21,7 @@ from ldpipe import reference_ld as reference
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
 from support.barbanis import E_C
+from support.step_integral import from_roots, mpmath_step_integral
 
 ENERGY = 0.2  # Hénon–Heiles, above the escape energy 1/6 (as ldds's tutorial map)
 TAU = 10.0
@@ -120,10 +121,6 @@ def test_double_root_at_the_start(scheme, tau, rtols):
 
 
 # --- the scalar rule on one step, against mpmath -----------------------------------------------------
-def _from_roots(*roots) -> np.ndarray:
-    return np.polynomial.Polynomial.fromroots(roots).coef.real
-
-
 STEP_CASES = {
     # v on [0, 1] in monomial coefficients: a double root at the start (alone, and with a simple
     # root inside); a dip of |v| to 1e-8 inside, to 1e-10 exactly at the end, and 1e-6 just
@@ -133,39 +130,16 @@ STEP_CASES = {
     # was missed: no sign change between the zero sample and its neighbours), near the start
     "double root at 0": [0.0, 0.0, 1.0, 0.3],
     "double root at 0, root inside": [0.0, 0.0, 1.0, -2.0],
-    "dip inside": _from_roots(0.4 + 1e-4j, 0.4 - 1e-4j),
-    "dip at the end": _from_roots(1.0 + 1e-5j, 1.0 - 1e-5j),
-    "dip just right": _from_roots(1.02 + 1e-3j, 1.02 - 1e-3j),
-    "dip just left": _from_roots(-0.03 + 1e-3j, -0.03 - 1e-3j, 3.0),
-    "dip and a root": _from_roots(0.3 + 1e-4j, 0.3 - 1e-4j, 0.7),
-    "root pair outside": _from_roots(-0.2445, -0.2434, 3.0),
-    "close root pair inside": _from_roots(0.3, 0.3 + 1e-6, 3.0),
-    "close root pair on a sample": _from_roots(0.5, 0.5 + 1e-6, -2.0),
-    "close root pair near the start": _from_roots(0.05, 0.05 + 1e-5, 0.9),
+    "dip inside": from_roots(0.4 + 1e-4j, 0.4 - 1e-4j),
+    "dip at the end": from_roots(1.0 + 1e-5j, 1.0 - 1e-5j),
+    "dip just right": from_roots(1.02 + 1e-3j, 1.02 - 1e-3j),
+    "dip just left": from_roots(-0.03 + 1e-3j, -0.03 - 1e-3j, 3.0),
+    "dip and a root": from_roots(0.3 + 1e-4j, 0.3 - 1e-4j, 0.7),
+    "root pair outside": from_roots(-0.2445, -0.2434, 3.0),
+    "close root pair inside": from_roots(0.3, 0.3 + 1e-6, 3.0),
+    "close root pair on a sample": from_roots(0.5, 0.5 + 1e-6, -2.0),
+    "close root pair near the start": from_roots(0.05, 0.05 + 1e-5, 0.9),
 }
-
-
-def _mpmath_integral(coefficients) -> float:
-    """int_0^1 sqrt|v| at 30 digits, tanh-sinh cut at the real roots and minima of v in (0, 1)
-    and graded geometrically towards them and towards the ends."""
-    import mpmath
-
-    mpmath.mp.dps = 30
-    poly = np.polynomial.Polynomial(coefficients)
-    special = [0.0, 1.0] + [float(r.real) for r in np.concatenate([poly.roots(), poly.deriv().roots()])
-                            if abs(r.imag) < 1e-6 and 0.0 < r.real < 1.0]
-    points = set(special)
-    for s in special:
-        for k in range(1, 13):
-            for q in (s - 10.0**-k, s + 10.0**-k):
-                if 0.0 < q < 1.0:
-                    points.add(q)
-    coefficients = [mpmath.mpf(float(c)) for c in coefficients]
-
-    def f(x):
-        return mpmath.sqrt(abs(mpmath.polyval(coefficients[::-1], x)))
-
-    return float(mpmath.quad(f, sorted(points)))
 
 
 @pytest.mark.parametrize("name", sorted(STEP_CASES))
@@ -181,5 +155,5 @@ def test_step_rule_against_mpmath(name):
     gjx, gjf = folded_jacobi_rule(8, 0.5)
     value = engine.component_integral(vc, 0, 0, coefficients.size, 1.0, engine.KIND_HALF, 0.5, glx, glw, gjx, gjf,
                                       0.2, np.zeros(200))
-    expected = _mpmath_integral(coefficients)
+    expected = mpmath_step_integral(coefficients)
     assert abs(value - expected) <= 1e-12 * expected

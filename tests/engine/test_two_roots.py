@@ -4,7 +4,7 @@
 near either end outside and no zero end to ``two_roots`` (block_two_roots.py): both roots by
 safeguarded Newton, the pieces [0, r1], [r1, r2], [r2, 1] by Gauss–Jacobi from the roots with
 ``_from_root``'s grading where the roots are close. Expected values are int_0^1 |v|^p by mpmath
-at 30 digits (tanh-sinh cut at the roots: ``_mpmath_integral``), an independent method; the
+at 30 digits (tanh-sinh cut at the roots and minima, graded: ``support.step_integral``), an independent method; the
 tolerance 1e-12 relative with 8 nodes is that of the scalar rule's STEP_CASES in
 test_near_touch.py (a singularity one piece length beyond a piece's end: rho = 3 + 2 sqrt 2,
 rho^-16 ~ 6e-13).
@@ -18,23 +18,7 @@ import pytest
 from ldpipe.engine.codegen import load_engine
 from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
 from ldpipe.systems import make_system
-
-
-
-def _from_roots(*roots) -> np.ndarray:
-    return np.polynomial.Polynomial.fromroots(roots).coef.real
-
-
-def _mpmath_integral(coefficients, p=0.5) -> float:
-    """int_0^1 |v|^p at 30 digits: mpmath's tanh-sinh on the pieces between the real roots in
-    (0, 1) (numpy's roots), whose endpoint cusps tanh-sinh integrates to full precision."""
-    import mpmath
-
-    mpmath.mp.dps = 30
-    roots = sorted(float(r.real) for r in np.polynomial.Polynomial(coefficients).roots()
-                   if abs(r.imag) < 1e-9 and 0.0 < r.real < 1.0)
-    c = [mpmath.mpf(float(x)) for x in coefficients[::-1]]
-    return float(mpmath.quad(lambda x: abs(mpmath.polyval(c, x)) ** p, [0.0, *roots, 1.0]))
+from support.step_integral import from_roots, mpmath_step_integral
 
 
 WINDOW = 0.1  # dop853's at loose tolerances, where two roots in a step are common
@@ -43,15 +27,15 @@ NODES = 8
 # v on [0, 1] from its roots; the third root (or the complex pair) far outside. Each has exactly
 # two sign changes on the 8-node sample grid (asserted below) and no root near an end outside.
 TWO_ROOT_CASES = {
-    "apart": _from_roots(0.3, 0.7, 3.0),
+    "apart": from_roots(0.3, 0.7, 3.0),
     # the middle piece shorter than both outer ones: the graded rule on both sides (d = 0.11 / 0.5)
-    "close, graded": _from_roots(0.5, 0.61, -2.5),
-    "near both ends": _from_roots(0.01, 0.985, 2.0 + 1j, 2.0 - 1j),
-    "near the start, graded": _from_roots(0.004, 0.08, -1.5),
-    "near the end": _from_roots(0.55, 0.96, 1.7, 2.5),
+    "close, graded": from_roots(0.5, 0.61, -2.5),
+    "near both ends": from_roots(0.01, 0.985, 2.0 + 1j, 2.0 - 1j),
+    "near the start, graded": from_roots(0.004, 0.08, -1.5),
+    "near the end": from_roots(0.55, 0.96, 1.7, 2.5),
 }
 # closer than the graded rule reaches (gap < 2^-GRADING_LEVELS of an outer piece): the scalar path
-TOO_CLOSE = _from_roots(0.58, 0.6, 3.0)
+TOO_CLOSE = from_roots(0.58, 0.6, 3.0)
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +88,7 @@ def test_two_roots_against_mpmath(engine, name):
     assert np.sum(values[:-1] * values[1:] < 0.0) == 2  # the case this rule is for
     value, handled = _two_roots(engine, [coefficients])
     assert handled[0]
-    expected = _mpmath_integral(coefficients)
+    expected = mpmath_step_integral(coefficients)
     assert abs(value[0] - expected) <= 1e-12 * expected
     # and through special's routing (the same rule: the same value)
     routed, nsc = _special(engine, coefficients)
@@ -117,7 +101,7 @@ def test_general_power_against_mpmath(engine):
     coefficients = TWO_ROOT_CASES["close, graded"]
     value, handled = _two_roots(engine, [coefficients], p=0.25)
     assert handled[0]
-    expected = _mpmath_integral(coefficients, 0.25)
+    expected = mpmath_step_integral(coefficients, 0.25)
     assert abs(value[0] - expected) <= 1e-12 * expected
 
 
@@ -127,7 +111,7 @@ def test_loose_rule_matches_scalar_path(engine):
     # design, not an accuracy claim), and both are near mpmath to the 4-node rule's error
     # (rho^-8 ~ 7e-7 per piece, _from_root's docstring; five pieces at most).
     glx, glw, gjx, gjf = _rules(4, 0.5)
-    cases = [_from_roots(0.3, 0.7, 3.0), _from_roots(0.3, 0.36, -2.0), _from_roots(0.02, 0.9, 1.5, 2.0)]
+    cases = [from_roots(0.3, 0.7, 3.0), from_roots(0.3, 0.36, -2.0), from_roots(0.02, 0.9, 1.5, 2.0)]
     values, handled = _two_roots(engine, cases, nodes=4)
     assert handled.all()
     for coefficients, value in zip(cases, values):
@@ -136,7 +120,7 @@ def test_loose_rule_matches_scalar_path(engine):
         scalar = engine.component_integral(vc, 0, 0, len(coefficients), 1.0, engine.KIND_HALF, 0.5, glx, glw, gjx,
                                            gjf, WINDOW, np.zeros(200))
         assert abs(value - scalar) <= 1e-13 * scalar
-        expected = _mpmath_integral(coefficients)
+        expected = mpmath_step_integral(coefficients)
         assert abs(value - expected) <= 5.0 * 7e-7 * expected
 
 
@@ -146,15 +130,15 @@ def test_too_close_roots_go_to_the_scalar_path(engine):
     assert not handled[0]
     routed, nsc = _special(engine, TOO_CLOSE)
     assert nsc == 2.0
-    expected = _mpmath_integral(TOO_CLOSE)
+    expected = mpmath_step_integral(TOO_CLOSE)
     assert abs(routed - expected) <= 1e-12 * expected
 
 
 def test_a_root_just_outside_goes_to_the_scalar_path(engine):
     # a third root 0.05 beyond the end 1: near_right, not this rule's case; the scalar path's
     # value still meets mpmath's
-    coefficients = _from_roots(0.3, 0.7, 1.05)
+    coefficients = from_roots(0.3, 0.7, 1.05)
     routed, nsc = _special(engine, coefficients)
     assert nsc == 2.0
-    expected = _mpmath_integral(coefficients)
+    expected = mpmath_step_integral(coefficients)
     assert abs(routed - expected) <= 1e-12 * expected
