@@ -46,8 +46,8 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
 # then scratch rows.
 (R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
- R_ENDS, R_PAIR) = range(NC, NC + 18)
-CB_ROWS = NC + 18
+ R_ENDS) = range(NC, NC + 17)
+CB_ROWS = NC + 17
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
 # 3 a near-touch alone: the scalar path only if ``touch_matters``; 4 a possible root pair alone:
 # the scalar path only if ``pair_check`` keeps it possible

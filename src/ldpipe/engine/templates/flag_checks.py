@@ -11,7 +11,7 @@ the whole step, so most flags of a step without a sign change on its samples are
 * ``pair_check`` (a possible root pair between two samples alone): ``pair_possible`` again with
   a bound of |v''| over each sample interval instead of over the step.
 
-Header names used: NC, CBS and the item rows of block_quadrature.py (R_PREV, R_PAIR, R_OK and
+Header names used: NC, CBS and the item rows of block_quadrature.py (R_OK and
 the R_OK codes), SAMPLES_PER_STEP and DIP_PER_WINDOW of quadrature.py.
 """
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
@@ -110,16 +110,31 @@ def pair_check(CB, m, glx):
     such flags at rtol 1e-4 and 1e-5 are cleared here and keep the Gauss–Legendre value, as an
     unflagged component does.
     """
-    n_nodes = glx.shape[0]
+    # only the PAIR_CHECK items (a few of the m): their indices, and per item the sample before,
+    # whether a pair is possible so far, and B4 (the same on every interval)
+    n = 0
     for t in range(m):
-        CB[R_PREV * CBS + t] = CB[t]
-        CB[R_PAIR * CBS + t] = 0.0
+        n += 1 if CB[R_OK * CBS + t] == PAIR_CHECK else 0
+    IDX = np.empty(n, dtype=np.int64)
+    PREV = np.empty(n)
+    PAIR = np.zeros(n)
+    B4 = np.zeros(n)
+    i = 0
+    for t in range(m):
+        if CB[R_OK * CBS + t] == PAIR_CHECK:
+            IDX[i] = t
+            PREV[i] = CB[t]
+            for k in range(4, NC):
+                B4[i] += k * (k - 1.0) * (k - 2.0) * (k - 3.0) * abs(CB[k * CBS + t])
+            i += 1
+    n_nodes = glx.shape[0]
     x_prev = 0.0
     for s in range(n_nodes + 1):
         x = glx[s] if s < n_nodes else 1.0
         x_c = 0.5 * (x_prev + x)
         r = 0.5 * (x - x_prev)
-        for t in range(m):
+        for i in range(n):
+            t = IDX[i]
             v = CB[(NC - 1) * CBS + t]
             for k in range(NC - 2, -1, -1):
                 v = v * x + CB[k * CBS + t]
@@ -133,15 +148,9 @@ def pair_check(CB, m, glx):
                 d2 = d2 * x_c + d1
                 d1 = d1 * x_c + w
                 w = w * x_c + CB[k * CBS + t]
-            b4 = 0.0
-            for k in range(4, NC):
-                b4 += k * (k - 1.0) * (k - 2.0) * (k - 3.0) * abs(CB[k * CBS + t])
-            bound = 2.0 * abs(d2) + 6.0 * abs(d3) * r + 0.5 * b4 * r * r
-            possible = pair_possible(CB[R_PREV * CBS + t], v, bound, x - x_prev)
-            CB[R_PAIR * CBS + t] = max(CB[R_PAIR * CBS + t], possible)
-            CB[R_PREV * CBS + t] = v
+            bound = 2.0 * abs(d2) + 6.0 * abs(d3) * r + 0.5 * B4[i] * r * r
+            PAIR[i] = max(PAIR[i], pair_possible(PREV[i], v, bound, x - x_prev))
+            PREV[i] = v
         x_prev = x
-    for t in range(m):
-        ok = CB[R_OK * CBS + t]
-        cleared = KEEP_FAST if CB[R_PAIR * CBS + t] == 0.0 else 0.0
-        CB[R_OK * CBS + t] = cleared if ok == PAIR_CHECK else ok
+    for i in range(n):
+        CB[R_OK * CBS + IDX[i]] = KEEP_FAST if PAIR[i] == 0.0 else 0.0
