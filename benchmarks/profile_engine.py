@@ -28,15 +28,14 @@ PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass"
 # part of "special": the scatter with the scalar fallbacks (not added to the total)
 SCATTER = "  of which scalar"
 COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks", "inside", "near left",
-            "near right", "other case", "not converged", "near-touch alone", "near-touch to scalar")
+            "near right", "other case", "not converged", "one dip", "near-touch beside a root to scalar")
 # why an item goes to the scalar path, counted where ``special`` decides it (see ``_count_reasons``)
-# ("2 changes clean": ``two_roots``'s case, 0 once routed there; "dip (flagged as a pair)": no sign
-# change, ``fast`` flagged a possible root pair and ``special`` sees a possible near-touch, so
-# neither the pair check nor the touch check alone may clear it)
+# ("2 changes clean": ``two_roots``'s case, 0 once routed there; "0 changes, dip": a possible
+# near-touch with no root near either end is ``one_dip``'s case, 0 once routed there)
 REASONS = ("zero sample", "2 changes clean", "2 changes, root near an end", "3+ changes",
-           "1 change, root near an end", "0 changes, dip (flagged as a pair)", "0 changes, dip (other)",
+           "1 change, root near an end", "0 changes, dip, no root near an end", "0 changes, dip (other)",
            "0 changes, other", "pair kept", "inside: Newton failed", "left/right: Newton failed",
-           "left/right: no root (keep fast)", "two roots: to scalar")
+           "left/right: no root (keep fast)", "two roots: to scalar", "one dip: to scalar")
 N_TIMERS = len(PHASES) + len(COUNTERS) + len(REASONS) + 1
 
 CYCLES_SOURCE = '''
@@ -83,17 +82,17 @@ def instrumented_source(source: str) -> str:
     base = len(PHASES)
     s = _replace(s, "    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n",
                  f"    PT[{base + 2}] += m\n    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n")
-    s = _replace(s, "        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]\n",
-                 "        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]\n"
-                 f"        PT[{base + 9}] += touch\n"
+    s = _replace(s, "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n",
+                 "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n"
+                 f"        PT[{base + 9}] += alone\n"
                  f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
                  f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
     s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
                  f"        PT[{base + 8}] += (ok == 1.0) & (~good)\n"
                  "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
-    for beside in ("False", "True"):  # near-touch checks that go on to the scalar path
-        s = _replace(s, f"window, {beside}):\n                W[OFC + item] = component_integral(",
-                     f"window, {beside}):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
+    # near-touch checks beside a root that go on to the scalar path
+    s = _replace(s, "]), window):\n                W[OFC + item] = component_integral(",
+                 f"]), window):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
     s = _count_reasons(s, base + len(COUNTERS))
     s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
     s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
@@ -137,8 +136,8 @@ def _count_reasons(s: str, r: int) -> str:
                  f"        PT[{r + 2}] += _scalar & (nsc == 2.0) & _ends\n"
                  f"        PT[{r + 3}] += _scalar & (nsc >= 3.0) & (nsc < 10.0)\n"
                  f"        PT[{r + 4}] += _scalar & (nsc == 1.0)\n"
-                 f"        PT[{r + 5}] += _scalar & (nsc == 0.0) & dip & clean & (CB[R_TOUCH * CBS + t] == 0.0)\n"
-                 f"        PT[{r + 6}] += _scalar & (nsc == 0.0) & dip & ~(clean & (CB[R_TOUCH * CBS + t] == 0.0))\n"
+                 f"        PT[{r + 5}] += _scalar & (nsc == 0.0) & dip & alone\n"
+                 f"        PT[{r + 6}] += _scalar & (nsc == 0.0) & dip & (~alone)\n"
                  f"        PT[{r + 7}] += _scalar & (nsc == 0.0) & (~dip)\n")
     s = _replace(s, "        pair_check(CB, m, glx)\n",
                  "        _n0 = 0\n        for t in range(m):\n            _n0 += CB[R_OK * CBS + t] == 0.0\n"
@@ -157,6 +156,11 @@ def _count_reasons(s: str, r: int) -> str:
                  "    two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf)\n"
                  f"    for t in range(m):\n        PT[{r + 12}] += CB[R_OK * CBS + t] == 0.0\n"
                  f"    PT[{r + 12}] -= _n0\n   ")
+    s = _replace(s, "    one_dip(W, CB, ITEM, m, kind, p, glx, glw, window)",
+                 "    _n0 = 0\n    for t in range(m):\n        _n0 += CB[R_OK * CBS + t] == 0.0\n"
+                 "    one_dip(W, CB, ITEM, m, kind, p, glx, glw, window)\n"
+                 f"    for t in range(m):\n        PT[{r + 13}] += CB[R_OK * CBS + t] == 0.0\n"
+                 f"    PT[{r + 13}] -= _n0\n   ")
     return s
 
 

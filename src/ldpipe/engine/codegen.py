@@ -37,7 +37,8 @@ from .integrands import KINDS
 from .kinetic import kinetic_source
 from .schemes import scheme_source
 
-COMMON_TEMPLATES = ("quadrature", "block_arclength", "block_quadrature", "flag_checks", "events", "block_two_roots")
+COMMON_TEMPLATES = ("quadrature", "block_arclength", "block_quadrature", "flag_checks", "events", "block_two_roots",
+                    "block_dips")
 DRIVER_TEMPLATE = "driver"
 # The templates of each entry point, by the name of its compiled function.
 DRIVERS = {"process": (DRIVER_TEMPLATE,), "flow_process": (DRIVER_TEMPLATE, "flow_driver")}

@@ -11,6 +11,7 @@ as compile-time constants, exactly as closure variables would be.
 - ``quadrature.py`` — scalar polynomial helpers and the cusp-aware LD quadrature of one lane;
 - ``block_quadrature.py`` — the vectorized LD quadrature passes over a block (``fast``, ``special``);
 - ``block_two_roots.py`` — ``special``'s items with two roots in the step, vectorized;
+- ``block_dips.py`` — ``special``'s items with a near-touch and no root near an end, vectorized;
 - ``block_arclength.py`` — ``fast``'s arc-length pass (four Gauss nodes per pass over the coefficients);
 - ``roots.py`` — ``inverse_root``, x ** (-1/m) without ``pow`` (the taylor scheme's step rule);
 - ``flag_checks.py`` — the cheap checks that spare the scalar path a false flag of ``fast``;

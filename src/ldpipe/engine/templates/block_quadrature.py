@@ -29,13 +29,15 @@ loops vectorize. The loops over items are written with selects instead of branch
 tests of the run-time ``kind`` stay outside them: either in a loop body stops LLVM from
 vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test inside).
 
-A flag of ``fast`` that is only a possible near-touch (SP_TOUCH), and a near-touch flag beside a
-root just outside an end (the left/right case), go to the scalar path only where
-``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of |v| that
-``component_integral`` would take as a dip; a flag that is only a possible root pair between two
-samples, only where ``pair_check`` (vectorized) cannot rule the pair out with a bound of |v''|
-over each sample interval. Elsewhere the Gauss–Legendre value (or the Jacobi pieces) stand. Both
-checks are in flag_checks.py.
+Two more cases run vectorized in templates of their own: two sign changes (``two_roots``,
+block_two_roots.py) and, with no sign change and no root near an end, a possible near-touch
+(``one_dip``, block_dips.py: the scalar path's search for the minimum of |v| and its sinh rule).
+A near-touch flag beside a root just outside an end (the left/right case) goes to the scalar
+path only where ``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of
+|v| that ``component_integral`` would take as a dip; a flag that is only a possible root pair
+between two samples, only where ``pair_check`` (vectorized) cannot rule the pair out with a
+bound of |v''| over each sample interval. Elsewhere the Gauss–Legendre value (or the Jacobi
+pieces) stand. Both checks are in flag_checks.py.
 
 Header names used: NC (coefficients per polynomial), NCOMP (= 2 n_dof),
 LANES, CS (= NCOMP * LANES, the stride between coefficients in VC), the offsets OVC, OFC,
@@ -49,10 +51,9 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
  R_ENDS) = range(NC, NC + 17)
 CB_ROWS = NC + 17
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
-# 3 a near-touch alone: the scalar path only if ``touch_matters``; 4 a possible root pair alone:
-# the scalar path only if ``pair_check`` keeps it possible
+# 4 a possible root pair alone: the scalar path only if ``pair_check`` keeps it possible;
+# TWO_ROOTS (block_two_roots.py) and ONE_DIP (block_dips.py): done there, or 0
 KEEP_FAST = 2.0
-TOUCH_CHECK = 3.0
 PAIR_CHECK = 4.0
 # SP codes written by ``fast``: a root, a root pair or a root near an end possible (the special
 # path), or a near-touch alone (no sign change, no root near an end or between two samples)
@@ -203,7 +204,6 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
                 ITEM[m] = c * LANES + j
                 for k in range(NC):
                     CB[k * CBS + m] = W[OVC + k * CS + c * LANES + j]
-                CB[R_TOUCH * CBS + m] = 1.0 if SP[c, j] == SP_TOUCH else 0.0
                 m += 1
     if m == 0:
         return
@@ -299,16 +299,16 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         guess = 1.0 if at1 else guess
         lo = 1.0 if at1 else lo
         hi = 1.0 if at1 else hi
-        # A near-touch flag without a root inside (no zero sample, no double root): where the
-        # minimum lies and how deep it is decides (``touch_matters``) before the scalar path is
-        # paid for. Alone (``fast``: no root possible), TOUCH_CHECK; beside a root near one end
-        # (left/right), the Jacobi pieces here, checked after (R_TOUCH = 2). R_ENDS: the ends
-        # whose quadratic's vertex the minimum is looked for from.
+        # A near-touch flag without a root inside (no zero sample, no double root): beside a
+        # root near one end (left/right), the Jacobi pieces here, checked after by
+        # ``touch_matters`` (R_TOUCH = 2; R_ENDS: the ends whose quadratic's vertex the minimum
+        # is looked for from); with no root near either end, ``one_dip``.
         clean = dip & (~double) & (~zero0) & (~zero1)
-        touch = clean & (CB[R_TOUCH * CBS + t] == 1.0)
         beside = clean & (left | right)
         CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & ((~dip) | beside)) else 0.0
-        CB[R_OK * CBS + t] = TOUCH_CHECK if touch else CB[R_OK * CBS + t]
+        # no root near either end: the scalar path's search for the minimum, vectorized (block_dips.py)
+        alone = clean & (~near_left) & (~near_right)
+        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]
         # two sign changes and no root near an end: both roots vectorized (block_two_roots.py)
         two = (nsc == 2.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
         CB[R_OK * CBS + t] = TWO_ROOTS if two else CB[R_OK * CBS + t]
@@ -316,7 +316,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & (~dip)
         CB[R_OK * CBS + t] = PAIR_CHECK if pair else CB[R_OK * CBS + t]
         n_pair += 1 if pair else 0
-        CB[R_TOUCH * CBS + t] = 2.0 if beside else CB[R_TOUCH * CBS + t]
+        CB[R_TOUCH * CBS + t] = 2.0 if beside else 0.0
         CB[R_ENDS * CBS + t] = (1.0 if (low0 | left) else 0.0) + (2.0 if (low1 | right) else 0.0)
         CB[R_ROOT * CBS + t] = guess
         CB[R_LO * CBS + t] = lo
@@ -407,6 +407,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         sigma1 = 1.0 if r < 1.0 else -1.0
         CB[R_J0 * CBS + t] = sigma0 * abs(r) * CB[R_J0 * CBS + t] + sigma1 * abs(1.0 - r) * CB[R_J1 * CBS + t]
     two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf)  # R_OK TWO_ROOTS: done there, or 0
+    one_dip(W, CB, ITEM, m, kind, p, glx, glw, window)  # R_OK ONE_DIP: done there, or 0
     # scatter; the rest by the scalar path
     VC = W[OVC : OVC + NC * CS].reshape((NC, NCOMP, LANES))
     for t in range(m):
@@ -417,14 +418,9 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         if ((ok == 1.0) | (ok == KEEP_FAST)) & (CB[R_TOUCH * CBS + t] == 2.0):
             c = item // LANES
             j = item - c * LANES
-            if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window, True):
+            if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window):
                 W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
         elif ok == 0.0:
             c = item // LANES
             j = item - c * LANES
             W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)
-        elif ok == TOUCH_CHECK:
-            c = item // LANES
-            j = item - c * LANES
-            if touch_matters(VC, c, j, NC, glx, int(CB[R_ENDS * CBS + t]), window, False):
-                W[OFC + item] = component_integral(VC, c, j, NC, 1.0, kind, p, glx, glw, gjx, gjf, window, roots)

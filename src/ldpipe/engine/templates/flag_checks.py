@@ -5,7 +5,7 @@ the whole step, so most flags of a step without a sign change on its samples are
 ``special`` sends those items here before paying ~50 Horner evaluations of the scalar
 ``component_integral`` for them:
 
-* ``touch_matters`` (a near-touch alone, or beside a root just outside an end): Newton's method
+* ``touch_matters`` (a near-touch beside a root just outside an end): Newton's method
   on v' finds the minima of |v|; only one that ``component_integral`` would take as a dip
   sends the component on;
 * ``pair_check`` (a possible root pair between two samples alone): ``pair_possible`` again with
@@ -20,19 +20,19 @@ TOUCH_ITERATIONS = 12  # Newton on v' in ``touch_matters`` (quadratic convergenc
 
 
 @njit(**JIT)
-def touch_matters(VC, c, j, nc, glx, ends, window, beside_root):
-    """False if the near-touch flagged on a step of lane j, component c, would not be taken as a
-    dip by ``component_integral`` (the Gauss–Legendre value, or the Jacobi pieces at a root near
-    an end, stand); True where it would, or where that is not certain.
+def touch_matters(VC, c, j, nc, glx, ends, window):
+    """False if the near-touch flagged on a step of lane j, component c, beside a root just
+    outside an end would not be taken as a dip by ``component_integral`` (the Jacobi pieces at
+    the root stand); True where it would, or where that is not certain.
 
     ``block_quadrature.special`` calls it for a component without a sign change on its samples
-    (0, the nodes ``glx``, 1), flagged because a near-touch may lie within DIP_PER_WINDOW *
-    window of a sample. The minima of |v| are looked for by Newton's method on v' from every
-    sample where |v| is a local minimum over the samples, and from the vertex of the local
-    quadratic at the end 0 (``ends`` & 1) and 1 (& 2), flagged where that quadratic has complex
-    roots, or beside a root just beyond that end (``beside_root``, the left/right case, where
-    the nodes next to the root are small because of it and a search from the vertex that ends
-    on the range's bound found no minimum). As in ``root_pair``, each minimum's eps =
+    (0, the nodes ``glx``, 1), with a root just beyond one end (the left/right case), flagged
+    because a near-touch may lie within DIP_PER_WINDOW * window of a sample. The minima of |v|
+    are looked for by Newton's method on v' from every sample where |v| is a local minimum over
+    the samples, and from the vertex of the local quadratic at the end 0 (``ends`` & 1) and 1
+    (& 2), flagged where that quadratic has complex roots or beside the root (where the nodes
+    next to the root are small because of it, and a search from the vertex that ends on the
+    range's bound found no minimum). As in ``root_pair``, each minimum's eps =
     sqrt(2 v(x_m) / v''(x_m)) is compared with the dip width; outside the scalar path's sample
     range (where ``component_integral`` does not look), or with eps at least the width, it is no
     dip. Most flags are of this kind (the flag bounds eps from below by the samples), and the
@@ -80,20 +80,14 @@ def touch_matters(VC, c, j, nc, glx, ends, window, beside_root):
                 break
         if not converged:
             return True
-        inside = lo < x < hi
-        if beside_root and not inside:
+        if not lo < x < hi:
             continue  # v' keeps its sign towards the bound: no minimum that way
         v_m, _, dd_m = horner_dd(VC, c, j, nc, x)
-        minimum = v_m * dd_m > 0.0  # a minimum of |v| that does not reach zero
-        if beside_root and not minimum:
+        if v_m * dd_m <= 0.0:  # no minimum of |v| that stays off zero
             if v_m * v0 <= 0.0:
                 return True  # beyond the root: a second root there (a root pair outside)
             continue  # a maximum of |v| on the step's side of the root
-        if not minimum and (v_m * v0 <= 0.0 or inside):
-            return True  # a root pair, a maximum of |v| (the minimum near the start not found): not certain
-        if not beside_root and inside and v_m * v0 <= 0.0:
-            return True  # a root in the range that the samples did not show
-        if minimum and inside and 2.0 * abs(v_m) < width * width * abs(dd_m):  # eps < width
+        if 2.0 * abs(v_m) < width * width * abs(dd_m):  # eps < width
             return True
     return False
 

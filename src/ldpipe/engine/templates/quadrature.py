@@ -34,10 +34,11 @@ near-touches (a dip of |v| towards zero that turns back, or a double root; issue
     quadratic at an end has complex roots within DIP_PER_WINDOW * window, or where
     ``dip_possible`` holds at the nodes; the scalar path records such minima (``root_pair``)
     and double roots as dips, cuts the step at them and integrates the pieces next to them with
-    the sinh substitution x = x_m + eps sinh(w) (``sinh_piece``). A flag with no root possible
-    reaches the scalar path only where ``touch_matters`` (flag_checks.py) finds a minimum
-    of |v| narrower than the dip width. Two roots outside the step,
-    close together, count as one double-root dip.
+    the sinh substitution x = x_m + eps sinh(w) (``sinh_piece``). A flag with no root near
+    either end is ``one_dip``'s (block_dips.py: this search and rule, vectorized, for one dip;
+    anything else comes here); one beside a root just outside an end reaches the scalar path
+    only where ``touch_matters`` (flag_checks.py) finds a minimum of |v| narrower than the dip
+    width. Two roots outside the step, close together, count as one double-root dip.
 
 Arc length sqrt(sum_c v_c^2) is smooth unless every component vanishes together, so it always
 takes the Gauss–Legendre path.
