@@ -28,11 +28,12 @@ xi_g of panel q is at w = wa + dw (q + xi_g), and e^w = e^wa (e^dw)^q e^(dw xi_g
 node and piece (e^wa = z + sqrt(z^2 + 1) from z = sinh(wa)), the powers by products (numba has no
 vectorized exp here, so a call per node and panel would dominate).
 
-The items are gathered into a buffer of their own (rows of CBS items: NC coefficients, then the
-rows below), allocated per call only when there are such items.
+The items are gathered into a buffer of their own (``gather_items``: rows of CBS items, NC
+coefficients, then the rows below).
 
-Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST of block_quadrature.py;
-SAMPLES_PER_STEP, DIP_PER_WINDOW, SINH_PANEL, pair_possible, dip_possible of quadrature.py.
+Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
+block_quadrature.py; SAMPLES_PER_STEP, DIP_PER_WINDOW, SINH_PANEL, pair_possible, dip_possible of
+quadrature.py.
 """
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
@@ -282,20 +283,9 @@ def _set_piece(DB, n, first):
 def one_dip(W, CB, ITEM, m, kind, p, glx, glw, window):
     """FC of every item of ``special`` with R_OK == ONE_DIP (see the module docstring); R_OK
     becomes KEEP_FAST where done (FC written, or the fast value stands), 0 for the scalar path."""
-    n = 0
-    for t in range(m):
-        n += 1 if CB[R_OK * CBS + t] == ONE_DIP else 0
+    DB, SOURCE, n = gather_items(CB, m, ONE_DIP, D_ROWS)
     if n == 0:
         return
-    DB = np.empty(D_ROWS * CBS)
-    SOURCE = np.empty(n, dtype=np.int64)
-    i = 0
-    for t in range(m):
-        if CB[R_OK * CBS + t] == ONE_DIP:
-            SOURCE[i] = t
-            for k in range(NC):
-                DB[k * CBS + i] = CB[k * CBS + t]
-            i += 1
     _scan(DB, n, window)
     _minimum(DB, n)
     _classify(DB, n, window)

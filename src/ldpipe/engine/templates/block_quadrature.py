@@ -195,6 +195,27 @@ def _at_both_sides(CB, t, s0, s1):
 
 
 @njit(**JIT)
+def gather_items(CB, m, code, rows):
+    """The items of ``special`` whose R_OK is ``code``, for a rule of their own (two_roots,
+    one_dip): (a buffer of ``rows`` rows of CBS items, its first NC rows their coefficients; the
+    index in CB of each; their count). Allocated per call, empty when there are none, so that
+    CB's layout stays ``special``'s."""
+    n = 0
+    for t in range(m):
+        n += 1 if CB[R_OK * CBS + t] == code else 0
+    items = np.empty(rows * CBS if n > 0 else 0)
+    source = np.empty(n, dtype=np.int64)
+    i = 0
+    for t in range(m):
+        if CB[R_OK * CBS + t] == code:
+            source[i] = t
+            for k in range(NC):
+                items[k * CBS + i] = CB[k * CBS + t]
+            i += 1
+    return items, source, n
+
+
+@njit(**JIT)
 def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # gather the flagged components: coefficient rows 0..NC-1 of the flat buffer CB
     m = 0

@@ -16,11 +16,11 @@ GRADING_LEVELS such pieces are laid out for every item (empty where the end is r
 earlier); an item that needs more (gap < |e - r| 2^-GRADING_LEVELS), whose Newton did not
 converge, or whose roots coincide in floating point, gets R_OK = 0: the scalar path.
 
-The items are gathered into a buffer of their own (rows of CBS items: NC coefficients, then
-the rows below), allocated per call only when there are such items, so that CB's layout stays
-``special``'s.
+The items are gathered into a buffer of their own (``gather_items``: rows of CBS items, NC
+coefficients, then the rows below).
 
-Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST of block_quadrature.py.
+Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
+block_quadrature.py.
 """
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
@@ -128,20 +128,9 @@ def _graded(TB, n, kind, p, glx, glw, gjx, gjf, left):
 def two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf):
     """FC of every item of ``special`` with R_OK == TWO_ROOTS (see the module docstring); the
     items it cannot do get R_OK = 0 (the scalar path)."""
-    n = 0
-    for t in range(m):
-        n += 1 if CB[R_OK * CBS + t] == TWO_ROOTS else 0
+    TB, SOURCE, n = gather_items(CB, m, TWO_ROOTS, T_ROWS)
     if n == 0:
         return
-    TB = np.empty(T_ROWS * CBS)
-    SOURCE = np.empty(n, dtype=np.int64)
-    i = 0
-    for t in range(m):
-        if CB[R_OK * CBS + t] == TWO_ROOTS:
-            SOURCE[i] = t
-            for k in range(NC):
-                TB[k * CBS + i] = CB[k * CBS + t]
-            i += 1
     # the two sample brackets: [T_LO1, T_HI1] holds the first sign change, [T_LO2, T_HI2] the second
     for t in range(n):
         TB[T_PREV * CBS + t] = TB[t]
