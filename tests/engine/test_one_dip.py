@@ -15,10 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.codegen import load_engine
-from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
-from ldpipe.systems import make_system
+from ldpipe.engine.quadrature import legendre_rule
 from support.step_integral import from_roots, mpmath_step_integral
+from support.step_rules import integrand_kind, rule_engine, rules
 
 WINDOW = 0.2  # dop853's at tight tolerances: the dip width DIP_PER_WINDOW * WINDOW = 0.5
 NODES = 8
@@ -60,17 +59,7 @@ NO_DIP = {
 
 @pytest.fixture(scope="module")
 def engine():
-    return load_engine(make_system("barbanis_2dof", {"builtin": "barbanis_2dof"}), "dop853", 64)
-
-
-def _rules(nodes, p):
-    glx, glw = legendre_rule(nodes)
-    gjx, gjf = folded_jacobi_rule(nodes, p)
-    return glx, glw, gjx, gjf
-
-
-def _kind(engine, p):
-    return engine.KIND_HALF if p == 0.5 else engine.KIND_POW
+    return rule_engine()
 
 
 def _one_dip(engine, polynomials, nodes=NODES, p=0.5, window=WINDOW):
@@ -82,8 +71,8 @@ def _one_dip(engine, polynomials, nodes=NODES, p=0.5, window=WINDOW):
     for t, coefficients in enumerate(polynomials):
         cb[np.arange(len(coefficients)) * engine.CBS + t] = coefficients
         cb[engine.R_OK * engine.CBS + t] = engine.ONE_DIP
-    glx, glw, _, _ = _rules(nodes, p)
-    engine.one_dip(w, cb, item, len(polynomials), _kind(engine, p), p, glx, glw, window)
+    glx, glw, _, _ = rules(nodes, p)
+    engine.one_dip(w, cb, item, len(polynomials), integrand_kind(engine, p), p, glx, glw, window)
     ok = cb[engine.R_OK * engine.CBS : engine.R_OK * engine.CBS + len(polynomials)]
     assert set(ok) <= {engine.KEEP_FAST, 0.0}
     return w[engine.OFC : engine.OFC + len(polynomials)], ok
@@ -100,14 +89,14 @@ def _special(engine, coefficients, fast_value=0.0, nodes=NODES, p=0.5, window=WI
     sp[0, 0] = engine.SP_SPECIAL
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
     item = np.zeros(engine.NCOMP * engine.LANES, dtype=np.int64)
-    engine.special(w, sp, _kind(engine, p), p, *_rules(nodes, p), window, cb, item, np.zeros(200))
+    engine.special(w, sp, integrand_kind(engine, p), p, *rules(nodes, p), window, cb, item, np.zeros(200))
     return w[engine.OFC]
 
 
 def _scalar(engine, coefficients, nodes=NODES, p=0.5, window=WINDOW):
     vc = np.zeros((len(coefficients), 1, 1))
     vc[:, 0, 0] = coefficients
-    return engine.component_integral(vc, 0, 0, len(coefficients), 1.0, _kind(engine, p), p, *_rules(nodes, p),
+    return engine.component_integral(vc, 0, 0, len(coefficients), 1.0, integrand_kind(engine, p), p, *rules(nodes, p),
                                      window, np.zeros(200))
 
 

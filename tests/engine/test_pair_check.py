@@ -14,16 +14,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.codegen import load_engine
 from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
-from ldpipe.systems import make_system
+from support.step_rules import rule_engine
 
 NODES = 4  # dop853's rule at rtol 1e-4 and 1e-5, where these flags are common
 
 
 @pytest.fixture(scope="module")
 def engine():
-    return load_engine(make_system("barbanis_2dof", {"builtin": "barbanis_2dof"}), "dop853", 64)
+    return rule_engine()
 
 
 def _cleared(engine, polynomials) -> np.ndarray:

@@ -12,17 +12,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.codegen import load_engine
 from ldpipe.engine.quadrature import legendre_rule
-from ldpipe.systems import make_system
 from support.step_integral import from_roots
+from support.step_rules import rule_engine
 
 WINDOW = 0.2  # the dip width is DIP_PER_WINDOW * 0.2 = 0.5 step lengths; the scalar range [-0.25, 1.25]
 
 
 @pytest.fixture(scope="module")
 def engine():
-    return load_engine(make_system("barbanis_2dof", {"builtin": "barbanis_2dof"}), "dop853", 64)
+    return rule_engine()
 
 
 def _check(engine, coefficients, ends):

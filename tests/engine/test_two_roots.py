@@ -15,10 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.codegen import load_engine
-from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
-from ldpipe.systems import make_system
+from ldpipe.engine.quadrature import legendre_rule
 from support.step_integral import from_roots, mpmath_step_integral
+from support.step_rules import integrand_kind, rule_engine, rules
 
 
 WINDOW = 0.1  # dop853's at loose tolerances, where two roots in a step are common
@@ -40,17 +39,7 @@ TOO_CLOSE = from_roots(0.58, 0.6, 3.0)
 
 @pytest.fixture(scope="module")
 def engine():
-    return load_engine(make_system("barbanis_2dof", {"builtin": "barbanis_2dof"}), "dop853", 64)
-
-
-def _rules(nodes, p):
-    glx, glw = legendre_rule(nodes)
-    gjx, gjf = folded_jacobi_rule(nodes, p)
-    return glx, glw, gjx, gjf
-
-
-def _kind(engine, p):
-    return engine.KIND_HALF if p == 0.5 else engine.KIND_POW
+    return rule_engine()
 
 
 def _two_roots(engine, polynomials, nodes=NODES, p=0.5):
@@ -61,7 +50,7 @@ def _two_roots(engine, polynomials, nodes=NODES, p=0.5):
     for t, coefficients in enumerate(polynomials):
         cb[np.arange(len(coefficients)) * engine.CBS + t] = coefficients
         cb[engine.R_OK * engine.CBS + t] = engine.TWO_ROOTS
-    engine.two_roots(w, cb, item, len(polynomials), _kind(engine, p), p, *_rules(nodes, p))
+    engine.two_roots(w, cb, item, len(polynomials), integrand_kind(engine, p), p, *rules(nodes, p))
     ok = cb[engine.R_OK * engine.CBS : engine.R_OK * engine.CBS + len(polynomials)]
     assert set(ok) <= {engine.KEEP_FAST, 0.0}
     return w[engine.OFC : engine.OFC + len(polynomials)], ok == engine.KEEP_FAST
@@ -76,7 +65,7 @@ def _special(engine, coefficients, nodes=NODES, p=0.5):
     sp[0, 0] = engine.SP_SPECIAL
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
     item = np.zeros(engine.NCOMP * engine.LANES, dtype=np.int64)
-    engine.special(w, sp, _kind(engine, p), p, *_rules(nodes, p), WINDOW, cb, item, np.zeros(200))
+    engine.special(w, sp, integrand_kind(engine, p), p, *rules(nodes, p), WINDOW, cb, item, np.zeros(200))
     return w[engine.OFC], cb[engine.R_NSC * engine.CBS]
 
 
@@ -110,7 +99,7 @@ def test_loose_rule_matches_scalar_path(engine):
     # for these steps (same pieces, same grading), so both agree to rounding (an invariant of the
     # design, not an accuracy claim), and both are near mpmath to the 4-node rule's error
     # (rho^-8 ~ 7e-7 per piece, _from_root's docstring; five pieces at most).
-    glx, glw, gjx, gjf = _rules(4, 0.5)
+    glx, glw, gjx, gjf = rules(4, 0.5)
     cases = [from_roots(0.3, 0.7, 3.0), from_roots(0.3, 0.36, -2.0), from_roots(0.02, 0.9, 1.5, 2.0)]
     values, handled = _two_roots(engine, cases, nodes=4)
     assert handled.all()
