@@ -55,10 +55,9 @@ CB_ROWS = NC + 17
 # TWO_ROOTS (block_two_roots.py) and ONE_DIP (block_dips.py): done there, or 0
 KEEP_FAST = 2.0
 PAIR_CHECK = 4.0
-# SP codes written by ``fast``: a root, a root pair or a root near an end possible (the special
-# path), or a near-touch alone (no sign change, no root near an end or between two samples)
+# The SP code written by ``fast`` where a component needs the special path: a root, a root pair,
+# a root near an end or a near-touch possible (``special`` tells them apart again)
 SP_SPECIAL = 1
-SP_TOUCH = 2
 CBS = NCOMP * LANES  # the row stride, a compile-time constant (no runtime alias checks)
 N_NEWTON = 6  # from the regula falsi point: converged after 4-5 (measured: as many unconverged at 5 as at 8)
 
@@ -170,8 +169,7 @@ def fast(W, kind, p, glx, glw, window, SP):
                 dip1 = (a1 * v1 > 0.0) & (2.0 * abs(v1) < dip_reach * abs(a1)) & (d1 * d1 < 2.0 * a1 * v1)
                 dip = dip | dip0 | dip1
                 root = crossing | near_left | near_right | pair
-                code = SP_SPECIAL if root else (SP_TOUCH if dip else 0)
-                SP[c, j] = code if W[OH + j] != 0.0 else 0
+                SP[c, j] = SP_SPECIAL if ((root | dip) & (W[OH + j] != 0.0)) else 0
 
 
 @njit(inline="always", **JIT)
