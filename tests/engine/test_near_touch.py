@@ -22,6 +22,7 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
 from support.barbanis import E_C
 from support.step_integral import from_roots, mpmath_step_integral
+from support.step_rules import rule_engine, rules
 
 ENERGY = 0.2  # Hénon–Heiles, above the escape energy 1/6 (as ldds's tutorial map)
 TAU = 10.0
@@ -144,16 +145,11 @@ STEP_CASES = {
 
 @pytest.mark.parametrize("name", sorted(STEP_CASES))
 def test_step_rule_against_mpmath(name):
-    from ldpipe.engine.codegen import load_engine
-    from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
-
-    engine = load_engine(make_system("barbanis_2dof", {"builtin": "barbanis_2dof"}), "dop853", 64)
+    engine = rule_engine()
     coefficients = np.asarray(STEP_CASES[name], dtype=float)
     vc = np.zeros((coefficients.size, 1, 1))
     vc[:, 0, 0] = coefficients
-    glx, glw = legendre_rule(8)
-    gjx, gjf = folded_jacobi_rule(8, 0.5)
-    value = engine.component_integral(vc, 0, 0, coefficients.size, 1.0, engine.KIND_HALF, 0.5, glx, glw, gjx, gjf,
+    value = engine.component_integral(vc, 0, 0, coefficients.size, 1.0, engine.KIND_HALF, 0.5, *rules(8, 0.5),
                                       0.2, np.zeros(200))
     expected = mpmath_step_integral(coefficients)
     assert abs(value - expected) <= 1e-12 * expected
