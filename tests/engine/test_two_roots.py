@@ -131,3 +131,36 @@ def test_a_root_just_outside_goes_to_the_scalar_path(engine):
     assert nsc == 2.0
     expected = mpmath_step_integral(coefficients)
     assert abs(routed - expected) <= 1e-12 * expected
+
+
+def test_items_of_other_cases_are_left_alone(engine):
+    # ``gather_items`` picks this rule's items out from among others (a branch-free compaction)
+    # and each value lands on its own item: the same value as the polynomial's alone (an
+    # invariant: the rule works item by item), while the other items' R_OK and FC stay untouched
+    polynomials = list(TWO_ROOT_CASES.values())
+    alone = [_two_roots(engine, [c])[0][0] for c in polynomials]
+    cb = np.zeros(engine.CB_ROWS * engine.CBS)
+    item = np.arange(engine.NCOMP * engine.LANES)
+    w = np.full(engine.SIZE, np.nan)
+    other = 1.0  # an item of the Jacobi pieces' case
+    m = 2 * len(polynomials) + 1
+    for t in range(m):
+        mine = t % 2 == 1
+        coefficients = polynomials[t // 2] if mine else TOO_CLOSE
+        cb[np.arange(len(coefficients)) * engine.CBS + t] = coefficients
+        cb[engine.R_OK * engine.CBS + t] = engine.TWO_ROOTS if mine else other
+    engine.two_roots(w, cb, item, m, integrand_kind(engine, 0.5), 0.5, *rules(NODES, 0.5))
+    fc = w[engine.OFC : engine.OFC + m]
+    ok = cb[engine.R_OK * engine.CBS : engine.R_OK * engine.CBS + m]
+    assert list(fc[1::2]) == alone
+    assert np.isnan(fc[0::2]).all()
+    assert (ok[1::2] == engine.KEEP_FAST).all() and (ok[0::2] == other).all()
+
+
+def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
+    # the case rows of CB are sized for the largest rule (one_dip's D_ROWS); a larger one would
+    # write past the buffer, so ``gather_items`` refuses it
+    assert engine.T_ROWS <= engine.CASE_ROWS and engine.D_ROWS <= engine.CASE_ROWS
+    cb = np.zeros(engine.CB_ROWS * engine.CBS)
+    with pytest.raises(ValueError, match="CASE_ROWS"):
+        engine.gather_items(cb, 0, engine.TWO_ROOTS, engine.CASE_ROWS + 1)

@@ -28,7 +28,7 @@ xi_g of panel q is at w = wa + dw (q + xi_g), and e^w = e^wa (e^dw)^q e^(dw xi_g
 node and piece (e^wa = z + sqrt(z^2 + 1) from z = sinh(wa)), the powers by products (numba has no
 vectorized exp here, so a call per node and panel would dominate).
 
-The items are gathered into a buffer of their own (``gather_items``: rows of CBS items, NC
+The items are gathered into rows of their own in CB (``gather_items``: rows of CBS items, NC
 coefficients, then the rows below).
 
 Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
@@ -293,7 +293,7 @@ def one_dip(W, CB, ITEM, m, kind, p, glx, glw, window):
         _set_piece(DB, n, first)
         _add_piece(DB, n, kind, p, glx, glw)
     for i in range(n):
-        t = SOURCE[i]
+        t = int(SOURCE[i])
         ok = DB[D_OK * CBS + i]
         if ok == 1.0:
             W[OFC + ITEM[t]] = DB[D_SUM * CBS + i]

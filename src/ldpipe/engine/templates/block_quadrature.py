@@ -46,10 +46,13 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
-# then scratch rows.
+# then scratch rows; R_SOURCE and the CASE_ROWS rows from CASE on hold the items of one case
+# gathered for a rule of its own (``gather_items``), so that no call allocates.
 (R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
- R_ENDS) = range(NC, NC + 17)
-CB_ROWS = NC + 17
+ R_ENDS, R_SOURCE) = range(NC, NC + 18)
+CASE = NC + 18
+CASE_ROWS = NC + 23  # the most rows a case's rule takes (block_dips.py: D_ROWS)
+CB_ROWS = CASE + CASE_ROWS
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
 # 4 a possible root pair alone: the scalar path only if ``pair_check`` keeps it possible;
 # TWO_ROOTS (block_two_roots.py) and ONE_DIP (block_dips.py): done there, or 0
@@ -195,37 +198,40 @@ def _at_both_sides(CB, t, s0, s1):
 @njit(**JIT)
 def gather_items(CB, m, code, rows):
     """The items of ``special`` whose R_OK is ``code``, for a rule of their own (two_roots,
-    one_dip): (a buffer of ``rows`` rows of CBS items, its first NC rows their coefficients; the
-    index in CB of each; their count). Allocated per call, empty when there are none, so that
-    CB's layout stays ``special``'s."""
+    one_dip): (a view of ``rows`` rows of CBS items in CB from row CASE on, its first NC rows
+    their coefficients; the index in CB of each, as floats in row R_SOURCE; their count). The
+    rows above CASE, ``special``'s, are left as they are."""
+    if rows > CASE_ROWS:
+        raise ValueError("gather_items: a case's rule takes more rows than CASE_ROWS")
+    # branch-free compaction: each index is written, and kept where the item is one of them
     n = 0
     for t in range(m):
-        n += 1 if CB[R_OK * CBS + t] == code else 0
-    items = np.empty(rows * CBS if n > 0 else 0)
-    source = np.empty(n, dtype=np.int64)
-    i = 0
-    for t in range(m):
-        if CB[R_OK * CBS + t] == code:
-            source[i] = t
-            for k in range(NC):
-                items[k * CBS + i] = CB[k * CBS + t]
-            i += 1
+        CB[R_SOURCE * CBS + n] = t
+        n += CB[R_OK * CBS + t] == code
+    source = CB[R_SOURCE * CBS : R_SOURCE * CBS + n]
+    items = CB[CASE * CBS : (CASE + rows) * CBS]
+    for k in range(NC):
+        for i in range(n):
+            items[k * CBS + i] = CB[k * CBS + int(source[i])]
     return items, source, n
 
 
 @njit(**JIT)
 def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # gather the flagged components: coefficient rows 0..NC-1 of the flat buffer CB
+    # (branch-free compaction: each index is written, and kept where the component is flagged;
+    # with a branch per component the gather cost ~25-45 cycles per lane step, as much as the
+    # Newton iteration, through mispredictions)
     m = 0
     for c in range(NCOMP):
         for j in range(LANES):
-            if SP[c, j] != 0:
-                ITEM[m] = c * LANES + j
-                for k in range(NC):
-                    CB[k * CBS + m] = W[OVC + k * CS + c * LANES + j]
-                m += 1
+            ITEM[m] = c * LANES + j
+            m += SP[c, j] != 0
     if m == 0:
         return
+    for k in range(NC):
+        for t in range(m):
+            CB[k * CBS + t] = W[OVC + k * CS + ITEM[t]]
     n_nodes = glx.shape[0]
     # Sign changes on the grid 0, glx..., 1, and the bracket of the first one. Written without
     # branches (selects) so that the loops over items vectorize.

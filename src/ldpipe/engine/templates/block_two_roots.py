@@ -16,7 +16,7 @@ GRADING_LEVELS such pieces are laid out for every item (empty where the end is r
 earlier); an item that needs more (gap < |e - r| 2^-GRADING_LEVELS), whose Newton did not
 converge, or whose roots coincide in floating point, gets R_OK = 0: the scalar path.
 
-The items are gathered into a buffer of their own (``gather_items``: rows of CBS items, NC
+The items are gathered into rows of their own in CB (``gather_items``: rows of CBS items, NC
 coefficients, then the rows below).
 
 Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
@@ -210,7 +210,7 @@ def two_roots(W, CB, ITEM, m, kind, p, glx, glw, gjx, gjf):
     _graded(TB, n, kind, p, glx, glw, gjx, gjf, True)
     _graded(TB, n, kind, p, glx, glw, gjx, gjf, False)
     for i in range(n):
-        t = SOURCE[i]
+        t = int(SOURCE[i])
         if TB[T_OK * CBS + i] == 1.0:
             W[OFC + ITEM[t]] = TB[T_SUM * CBS + i]
             CB[R_OK * CBS + t] = KEEP_FAST  # done: the scatter leaves FC as it is
