@@ -1,11 +1,15 @@
 """Where the engine's time goes: the block driver instrumented with the CPU's cycle counter.
 
-The engine's generated module (``ldpipe.engine.codegen.engine_source``) is copied with timers
-inserted around each phase of ``process`` (lane refill, step attempt, fast quadrature, special
-quadrature, events, the scalar per-lane pass) and counters of the LD quadrature's special path
-(components flagged, components left to the scalar ``component_integral``). The copy is
-compiled without numba's disk cache into a temporary directory; the library is not touched.
-Runs single-threaded so that the cycle counts of one thread add up.
+The engine's generated module (``ldpipe.engine.codegen.engine_source``) is copied twice. The
+timing copy has timers around each phase of ``process`` (lane refill, step attempt, fast
+quadrature, special quadrature, events, the scalar per-lane pass) and around each part of
+``special`` (SPECIAL_PARTS), and only the counters that sit outside its loops over items. The
+counting copy adds the counters of the special path's cases and of why items go to the scalar
+``component_integral`` (REASONS); they are taken from a run of their own because a counter
+inside a loop over items stops LLVM from vectorizing it (measured: ``special`` 1.5x slower at
+rtol 1e-4 and 1e-5 with them). Both copies are compiled without numba's disk cache into a
+temporary directory; the library is not touched. Runs single-threaded so that the cycle counts
+of one thread add up.
 
 Run: ``.venv/bin/python benchmarks/profile_engine.py [--n 120] [--scheme dop853] [--rtol 1e-5 1e-10]``
 """
@@ -25,10 +29,24 @@ import numpy as np
 
 
 PHASES = ("refill", "set h", "attempt", "fast", "special", "events", "lane pass")
-# part of "special": the scatter with the scalar fallbacks (not added to the total)
-SCATTER = "  of which scalar"
-COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks", "inside", "near left",
-            "near right", "other case", "not converged", "one dip", "near-touch beside a root to scalar")
+# the parts of "special", each timed from the end of the one before (the last: the scatter with
+# the scalar fallbacks); they add up to "special"
+SPECIAL_PARTS = (
+    ("gather", "    n_nodes = glx.shape[0]\n    # Sign changes"),
+    ("sign scan", "    # The case, the starting guess"),
+    ("cases", "    if n_pair > 0:\n"),
+    ("pair check", "    # Newton, kept inside"),
+    ("Newton", "    # converged? |v(r)|"),
+    ("converged?", "    # J(r -> 0) and J(r -> 1)"),
+    ("Jacobi pieces", "    two_roots(W, CB"),
+    ("two roots", "    one_dip(W, CB"),
+    ("one dip", "    # scatter; the rest by the scalar path\n"),
+    ("scatter, scalar", "window, roots)\n\n\n# ---- flag_checks ----"),
+)
+# counted in both copies (outside the loops over items), then in the counting copy only
+COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks",
+            "near-touch beside a root to scalar", "inside", "near left", "near right", "other case",
+            "not converged", "one dip")
 # why an item goes to the scalar path, counted where ``special`` decides it (see ``_count_reasons``)
 # ("2 changes clean": ``two_roots``'s case, 0 once routed there; "0 changes, dip": a possible
 # near-touch with no root near either end is ``one_dip``'s case, 0 once routed there)
@@ -36,7 +54,11 @@ REASONS = ("zero sample", "2 changes clean", "2 changes, root near an end", "3+ 
            "1 change, root near an end", "0 changes, dip, no root near an end", "0 changes, dip (other)",
            "0 changes, other", "pair kept", "inside: Newton failed", "left/right: Newton failed",
            "left/right: no root (keep fast)", "two roots: to scalar", "one dip: to scalar")
-N_TIMERS = len(PHASES) + len(COUNTERS) + len(REASONS) + 1
+# the timer array: PHASES, SPECIAL_PARTS, COUNTERS, REASONS
+O_PARTS = len(PHASES)
+O_COUNTERS = O_PARTS + len(SPECIAL_PARTS)
+O_REASONS = O_COUNTERS + len(COUNTERS)
+N_TIMERS = O_REASONS + len(REASONS)
 
 CYCLES_SOURCE = '''
 from llvmlite import ir
@@ -68,36 +90,42 @@ def _replace(text: str, old: str, new: str, count: int = 1) -> str:
 # cleared by ``pair_check`` (no root to converge to) counted 2.
 
 
-def instrumented_source(source: str) -> str:
-    """``source`` with timers in ``process`` and counters in ``special`` (see the module docstring)."""
+def instrumented_source(source: str, counting: bool) -> str:
+    """``source`` with timers in ``process`` and ``special`` and the counters outside its loops
+    over items; with ``counting`` also the counters inside them (see the module docstring)."""
     s = source.replace('"cache": True', '"cache": False')
     s = _replace(s, "from numba import njit\n", "from numba import njit\nfrom ldpipe_cycles import tick\n")
     # process gets the timer array as its last argument; special gets it too
     s = _replace(s, "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,\n):",
                  "o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face, PT,\n):")
-    s = _replace(s, "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):",
-                 "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT):")
+    s = _replace(s, "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):\n",
+                 "def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT):\n    _ts = tick()\n")
     s = _replace(s, "special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots)",
                  "special(W, SP, kind, p_exp, glx, glw, gjx, gjf, window, CB, ITEM, roots, PT)")
-    base = len(PHASES)
-    s = _replace(s, "    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n",
-                 f"    PT[{base + 2}] += m\n    if m == 0:\n        return\n    n_nodes = glx.shape[0]\n")
-    s = _replace(s, "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n",
-                 "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n"
-                 f"        PT[{base + 9}] += alone\n"
-                 f"        PT[{base + 4}] += inside\n        PT[{base + 5}] += left\n        PT[{base + 6}] += right\n"
-                 f"        PT[{base + 7}] += not (inside | left | right | at0 | at1)\n")
-    s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
-                 f"        PT[{base + 8}] += (ok == 1.0) & (~good)\n"
-                 "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
+    c = O_COUNTERS
+    s = _replace(s, "    if m == 0:\n        return\n    for k in range(NC):\n",
+                 f"    PT[{c + 2}] += m\n    if m == 0:\n        return\n    for k in range(NC):\n")
+    s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{c + 3}] += 1\n")
     # near-touch checks beside a root that go on to the scalar path
     s = _replace(s, "]), window):\n                W[OFC + item] = component_integral(",
-                 f"]), window):\n                PT[{base + 10}] += 1\n                W[OFC + item] = component_integral(")
-    s = _count_reasons(s, base + len(COUNTERS))
-    s = _replace(s, "    # scatter; the rest by the scalar path\n", "    _ts = tick()\n")
-    s = _replace(s, "        elif ok == 0.0:\n", f"        elif ok == 0.0:\n            PT[{base + 3}] += 1\n")
-    s = _replace(s, "window, roots)\n\n\n# ---- flag_checks ----",
-                 f"window, roots)\n    PT[{N_TIMERS - 1}] += tick() - _ts\n\n\n# ---- events ----")
+                 f"]), window):\n                PT[{c + 4}] += 1\n                W[OFC + item] = component_integral(")
+    if counting:
+        s = _replace(s, "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n",
+                     "        CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]\n"
+                     f"        PT[{c + 10}] += alone\n"
+                     f"        PT[{c + 5}] += inside\n        PT[{c + 6}] += left\n        PT[{c + 7}] += right\n"
+                     f"        PT[{c + 8}] += not (inside | left | right | at0 | at1)\n")
+        s = _replace(s, "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n",
+                     f"        PT[{c + 9}] += (ok == 1.0) & (~good)\n"
+                     "        keep = ok if good else (KEEP_FAST if (no_root & (ok != 0.0)) else 0.0)\n")
+        s = _count_reasons(s, O_REASONS)
+    else:
+        for i, (_, anchor) in enumerate(SPECIAL_PARTS):
+            mark = f"    _tn = tick(); PT[{O_PARTS + i}] += _tn - _ts; _ts = _tn\n"
+            if anchor.startswith("window, roots)"):  # the end of special
+                s = _replace(s, anchor, anchor.replace("\n\n\n", "\n" + mark + "\n\n", 1))
+            else:
+                s = _replace(s, anchor, mark + anchor)
     # phases of the main loop
     s = _replace(s, "    while True:\n        for j in range(lanes):\n            # an idle lane",
                  "    while True:\n        _t = tick()\n        for j in range(lanes):\n            # an idle lane")
@@ -105,7 +133,7 @@ def instrumented_source(source: str) -> str:
                  "        _u = tick(); PT[0] += _u - _t; _t = _u\n"
                  "        n_active = 0\n        for j in range(lanes):\n            if active[j]:\n")
     s = _replace(s, "        attempt(W, rtol, atol)\n",
-                 f"        PT[{base}] += 1; PT[{base + 1}] += n_active\n"
+                 f"        PT[{c}] += 1; PT[{c + 1}] += n_active\n"
                  "        _u = tick(); PT[1] += _u - _t; _t = _u\n"
                  "        attempt(W, rtol, atol)\n")
     s = _replace(s, "        fast(W, kind, p_exp, glx, glw, window, SP)\n",
@@ -164,14 +192,16 @@ def _count_reasons(s: str, r: int) -> str:
     return s
 
 
-def load_instrumented(system, scheme: str, lanes: int, directory: Path, order: int | None = None):
+def load_instrumented(system, scheme: str, lanes: int, directory: Path, order: int | None = None,
+                      counting: bool = False):
     from ldpipe.engine.codegen import engine_source
 
     (directory / "ldpipe_cycles.py").write_text(CYCLES_SOURCE)
     if str(directory) not in sys.path:
         sys.path.insert(0, str(directory))
-    source = instrumented_source(engine_source(system, scheme, lanes, order))
-    name = "profiled_" + re.sub(r"\W", "_", f"{system.name}_{scheme}{order or ''}_{lanes}")
+    source = instrumented_source(engine_source(system, scheme, lanes, order), counting)
+    kind = "counted" if counting else "timed"
+    name = f"{kind}_" + re.sub(r"\W", "_", f"{system.name}_{scheme}{order or ''}_{lanes}")
     path = directory / f"{name}.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location(name, path)
@@ -233,17 +263,24 @@ def main() -> None:
             settings = LDSettings(scheme=args.scheme, rtol=rtol, atol=rtol, p=p, quad_nodes=args.quad_nodes,
                                   block=args.block, taylor_order=args.taylor_order,
                                   **({} if args.window is None else {"window": args.window}))
-            process = load_instrumented(system, args.scheme, args.block, Path(tmp), settings.order)
-            profile(process, system, states[:16], settings)  # compile
+            runs = {}
+            for counting in (False, True):
+                process = load_instrumented(system, args.scheme, args.block, Path(tmp), settings.order, counting)
+                profile(process, system, states[:16], settings)  # compile
+                runs[counting] = profile(process, system, states, settings)
             if start is not None:
-                print(f"compiled in {time.perf_counter() - start:.1f} s; {len(states)} trajectories, tau 50, p {p}")
+                print(f"compiled and run in {time.perf_counter() - start:.1f} s; {len(states)} trajectories, "
+                      f"tau 50, p {p}")
                 start = None
-            timers, wall = profile(process, system, states, settings)
-            cycles = timers[: len(PHASES)]
+            timers, wall = runs[False]
+            counted = runs[True][0]
+            cycles = timers[:O_PARTS]
             total = cycles.sum()
-            counts = dict(zip(COUNTERS, timers[len(PHASES):len(PHASES) + len(COUNTERS)]))
-            reasons = dict(zip(REASONS, timers[len(PHASES) + len(COUNTERS):-1]))
+            counts = dict(zip(COUNTERS, counted[O_COUNTERS:O_REASONS]))
+            reasons = dict(zip(REASONS, counted[O_REASONS:]))
             lane_steps = counts["lane steps"]
+            if timers[O_COUNTERS + 1] != lane_steps:
+                raise RuntimeError("the timing and the counting copies took different steps")
             order = "" if settings.order is None else f" order {settings.order}"
             print(f"\n{args.scheme}{order} rtol {rtol:g}: wall {wall:.2f} s, {50.0 * len(states) / wall:.3g} time units/s "
                   f"(1 thread), {lane_steps / len(states):.0f} steps per trajectory, "
@@ -252,13 +289,12 @@ def main() -> None:
             for name, c in zip(PHASES, cycles):
                 print(f"  {name:>10}: {c / total:6.1%}  {c / lane_steps:7.1f} cycles/lane step")
                 if name == "special":
-                    c = timers[-1]
-                    print(f"  {SCATTER:>10}: {c / total:6.1%}  {c / lane_steps:7.1f} cycles/lane step")
+                    for (part, _), c in zip(SPECIAL_PARTS, timers[O_PARTS:O_COUNTERS]):
+                        print(f"    {part:>16}: {c / total:6.1%}  {c / lane_steps:7.1f}")
             print("  per lane step: " + ", ".join(f"{k} {v / lane_steps:.3f}" for k, v in counts.items()
                                                     if k not in ("block iterations", "lane steps")))
             print("  to the scalar path, per 1000 lane steps: "
                   + ", ".join(f"{k} {1000.0 * v / lane_steps:.1f}" for k, v in reasons.items()))
-
 
 if __name__ == "__main__":
     main()
