@@ -48,8 +48,9 @@ COUNTERS = ("block iterations", "lane steps", "special items", "scalar fallbacks
             "near-touch beside a root to scalar", "inside", "near left", "near right", "other case",
             "not converged", "one dip")
 # why an item goes to the scalar path, counted where ``special`` decides it (see ``_count_reasons``)
-# ("2 changes clean": ``two_roots``'s case, 0 once routed there; "0 changes, dip": a possible
-# near-touch with no root near either end is ``one_dip``'s case, 0 once routed there)
+# ("2 changes clean" and "1 change, root near an end": ``two_roots``'s cases, 0 once routed there
+# but for a root near each end; "0 changes, dip": a possible near-touch with no root near either
+# end is ``one_dip``'s case, 0 once routed there)
 REASONS = ("zero sample", "2 changes clean", "2 changes, root near an end", "3+ changes",
            "1 change, root near an end", "0 changes, dip, no root near an end", "0 changes, dip (other)",
            "0 changes, other", "pair kept", "inside: Newton failed", "left/right: Newton failed",

@@ -1,9 +1,11 @@
-"""The vectorized rule for a step whose velocity component has two roots inside (issue 18).
+"""The vectorized rule for a step whose velocity component has two roots in or beside it (issue 18).
 
 ``special`` sends an item with two sign changes on its samples (0, the Gauss nodes, 1), no root
 near either end outside and no zero end to ``two_roots`` (block_two_roots.py): both roots by
 safeguarded Newton, the pieces [0, r1], [r1, r2], [r2, 1] by Gauss–Jacobi from the roots with
-``_from_root``'s grading where the roots are close. Expected values are int_0^1 |v|^p by mpmath
+``_from_root``'s grading where the roots are close. So it does an item with one sign change and
+a root within the window beyond an end (found by linear extrapolation, or where v moves away from
+zero at the end and curves back), with the piece beyond the end taken away. Expected values are int_0^1 |v|^p by mpmath
 at 30 digits (tanh-sinh cut at the roots and minima, graded: ``support.step_integral``), an independent method; the
 tolerance 1e-12 relative with 8 nodes is that of the scalar rule's STEP_CASES in
 test_near_touch.py (a singularity one piece length beyond a piece's end: rho = 3 + 2 sqrt 2,
@@ -35,6 +37,15 @@ TWO_ROOT_CASES = {
 }
 # closer than the graded rule reaches (gap < 2^-GRADING_LEVELS of an outer piece): the scalar path
 TOO_CLOSE = from_roots(0.58, 0.6, 3.0)
+# one root inside and one within WINDOW beyond an end; "midpoint beyond" has m = (r1 + r2) / 2
+# past the end, and v moving away from zero at that end (linear extrapolation finds no root)
+ROOT_BESIDE_CASES = {
+    "right": from_roots(0.4, 1.05, 3.0),
+    "right, midpoint beyond": from_roots(0.97, 1.04, -2.0),
+    "right, graded": from_roots(0.9, 1.02, 1.5, 2.5),
+    "left": from_roots(-0.05, 0.6, 2.5),
+    "left, midpoint beyond": from_roots(-0.04, 0.03, 2.0),
+}
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +68,9 @@ def _two_roots(engine, polynomials, nodes=NODES, p=0.5):
 
 
 def _special(engine, coefficients, nodes=NODES, p=0.5):
-    """FC of one component flagged for the special path, through ``special``'s routing."""
+    """FC of one component flagged for the special path, through ``special``'s routing; its sign
+    changes on the samples; whether ``two_roots`` did it (R_OK KEEP_FAST after it, where the
+    scalar path leaves 0 and the one-root Jacobi pieces 1)."""
     w = np.zeros(engine.SIZE)
     for k, c in enumerate(coefficients):
         w[engine.OVC + k * engine.CS] = c  # component 0, lane 0
@@ -66,7 +79,7 @@ def _special(engine, coefficients, nodes=NODES, p=0.5):
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
     item = np.zeros(engine.NCOMP * engine.LANES, dtype=np.int64)
     engine.special(w, sp, integrand_kind(engine, p), p, *rules(nodes, p), WINDOW, cb, item, np.zeros(200))
-    return w[engine.OFC], cb[engine.R_NSC * engine.CBS]
+    return w[engine.OFC], cb[engine.R_NSC * engine.CBS], cb[engine.R_OK * engine.CBS] == engine.KEEP_FAST
 
 
 @pytest.mark.parametrize("name", sorted(TWO_ROOT_CASES))
@@ -80,7 +93,7 @@ def test_two_roots_against_mpmath(engine, name):
     expected = mpmath_step_integral(coefficients)
     assert abs(value[0] - expected) <= 1e-12 * expected
     # and through special's routing (the same rule: the same value)
-    routed, nsc = _special(engine, coefficients)
+    routed, nsc, _ = _special(engine, coefficients)
     assert nsc == 2.0
     assert routed == value[0]
 
@@ -117,8 +130,8 @@ def test_too_close_roots_go_to_the_scalar_path(engine):
     # gap 0.02 < 0.58 / 16: not handled here; special's scalar path then meets the mpmath value
     _, handled = _two_roots(engine, [TOO_CLOSE])
     assert not handled[0]
-    routed, nsc = _special(engine, TOO_CLOSE)
-    assert nsc == 2.0
+    routed, nsc, by_two_roots = _special(engine, TOO_CLOSE)
+    assert nsc == 2.0 and not by_two_roots
     expected = mpmath_step_integral(TOO_CLOSE)
     assert abs(routed - expected) <= 1e-12 * expected
 
@@ -127,8 +140,8 @@ def test_a_root_just_outside_goes_to_the_scalar_path(engine):
     # a third root 0.05 beyond the end 1: near_right, not this rule's case; the scalar path's
     # value still meets mpmath's
     coefficients = from_roots(0.3, 0.7, 1.05)
-    routed, nsc = _special(engine, coefficients)
-    assert nsc == 2.0
+    routed, nsc, by_two_roots = _special(engine, coefficients)
+    assert nsc == 2.0 and not by_two_roots
     expected = mpmath_step_integral(coefficients)
     assert abs(routed - expected) <= 1e-12 * expected
 
@@ -164,3 +177,45 @@ def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
     with pytest.raises(ValueError, match="CASE_ROWS"):
         engine.gather_items(cb, 0, engine.TWO_ROOTS, engine.CASE_ROWS + 1)
+
+
+@pytest.mark.parametrize("name", sorted(ROOT_BESIDE_CASES))
+def test_root_beside_an_end_against_mpmath(engine, name):
+    coefficients = ROOT_BESIDE_CASES[name]
+    value, nsc, by_two_roots = _special(engine, coefficients)
+    assert nsc == 1.0 and by_two_roots
+    expected = mpmath_step_integral(coefficients)
+    assert abs(value - expected) <= 1e-12 * expected
+
+
+def test_root_beside_an_end_general_power(engine):
+    # p = 1/4: the KIND_POW loops, with the piece beyond the end taken away
+    coefficients = ROOT_BESIDE_CASES["right"]
+    value, _, by_two_roots = _special(engine, coefficients, p=0.25)
+    assert by_two_roots
+    expected = mpmath_step_integral(coefficients, 0.25)
+    assert abs(value - expected) <= 1e-12 * expected
+
+
+@pytest.mark.parametrize("name", sorted(ROOT_BESIDE_CASES))
+def test_root_beside_an_end_loose_rule(engine, name):
+    # dop853's 4 nodes (rtol 1e-4, 1e-5): within the 4-node rule's error (rho^-8 ~ 7e-7 per
+    # piece, _from_root's docstring; five pieces at most) of mpmath. Before the root beyond the
+    # turn was looked for, "midpoint beyond" took the one-root pieces: 7e-5 off (Gauss–Jacobi from
+    # r1 towards 0 with the other root 0.07 beyond r1, rho ~ 1.7).
+    coefficients = ROOT_BESIDE_CASES[name]
+    value, _, by_two_roots = _special(engine, coefficients, nodes=4)
+    assert by_two_roots
+    expected = mpmath_step_integral(coefficients)
+    assert abs(value - expected) <= 5.0 * 7e-7 * expected
+
+
+def test_no_root_beyond_the_end_goes_to_the_scalar_path(engine):
+    # linear extrapolation from the end finds a root within the window, but v turns back before
+    # zero (complex roots 1.05 +- 0.05i): no sign change over the search interval, so not this
+    # rule's; the scalar path's value meets mpmath's
+    coefficients = np.polynomial.Polynomial.fromroots([0.5, 1.05 + 0.05j, 1.05 - 0.05j, 2.0]).coef.real
+    value, nsc, by_two_roots = _special(engine, coefficients)
+    assert nsc == 1.0 and not by_two_roots
+    expected = mpmath_step_integral(coefficients)
+    assert abs(value - expected) <= 1e-12 * expected

@@ -29,9 +29,11 @@ loops vectorize. The loops over items are written with selects instead of branch
 tests of the run-time ``kind`` stay outside them: either in a loop body stops LLVM from
 vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test inside).
 
-Two more cases run vectorized in templates of their own: two sign changes (``two_roots``,
-block_two_roots.py) and, with no sign change and no root near an end, a possible near-touch
-(``one_dip``, block_dips.py: the scalar path's search for the minimum of |v| and its sinh rule).
+Two more cases run vectorized in templates of their own: two sign changes, or one and a root
+near an end outside (``two_roots``, block_two_roots.py; near also where v moves away from zero at
+the end but its quadratic model there reaches zero within ``window``), and, with no sign change
+and no root near an end, a possible near-touch (``one_dip``, block_dips.py: the scalar path's
+search for the minimum of |v| and its sinh rule).
 A near-touch flag beside a root just outside an end (the left/right case) goes to the scalar
 path only where ``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of
 |v| that ``component_integral`` would take as a dip; a flag that is only a possible root pair
@@ -334,9 +336,17 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         # no root near either end: the scalar path's search for the minimum, vectorized (block_dips.py)
         alone = clean & (~near_left) & (~near_right)
         CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]
-        # two sign changes and no root near an end: both roots vectorized (block_two_roots.py)
+        # two sign changes and no root near an end, or one and a root near one end outside: both
+        # roots vectorized (block_two_roots.py; R_FAR below tells it where to look outside)
         two = (nsc == 2.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
-        CB[R_OK * CBS + t] = TWO_ROOTS if two else CB[R_OK * CBS + t]
+        # (near an end also where v moves away from zero there but curves back to it within
+        # ``window``: the end's quadratic model changes sign; linear extrapolation misses that
+        # root, and Gauss–Jacobi from the root inside would then converge slowly)
+        turn_left = (v0 * d0 <= 0.0) & (v0 * (v0 - d0 * window + 0.5 * a0 * window * window) < 0.0)
+        turn_right = (v1 * d1 >= 0.0) & (v1 * (v1 + d1 * window + 0.5 * a1 * window * window) < 0.0)
+        beside_left = near_left | turn_left
+        root_beside = (nsc == 1.0) & (beside_left != (near_right | turn_right)) & (~zero0) & (~zero1)
+        CB[R_OK * CBS + t] = TWO_ROOTS if (two | root_beside) else CB[R_OK * CBS + t]
         # flagged by ``fast`` for a possible root pair between two samples and nothing else
         pair = (nsc == 0.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1) & (~dip)
         CB[R_OK * CBS + t] = PAIR_CHECK if pair else CB[R_OK * CBS + t]
@@ -347,8 +357,10 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         CB[R_LO * CBS + t] = lo
         CB[R_HI * CBS + t] = hi
         CB[R_FA * CBS + t] = fa if inside else 0.0
-        # for left/right: the far end of the search interval and the value at the near end
-        CB[R_FAR * CBS + t] = lo if left else (hi if right else 0.0)
+        # for left/right: the far end of the search interval and the value at the near end (for
+        # a root beside an end, the far end alone: two_roots searches there)
+        far_end = -2.0 * window if beside_left else 1.0 + 2.0 * window
+        CB[R_FAR * CBS + t] = far_end if (left | right | root_beside) else 0.0
         CB[R_NEAR * CBS + t] = v0 if left else (v1 if right else 0.0)
     if n_pair > 0:
         pair_check(CB, m, glx)
