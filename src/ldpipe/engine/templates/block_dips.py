@@ -32,8 +32,8 @@ The items are gathered into rows of their own in CB (``gather_items``: rows of C
 coefficients, then the rows below).
 
 Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
-block_quadrature.py; SAMPLES_PER_STEP, DIP_PER_WINDOW, SINH_PANEL, pair_possible, dip_possible of
-quadrature.py.
+block_quadrature.py; SAMPLES_PER_STEP, DIP_PER_WINDOW, SINH_PANEL, pair_possible, dip_possible,
+_power of quadrature.py.
 """
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
@@ -46,9 +46,9 @@ MAX_SINH_PANELS = 8
 # ``root_pair`` stops at 4e-16 and takes 4-6)
 N_DIP_NEWTON = 10
 DIP_CONVERGED = 1e-12  # the last Newton step (x units) of a converged minimum
-(D_PREV, D_DPREV, D_COUNT, D_BAD, D_LO, D_HI, D_FA, D_DA, D_DB, D_X, D_STEP, D_EPS, D_OK, D_SUM, D_A, D_B,
- D_SINH, D_DW, D_PANELS, D_EA, D_R, D_G, D_E) = range(NC, NC + 23)
-D_ROWS = NC + 23
+(D_COUNT, D_BAD, D_LO, D_HI, D_FA, D_DA, D_DB, D_X, D_STEP, D_EPS, D_OK, D_SUM, D_A, D_B,
+ D_SINH) = range(NC, NC + 15)
+D_ROWS = NC + 15
 
 
 @njit(inline="always", **JIT)
@@ -85,6 +85,7 @@ def _scan(DB, n, window):
     radius = 1.0 + (m_out + 1) * dx  # ``curvature_bound``'s radius in ``component_integral``, u = 1
     dip_limit = DIP_PER_WINDOW * window
     x0 = -m_out * dx
+    # an item at a time (a few per call: see ``_add_piece``), the scan's state in locals
     for t in range(n):
         bound = 0.0
         scale = 1.0
@@ -92,37 +93,38 @@ def _scan(DB, n, window):
             bound += k * (k - 1.0) * abs(DB[k * CBS + t]) * scale
             scale *= radius
         DB[D_EPS * CBS + t] = bound  # the curvature bound (D_EPS is free until step 2)
-        f, d = _value_slope(DB, t, x0)
-        DB[D_PREV * CBS + t] = f
-        DB[D_DPREV * CBS + t] = d
-        DB[D_COUNT * CBS + t] = 0.0
-        DB[D_BAD * CBS + t] = 1.0 if f == 0.0 else 0.0
-        DB[D_LO * CBS + t] = 0.0
-        DB[D_HI * CBS + t] = 0.0
-        DB[D_FA * CBS + t] = 1.0
-        DB[D_DA * CBS + t] = 0.0
-        DB[D_DB * CBS + t] = 0.0
-    x_prev = x0
-    for s in range(-m_out + 1, SAMPLES_PER_STEP + m_out + 1):
-        x = 1.0 if s == SAMPLES_PER_STEP else s * dx
-        for t in range(n):
+        f_prev, d_prev = _value_slope(DB, t, x0)
+        count = 0.0
+        bad = 1.0 if f_prev == 0.0 else 0.0
+        lo = 0.0
+        hi = 0.0
+        fa = 1.0
+        da = 0.0
+        db = 0.0
+        x_prev = x0
+        for s in range(-m_out + 1, SAMPLES_PER_STEP + m_out + 1):
+            x = 1.0 if s == SAMPLES_PER_STEP else s * dx
             f, d = _value_slope(DB, t, x)
-            f_prev = DB[D_PREV * CBS + t]
-            d_prev = DB[D_DPREV * CBS + t]
-            bound = DB[D_EPS * CBS + t]
             possible = (pair_possible(f_prev, f, bound, dx) > 0.0) | (dip_possible(f_prev, f, bound, dip_limit) > 0.0)
             # |v| falls at x_prev and rises at x: a minimum inside (``root_pair``'s test)
             look = (f_prev * f > 0.0) & possible & (f_prev * d_prev <= 0.0) & (f * d >= 0.0)
-            DB[D_COUNT * CBS + t] += 1.0 if look else 0.0
-            DB[D_BAD * CBS + t] += 1.0 if ((f_prev * f < 0.0) | (f == 0.0)) else 0.0
-            DB[D_LO * CBS + t] = x_prev if look else DB[D_LO * CBS + t]
-            DB[D_HI * CBS + t] = x if look else DB[D_HI * CBS + t]
-            DB[D_FA * CBS + t] = f_prev if look else DB[D_FA * CBS + t]
-            DB[D_DA * CBS + t] = d_prev if look else DB[D_DA * CBS + t]
-            DB[D_DB * CBS + t] = d if look else DB[D_DB * CBS + t]
-            DB[D_PREV * CBS + t] = f
-            DB[D_DPREV * CBS + t] = d
-        x_prev = x
+            count += 1.0 if look else 0.0
+            bad += 1.0 if ((f_prev * f < 0.0) | (f == 0.0)) else 0.0
+            lo = x_prev if look else lo
+            hi = x if look else hi
+            fa = f_prev if look else fa
+            da = d_prev if look else da
+            db = d if look else db
+            f_prev = f
+            d_prev = d
+            x_prev = x
+        DB[D_COUNT * CBS + t] = count
+        DB[D_BAD * CBS + t] = bad
+        DB[D_LO * CBS + t] = lo
+        DB[D_HI * CBS + t] = hi
+        DB[D_FA * CBS + t] = fa
+        DB[D_DA * CBS + t] = da
+        DB[D_DB * CBS + t] = db
 
 
 @njit(**JIT)
@@ -191,65 +193,45 @@ def _classify(DB, n, window):
 def _add_piece(DB, n, kind, p, glx, glw):
     """D_SUM += int over [D_A, D_B] of |v|^p for every item: by the sinh rule about (D_X, D_EPS)
     where D_SINH is 1, else by Gauss–Legendre (see the module docstring); an item whose piece
-    needs more than MAX_SINH_PANELS panels gets D_OK = 0. Panels past an item's own count add
-    nothing; the loop over them runs to the most any item of the call has."""
-    most = 1.0
+    needs more than MAX_SINH_PANELS panels gets D_OK = 0.
+
+    An item at a time: a call has a few (2-5 per block at rtol 1e-4 .. 1e-8), and loops across
+    so few items, one per node and panel, cost more to set up than vectorizing saves. The sums
+    run in the order of the loops across items before (node, then panel): the same values."""
     for t in range(n):
         a = DB[D_A * CBS + t]
         b = DB[D_B * CBS + t]
+        length = b - a
+        if DB[D_SINH * CBS + t] != 1.0:
+            for g in range(glx.shape[0]):
+                DB[D_SUM * CBS + t] += glw[g] * length * _power(abs(_value(DB, t, a + length * glx[g])), kind, p)
+            continue
         x_m = DB[D_X * CBS + t]
         eps = DB[D_EPS * CBS + t]
-        sinh = DB[D_SINH * CBS + t] == 1.0
         za = (a - x_m) / eps
         zb = (b - x_m) / eps
         wa = math.asinh(za)
         span = math.asinh(zb) - wa
         panels = max(1.0, np.ceil(span / SINH_PANEL))  # a float: no conversion of a huge count
-        DB[D_PANELS * CBS + t] = panels if sinh else 1.0
-        DB[D_OK * CBS + t] = 0.0 if (sinh & ~(panels <= MAX_SINH_PANELS)) else DB[D_OK * CBS + t]
+        if not panels <= MAX_SINH_PANELS:
+            DB[D_OK * CBS + t] = 0.0
+            continue
         dw = span / panels
-        DB[D_DW * CBS + t] = dw if sinh else 0.0
         root = math.sqrt(za * za + 1.0)
         # e^asinh(z) without cancellation on either side
-        DB[D_EA * CBS + t] = (za + root if za >= 0.0 else 1.0 / (root - za)) if sinh else 1.0
-        DB[D_R * CBS + t] = math.exp(dw) if sinh else 1.0
-        most = max(most, min(DB[D_PANELS * CBS + t], MAX_SINH_PANELS))
-    for g in range(glx.shape[0]):
-        xi = glx[g]
-        w = glw[g]
-        for t in range(n):
-            DB[D_G * CBS + t] = math.exp(DB[D_DW * CBS + t] * xi)
-            DB[D_E * CBS + t] = DB[D_EA * CBS + t]
-        for q in range(int(most)):
-            if kind == KIND_HALF:
-                for t in range(n):
-                    y, jacobian, active = _node(DB, t, q, xi)
-                    DB[D_SUM * CBS + t] += w * jacobian * math.sqrt(abs(_value(DB, t, y))) if active else 0.0
-                    DB[D_E * CBS + t] *= DB[D_R * CBS + t]
-            elif kind == KIND_ONE:
-                for t in range(n):
-                    y, jacobian, active = _node(DB, t, q, xi)
-                    DB[D_SUM * CBS + t] += w * jacobian * abs(_value(DB, t, y)) if active else 0.0
-                    DB[D_E * CBS + t] *= DB[D_R * CBS + t]
-            else:
-                for t in range(n):
-                    y, jacobian, active = _node(DB, t, q, xi)
-                    DB[D_SUM * CBS + t] += w * jacobian * abs(_value(DB, t, y)) ** p if active else 0.0
-                    DB[D_E * CBS + t] *= DB[D_R * CBS + t]
-
-
-@njit(inline="always", **JIT)
-def _node(DB, t, q, xi):
-    """Item t's node xi of panel q: (x, the weight's factor dx/dxi, whether the panel is used)."""
-    sinh = DB[D_SINH * CBS + t] == 1.0
-    e = DB[D_E * CBS + t] * DB[D_G * CBS + t]  # e^w, w = wa + dw (q + xi)
-    inverse = 1.0 / e
-    eps = DB[D_EPS * CBS + t]
-    a = DB[D_A * CBS + t]
-    length = DB[D_B * CBS + t] - a
-    y = DB[D_X * CBS + t] + 0.5 * eps * (e - inverse) if sinh else a + length * xi
-    jacobian = 0.5 * (e + inverse) * eps * DB[D_DW * CBS + t] if sinh else length
-    return y, jacobian, q < DB[D_PANELS * CBS + t]
+        e_start = za + root if za >= 0.0 else 1.0 / (root - za)
+        ratio = math.exp(dw)
+        for g in range(glx.shape[0]):
+            # e^w at node g of panel q: e^wa (e^dw)^q e^(dw xi_g)
+            grow = math.exp(dw * glx[g])
+            e_panel = e_start
+            for _ in range(int(panels)):
+                e = e_panel * grow
+                inverse = 1.0 / e
+                y = x_m + 0.5 * eps * (e - inverse)
+                jacobian = 0.5 * (e + inverse) * eps * dw
+                DB[D_SUM * CBS + t] += glw[g] * jacobian * _power(abs(_value(DB, t, y)), kind, p)
+                e_panel *= ratio
 
 
 @njit(inline="always", **JIT)

@@ -53,7 +53,7 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 (R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
  R_ENDS, R_SOURCE) = range(NC, NC + 18)
 CASE = NC + 18
-CASE_ROWS = NC + 23  # the most rows a case's rule takes (block_dips.py: D_ROWS)
+CASE_ROWS = NC + 16  # the most rows a case's rule takes (block_two_roots.py: T_ROWS)
 CB_ROWS = CASE + CASE_ROWS
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
 # 4 a possible root pair alone: the scalar path only if ``pair_check`` keeps it possible;
