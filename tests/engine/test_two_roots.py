@@ -5,10 +5,10 @@ near either end outside and no zero end to ``two_roots`` (block_two_roots.py): b
 safeguarded Newton, the pieces [0, r1], [r1, r2], [r2, 1] by Gauss–Jacobi from the roots with
 ``_from_root``'s grading where the roots are close. So it does an item with one sign change and
 a root within the window beyond an end (found by linear extrapolation, or where v moves away from
-zero at the end and curves back), with the piece beyond the end taken away. Expected values are int_0^1 |v|^p by mpmath
-at 30 digits (tanh-sinh cut at the roots and minima, graded: ``support.step_integral``), an independent method; the
-tolerance 1e-12 relative with 8 nodes is that of the scalar rule's STEP_CASES in
-test_near_touch.py (a singularity one piece length beyond a piece's end: rho = 3 + 2 sqrt 2,
+zero at the end and curves back), with the piece beyond the end taken away. Expected values are
+int_0^1 |v|^p by mpmath at 30 digits (tanh-sinh cut at the roots and minima, graded:
+``support.step_integral``), an independent method; the tolerance 1e-12 relative with 8 nodes is
+that of the scalar rule's STEP_CASES in test_near_touch.py (a singularity one piece length beyond a piece's end: rho = 3 + 2 sqrt 2,
 rho^-16 ~ 6e-13).
 """
 
@@ -171,7 +171,7 @@ def test_items_of_other_cases_are_left_alone(engine):
 
 
 def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
-    # the case rows of CB are sized for the largest rule (one_dip's D_ROWS); a larger one would
+    # the case rows of CB are sized for the largest rule (two_roots' T_ROWS); a larger one would
     # write past the buffer, so ``gather_items`` refuses it
     assert engine.T_ROWS <= engine.CASE_ROWS and engine.D_ROWS <= engine.CASE_ROWS
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
