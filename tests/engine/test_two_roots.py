@@ -147,9 +147,9 @@ def test_a_root_just_outside_goes_to_the_scalar_path(engine):
 
 
 def test_items_of_other_cases_are_left_alone(engine):
-    # ``gather_items`` picks this rule's items out from among others (a branch-free compaction)
-    # and each value lands on its own item: the same value as the polynomial's alone (an
-    # invariant: the rule works item by item), while the other items' R_OK and FC stay untouched
+    # the rule picks its items out from among others by R_OK and each value lands on its own
+    # item: the same value as the polynomial's alone (an invariant: the rule works item by item),
+    # while the other items' R_OK and FC stay untouched
     polynomials = list(TWO_ROOT_CASES.values())
     alone = [_two_roots(engine, [c])[0][0] for c in polynomials]
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
@@ -171,12 +171,12 @@ def test_items_of_other_cases_are_left_alone(engine):
 
 
 def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
-    # the case rows of CB are sized for the largest rule (two_roots' T_ROWS); a larger one would
-    # write past the buffer, so ``gather_items`` refuses it
-    assert engine.T_ROWS <= engine.CASE_ROWS and engine.D_ROWS <= engine.CASE_ROWS
+    # the case rows of CB are sized for the rule that gathers its items (one_dip's D_ROWS); a
+    # larger one would write past the buffer, so ``gather_items`` refuses it
+    assert engine.D_ROWS <= engine.CASE_ROWS
     cb = np.zeros(engine.CB_ROWS * engine.CBS)
     with pytest.raises(ValueError, match="CASE_ROWS"):
-        engine.gather_items(cb, 0, engine.TWO_ROOTS, engine.CASE_ROWS + 1)
+        engine.gather_items(cb, 0, engine.ONE_DIP, engine.CASE_ROWS + 1)
 
 
 @pytest.mark.parametrize("name", sorted(ROOT_BESIDE_CASES))

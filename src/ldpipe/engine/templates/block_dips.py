@@ -3,7 +3,7 @@
 ``special`` (block_quadrature.py) marks R_OK = ONE_DIP for an item without a sign change on its
 samples (0, the Gauss nodes, 1), no root near either end outside, no zero end and a possible
 near-touch (a dip of |v| towards zero that turns back); ``one_dip`` then does what
-``component_integral`` would for it, vectorized across those items:
+``component_integral`` would for it (steps 1 and 3 an item at a time, 2 across the items):
 
 1. the scalar path's scan: the samples x_s = s / SAMPLES_PER_STEP over [-m_out / 8, 1 + m_out / 8]
    (m_out = ceil(8 window)), v and v' at each; an interval where |v| falls at the start and rises
@@ -31,7 +31,7 @@ vectorized exp here, so a call per node and panel would dominate).
 The items are gathered into rows of their own in CB (``gather_items``: rows of CBS items, NC
 coefficients, then the rows below).
 
-Header names used: NC, CBS, OFC, KIND_HALF, KIND_ONE; R_OK, KEEP_FAST, gather_items of
+Header names used: NC, CBS, OFC; R_OK, KEEP_FAST, gather_items, item_value of
 block_quadrature.py; SAMPLES_PER_STEP, DIP_PER_WINDOW, SINH_PANEL, pair_possible, dip_possible,
 _power of quadrature.py.
 """
@@ -204,7 +204,7 @@ def _add_piece(DB, n, kind, p, glx, glw):
         length = b - a
         if DB[D_SINH * CBS + t] != 1.0:
             for g in range(glx.shape[0]):
-                DB[D_SUM * CBS + t] += glw[g] * length * _power(abs(_value(DB, t, a + length * glx[g])), kind, p)
+                DB[D_SUM * CBS + t] += glw[g] * length * _power(abs(item_value(DB, t, a + length * glx[g])), kind, p)
             continue
         x_m = DB[D_X * CBS + t]
         eps = DB[D_EPS * CBS + t]
@@ -230,16 +230,8 @@ def _add_piece(DB, n, kind, p, glx, glw):
                 inverse = 1.0 / e
                 y = x_m + 0.5 * eps * (e - inverse)
                 jacobian = 0.5 * (e + inverse) * eps * dw
-                DB[D_SUM * CBS + t] += glw[g] * jacobian * _power(abs(_value(DB, t, y)), kind, p)
+                DB[D_SUM * CBS + t] += glw[g] * jacobian * _power(abs(item_value(DB, t, y)), kind, p)
                 e_panel *= ratio
-
-
-@njit(inline="always", **JIT)
-def _value(DB, t, x):
-    v = DB[(NC - 1) * CBS + t]
-    for k in range(NC - 2, -1, -1):
-        v = v * x + DB[k * CBS + t]
-    return v
 
 
 @njit(**JIT)

@@ -29,11 +29,12 @@ loops vectorize. The loops over items are written with selects instead of branch
 tests of the run-time ``kind`` stay outside them: either in a loop body stops LLVM from
 vectorizing it (measured: the Gauss–Jacobi loop ran 37x slower with the test inside).
 
-Two more cases run vectorized in templates of their own: two sign changes, or one and a root
-near an end outside (``two_roots``, block_two_roots.py; near also where v moves away from zero at
-the end but its quadratic model there reaches zero within ``window``), and, with no sign change
-and no root near an end, a possible near-touch (``one_dip``, block_dips.py: the scalar path's
-search for the minimum of |v| and its sinh rule).
+Two more cases have templates of their own (a block has a few of their items, so these work
+an item at a time where that costs less than loops across items): two sign changes, or one and
+a root near an end outside (``two_roots``, block_two_roots.py; near also where v moves away from
+zero at the end but its quadratic model there reaches zero within ``window``), and, with no sign
+change and no root near an end, a possible near-touch (``one_dip``, block_dips.py: the scalar
+path's search for the minimum of |v| and its sinh rule).
 A near-touch flag beside a root just outside an end (the left/right case) goes to the scalar
 path only where ``touch_matters`` (scalar, a few Horner evaluations per start) finds a minimum of
 |v| that ``component_integral`` would take as a dip; a flag that is only a possible root pair
@@ -48,12 +49,12 @@ OMIN, OMAX, OACC, OPRV, ORAT, OCRV, and KIND_HALF, KIND_ONE, KIND_ARCLENGTH.
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
 # CB is flat: row r of the item buffer holds items at CB[r * CBS + t]; the NC coefficient rows,
-# then scratch rows; R_SOURCE and the CASE_ROWS rows from CASE on hold the items of one case
-# gathered for a rule of its own (``gather_items``), so that no call allocates.
+# then scratch rows; R_SOURCE and the CASE_ROWS rows from CASE on hold the items of ``one_dip``'s
+# case gathered for its rule (``gather_items``), so that no call allocates.
 (R_PREV, R_NSC, R_A, R_B, R_FA, R_FB, R_LO, R_HI, R_ROOT, R_OK, R_J0, R_J1, R_FAR, R_NEAR, R_MINABS, R_TOUCH,
  R_ENDS, R_SOURCE) = range(NC, NC + 18)
 CASE = NC + 18
-CASE_ROWS = NC + 16  # the most rows a case's rule takes (block_two_roots.py: T_ROWS)
+CASE_ROWS = NC + 15  # the rows a case's rule takes (block_dips.py: D_ROWS)
 CB_ROWS = CASE + CASE_ROWS
 # R_OK: 1 the root is found (Jacobi pieces), 2 keep the fast Gauss–Legendre value, 0 the scalar path,
 # 4 a possible root pair alone: the scalar path only if ``pair_check`` keeps it possible;
@@ -187,6 +188,15 @@ def _curvature(W, base):
 
 
 @njit(inline="always", **JIT)
+def item_value(CB, t, x):
+    """Item t's polynomial at x (its coefficients in rows 0 .. NC - 1 of CB, or of a case's rows)."""
+    v = CB[(NC - 1) * CBS + t]
+    for k in range(NC - 2, -1, -1):
+        v = v * x + CB[k * CBS + t]
+    return v
+
+
+@njit(inline="always", **JIT)
 def _at_both_sides(CB, t, s0, s1):
     """Item t's polynomial at s0 and at s1 (two Horner chains, interleaved)."""
     v0 = CB[(NC - 1) * CBS + t]
@@ -199,8 +209,8 @@ def _at_both_sides(CB, t, s0, s1):
 
 @njit(**JIT)
 def gather_items(CB, m, code, rows):
-    """The items of ``special`` whose R_OK is ``code``, for a rule of their own (two_roots,
-    one_dip): (a view of ``rows`` rows of CBS items in CB from row CASE on, its first NC rows
+    """The items of ``special`` whose R_OK is ``code``, for a rule of their own (``one_dip``):
+    (a view of ``rows`` rows of CBS items in CB from row CASE on, its first NC rows
     their coefficients; the index in CB of each, as floats in row R_SOURCE; their count). The
     rows above CASE, ``special``'s, are left as they are."""
     if rows > CASE_ROWS:
