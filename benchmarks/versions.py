@@ -10,8 +10,14 @@ the two versions are equal bit for bit.
 
     .venv/bin/python benchmarks/versions.py --old ../baseline/src --new src --rounds 3 --repeat 3 --n 200
 
-The grid is compare.py's: Barbanis 2 DoF, U_xpx (y = 0, p_y > 0) at ΔE = -0.125, x and p_x in
-[-5.6, 5.6], tau = 50 forward.
+The grid (``--flow barbanis``, the default) is compare.py's: Barbanis 2 DoF, U_xpx (y = 0,
+p_y > 0) at ΔE = -0.125, x and p_x in [-5.6, 5.6], tau = 50 forward. ``--flow one-way`` is a flow
+in which no velocity component ever comes near zero, for the speed of the steps that need none
+of the quadrature's special cases (issue 18: "the speed the fast path has where nothing is near
+zero"): V = -(x + y) - (sin x + sin y) / 2, so that dp/dt = 1 + cos(q) / 2 >= 1/2 for both
+coordinates, started at x, y in [0, 1] with p = 1 + q (dq/dt = p > 1 and growing):
+
+    .venv/bin/python benchmarks/versions.py --old ../baseline/src --new src --flow one-way --tau 10
 """
 
 from __future__ import annotations
@@ -40,20 +46,34 @@ SETTINGS = (
 )
 
 
-def worker(n: int, tau: float, repeat: int, only: list[str] | None = None) -> None:
-    """Time every setting in this process (the version first on sys.path); JSON on stdout."""
-    import time
+FLOWS = ("barbanis", "one-way")
 
-    import ldpipe
-    from ldpipe.engine import LDSettings, compute_ld
+
+def flow(name: str, n: int):
+    """(system, initial states) of the flow ``name`` on an n x n grid (see the module docstring)."""
     from ldpipe.systems import make_system
 
+    if name == "one-way":
+        system = make_system("one_way", {"formula": "-(x + y) - a*(sin(x) + sin(y))", "coordinates": ["x", "y"],
+                                         "parameters": {"a": 0.5}})
+        x, y = (a.ravel() for a in np.meshgrid(np.linspace(0.0, 1.0, n), np.linspace(0.0, 1.0, n)))
+        return system, np.column_stack([x, y, 1.0 + x, 1.0 + y])
     system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
     energy = 15.125 - 0.125
     x, px = (a.ravel() for a in np.meshgrid(np.linspace(-5.6, 5.6, n), np.linspace(-5.6, 5.6, n)))
     kinetic_y = 2.0 * (energy - 0.5 * x**2) - px**2  # V(x, 0) = wx^2 x^2 / 2 with wx = 1
     keep = kinetic_y > 0.0
-    states = np.column_stack([x[keep], np.zeros(keep.sum()), px[keep], np.sqrt(kinetic_y[keep])])
+    return system, np.column_stack([x[keep], np.zeros(keep.sum()), px[keep], np.sqrt(kinetic_y[keep])])
+
+
+def worker(n: int, tau: float, repeat: int, only: list[str] | None = None, flow_name: str = "barbanis") -> None:
+    """Time every setting in this process (the version first on sys.path); JSON on stdout."""
+    import time
+
+    import ldpipe
+    from ldpipe.engine import LDSettings, compute_ld
+
+    system, states = flow(flow_name, n)
     rows = {}
     for label, scheme, accuracy, p in selected(only):
         step = {"dt": accuracy} if scheme == "rk4" else {"rtol": accuracy, "atol": accuracy}
@@ -74,10 +94,10 @@ def selected(only: list[str] | None) -> list[tuple]:
     return [row for row in SETTINGS if not only or any(part in row[0] for part in only)]
 
 
-def run(source: Path, n: int, tau: float, repeat: int, only: list[str] | None) -> dict:
+def run(source: Path, n: int, tau: float, repeat: int, only: list[str] | None, flow_name: str) -> dict:
     env = {**os.environ, "PYTHONPATH": str(source.resolve())}
     done = subprocess.run([sys.executable, __file__, "--worker", "--n", str(n), "--tau", str(tau),
-                           "--repeat", str(repeat), *(["--only", *only] if only else [])],
+                           "--repeat", str(repeat), "--flow", flow_name, *(["--only", *only] if only else [])],
                           env=env, capture_output=True, text=True, check=True)
     result = json.loads(done.stdout)
     if not Path(result["ldpipe"]).resolve().is_relative_to(source.resolve()):
@@ -95,10 +115,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="calls per setting in a round; the fastest counts")
     parser.add_argument("--only", nargs="+", metavar="PART",
                         help='run the settings whose label contains one of these, e.g. "dop853 rtol 1e-5, M"')
+    parser.add_argument("--flow", choices=FLOWS, default="barbanis",
+                        help="the grid's flow: compare.py's Barbanis section (default) or one with no velocity near zero")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        return worker(args.n, args.tau, args.repeat, args.only)
+        return worker(args.n, args.tau, args.repeat, args.only, args.flow)
     if args.old is None:
         parser.error("--old is required")
     if not selected(args.only):
@@ -107,9 +129,10 @@ def main() -> None:
     runs = {"old": [], "new": []}
     for round_ in range(args.rounds):
         for version in ("old", "new") if round_ % 2 == 0 else ("new", "old"):
-            runs[version].append(run(getattr(args, version), args.n, args.tau, args.repeat, args.only))
+            runs[version].append(run(getattr(args, version), args.n, args.tau, args.repeat, args.only, args.flow))
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
-    print(f"{runs['new'][0]['points']} points, tau = {args.tau}, {args.rounds} rounds, throughput per CPU second")
+    print(f"{args.flow} flow, {runs['new'][0]['points']} points, tau = {args.tau}, {args.rounds} rounds, "
+          "throughput per CPU second")
     print("| setting | old | new | new/old (best) | new/old per round, min–max | LD equal |")
     print("| --- | ---: | ---: | ---: | ---: | --- |")
     for label, *_ in selected(args.only):
