@@ -189,3 +189,12 @@ def test_one_dip_is_the_scalar_rule(engine, nodes, window):
             assert abs(scalar - _legendre(coefficients, nodes)) <= 1e-14 * scalar
         else:
             assert abs(value - scalar) <= 1e-13 * scalar
+
+
+def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
+    # the case rows of CB are sized for the rule that gathers its items (one_dip's D_ROWS); a
+    # larger one would write past the buffer, so ``gather_items`` refuses it
+    assert engine.D_ROWS <= engine.CASE_ROWS
+    cb = np.zeros(engine.CB_ROWS * engine.CBS)
+    with pytest.raises(ValueError, match="CASE_ROWS"):
+        engine.gather_items(cb, 0, engine.ONE_DIP, engine.CASE_ROWS + 1)

@@ -170,15 +170,6 @@ def test_items_of_other_cases_are_left_alone(engine):
     assert (ok[1::2] == engine.KEEP_FAST).all() and (ok[0::2] == other).all()
 
 
-def test_a_case_taking_more_rows_than_the_buffer_has_is_refused(engine):
-    # the case rows of CB are sized for the rule that gathers its items (one_dip's D_ROWS); a
-    # larger one would write past the buffer, so ``gather_items`` refuses it
-    assert engine.D_ROWS <= engine.CASE_ROWS
-    cb = np.zeros(engine.CB_ROWS * engine.CBS)
-    with pytest.raises(ValueError, match="CASE_ROWS"):
-        engine.gather_items(cb, 0, engine.ONE_DIP, engine.CASE_ROWS + 1)
-
-
 @pytest.mark.parametrize("name", sorted(ROOT_BESIDE_CASES))
 def test_root_beside_an_end_against_mpmath(engine, name):
     coefficients = ROOT_BESIDE_CASES[name]
