@@ -1,4 +1,4 @@
-"""Template: the vectorized LD quadrature of the special path's items with a near-touch.
+"""Template: the LD quadrature of the special path's items with a near-touch.
 
 ``special`` (block_quadrature.py) marks R_OK = ONE_DIP for an item without a sign change on its
 samples (0, the Gauss nodes, 1), no root near either end outside, no zero end and a possible
@@ -38,9 +38,8 @@ _power of quadrature.py.
 # ruff: noqa: F821  (the upper-case constants, njit and JIT come from the generated header)
 
 ONE_DIP = 6.0  # R_OK code set by ``special``: no sign change, a near-touch possible: done here
-# Panels per piece of the vectorized sinh rule (the loop over panels runs to the most any item of
-# a call needs): asinh(L / eps) up to 8, eps down to ~7e-4 of the piece length L; narrower dips
-# go to the scalar path
+# Panels per piece of this template's sinh rule at most: asinh(L / eps) up to 8, eps down to
+# ~7e-4 of the piece length L; narrower dips go to the scalar path
 MAX_SINH_PANELS = 8
 # Newton on v' from the secant point of its sample bracket (quadratic convergence; the scalar
 # ``root_pair`` stops at 4e-16 and takes 4-6)

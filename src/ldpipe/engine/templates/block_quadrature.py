@@ -343,11 +343,11 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
         clean = dip & (~double) & (~zero0) & (~zero1)
         beside = clean & (left | right)
         CB[R_OK * CBS + t] = 1.0 if ((inside | left | right | at0 | at1) & ((~dip) | beside)) else 0.0
-        # no root near either end: the scalar path's search for the minimum, vectorized (block_dips.py)
+        # no root near either end: the scalar path's search for the minimum (``one_dip``, block_dips.py)
         alone = clean & (~near_left) & (~near_right)
         CB[R_OK * CBS + t] = ONE_DIP if alone else CB[R_OK * CBS + t]
         # two sign changes and no root near an end, or one and a root near one end outside: both
-        # roots vectorized (block_two_roots.py; R_FAR below tells it where to look outside)
+        # roots by ``two_roots`` (block_two_roots.py; R_FAR below tells it where to look outside)
         two = (nsc == 2.0) & (~near_left) & (~near_right) & (~zero0) & (~zero1)
         # (near an end also where v moves away from zero there but curves back to it within
         # ``window``: the end's quadratic model changes sign; linear extrapolation misses that
