@@ -1,4 +1,4 @@
-"""The vectorized rule for a step whose velocity component has two roots in or beside it (issue 18).
+"""The rule for a step whose velocity component has two roots in or beside it (issue 18).
 
 ``special`` sends an item with two sign changes on its samples (0, the Gauss nodes, 1), no root
 near either end outside and no zero end to ``two_roots`` (block_two_roots.py): both roots by
@@ -8,8 +8,8 @@ a root within the window beyond an end (found by linear extrapolation, or where 
 zero at the end and curves back), with the piece beyond the end taken away. Expected values are
 int_0^1 |v|^p by mpmath at 30 digits (tanh-sinh cut at the roots and minima, graded:
 ``support.step_integral``), an independent method; the tolerance 1e-12 relative with 8 nodes is
-that of the scalar rule's STEP_CASES in test_near_touch.py (a singularity one piece length beyond a piece's end: rho = 3 + 2 sqrt 2,
-rho^-16 ~ 6e-13).
+that of the scalar rule's STEP_CASES in test_near_touch.py (a singularity one piece length beyond
+a piece's end: rho = 3 + 2 sqrt 2, rho^-16 ~ 6e-13).
 """
 
 from __future__ import annotations
@@ -180,7 +180,8 @@ def test_root_beside_an_end_against_mpmath(engine, name):
 
 
 def test_root_beside_an_end_general_power(engine):
-    # p = 1/4: the KIND_POW loops, with the piece beyond the end taken away
+    # p = 1/4: the general power (not the square root of p = 1/2), with the piece beyond the end
+    # taken away
     coefficients = ROOT_BESIDE_CASES["right"]
     value, _, by_two_roots = _special(engine, coefficients, p=0.25)
     assert by_two_roots
