@@ -12,7 +12,7 @@ c. ``heyoka_batch``: heyoka's SIMD batch Taylor integrator, the *arc-length* LD 
 
 All of them run in this one process.  Timings are taken by the caller (compare.py); the
 functions only report counters.  Independent of ldpipe's engine (the vector field is written out
-here; its parameters come from ldpipe.reference_ld, which imports only numpy and scipy).
+here; its parameters come from ldpipe.testing.reference_ld, which imports only numpy and scipy).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ldpipe.reference_ld import DELTA, OMEGA_X, OMEGA_Y
+from ldpipe.testing.reference_ld import DELTA, OMEGA_X, OMEGA_Y
 
 WX2 = OMEGA_X**2
 WY2 = OMEGA_Y**2
@@ -288,7 +288,7 @@ if __name__ == "__main__":
 
     import heyoka as hy
 
-    from ldpipe.reference_ld import E_SADDLE, section_state
+    from ldpipe.testing.reference_ld import E_SADDLE, section_state
 
     s, _ = section_state(1.0, 0.5, E_SADDLE - 0.125)
     print("heyoka", hy.__version__, "simd", hy.recommended_simd_size())

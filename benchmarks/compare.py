@@ -33,7 +33,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import alternatives as alt  # noqa: E402
 
-from ldpipe import reference_ld as ref  # noqa: E402  (independent of the engine: numpy and scipy only)
+from ldpipe.testing import reference_ld as ref  # noqa: E402  (independent of the engine: numpy and scipy only)
 
 
 # ------------------------------------------------------------------------------------------

@@ -238,7 +238,7 @@ def profile(process, system, states, settings) -> tuple[np.ndarray, float]:
 
 
 def main() -> None:
-    from ldpipe import reference_ld as ref
+    from ldpipe.testing import reference_ld as ref
     from ldpipe.engine import LDSettings
     from ldpipe.systems import make_system
 

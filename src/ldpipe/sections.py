@@ -407,7 +407,7 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
         positions = np.empty((n, size * SCAN_POINTS))
         for l in range(n):
             positions[l] = np.tile(samples, size) if l == s else np.repeat(columns[l, part], SCAN_POINTS)
-        g = _potential(system, positions).reshape(size, SCAN_POINTS) - target[part, None]
+        g = potential_of_columns(system, positions).reshape(size, SCAN_POINTS) - target[part, None]
         below, finite = g <= 0.0, np.isfinite(g)
         change = (below[:, :-1] != below[:, 1:]) & finite[:, :-1] & finite[:, 1:]
         middles = np.broadcast_to(0.5 * (samples[:-1] + samples[1:]), change.shape)
@@ -427,7 +427,7 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
             for _ in range(BISECTIONS):
                 mid = 0.5 * (low + high)
                 point[s] = mid
-                same = (_potential(system, point) - target[part] <= 0.0) == low_below
+                same = (potential_of_columns(system, point) - target[part] <= 0.0) == low_below
                 low, high = np.where(same, mid, low), np.where(same, high, mid)
             roots.append(0.5 * (low + high))
         found, root = _pick(np.column_stack(roots), np.column_stack([f for f, _ in candidates]), section)
@@ -436,7 +436,7 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
     return allowed, solved
 
 
-def _potential(system: System, positions: np.ndarray) -> np.ndarray:
+def potential_of_columns(system: System, positions: np.ndarray) -> np.ndarray:
     """V at each column of ``positions`` (shape (n_dof, count), C-contiguous)."""
     out = np.empty(positions.shape[1])
     system.kernels.potential_block(positions, out, positions.shape[1])

@@ -28,9 +28,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import beta
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.equilibria import equilibria_dataset
 from ldpipe.ld_grid import ld_grid_dataset

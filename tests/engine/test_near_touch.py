@@ -4,7 +4,7 @@ There |v|^p ~ (a + b (t - t_m)^2)^p has its singularities at t_m +- i sqrt(a / b
 real axis, and a Gauss–Legendre rule over the step stalls: before the fix the LD error on these
 points did not fall with rtol (dop853: 8.9e-6 worst at rtol 1e-8, 1.5e-7 at 1e-12).
 
-Expected values come from the independent reference (ldpipe.reference_ld: scipy DOP853 at
+Expected values come from the independent reference (ldpipe.testing.reference_ld: scipy DOP853 at
 rtol 1e-13, every crossing and every minimum of each |f_i| located, each piece integrated
 separately; checked against closed forms of sqrt|t^2 + a| in test_reference_ld.py), with the
 Hénon–Heiles and Barbanis vector fields written out here by hand.
@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe import reference_ld as reference
+from ldpipe.testing import reference_ld as reference
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
 from support.barbanis import E_C

@@ -8,7 +8,7 @@ up to rounding, DOP853 written for the first-order system y' = f(y) straight fro
 import numpy as np
 import pytest
 
-from ldpipe import tableaux
+from ldpipe.engine.schemes import tableaux
 from ldpipe.engine.codegen import load_engine
 from ldpipe.engine.quadrature import folded_jacobi_rule, jacobi_rule
 from ldpipe.engine.schemes import scheme_source

@@ -1,4 +1,4 @@
-"""The reference LD (ldpipe.reference_ld, used by the benchmarks) against closed forms.
+"""The reference LD (ldpipe.testing.reference_ld, used by the benchmarks) against closed forms.
 
 The closed form of M_p for harmonic motion (support.closed_forms, through the Beta function) is
 itself checked against a brute-force quadrature first.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe import reference_ld as reference
+from ldpipe.testing import reference_ld as reference
 from support.closed_forms import cos_power_antiderivative, harmonic_ld
 
 

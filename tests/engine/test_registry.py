@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ldpipe.cli import build_parser
+from ldpipe.cli.main import build_parser
 from ldpipe.config import load_schema
 from ldpipe.engine import (
     DEFAULT_ESCAPE_RADIUS, SCHEMES, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld,

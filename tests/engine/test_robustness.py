@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from ldpipe import reference_ld as reference
+from ldpipe.testing import reference_ld as reference
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.engine.codegen import load_engine
 from ldpipe.systems import make_system
@@ -82,7 +82,7 @@ def test_partial_blocks_give_the_same_bits(barbanis, fig3_high_energy_states, se
 def test_two_roots_in_one_step_match_the_reference(barbanis, rtol):
     # The accuracy–cost stage's case: Fig. 4 map at dE 0.125, point (x, y, px) on U_xpx+, where
     # p_x' has roots at t ~ 2.6088 and 2.6188, inside one DOP853 step. Independent method:
-    # ldpipe.reference_ld (zero crossings located, pieces integrated apart; 6.7793060198).
+    # ldpipe.testing.reference_ld (zero crossings located, pieces integrated apart; 6.7793060198).
     # Before the fix the error was 1.3e-5 at rtol 1e-10 and 4.5e-5 at rtol 1e-12.
     x, y, px = 5.58452302, -7.0, 0.32221481
     py = np.sqrt(2.0 * (15.25 - reference.barbanis_potential(x, y)) - px**2)

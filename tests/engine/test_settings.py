@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe import tableaux
+from ldpipe.engine.schemes import tableaux
 from ldpipe.engine.schemes import SCHEMES
 from ldpipe.engine.schemes.composition import Composition
 

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe import accuracy
 from ldpipe.accuracy import (
     CorrectorStep, IntegratorStep, closure_error, corrector_ladder, finite_quantiles, integrator_ladder,
     ld_ladder_dataset, orbit_ladder_dataset, relative_error, sample_indices,
 )
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.periodic_orbits import BrakeOrbit, linearize_saddle

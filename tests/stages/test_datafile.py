@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from ldpipe import datafile
-from ldpipe.contracts import CONTRACTS, StageFile
-from ldpipe.datafile import open_stage_file, stage_parameters, write_stage_file
+from ldpipe.io import datafile
+from ldpipe.io.contracts import CONTRACTS, StageFile
+from ldpipe.io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ldpipe.errors import StageFileError
 
 

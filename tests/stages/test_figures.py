@@ -17,7 +17,7 @@ import yaml
 from docutils.core import publish_parts
 
 from ldpipe.config import load_config, validate_config
-from ldpipe.datafile import write_stage_file
+from ldpipe.io.datafile import write_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures import style
 from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_points

@@ -3,8 +3,8 @@
 import numpy as np
 import xarray as xr
 
-from ldpipe.datafile import write_stage_file
-from ldpipe.filediff import compare_files, compare_runs, main
+from ldpipe.io.datafile import write_stage_file
+from ldpipe.io.filediff import compare_files, compare_runs, main
 
 
 def stage_file(path, energy, *, extra=False, wall_time=1.0):

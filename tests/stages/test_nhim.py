@@ -15,10 +15,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe import nhim
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states

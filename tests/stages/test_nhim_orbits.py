@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe import contracts, nhim
+from ldpipe import nhim
+from ldpipe.io import contracts
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe.ld_grid import resolve_ld_map

@@ -20,7 +20,7 @@ import pytest
 
 from ldpipe import nhim
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe.nhim.batched import run_tasks

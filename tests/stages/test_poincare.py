@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.flow import FlowSettings, integrate
 from ldpipe.poincare import poincare_dataset
 from ldpipe.sections import Section

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.stages import upo as upo_stage
@@ -216,16 +216,12 @@ def test_config_errors_name_the_key(equilibria_files, tmp_path):
 
 
 def test_cli_subcommands_write_stage_files(tmp_path):
-    # The subcommands as the lead wires them into `ldpipe` (cli_orbits.register on the subparsers).
-    import argparse
+    # The orbit subcommands through the `ldpipe` parser, which registers them (ldpipe.cli.orbits).
     from pathlib import Path
 
-    from ldpipe import cli, cli_orbits
+    from ldpipe.cli.main import build_parser
 
-    parser = cli.build_parser()
-    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    if "upo" not in commands.choices:
-        cli_orbits.register(commands, cli.EPILOG)
+    parser = build_parser()
     config = Path(__file__).resolve().parents[2] / "config.yaml"
     args = parser.parse_args(["upo", "--config", str(config), "--family", "barbanis_contopoulos_3dof_mode1",
                               "-o", str(tmp_path / "upo.nc")])

@@ -12,7 +12,7 @@ import yaml
 from scipy.integrate import solve_ivp
 
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.flow import FlowSettings, integrate
 from ldpipe.ld_grid import resolve_ld_map

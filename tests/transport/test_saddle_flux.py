@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from ldpipe.config import validate_config
-from ldpipe.contracts import SADDLE_FLUX
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.contracts import SADDLE_FLUX
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.saddle_flux import draw_saddle_flux
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from ldpipe.config import validate_config
-from ldpipe.contracts import TRANSPORT
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.contracts import TRANSPORT
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.transport import draw_transport
 from ldpipe.stages import transport as transport_stage

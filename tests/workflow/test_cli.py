@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ldpipe import contracts
+from ldpipe.io import contracts
 from ldpipe.cli import main
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 
 ROOT = Path(__file__).resolve().parents[2]
 

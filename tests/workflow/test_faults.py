@@ -31,7 +31,7 @@ import yaml
 
 from ldpipe.cli import main
 from ldpipe.config import validate_config
-from ldpipe.datafile import open_stage_file, write_stage_file
+from ldpipe.io.datafile import open_stage_file, write_stage_file
 from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError, StageFileError
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
@@ -46,7 +46,7 @@ PYTHON = sys.executable
 WRITER = textwrap.dedent("""
     import os, signal, sys
     import numpy as np, xarray as xr
-    from ldpipe import datafile
+    from ldpipe.io import datafile
 
     path, size, kill_at_rename = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
     if kill_at_rename:

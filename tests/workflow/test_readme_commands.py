@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pytest
 
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 
 from support.workflow import SNAKEMAKE, copy_workflow
 

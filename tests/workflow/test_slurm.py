@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from ldpipe.filediff import compare_files
+from ldpipe.io.filediff import compare_files
 from support.workflow import SNAKEMAKE
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,7 +28,7 @@ CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
 pytestmark = pytest.mark.slow
 
 # What cannot be equal between two runs (the history attribute, measured wall times) is left out
-# by ldpipe.filediff, which compares the stored values bit for bit.
+# by ldpipe.io.filediff, which compares the stored values bit for bit.
 
 # What the test cluster needs on top of profiles/slurm: no accounting, so no account and squeue
 # for the job status; its jobs are seconds long, so the first status check after 2 s instead of

@@ -13,7 +13,7 @@ import pytest
 
 from ldpipe.cli import main
 from ldpipe.config import load_config, load_schema, validate_config
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine.settings import DEFAULT_ESCAPE_RADIUS
 from ldpipe.errors import ConfigError
 from ldpipe.stages.figures import run_figure

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from ldpipe.datafile import open_stage_file
+from ldpipe.io.datafile import open_stage_file
 from support.workflow import SNAKEMAKE
 
 pytestmark = pytest.mark.slow

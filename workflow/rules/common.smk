@@ -7,7 +7,7 @@ try:
     import ldpipe
     from ldpipe.config import validate_config
     from ldpipe.errors import ConfigError
-    from ldpipe.provenance import library_sources
+    from ldpipe.io.provenance import library_sources
     from ldpipe.systems import has_equilibria, is_vector_field
 except ImportError as error:
     raise WorkflowError(

@@ -9,7 +9,7 @@ Modules, one job each:
   stopping rules), validated numerical choices, every default stated once;
 - :mod:`~ldpipe.engine.schemes` — the integration schemes, one module each, and their
   registry ``SCHEMES`` (DOP853 generated with its tableau as literals, the Taylor series);
-- :mod:`ldpipe.tableaux` — coefficients of the schemes;
+- :mod:`ldpipe.engine.schemes.tableaux` — coefficients of the schemes;
 - :mod:`~ldpipe.engine.stepping` — the block workspace layout (structure of arrays, per-lane h)
   and what the code generator needs of a scheme;
 - :mod:`~ldpipe.engine.integrands` — the LD integrands (p = 1/2, 1, general p, arc length) and

@@ -15,7 +15,7 @@ import weakref
 
 import numpy as np
 
-from .. import tableaux
+from .schemes import tableaux
 from ..jitcache import load_generated_module
 from .codegen import JIT_OPTIONS, _literal, _module_names, template
 from .integrands import KINDS

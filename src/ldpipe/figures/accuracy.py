@@ -1,4 +1,4 @@
-"""The work–precision diagram of the accuracy–cost stage's file (:data:`ldpipe.contracts.ACCURACY_COST`).
+"""The work–precision diagram of the accuracy–cost stage's file (:data:`ldpipe.io.contracts.ACCURACY_COST`).
 
 One column per sampled LD map, one for the periodic orbit and one for the NHIM point (each
 when measured), log–log throughout, error against wall time:
@@ -27,8 +27,8 @@ import numpy as np
 import xarray as xr
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from ..contracts import ACCURACY_COST
-from ..datafile import open_stage_file
+from ..io.contracts import ACCURACY_COST
+from ..io.datafile import open_stage_file
 from ..engine.schemes import SCHEMES
 from ..logs import get_logger
 from ..text import short_number

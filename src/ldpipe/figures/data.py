@@ -1,6 +1,6 @@
 """What the figures read from stage files, in the shapes the drawing code wants.
 
-Each loader opens one stage file through :func:`ldpipe.datafile.open_stage_file` (which names
+Each loader opens one stage file through :func:`ldpipe.io.datafile.open_stage_file` (which names
 the file in every error), keeps only what a figure draws, and lets the rest go, so that a
 figure of several 1500 x 1500 maps never holds more than one whole file in memory.
 """
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
-from ..datafile import open_stage_file, stage_parameters
+from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
+from ..io.datafile import open_stage_file, stage_parameters
 from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..sections import Section, section_states

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contracts import NHIM
-from ..datafile import open_stage_file
+from ..io.contracts import NHIM
+from ..io.datafile import open_stage_file
 from . import style
 from .data import load_ld_map
 

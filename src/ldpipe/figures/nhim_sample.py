@@ -16,8 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from ..contracts import NHIM_SAMPLING
-from ..datafile import open_stage_file
+from ..io.contracts import NHIM_SAMPLING
+from ..io.datafile import open_stage_file
 from . import style
 from .data import load_orbits
 

@@ -15,8 +15,8 @@ import numpy as np
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 
-from ..contracts import UPO
-from ..datafile import open_stage_file, stage_parameters
+from ..io.contracts import UPO
+from ..io.datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..systems import make_system
 from . import style

@@ -17,8 +17,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..contracts import SADDLE_FLUX  # noqa: E402
-from ..datafile import open_stage_file  # noqa: E402
+from ..io.contracts import SADDLE_FLUX  # noqa: E402
+from ..io.datafile import open_stage_file  # noqa: E402
 from . import style  # noqa: E402
 
 

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from ..contracts import POINCARE
-from ..datafile import open_stage_file, stage_parameters
+from ..io.contracts import POINCARE
+from ..io.datafile import open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..sections import Section
 from ..systems import make_system

@@ -20,8 +20,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..contracts import TRANSPORT  # noqa: E402
-from ..datafile import open_stage_file, stage_parameters  # noqa: E402
+from ..io.contracts import TRANSPORT  # noqa: E402
+from ..io.datafile import open_stage_file, stage_parameters  # noqa: E402
 from ..systems import make_system  # noqa: E402
 from . import style  # noqa: E402
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..engine import compute_ld
 from ..sections import solve_momentum
-from .fates import Cost, RefinementFailed, RefinementSettings, _clip_to_allowed, fate_settings
+from .fates import Cost, RefinementFailed, RefinementSettings, clip_to_allowed, fate_settings
 from .slices import SliceProblem
 
 #: A task: yields requests, receives their answers, returns its result.
@@ -143,8 +143,8 @@ def bisect_task(problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, dir
     """:func:`ldpipe.nhim.bisect_fate_switch` as a task, each segment in its own direction of time
     (so the forward and backward curves are bisected in the same rounds): returns (points, widths)."""
     directions = np.asarray(directions)
-    lo = _clip_to_allowed(problem, np.array(starts, dtype=np.float64), np.array(ends, dtype=np.float64))
-    hi = _clip_to_allowed(problem, np.array(ends, dtype=np.float64), np.array(starts, dtype=np.float64))
+    lo = clip_to_allowed(problem, np.array(starts, dtype=np.float64), np.array(ends, dtype=np.float64))
+    hi = clip_to_allowed(problem, np.array(ends, dtype=np.float64), np.array(starts, dtype=np.float64))
     fates = (yield problem, "fates", np.vstack([lo, hi]), np.concatenate([directions, directions]))["fate"]
     f_lo, f_hi = fates[: len(lo)], fates[len(lo):]
     bad = (f_lo * f_hi) != -1

@@ -134,7 +134,7 @@ def exit_fates(
     return fate, exit_time
 
 
-def _clip_to_allowed(problem: SliceProblem, ends: np.ndarray, others: np.ndarray) -> np.ndarray:
+def clip_to_allowed(problem: SliceProblem, ends: np.ndarray, others: np.ndarray) -> np.ndarray:
     """Move each segment end that lies outside the energetically allowed region towards the segment's
     midpoint until it is inside (to 1e-3 of the half-segment), so a bracket near the boundary of the
     allowed region still has two integrable ends. Shapes (m, 2)."""

@@ -25,8 +25,8 @@ from ..accuracy import (
     load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset, sample_indices,
     same_number,
 )
-from ..contracts import ACCURACY_COST, EQUILIBRIA
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import ACCURACY_COST, EQUILIBRIA
+from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
 from ..errors import ConfigError, StageFileError
 from ..ld_grid import ld_grid_dataset
@@ -40,11 +40,11 @@ from .upo import upo_parameters
 
 log = get_logger(__name__)
 
-#: Why the LD reference is trusted, recorded in the file (measured with ldpipe.reference_ld,
+#: Why the LD reference is trusted, recorded in the file (measured with ldpipe.testing.reference_ld,
 #: an independent LD: scipy DOP853 at 1e-13, every velocity zero crossing located, Gauss–Jacobi
 #: rules on the pieces; see README "What accuracy costs").
 REFERENCE_VALIDATION = (
-    "sym6 at dt 0.005 against ldpipe.reference_ld (independent: scipy DOP853 rtol 1e-13, located velocity zero "
+    "sym6 at dt 0.005 against ldpipe.testing.reference_ld (independent: scipy DOP853 rtol 1e-13, located velocity zero "
     "crossings, Gauss-Jacobi rules): relative LD difference median 6e-14, max 4e-12 on 57 non-escaping points of "
     "fig3_dE0.125 (fixed time, tau 50), median 4e-14, max 3e-13 on 300 points of fig4_k-7.0 (variable time). "
     "dop853 at rtol 1e-13 was the worse reference (max 4e-10 and 5e-11 on the same points). "

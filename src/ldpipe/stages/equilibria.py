@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..systems import equilibrium_box, system_coordinates, system_spec
-from ..contracts import EQUILIBRIA, FLOW_EQUILIBRIA
-from ..datafile import write_stage_file
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA
+from ..io.datafile import write_stage_file
 from ..equilibria import equilibria_dataset
 from ..flow_equilibria import vector_field_equilibria_dataset
 from ..logs import get_logger

@@ -289,7 +289,7 @@ def draw_figure(kind: str, settings: dict, inputs: dict):
 def refuse_empty_maps(figure_name: str, ld_maps) -> None:
     """Stop, naming map and figure, where an LD map the figure draws has no energetically allowed
     point: its panel would be all grey."""
-    from ..datafile import open_stage_file
+    from ..io.datafile import open_stage_file
 
     for path in _as_list(ld_maps):
         dataset = open_stage_file(path, stage="ld_grid", variables=("allowed",))

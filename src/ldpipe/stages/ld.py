@@ -15,8 +15,8 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, LD_GRID, LD_TILE
-from ..datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
+from ..io.contracts import EQUILIBRIA, LD_GRID, LD_TILE
+from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle

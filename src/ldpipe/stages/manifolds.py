@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from ..systems import system_spec
-from ..contracts import MANIFOLDS, UPO
-from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.contracts import MANIFOLDS, UPO
+from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger

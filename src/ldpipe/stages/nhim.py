@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
-from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
+from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map
 from ..logs import get_logger

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, NHIM_ORBITS, UPO
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import EQUILIBRIA, NHIM_ORBITS, UPO
+from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, NHIM_SAMPLING
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import EQUILIBRIA, NHIM_SAMPLING
+from ..io.datafile import open_stage_file, write_stage_file
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..nhim import Cost, RefinementSettings, make_slice_problem

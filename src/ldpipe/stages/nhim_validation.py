@@ -1,7 +1,7 @@
 """NHIM validation stage: the tables of the NHIM studies against their references, and the verdict.
 
-It reads only the study files (:data:`ldpipe.contracts.NHIM`) and the orbit validation files
-(:data:`ldpipe.contracts.NHIM_ORBITS`), so a change to the NHIM science or the engine reruns
+It reads only the study files (:data:`ldpipe.io.contracts.NHIM`) and the orbit validation files
+(:data:`ldpipe.io.contracts.NHIM_ORBITS`), so a change to the NHIM science or the engine reruns
 those, and this stage only through their outputs. Two tables: the LD-map studies
 (``validation``) and the slices through periodic-orbit points (``validation_orbits``).
 """
@@ -11,8 +11,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from ..contracts import NHIM, NHIM_ORBITS
-from ..datafile import open_stage_file
+from ..io.contracts import NHIM, NHIM_ORBITS
+from ..io.datafile import open_stage_file
 from ..errors import LdpipeError
 from ..logs import get_logger
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import numba
 
 from ..systems import system_spec
-from ..contracts import EQUILIBRIA, POINCARE
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import EQUILIBRIA, POINCARE
+from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..flow import FlowSettings

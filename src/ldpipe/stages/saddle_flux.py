@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, SADDLE_FLUX
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import EQUILIBRIA, SADDLE_FLUX
+from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle, well_and_frequencies
 from ..errors import ConfigError
 from ..flow import FlowSettings

@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..contracts import EQUILIBRIA, TRANSPORT, UPO
-from ..datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.contracts import EQUILIBRIA, TRANSPORT, UPO
+from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ..equilibria import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings

@@ -16,8 +16,8 @@ import numpy as np
 import xarray as xr
 
 from ..systems import system_spec
-from ..contracts import EQUILIBRIA, UPO
-from ..datafile import open_stage_file, write_stage_file
+from ..io.contracts import EQUILIBRIA, UPO
+from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..logs import get_logger

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from ..sections import _potential
+from ..sections import potential_of_columns
 from ..systems import System
 
 
@@ -61,7 +61,7 @@ class DividingPlane:
     def potential(self, u: np.ndarray) -> np.ndarray:
         """V at plane coordinates ``u`` of shape (count, 2)."""
         q = self.saddle[None, :] + np.asarray(u, dtype=np.float64) @ self.tangents
-        return _potential(self.system, np.ascontiguousarray(q.T))
+        return potential_of_columns(self.system, np.ascontiguousarray(q.T))
 
     def radius(self, theta: float) -> float:
         """Distance from the saddle along direction θ of the plane to the first point where V = E."""

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..flow import FlowSettings, integrate
 from .flux import DividingLine
-from .well import _ray_radius
+from .well import ray_radius
 
 
 def sample_well(system, well, energy: float, lines: Sequence[DividingLine], count: int,
@@ -43,7 +43,7 @@ def sample_well(system, well, energy: float, lines: Sequence[DividingLine], coun
     """``count`` states (x, y, p_x, p_y) uniform on the energy shell of the well (microcanonical)."""
     well = np.asarray(well, dtype=np.float64)
     angles = np.linspace(-math.pi, math.pi, 721)
-    reach = 1.05 * max(_ray_radius(system, well, energy, lines, t, 0.05) for t in angles) + 0.1
+    reach = 1.05 * max(ray_radius(system, well, energy, lines, t, 0.05) for t in angles) + 0.1
     lower, upper = well - reach, well + reach
     out, have = [], 0
     while have < count:

@@ -18,7 +18,7 @@ from scipy import optimize
 from .flux import DividingLine
 
 
-def _ray_radius(system, well: np.ndarray, energy: float, lines: Sequence[DividingLine], theta: float,
+def ray_radius(system, well: np.ndarray, energy: float, lines: Sequence[DividingLine], theta: float,
                 step: float) -> float:
     """Distance from ``well`` along direction θ to the first of: V = E, or a dividing line (s = 0)."""
     direction = np.array([math.cos(theta), math.sin(theta)])
@@ -64,7 +64,7 @@ def well_area(system, well, energy: float, lines: Sequence[DividingLine] = (), *
     for a, b in zip(kinks[:-1], kinks[1:]):
         if b - a < 1e-15:
             continue
-        value, _ = sp_integrate.quad(lambda t: 0.5 * _ray_radius(system, well, energy, lines, t, step) ** 2, a, b,
+        value, _ = sp_integrate.quad(lambda t: 0.5 * ray_radius(system, well, energy, lines, t, step) ** 2, a, b,
                                      epsabs=0.0, epsrel=1e-11, limit=200)
         total += value
     return float(total)

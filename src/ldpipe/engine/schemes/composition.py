@@ -1,7 +1,7 @@
 """The symplectic compositions ``sym4`` and ``sym6`` (template ``templates/composition.py``).
 
 Compositions of the kick-drift-kick Störmer–Verlet map with the weights of
-:mod:`ldpipe.tableaux`: Suzuki's fourth-order five-stage composition (5 forces per step) and
+:mod:`ldpipe.engine.schemes.tableaux`: Suzuki's fourth-order five-stage composition (5 forces per step) and
 Yoshida's triple jump of it (sixth order, 15 forces per step). One class, one record per set
 of weights. Dense output as for rk4: the quintic Hermite interpolant (``templates/hermite.py``).
 """
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ... import tableaux
+from . import tableaux
 from ..stepping import Layout, SchemeSource
 from .base import FixedStepScheme
 

@@ -1,6 +1,6 @@
 """The ``dop853`` scheme: Dormand–Prince 8(5,3), adaptive, generated as source.
 
-DOP853 is generated as source with the tableau (:mod:`ldpipe.tableaux`) written in as
+DOP853 is generated as source with the tableau (:mod:`ldpipe.engine.schemes.tableaux`) written in as
 literals (zero entries dropped), one fused loop per stage, in Nyström form (the step forms no
 stage momenta; see :func:`nystrom_form`).
 """
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ... import tableaux
+from . import tableaux
 from ..stepping import Layout, SchemeSource
 from .base import AdaptiveScheme
 

@@ -320,7 +320,7 @@ def estimate_accuracy(states, tau=50.0, p=0.5, loose=1e-11, tight=1e-13, **kwarg
     }
 
 
-if __name__ == "__main__":  # quick look: python -m ldpipe.reference_ld
+if __name__ == "__main__":  # quick look: python -m ldpipe.testing.reference_ld
     import time
 
     rng = np.random.default_rng(1)

@@ -7,8 +7,8 @@ only two state variables on the grid, the others fixed, and an optional start ti
 
 from __future__ import annotations
 
-from .errors import ConfigError
-from .systems import is_vector_field, system_coordinates, system_phase_coordinates
+from ..errors import ConfigError
+from ..systems import is_vector_field, system_coordinates, system_phase_coordinates
 
 
 def check_interval(value, key: str) -> None:

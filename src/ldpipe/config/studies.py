@@ -5,10 +5,10 @@ energies are in the families named. :func:`ldpipe.config.validate_config` runs t
 
 from __future__ import annotations
 
-from .config_maps import check_interval, check_vector_field_poincare
-from .errors import ConfigError
-from .systems import is_vector_field, system_coordinates
-from .systems.kinetic import kinetic_matrix
+from ..errors import ConfigError
+from ..systems import is_vector_field, system_coordinates
+from ..systems.kinetic import kinetic_matrix
+from .maps import check_interval, check_vector_field_poincare
 
 
 def check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
@@ -253,8 +253,8 @@ def check_accuracy_cost(config: dict) -> None:
         if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
             raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {map_name!r} is of a vector field; the "
                               "accuracy ladder's reference LD and energy errors need a Hamiltonian system")
-    from .engine import IntegratorSettings
-    from .engine.schemes import SCHEMES
+    from ..engine import IntegratorSettings
+    from ..engine.schemes import SCHEMES
 
     for name in ("reference", "reference_check"):
         setting = spec["ld"][name]

@@ -16,14 +16,18 @@ from pathlib import Path
 import jsonschema
 import yaml
 
-from .errors import ConfigError
-from .config_figures import check_figures
-from .config_maps import check_interval, check_ld_maps
-from .config_studies import (
-    check_accuracy_cost, check_nhim, check_nhim_sampling, check_orbits, check_transport_masses,
+from ..errors import ConfigError
+from ..systems import check_builtin_parameters, system_coordinates
+from ..systems.kinetic import kinetic_matrix
+from .figures import check_figures
+from .maps import check_interval, check_ld_maps
+from .studies import (
+    check_accuracy_cost,
+    check_nhim,
+    check_nhim_sampling,
+    check_orbits,
+    check_transport_masses,
 )
-from .systems import check_builtin_parameters, system_coordinates
-from .systems.kinetic import kinetic_matrix
 
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 

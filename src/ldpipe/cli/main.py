@@ -12,14 +12,15 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import __version__, cli_nhim, cli_orbits
-from .config import load_config, validate_config
-from .engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
-from .engine.integrands import ARCLENGTH
-from .errors import ConfigError, LdpipeError
-from .logs import log_to
-from .systems import BUILTINS, is_vector_field
-from .text import short_number
+from .. import __version__
+from ..config import load_config, validate_config
+from ..engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
+from ..engine.integrands import ARCLENGTH
+from ..errors import ConfigError, LdpipeError
+from ..logs import log_to
+from ..systems import BUILTINS, is_vector_field
+from ..text import short_number
+from . import nhim, orbits
 
 EPILOG = """\
 examples:
@@ -80,7 +81,7 @@ def _system_config(args: argparse.Namespace) -> dict:
 
 
 def _run_equilibria(args: argparse.Namespace) -> None:
-    from .stages.equilibria import equilibria_parameters, run_equilibria
+    from ..stages.equilibria import equilibria_parameters, run_equilibria
 
     config = _system_config(args)
     with log_to(None):
@@ -169,10 +170,10 @@ def _solve_options(args: argparse.Namespace) -> dict:
 
 
 def _run_ld(args: argparse.Namespace) -> None:
-    from .contracts import EQUILIBRIA
-    from .datafile import open_stage_file
-    from .stages import equilibria as equilibria_stage
-    from .stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
+    from ..io.contracts import EQUILIBRIA
+    from ..io.datafile import open_stage_file
+    from ..stages import equilibria as equilibria_stage
+    from ..stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
 
     if args.map is not None:
         if args.config is None:
@@ -304,8 +305,8 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.nc", help="netCDF file to write")
     ld.set_defaults(handler=_run_ld)
 
-    cli_orbits.register(commands, EPILOG)
-    cli_nhim.register(commands, EPILOG)
+    orbits.register(commands, EPILOG)
+    nhim.register(commands, EPILOG)
     return parser
 
 

@@ -5,7 +5,7 @@ CF-style global attributes (``Conventions``, ``title``, ``history``,
 ``source``), the stage's parameters as JSON, the ldpipe version and the git
 commit when known. Reading checks that a file is a readable netCDF file written
 by the expected stage, holding the variables the stage's contract
-(:mod:`ldpipe.contracts`) names, and names the file in every error.
+(:mod:`ldpipe.io.contracts`) names, and names the file in every error.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import __version__
+from .. import __version__
+from ..errors import StageFileError
 from .contracts import StageFile
-from .errors import StageFileError
 
 ENGINE = "netcdf4"
 CONVENTIONS = "CF-1.10"
@@ -125,7 +125,7 @@ def open_stage_file(
     Parameters
     ----------
     stage : StageFile or str
-        The stage's contract (:mod:`ldpipe.contracts`), or a bare stage name.
+        The stage's contract (:mod:`ldpipe.io.contracts`), or a bare stage name.
     variables : tuple of str, optional
         The variables the reader needs, which the file must hold: by default every variable of
         the contract (none for a bare name). With a contract, each must be one it names.
@@ -144,7 +144,7 @@ def open_stage_file(
             variables = stage.variables
         unnamed = [name for name in variables if name not in stage.variables]
         if unnamed:
-            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract (ldpipe.contracts)")
+            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract (ldpipe.io.contracts)")
         stage = stage.stage
     variables = variables or ()
     if not path.is_file():

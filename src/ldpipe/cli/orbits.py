@@ -12,11 +12,11 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from .config import load_config
-from .errors import ConfigError
-from .logs import log_to
-from .stages.equilibria import equilibria_file
-from .systems import is_vector_field
+from ..config import load_config
+from ..errors import ConfigError
+from ..logs import log_to
+from ..stages.equilibria import equilibria_file
+from ..systems import is_vector_field
 
 EXAMPLES = """\
   ldpipe upo --config config.yaml --family barbanis_2dof_bottom -o bottom.nc
@@ -33,7 +33,7 @@ def _entry(args: argparse.Namespace, table: str, name: str) -> dict:
 
 
 def _run_upo(args: argparse.Namespace) -> None:
-    from .stages.upo import run_upo, upo_parameters
+    from ..stages.upo import run_upo, upo_parameters
 
     config = _entry(args, "periodic_orbits", args.family)
     parameters = upo_parameters(config, args.family)
@@ -43,8 +43,8 @@ def _run_upo(args: argparse.Namespace) -> None:
 
 
 def _run_manifolds(args: argparse.Namespace) -> None:
-    from .stages.manifolds import manifold_parameters, run_manifolds
-    from .stages.upo import run_upo, upo_parameters
+    from ..stages.manifolds import manifold_parameters, run_manifolds
+    from ..stages.upo import run_upo, upo_parameters
 
     config = _entry(args, "manifolds", args.manifold)
     parameters = manifold_parameters(config, args.manifold)
@@ -58,7 +58,7 @@ def _run_manifolds(args: argparse.Namespace) -> None:
 
 
 def _run_poincare(args: argparse.Namespace) -> None:
-    from .stages.poincare import poincare_parameters, run_poincare
+    from ..stages.poincare import poincare_parameters, run_poincare
 
     config = _entry(args, "poincare_sections", args.section)
     parameters = poincare_parameters(config, args.section)

@@ -6,11 +6,15 @@ from __future__ import annotations
 
 import io
 
-from .config_maps import check_interval
-from .config_studies import check_family_energies, check_names, check_saddle_near, check_system_reference
-from .errors import ConfigError
-from .systems import system_coordinates
-
+from ..errors import ConfigError
+from ..systems import system_coordinates
+from .maps import check_interval
+from .studies import (
+    check_family_energies,
+    check_names,
+    check_saddle_near,
+    check_system_reference,
+)
 
 FIGURE_REQUIRED = {
     "potential": ("system", "plane", "energies"),
@@ -97,7 +101,9 @@ def check_figures(config: dict) -> None:
 def check_caption(text: str, key: str) -> None:
     """A figure's caption is reStructuredText in the report: refuse one docutils cannot read cleanly
     (e.g. ``|v|``, a substitution reference), naming the key, before any stage runs."""
-    from docutils.core import publish_doctree  # only a config with captions pays for the import
+    from docutils.core import (
+        publish_doctree,  # only a config with captions pays for the import
+    )
 
     messages = io.StringIO()
     publish_doctree(text, settings_overrides={"report_level": 2, "halt_level": 5, "warning_stream": messages})

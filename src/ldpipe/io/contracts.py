@@ -2,8 +2,8 @@
 
 A contract names the stage (the ``ldpipe_stage`` attribute every file of it carries) and the
 variables every file of it holds that a later stage or a figure reads. The writing stage
-writes with its contract (:func:`ldpipe.datafile.write_stage_file`); a reader opens with it
-(:func:`ldpipe.datafile.open_stage_file`), which checks the stage and the variables, and may
+writes with its contract (:func:`ldpipe.io.datafile.write_stage_file`); a reader opens with it
+(:func:`ldpipe.io.datafile.open_stage_file`), which checks the stage and the variables, and may
 ask for only some of them (never for one the contract does not name). Readers import this
 module, never the stage that wrote the file: figures and library modules stay below the stages.
 """

@@ -8,7 +8,7 @@ left out: the ``history`` attribute (when and how the file was written) and meas
 (variables named ``*wall_time``); more attributes can be left out by name (``git_commit`` when
 two commits are compared).
 
-    python -m ldpipe.filediff RUN_A/results RUN_B/results [--ignore-attribute git_commit]
+    python -m ldpipe.io.filediff RUN_A/results RUN_B/results [--ignore-attribute git_commit]
         [--exclude 'accuracy/*']
 
 exits 0 when every file of either run has an equal twin in the other, 1 otherwise, and prints
@@ -115,7 +115,7 @@ def compare_runs(first: str | Path, second: str | Path, *, ignore_attributes: fr
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m ldpipe.filediff", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m ldpipe.io.filediff", description=__doc__.split("\n\n")[0])
     parser.add_argument("first", type=Path, help="a results folder (or a netCDF file)")
     parser.add_argument("second", type=Path, help="the results folder (or file) to compare it with")
     parser.add_argument("--ignore-attribute", action="append", default=[], metavar="NAME",

@@ -14,7 +14,7 @@ import ast
 from functools import lru_cache
 from pathlib import Path
 
-PACKAGE_ROOT = Path(__file__).resolve().parent
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = PACKAGE_ROOT.name
 #: Packages whose files are code generation's text (``importlib.resources``), not imports.
 TEXT_SOURCE_PACKAGES = ("ldpipe.engine.templates", "ldpipe.systems.kernels")

@@ -13,8 +13,8 @@ import dataclasses
 import tempfile
 from pathlib import Path
 
-from .config import load_config
-from .logs import log_to
+from ..config import load_config
+from ..logs import log_to
 
 EXAMPLES = """\
   ldpipe nhim results/ld/fig4_k-7.0.nc -o k70.nc --upo results/upo/barbanis_2dof_bottom.nc --validate 1e-7
@@ -23,7 +23,7 @@ EXAMPLES = """\
 
 
 def _refinement(args: argparse.Namespace) -> dict:
-    from .nhim import RefinementSettings
+    from ..nhim import RefinementSettings
 
     if args.config is not None:
         refinement = dict(load_config(args.config)["nhim"]["refinement"])
@@ -41,8 +41,8 @@ def _refinement(args: argparse.Namespace) -> dict:
 
 
 def _run_nhim(args: argparse.Namespace) -> None:
-    from .stages.nhim import run_nhim_study
-    from .stages.nhim_validation import run_nhim_validation
+    from ..stages.nhim import run_nhim_study
+    from ..stages.nhim_validation import run_nhim_validation
 
     refinement = _refinement(args)
     references = [Path(args.upo).stem] if args.upo else []

@@ -1,0 +1,2 @@
+"""Stage files: what each holds (``contracts``), how it is written and read (``datafile``), which
+library files a stage depends on (``provenance``), and comparing two runs' files (``filediff``)."""
