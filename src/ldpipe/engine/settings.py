@@ -66,8 +66,23 @@ def _set(record, name: str, value) -> None:
     object.__setattr__(record, name, value)
 
 
+class _NamesAScheme:
+    """``record`` and ``adaptive`` of a settings class with a ``scheme`` field."""
+
+    scheme: str
+
+    @property
+    def record(self):
+        """The scheme's record in the registry (:data:`ldpipe.engine.schemes.SCHEMES`)."""
+        return SCHEMES[self.scheme]
+
+    @property
+    def adaptive(self) -> bool:
+        return self.record.adaptive
+
+
 @dataclass(frozen=True)
-class IntegratorSettings:
+class IntegratorSettings(_NamesAScheme):
     """The integrator of an LD map: the config's ``integrator:`` block.
 
     Parameters
@@ -131,15 +146,6 @@ class IntegratorSettings:
         if given != {"dt"}:
             raise ValueError(f"{scheme.name}: expected dt and no rtol/atol, got {spec}")
         return cls(scheme.name, dt=spec["dt"])
-
-    @property
-    def record(self):
-        """The scheme's record in the registry."""
-        return SCHEMES[self.scheme]
-
-    @property
-    def adaptive(self) -> bool:
-        return self.record.adaptive
 
     def numbers(self) -> dict[str, float]:
         """rtol, atol and dt, 0 for those the scheme does not use (the ladder stores them so)."""
@@ -251,7 +257,7 @@ _PARTS = {
 
 
 @dataclass(frozen=True)
-class LDSettings:
+class LDSettings(_NamesAScheme):
     """Numerical settings of :func:`ldpipe.engine.compute_ld`, flat.
 
     The fields are those of :class:`IntegratorSettings` (scheme, rtol, atol, taylor_order, dt,
@@ -313,15 +319,6 @@ class LDSettings:
     @property
     def stopping(self) -> StoppingRules:
         return self._part("stopping")
-
-    @property
-    def record(self):
-        """The scheme's record in the registry (:data:`ldpipe.engine.schemes.SCHEMES`)."""
-        return SCHEMES[self.scheme]
-
-    @property
-    def adaptive(self) -> bool:
-        return self.record.adaptive
 
     @property
     def order(self) -> int | None:

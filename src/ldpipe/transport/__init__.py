@@ -1,4 +1,4 @@
-"""Transport over an index-1 saddle: flux, reactive islands and rates (issue 17).
+"""Transport over an index-1 saddle: flux, reactive islands and rates.
 
 In 2 DoF three quantities must agree (MacKay 1990; reactive-island theory): the action
 of the Lyapunov orbit, the symplectic area enclosed by a manifold tube's cut with a

@@ -485,7 +485,7 @@ class Taylor(AdaptiveScheme):
     def lanes(self, settings) -> int:
         """32 for the arc length (its series workspace and polynomials of 64 lanes outgrow a 48 KB L1
         cache), else 64. Measured (1/3 of the 300^2 benchmark grid, one thread, per CPU second, 32 and
-        64 alternating, load 2.6-3): 32 lanes 1.09x at rtol 1e-8, 1.05x at 1e-10, 1.07-1.08x at 1e-12;
+        64 alternating): 32 lanes 1.09x at rtol 1e-8, 1.05x at 1e-10, 1.07-1.08x at 1e-12;
         16 slower than 32; the same LDs to the bit. |v|^p keeps 64 (not measured)."""
         return 32 if is_arclength(settings.p) else 64
 

@@ -29,7 +29,7 @@ component at a time: ``component_integral`` below)
     samples (``pair_possible``, with a bound of |v''| from the coefficients), unless ``pair_check``
     (flag_checks.py) rules the pair out with a bound over each sample interval.
 
-near-touches (a dip of |v| towards zero that turns back, or a double root; issue 18)
+near-touches (a dip of |v| towards zero that turns back, or a double root)
     The fast pass and ``special`` flag a component without a sign change where the local
     quadratic at an end has complex roots within DIP_PER_WINDOW * window, or where
     ``dip_possible`` holds at the nodes; the scalar path records such minima (``root_pair``)
@@ -58,8 +58,9 @@ ROOT_ITERATIONS = 60
 # where such a pair could lie within width = DIP_PER_WINDOW * window step lengths of a sample
 # (``dip_possible``): 0.25 at the window 0.1 of loose tolerances, 0.5 at 0.2 (measured on
 # Hénon–Heiles near-touches with dop853 at rtol 1e-12: worst LD error 3e-10 with 0.25, 1.5e-11
-# with 0.5, 3e-12 with 16 nodes). The cost (Barbanis section, dop853, CPU time against before
-# issue 18): 1.23x at rtol 1e-6 and 1e-8, 1.05x at 1e-10 with 2.5; ~1.08x at 1e-6/1e-8 with 1.5,
+# with 0.5, 3e-12 with 16 nodes). The cost (Barbanis section, dop853, CPU time against the
+# quadrature without the near-touch rule): 1.23x at rtol 1e-6 and 1e-8, 1.05x at 1e-10 with 2.5;
+# ~1.08x at 1e-6/1e-8 with 1.5,
 # whose worst error at rtol 1e-12 is 1.6e-10 (no longer falling 10x per two decades of rtol).
 DIP_PER_WINDOW = 2.5
 MAX_DIPS = 4  # dips kept per component and step, at the top of the ``roots`` scratch
