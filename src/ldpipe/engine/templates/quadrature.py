@@ -60,8 +60,8 @@ ROOT_ITERATIONS = 60
 # Hénon–Heiles near-touches with dop853 at rtol 1e-12: worst LD error 3e-10 with 0.25, 1.5e-11
 # with 0.5, 3e-12 with 16 nodes). The cost (Barbanis section, dop853, CPU time against the
 # quadrature without the near-touch rule): 1.23x at rtol 1e-6 and 1e-8, 1.05x at 1e-10 with 2.5;
-# ~1.08x at 1e-6/1e-8 with 1.5,
-# whose worst error at rtol 1e-12 is 1.6e-10 (no longer falling 10x per two decades of rtol).
+# ~1.08x at 1e-6/1e-8 with 1.5, whose worst error at rtol 1e-12 is 1.6e-10 (no longer falling
+# 10x per two decades of rtol).
 DIP_PER_WINDOW = 2.5
 MAX_DIPS = 4  # dips kept per component and step, at the top of the ``roots`` scratch
 SINH_PANEL = 1.0  # panel width in w of the sinh rule (its integrand is analytic for |Im w| < pi / 2)
