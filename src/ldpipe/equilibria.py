@@ -197,6 +197,22 @@ def locate_equilibria(
     return closed, details
 
 
+def spectrum_variables(eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> dict[str, tuple]:
+    """The Jacobian's eigenvalues, shape (k, modes), and unit eigenvectors, shape (k, modes, phase),
+    at k equilibria as the variables of an equilibria file, Hamiltonian or flow alike (real and
+    imaginary parts apart: netCDF has no complex type)."""
+    return {
+        "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
+                            {"long_name": "real part of the Jacobian eigenvalue"}),
+        "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
+                            {"long_name": "imaginary part of the Jacobian eigenvalue"}),
+        "eigenvector_real": (("equilibrium", "mode", "phase"), eigenvectors.real,
+                             {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
+        "eigenvector_imag": (("equilibrium", "mode", "phase"), eigenvectors.imag,
+                             {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+    }
+
+
 def equilibria_dataset(
     system: System,
     box: dict[str, list[float]],
@@ -224,14 +240,7 @@ def equilibria_dataset(
                                    np.array([a.hessian_eigenvalues for a in analyses]).reshape(-1, n),
                                    {"long_name": "eigenvalues of the Hessian of V, ascending" if system.mass_matrix is None
                                     else "eigenvalues h of Hess V u = h M u (M the mass_matrix), ascending"}),
-            "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
-                                {"long_name": "real part of the Jacobian eigenvalue"}),
-            "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
-                                {"long_name": "imaginary part of the Jacobian eigenvalue"}),
-            "eigenvector_real": (("equilibrium", "mode", "phase"), eigenvectors.real,
-                                 {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
-            "eigenvector_imag": (("equilibrium", "mode", "phase"), eigenvectors.imag,
-                                 {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+            **spectrum_variables(eigenvalues, eigenvectors),
             "saddle_equilibrium": (("saddle",), np.array(saddles, dtype=np.int32),
                                    {"long_name": "index along 'equilibrium' of each index-1 saddle"}),
             "critical_energy": (("saddle",), energies[saddles] if saddles else np.empty(0),

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .equilibria import box_bounds, roots_in_box
+from .equilibria import box_bounds, roots_in_box, spectrum_variables
 from .errors import ConfigError
 
 
@@ -75,13 +75,7 @@ def vector_field_equilibria_dataset(system, box: dict[str, list[float]], seeds_p
                                    {"long_name": "number of Jacobian eigenvalues with positive real part"}),
             "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32),
                                  {"long_name": "number of Jacobian eigenvalues with negative real part"}),
-            "eigenvalue_real": (("equilibrium", "mode"), values.real, {"long_name": "real part of the Jacobian eigenvalue"}),
-            "eigenvalue_imag": (("equilibrium", "mode"), values.imag,
-                                {"long_name": "imaginary part of the Jacobian eigenvalue"}),
-            "eigenvector_real": (("equilibrium", "mode", "phase"), vectors.real,
-                                 {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
-            "eigenvector_imag": (("equilibrium", "mode", "phase"), vectors.imag,
-                                 {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+            **spectrum_variables(values, vectors),
         },
         coords={
             "coordinate": ("coordinate", np.array(system.coordinates, dtype=object)),
