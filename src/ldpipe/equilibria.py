@@ -67,9 +67,9 @@ def roots_in_box(
 
     Seeds form a ``seeds_per_axis``^n grid over the box; scipy's hybrid solver, given the
     Jacobian, takes each to a root, and Newton's method polishes it. A root is kept if inside the
-    box with ``|f| <= tolerance`` (scaled by the size of the Jacobian there and of the box, so the
-    test does not depend on the units of f), and merged with one found before when closer than
-    ``sqrt(tolerance)`` times the box size.
+    box with ``|f| <= tolerance`` scaled by the sizes of the Jacobian there and of the box, each
+    at least 1 (|f| / |Df| estimates the distance to the root), and merged with one found before
+    when closer than ``sqrt(tolerance)`` times the box size.
     """
     axes = [np.linspace(lo, hi, seeds_per_axis) for lo, hi in zip(lower, upper)]
     scale = float(np.max(upper - lower))
