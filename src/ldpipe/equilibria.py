@@ -7,11 +7,16 @@ eigenvalue of J is real (a saddle direction, h < 0) or imaginary (a centre, h > 
 and the Morse index of V (the count of h < 0; M positive definite leaves it unchanged,
 Sylvester's law of inertia) gives the type: 0 a minimum, 1 an index-1 saddle
 (saddle x centre^(n-1)), and so on.
+
+The multi-start search for roots in a box (:func:`roots_in_box`) is written once, over a
+function and its Jacobian: here f = grad V with the Hessian, in ``flow_equilibria`` the vector
+field of a general flow with Df.
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +24,7 @@ import xarray as xr
 from scipy.optimize import root
 
 from .errors import ConfigError, StageFileError
-from .systems import System
+from .systems import System, VectorFieldSystem
 
 
 @dataclass(frozen=True)
@@ -33,22 +38,55 @@ class LinearAnalysis:
     kind: str
 
 
-def box_bounds(system: System, box: dict[str, list[float]]) -> tuple[np.ndarray, np.ndarray]:
+def box_bounds(system: System | VectorFieldSystem, box: dict[str, list[float]]) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper corners of the search box, in coordinate order."""
     lower = np.array([box[name][0] for name in system.coordinates], dtype=float)
     upper = np.array([box[name][1] for name in system.coordinates], dtype=float)
     return lower, upper
 
 
-def _newton_polish(system: System, q: np.ndarray, iterations: int = 3) -> np.ndarray:
-    # A few Newton steps on grad V = 0 take a hybrid solver's answer to rounding level.
+def _newton_polish(function: Callable, jacobian: Callable, x: np.ndarray, iterations: int = 3) -> np.ndarray:
+    # A few Newton steps on f = 0 take a hybrid solver's answer to rounding level.
     for _ in range(iterations):
-        hessian = system.hessian(q)
         try:
-            q = q - np.linalg.solve(hessian, system.gradient(q))
+            x = x - np.linalg.solve(jacobian(x), function(x))
         except np.linalg.LinAlgError:
             break
-    return q
+    return x
+
+
+def roots_in_box(
+    function: Callable[[np.ndarray], np.ndarray],
+    jacobian: Callable[[np.ndarray], np.ndarray],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    seeds_per_axis: int = 9,
+    tolerance: float = 1e-10,
+) -> np.ndarray:
+    """Roots of ``function`` (R^n to R^n, Jacobian ``jacobian``) in the box, shape (k, n), sorted.
+
+    Seeds form a ``seeds_per_axis``^n grid over the box; scipy's hybrid solver, given the
+    Jacobian, takes each to a root, and Newton's method polishes it. A root is kept if inside the
+    box with ``|f| <= tolerance`` scaled by the sizes of the Jacobian there and of the box, each
+    at least 1 (|f| / |Df| estimates the distance to the root), and merged with one found before
+    when closer than ``sqrt(tolerance)`` times the box size.
+    """
+    axes = [np.linspace(lo, hi, seeds_per_axis) for lo, hi in zip(lower, upper)]
+    scale = float(np.max(upper - lower))
+    found: list[np.ndarray] = []
+    for seed in itertools.product(*axes):
+        solution = root(function, np.array(seed), jac=jacobian, method="hybr")
+        x = _newton_polish(function, jacobian, solution.x)
+        if not np.all(np.isfinite(x)) or np.any(x < lower) or np.any(x > upper):
+            continue
+        size = max(1.0, float(np.max(np.abs(jacobian(x)))))
+        if np.max(np.abs(function(x))) > tolerance * size * max(1.0, scale):
+            continue
+        if all(np.max(np.abs(x - other)) > np.sqrt(tolerance) * scale for other in found):
+            found.append(x)
+    if not found:
+        return np.empty((0, len(lower)))
+    return np.array(sorted(found, key=tuple))
 
 
 def numeric_equilibria(
@@ -58,29 +96,9 @@ def numeric_equilibria(
     seeds_per_axis: int = 9,
     tolerance: float = 1e-10,
 ) -> np.ndarray:
-    """Critical points of V in the box by multi-start root finding on grad V.
-
-    Seeds form a ``seeds_per_axis``^n grid over the box; roots are polished by
-    Newton's method, kept if inside the box with ``|grad V| <= tolerance`` (scaled
-    by the size of the Hessian there), and merged when closer than
-    ``sqrt(tolerance)`` times the box size.
-    """
-    axes = [np.linspace(lo, hi, seeds_per_axis) for lo, hi in zip(lower, upper)]
-    scale = float(np.max(upper - lower))
-    found: list[np.ndarray] = []
-    for seed in itertools.product(*axes):
-        solution = root(system.gradient, np.array(seed), jac=system.hessian, method="hybr")
-        q = _newton_polish(system, solution.x)
-        if not np.all(np.isfinite(q)) or np.any(q < lower) or np.any(q > upper):
-            continue
-        curvature = max(1.0, float(np.max(np.abs(system.hessian(q)))))
-        if np.max(np.abs(system.gradient(q))) > tolerance * curvature * max(1.0, scale):
-            continue
-        if all(np.max(np.abs(q - other)) > np.sqrt(tolerance) * scale for other in found):
-            found.append(q)
-    if not found:
-        return np.empty((0, system.n_dof))
-    return np.array(sorted(found, key=tuple))
+    """Critical points of V in the box, shape (k, n_dof): the roots of grad V, with the Hessian
+    as its Jacobian (see :func:`roots_in_box` for the seeds, the acceptance test and the merge)."""
+    return roots_in_box(system.gradient, system.hessian, lower, upper, seeds_per_axis, tolerance)
 
 
 def classify(morse_index: int, n_dof: int, degenerate: bool) -> str:
@@ -179,6 +197,22 @@ def locate_equilibria(
     return closed, details
 
 
+def spectrum_variables(eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> dict[str, tuple]:
+    """The Jacobian's eigenvalues, shape (k, modes), and unit eigenvectors, shape (k, modes, phase),
+    at k equilibria as the variables of an equilibria file, Hamiltonian or flow alike (real and
+    imaginary parts apart: netCDF has no complex type)."""
+    return {
+        "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
+                            {"long_name": "real part of the Jacobian eigenvalue"}),
+        "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
+                            {"long_name": "imaginary part of the Jacobian eigenvalue"}),
+        "eigenvector_real": (("equilibrium", "mode", "phase"), eigenvectors.real,
+                             {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
+        "eigenvector_imag": (("equilibrium", "mode", "phase"), eigenvectors.imag,
+                             {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+    }
+
+
 def equilibria_dataset(
     system: System,
     box: dict[str, list[float]],
@@ -206,14 +240,7 @@ def equilibria_dataset(
                                    np.array([a.hessian_eigenvalues for a in analyses]).reshape(-1, n),
                                    {"long_name": "eigenvalues of the Hessian of V, ascending" if system.mass_matrix is None
                                     else "eigenvalues h of Hess V u = h M u (M the mass_matrix), ascending"}),
-            "eigenvalue_real": (("equilibrium", "mode"), eigenvalues.real,
-                                {"long_name": "real part of the Jacobian eigenvalue"}),
-            "eigenvalue_imag": (("equilibrium", "mode"), eigenvalues.imag,
-                                {"long_name": "imaginary part of the Jacobian eigenvalue"}),
-            "eigenvector_real": (("equilibrium", "mode", "phase"), eigenvectors.real,
-                                 {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
-            "eigenvector_imag": (("equilibrium", "mode", "phase"), eigenvectors.imag,
-                                 {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+            **spectrum_variables(eigenvalues, eigenvectors),
             "saddle_equilibrium": (("saddle",), np.array(saddles, dtype=np.int32),
                                    {"long_name": "index along 'equilibrium' of each index-1 saddle"}),
             "critical_energy": (("saddle",), energies[saddles] if saddles else np.empty(0),

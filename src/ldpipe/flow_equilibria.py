@@ -1,55 +1,27 @@
 """Equilibria of an autonomous vector field dx/dt = f(x) in a box, and their eigenvalues.
 
 A general flow has no energy and no Hessian: its equilibria are the roots of f, found by the
-same multi-start search as the Hamiltonian's (a grid of seeds, scipy's hybrid root finder with
-the compiled Jacobian, Newton polish, merge), and its linear analysis is the spectrum of the
-Jacobian Df there. The type counts the eigenvalues with positive and negative real part
-(the unstable and stable dimensions): a ``sink``, a ``source``, a ``saddle`` (both), or
-``non-hyperbolic`` where an eigenvalue's real part is zero to the tolerance. A time-dependent
-field has no fixed equilibria and is refused.
+same multi-start search as the Hamiltonian's (``equilibria.roots_in_box`` over f and the
+compiled Jacobian Df), and its linear analysis is the spectrum of Df there. The type counts the
+eigenvalues with positive and negative real part (the unstable and stable dimensions): a
+``sink``, a ``source``, a ``saddle`` (both), or ``non-hyperbolic`` where an eigenvalue's real
+part is zero to the tolerance. A time-dependent field has no fixed equilibria and is refused.
 """
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import xarray as xr
-from scipy.optimize import root
 
+from .equilibria import box_bounds, roots_in_box, spectrum_variables
 from .errors import ConfigError
-
-
-def _newton_polish(system, x: np.ndarray, iterations: int = 3) -> np.ndarray:
-    # A few Newton steps on f = 0 take a hybrid solver's answer to rounding level.
-    for _ in range(iterations):
-        try:
-            x = x - np.linalg.solve(system.jacobian(x), system.vector_field(x))
-        except np.linalg.LinAlgError:
-            break
-    return x
 
 
 def vector_field_equilibria(system, lower: np.ndarray, upper: np.ndarray, seeds_per_axis: int = 9,
                             tolerance: float = 1e-10) -> np.ndarray:
-    """Roots of f in the box, shape (k, n_state), sorted; kept where |f| <= tolerance (scaled by
-    the size of Df there and of the box) and merged when closer than sqrt(tolerance) box sizes."""
-    axes = [np.linspace(lo, hi, seeds_per_axis) for lo, hi in zip(lower, upper)]
-    scale = float(np.max(upper - lower))
-    found: list[np.ndarray] = []
-    for seed in itertools.product(*axes):
-        solution = root(system.vector_field, np.array(seed), jac=system.jacobian, method="hybr")
-        x = _newton_polish(system, solution.x)
-        if not np.all(np.isfinite(x)) or np.any(x < lower) or np.any(x > upper):
-            continue
-        size = max(1.0, float(np.max(np.abs(system.jacobian(x)))))
-        if np.max(np.abs(system.vector_field(x))) > tolerance * size * max(1.0, scale):
-            continue
-        if all(np.max(np.abs(x - other)) > np.sqrt(tolerance) * scale for other in found):
-            found.append(x)
-    if not found:
-        return np.empty((0, system.n_state))
-    return np.array(sorted(found, key=tuple))
+    """Roots of f in the box, shape (k, n_state), sorted, with Df as the Jacobian (see
+    :func:`ldpipe.equilibria.roots_in_box` for the seeds, the acceptance test and the merge)."""
+    return roots_in_box(system.vector_field, system.jacobian, lower, upper, seeds_per_axis, tolerance)
 
 
 def classify_flow(eigenvalues: np.ndarray, tolerance: float) -> tuple[str, int, int]:
@@ -76,8 +48,7 @@ def vector_field_equilibria_dataset(system, box: dict[str, list[float]], seeds_p
             f"config key '{key or f'systems.{system.name}'}': system {system.name!r} is a time-dependent vector "
             "field; it has no fixed equilibria (the equilibrium stage applies to autonomous fields)"
         )
-    lower = np.array([box[c][0] for c in system.coordinates], dtype=float)
-    upper = np.array([box[c][1] for c in system.coordinates], dtype=float)
+    lower, upper = box_bounds(system, box)
     positions = vector_field_equilibria(system, lower, upper, seeds_per_axis, tolerance)
     n = system.n_state
     values = np.zeros((len(positions), n), dtype=complex)
@@ -104,13 +75,7 @@ def vector_field_equilibria_dataset(system, box: dict[str, list[float]], seeds_p
                                    {"long_name": "number of Jacobian eigenvalues with positive real part"}),
             "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32),
                                  {"long_name": "number of Jacobian eigenvalues with negative real part"}),
-            "eigenvalue_real": (("equilibrium", "mode"), values.real, {"long_name": "real part of the Jacobian eigenvalue"}),
-            "eigenvalue_imag": (("equilibrium", "mode"), values.imag,
-                                {"long_name": "imaginary part of the Jacobian eigenvalue"}),
-            "eigenvector_real": (("equilibrium", "mode", "phase"), vectors.real,
-                                 {"long_name": "real part of the Jacobian eigenvector (unit norm)"}),
-            "eigenvector_imag": (("equilibrium", "mode", "phase"), vectors.imag,
-                                 {"long_name": "imaginary part of the Jacobian eigenvector (unit norm)"}),
+            **spectrum_variables(values, vectors),
         },
         coords={
             "coordinate": ("coordinate", np.array(system.coordinates, dtype=object)),
