@@ -18,9 +18,8 @@ from docutils.core import publish_parts
 from matplotlib import image
 from packaging.requirements import Requirement
 
-from support.workflow import SNAKEMAKE
+from support.workflow import ROOT, run_snakemake
 
-ROOT = Path(__file__).resolve().parents[2]
 # docutils' system messages as it prints them, e.g. "(ERROR/3) Undefined substitution referenced"
 DOCUTILS_MESSAGE = re.compile(r"\((DEBUG|INFO|WARNING|ERROR|SEVERE)/\d\)")
 
@@ -113,8 +112,7 @@ def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, 
     assert run.returncode == 0, run.stderr[-3000:]
     report = tmp_path / "report.html"
     # the README's command, against the quick configuration of the run
-    built = subprocess.run([SNAKEMAKE, "--report", str(report), "--configfile=config.quick.yaml"],
-                           cwd=workdir, capture_output=True, text=True, timeout=900)
+    built = run_snakemake(workdir, "--report", str(report), "--configfile=config.quick.yaml", timeout=900)
     assert built.returncode == 0, built.stderr[-3000:]
     messages = [line for line in (built.stdout + built.stderr).splitlines() if DOCUTILS_MESSAGE.search(line)]
     assert not messages, messages  # e.g. a caption's |...| read as a substitution
