@@ -1,5 +1,5 @@
 """Systems with a kinetic matrix (``masses`` / ``mass_matrix``): configuration, linearization,
-sections and periodic orbits against closed forms (issue 15, masses).
+sections and periodic orbits against closed forms.
 
 Expected values:
 

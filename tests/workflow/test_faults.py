@@ -1,4 +1,4 @@
-"""Faults (issue 7, item 4): killed writes, bad input files, bad configuration values, reruns.
+"""Faults: killed writes, bad input files, bad configuration values, reruns.
 
 - A process SIGKILLed while ``write_stage_file`` runs (mid-write, or with the data complete
   but not yet renamed) leaves nothing under the final name, and an earlier complete file

@@ -1,4 +1,4 @@
-"""The Snakemake report (issue 14): the main install can build it, its captions are clean
+"""The Snakemake report: the main install can build it, its captions are clean
 reStructuredText, and built from the quick run it shows every figure in a real browser."""
 
 from __future__ import annotations
@@ -62,8 +62,8 @@ def test_plain_captions_render_without_docutils_messages(caption):
 # Shows the result named in the URL's hash exactly as the result's "view" button does (the report
 # is a single-page app without routes: `app` and `results` are its globals); with "?bare" the
 # navigation bar is hidden as its own hide button does, so a screenshot holds the figure alone.
-# The bar slides out with a CSS transition; on a loaded machine a screenshot once caught it still
-# on screen (CI, 2026-11-23), so the bare view switches transitions off and the bar goes at once.
+# The bar slides out with a CSS transition, which a screenshot on a busy machine can catch still
+# on screen, so the bare view switches transitions off and the bar goes at once.
 SHOW_RESULT = """<script>
 if (location.search === "?bare") {
   const still = document.createElement("style");

@@ -1,4 +1,4 @@
-"""The workflow on a real SLURM cluster (issue 8).
+"""The workflow on a real SLURM cluster.
 
 A single-node cluster (munged, slurmctld and slurmd on this machine, accounting off; started by
 tests/workflow/local_cluster.sh) runs stages of the quick configuration through
@@ -100,11 +100,11 @@ def finish(run: subprocess.Popen, workdir: Path) -> str:
 def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quick_run, workdir):
     local, local_result = quick_run
     assert local_result.returncode == 0, local_result.stderr[-5000:]
-    # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on this
-    # 2-core node, so by default the cluster runs one chain of the quick configuration that has
+    # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on two
+    # cores, so by default the cluster runs one chain of the quick configuration that has
     # every kind of job: equilibria, LD tiles as separate multi-threaded jobs, their gather, a
     # periodic-orbit family and the NHIM study of Fig. 4 (12 jobs). LDPIPE_SLURM_TEST=full runs
-    # every stage file instead (~40 jobs, ~6 min here), leaving out the accuracy-cost stage,
+    # every stage file instead (~40 jobs, minutes), leaving out the accuracy-cost stage,
     # whose numbers are wall times, and the figures, which are drawings of these files.
     if os.environ.get("LDPIPE_SLURM_TEST") == "full":
         stage_files = sorted(

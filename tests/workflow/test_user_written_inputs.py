@@ -1,4 +1,4 @@
-"""Inputs exactly as a user writes them (issue 14, items 4-8): numbers such as 1e-10 in YAML, the
+"""Inputs exactly as a user writes them: numbers such as 1e-10 in YAML, the
 escape radius on the command line, an energy below the whole section, the SLURM extra, and a
 formula with Abs."""
 
@@ -42,7 +42,7 @@ ld_maps:
 """
 
 
-# ----------------------------------------------------------------------------- item 4
+# -------------------------------------------------------------- numbers written 1e-10
 
 def test_numbers_written_1e_minus_10_are_numbers_for_ldpipe(tmp_path):
     path = tmp_path / "user.yaml"
@@ -81,7 +81,7 @@ def test_numbers_written_1e_minus_10_are_numbers_for_snakemake(workdir):
     assert "ld_tile" in result.stdout  # the map's tiles are planned
 
 
-# ----------------------------------------------------------------------------- item 5
+# ---------------------------------------------- the escape radius on the command line
 
 def test_escape_radius_from_the_command_line(tmp_path, capsys):
     help_text = subprocess.run([LDPIPE, "ld", "--help"], capture_output=True, text=True).stdout
@@ -105,7 +105,7 @@ def test_escape_radius_from_the_command_line(tmp_path, capsys):
         np.testing.assert_array_equal(a[f"ld_{direction}"].values[same], b[f"ld_{direction}"].values[same])
 
 
-# ----------------------------------------------------------------------------- item 6
+# -------------------------------------------------- an energy below the whole section
 
 def test_an_energy_below_the_whole_section_warns_and_a_figure_of_it_is_refused(tmp_path, capsys):
     out = tmp_path / "empty.nc"
@@ -132,7 +132,7 @@ def test_a_map_with_allowed_points_carries_no_warning(tmp_path):
     assert "warning" not in dataset.attrs
 
 
-# ----------------------------------------------------------------------------- item 7
+# -------------------------------------------------------------------- the SLURM extra
 
 def test_the_slurm_plugin_is_an_extra_of_its_own():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
@@ -145,7 +145,7 @@ def test_the_slurm_plugin_is_an_extra_of_its_own():
     assert "pip install -e '.[slurm]'" in cluster and ".[test]" not in cluster
 
 
-# ----------------------------------------------------------------------------- item 8
+# ----------------------------------------------------------------- a formula with Abs
 
 def test_a_formula_with_abs_is_a_configuration_error_naming_system_and_term(tmp_path, capsys):
     path = tmp_path / "vee.yaml"
