@@ -1,14 +1,11 @@
 """Shared fixtures: the paper's systems and the harmonic oscillators, compiled once per test session,
-and one quick workflow run."""
-
-import subprocess
+one quick workflow run and one lint of the workflow."""
 
 import pytest
 
 from ldpipe.systems import make_system
 from support.closed_forms import oscillator_system
-from support.workflow import SNAKEMAKE, copy_workflow
-
+from support.workflow import copy_workflow, run_snakemake
 
 
 @pytest.fixture(scope="session")
@@ -41,8 +38,11 @@ def quick_run(tmp_path_factory):
     and none may change its results; a test that edits the configuration writes a new file.
     """
     workdir = copy_workflow(tmp_path_factory.mktemp("quick_run"))
-    result = subprocess.run(
-        [SNAKEMAKE, "--configfile", "config.quick.yaml", "--cores", "2"],
-        cwd=workdir, capture_output=True, text=True, timeout=1800,
-    )
-    return workdir, result
+    return workdir, run_snakemake(workdir, "--configfile", "config.quick.yaml", timeout=1800)
+
+
+@pytest.fixture(scope="session")
+def lint(tmp_path_factory):
+    """``snakemake --lint`` of a copy of the workflow, run once (it parses the whole workflow): the
+    workflow test checks it, and the README test, whose text says the lint is clean, reads it."""
+    return run_snakemake(copy_workflow(tmp_path_factory.mktemp("lint")), "--lint")

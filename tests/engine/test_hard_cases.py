@@ -1,4 +1,4 @@
-"""Hard cases of the LD engine and the stages (issue 7, item 2).
+"""Hard cases of the LD engine and the stages.
 
 Each case is checked against a closed form, an invariant, a symmetry or an independent
 integration, never only for "no crash":

@@ -1,4 +1,4 @@
-"""The engine with a kinetic matrix: H = p^T M^-1 p / 2 + V (issue 15, masses).
+"""The engine with a kinetic matrix: H = p^T M^-1 p / 2 + V.
 
 Expected values:
 
@@ -9,7 +9,7 @@ Expected values:
   total variations, the arc length as a fifth state), and the energy, conserved;
 - diagonal masses against the hand-rescaled system q' = sqrt(m) q, p' = p / sqrt(m) (unit
   masses, V'(q') = V(q' / sqrt(m))): the same trajectory in the mapped variables;
-- unit masses given explicitly: no kinetic matrix at all (the code paths of today).
+- unit masses given explicitly: no kinetic matrix at all (the unit-mass code paths).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
-"""Near-touches: a velocity component that comes close to zero without crossing it (issue 18).
+"""Near-touches: a velocity component that comes close to zero without crossing it.
 
 There |v|^p ~ (a + b (t - t_m)^2)^p has its singularities at t_m +- i sqrt(a / b), close to the
-real axis, and a Gauss–Legendre rule over the step stalls: before the fix the LD error on these
-points did not fall with rtol (dop853: 8.9e-6 worst at rtol 1e-8, 1.5e-7 at 1e-12).
+real axis, and a Gauss–Legendre rule over the step stalls: with it alone the LD error on these
+points does not fall with rtol (dop853: 8.9e-6 worst at rtol 1e-8, 1.5e-7 at 1e-12).
 
 Expected values come from the independent reference (ldpipe.testing.reference_ld: scipy DOP853 at
 rtol 1e-13, every crossing and every minimum of each |f_i| located, each piece integrated
@@ -108,10 +108,10 @@ def test_near_touch_error_falls_with_rtol(henon_heiles, touches):
 def test_double_root_at_the_start(scheme, tau, rtols):
     # At x = 5.5 a_y = 0.22 y (x - 5.5) vanishes, and with p_x = 0 x - 5.5 ~ -0.055 t^2: the
     # velocity component p_y' has a double root at t = 0, where a Gauss–Jacobi weight t^p is
-    # wrong (|p_y'|^p ~ t^(2p)). Before: taylor 1.7e-8 over its one step of 0.05, and over
-    # tau = 0.3 2.3e-8 at rtol 1e-10, 1.2e-8 at 1e-12 (not following the tolerance); now ~2e-14.
-    # dop853 at rtol 1e-12 is left out: 1.1e-10 there, before and after issue 18, from another
-    # step (8.5e-12 with 16 quadrature nodes), not from the double root.
+    # wrong (|p_y'|^p ~ t^(2p)). Taken as a root: taylor 1.7e-8 over its one step of 0.05, and over
+    # tau = 0.3 2.3e-8 at rtol 1e-10, 1.2e-8 at 1e-12 (not following the tolerance); as a dip ~2e-14.
+    # dop853 at rtol 1e-12 is left out: 1.1e-10 there either way, from another step (8.5e-12
+    # with 16 quadrature nodes), not from the double root.
     barbanis = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
     kinetic = 2.0 * (E_C + 0.2 - barbanis.potential(np.array([5.5, 7.0])))
     state = np.array([5.5, 7.0, 0.0, math.sqrt(kinetic)])

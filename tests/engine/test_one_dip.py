@@ -1,4 +1,4 @@
-"""The rule for a step whose velocity component has a near-touch (issue 18).
+"""The rule for a step whose velocity component has a near-touch.
 
 ``special`` sends an item without a sign change on its samples, no root near either end and a
 possible near-touch to ``one_dip`` (block_dips.py): the scalar path's search for the minimum

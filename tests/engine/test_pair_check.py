@@ -1,4 +1,4 @@
-"""The vectorized check that spares the scalar path a root-pair flag that holds no pair (issue 18).
+"""The vectorized check that spares the scalar path a root-pair flag that holds no pair.
 
 ``fast`` flags a component whose samples (0, the Gauss nodes, 1) have one sign where
 ``pair_possible`` with a bound of |v''| over the whole step allows two roots between two

@@ -1,4 +1,4 @@
-"""Property-based tests (hypothesis) over random points on the energy surface (issue 7, item 3).
+"""Property-based tests (hypothesis) over random points on the energy surface.
 
 - energy conservation within the tolerance asked for, in the closed well below E_c;
 - time-reversal symmetry of the LD: backward from (q, p) equals forward from (q, -p), for

@@ -30,8 +30,9 @@ def fig3_high_energy_states():
 
 @pytest.mark.parametrize("scheme", ["rk4", "sym4", "sym6"])
 def test_fixed_step_escapes_at_large_dt_are_finite_and_flagged(barbanis, fig3_high_energy_states, scheme):
-    # dt 0.4 overshoots the escape radius by orders of magnitude (LD 1e54..1e129 and inf
-    # energy errors before the fix). Invariant: nothing non-finite, escaped ones stop before tau.
+    # dt 0.4 overshoots the escape radius by orders of magnitude (a step taken across it gives LDs
+    # of 1e54..1e129 and inf energy errors, so it is refused). Invariant: nothing non-finite,
+    # escaped ones stop before tau.
     result = compute_ld(barbanis, fig3_high_energy_states, +1, LDSettings(scheme=scheme, dt=0.4))
     assert np.all(np.isfinite(result.ld)) and np.all(np.isfinite(result.energy_error))
     assert result.escaped.sum() >= 5 and not result.failed.any()

@@ -11,9 +11,9 @@ Every expected value is a closed form, an invariant or an independent integratio
   constant term): scipy's DOP853 at rtol 1e-13, energy, and the hand-derived acceleration;
 - the settings: the order rule and the validation of ``taylor_order``.
 
-A former limit has its test (``test_double_root_at_the_start``): a double root of a velocity
-component at a step's start left an LD error of ~1e-8 that no tolerance removed, until the
-quadrature took double roots as dips (issue 18).
+A double root of a velocity component at a step's start has its test
+(``test_double_root_at_the_start``): taken as a root it leaves an LD error of ~1e-8 that no
+tolerance removes, so the quadrature takes it as a dip (a near-touch of width 0).
 
 Engines are compiled per (system, scheme, order, lanes), ~15 s each: this file uses order 14
 for the formula systems and 13 for the Barbanis system (the default at rtol 1e-12 for |v|^p).
@@ -349,14 +349,14 @@ def test_polynomial_with_symbolic_constant_is_accepted():
     assert terms[0] == pytest.approx({(1, 0): -math.pi}) and terms[1] == {(0, 1): -1.0}
 
 
-# --- a former known limit (issue 18: a double root is now a near-touch of width 0) -----------------
+# --- a double root at a step's start: a near-touch of width 0 --------------------------------------
 
 
 def test_double_root_at_the_start(barbanis):
     # At x = 5.5 a_y = 0.22 y (x - 5.5) vanishes, and with p_x = 0 x - 5.5 ~ -0.055 t^2: the
     # velocity component p_y' has a double root at t = 0. Reference: dop853 at rtol 1e-13
     # (within 5e-13 of an mpmath Taylor integration at 30 digits, tanh-sinh quadrature cut at
-    # the roots). Measured before issue 18: Taylor 1.7e-8 over its one step of 0.05; over
+    # the roots). Taken as a root instead of a dip: Taylor 1.7e-8 over its one step of 0.05; over
     # tau = 0.3, 2.3e-8 at rtol 1e-10 and 1.2e-8 at 1e-12 (not following the tolerance). The
     # same case against the independent reference: tests/engine/test_near_touch.py.
     kinetic = 2.0 * (E_C + 0.2 - barbanis.potential(np.array([5.5, 7.0])))

@@ -1,4 +1,4 @@
-"""The ``taylor`` scheme on potentials that are not polynomials (auxiliary series; issue 15).
+"""The ``taylor`` scheme on potentials that are not polynomials (auxiliary series).
 
 Every expected value is an invariant or an independent integration:
 

@@ -1,4 +1,4 @@
-"""The cheap test that spares the scalar path a near-touch flag beside a root that is no dip (issue 18).
+"""The cheap test that spares the scalar path a near-touch flag beside a root that is no dip.
 
 ``touch_matters`` decides, for a component with a root just outside an end (the Jacobi pieces
 from it) flagged also because a near-touch may be close, whether ``component_integral`` would

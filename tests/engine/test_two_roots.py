@@ -1,4 +1,4 @@
-"""The rule for a step whose velocity component has two roots in or beside it (issue 18).
+"""The rule for a step whose velocity component has two roots in or beside it.
 
 ``special`` sends an item with two sign changes on its samples (0, the Gauss nodes, 1), no root
 near either end outside and no zero end to ``two_roots`` (block_two_roots.py): both roots by

@@ -3,8 +3,6 @@ captions, and (slow) the plan Snakemake makes for one named figure."""
 
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -24,8 +22,8 @@ from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_
 from ldpipe.sections import Section, section_states
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
+from support.workflow import ROOT, job_counts, run_snakemake
 
-ROOT = Path(__file__).resolve().parents[2]
 BARBANIS = {"builtin": "barbanis_2dof", "parameters": {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}}
 E_C = 15.125  # the paper's critical energy of both Barbanis 2 DoF saddles
 SADDLE = np.array([5.5, -np.sqrt(50.0)])  # closed form: x = wy^2/(2|delta|)... y^2 = wx^2 x/|delta|
@@ -300,16 +298,13 @@ def test_bad_figure_entries_name_the_key(change, message):
 
 @pytest.mark.slow
 def test_named_figure_targets_plan_only_their_stages(workdir):
-    snakemake = str(Path(sys.executable).with_name("snakemake"))
-
     def planned(target):
-        result = subprocess.run([snakemake, target, "-n", "--quiet", "rules"], cwd=workdir, capture_output=True,
-                                text=True, timeout=300)
+        result = run_snakemake(workdir, target, "-n", "--quiet", "rules", timeout=300)
         assert result.returncode == 0, result.stderr
-        return dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
+        return job_counts(result.stdout)
 
-    assert planned("fig1") == {"equilibria": "1", "fig1": "1", "total": "2"}
+    assert planned("fig1") == {"equilibria": 1, "fig1": 1}  # two jobs in all
     fig4 = planned("fig4")
-    assert "poincare" not in fig4 and "manifolds" not in fig4 and fig4["ld_gather"] == "3"
+    assert "poincare" not in fig4 and "manifolds" not in fig4 and fig4["ld_gather"] == 3
     fig3 = planned("fig3")
-    assert fig3["poincare"] == "3" and fig3["manifolds"] == "2" and fig3["ld_gather"] == "3"
+    assert fig3["poincare"] == 3 and fig3["manifolds"] == 2 and fig3["ld_gather"] == 3

@@ -1,7 +1,5 @@
 """The LD grid stage: tiles, masks, attributes, the CLI and the gathered file."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -12,6 +10,7 @@ from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, write_ld_map
 from ldpipe.systems import make_system
+from support.workflow import ROOT
 
 BOX = {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}
 
@@ -116,8 +115,7 @@ def test_cli_computes_the_fig4a_slice(tmp_path):
 
 
 def test_cli_map_from_config_and_errors(tmp_path, capsys):
-    root = Path(__file__).resolve().parents[2]
-    assert main(["ld", "--config", str(root / "config.yaml"), "--map", "nonesuch", "-o", str(tmp_path / "x.nc")]) == 2
+    assert main(["ld", "--config", str(ROOT / "config.yaml"), "--map", "nonesuch", "-o", str(tmp_path / "x.nc")]) == 2
     assert "no map 'nonesuch'" in capsys.readouterr().err
     assert main(["ld", "--system", "barbanis_2dof", "--axis", "x=0:1:3", "--solve", "py",
                  "--excess-energy", "0", "-o", str(tmp_path / "x.nc")]) == 2

@@ -48,7 +48,7 @@ def test_crossings_match_an_independent_integration(barbanis, section, duration)
     # every third initial condition; a section of q (located on the step's q polynomial) and of
     # p (on the p = q' polynomial), forward and backward (the direction is the forward-time one:
     # backward, scipy sees the opposite sign change). Over 60 time units the global error of a
-    # 1e-10 integration grew to ~3e2 tolerances (measured, main's flow.py alike): bound 1e-7.
+    # 1e-10 integration grew to ~3e2 tolerances (measured): bound 1e-7.
     states = section_at(barbanis, -0.125, time=1.0).initial_state.values
     result = integrate(barbanis, states, duration, FLOW, section=section, max_crossings=100)
     index = barbanis.phase_coordinates.index(section[0])
@@ -78,7 +78,7 @@ def test_samples_match_an_independent_integration(barbanis):
     # Independent method: scipy's DOP853 at rtol = atol = 1e-13 with t_eval, on every third
     # initial condition, forward and backward. Global error of the 1e-10 integration over 20
     # time units: bound 1e-8. Energy (the invariant): at step ends |H - H0| reached 3e-9 over 20
-    # time units, with main's flow.py alike (measured, no samples); the interpolant adds up to
+    # time units (measured, no samples); the interpolant adds up to
     # ~3x between step ends (measured 1e-8 on 4001 samples): bound 3e-8.
     states = section_at(barbanis, -0.125, time=1.0).initial_state.values[::3]
     for duration in (20.0, -20.0):
@@ -179,8 +179,8 @@ def test_bad_initial_conditions_name_the_key():
 
 
 def test_without_a_section_trajectories_run_to_the_end(barbanis):
-    # Regression: with no section, the crossing counter (0 of 0) used to count as full, so a
-    # trajectory stopped at its first upward crossing of the first coordinate through 0.
+    # With no section the crossing counter is 0 of 0, which must not count as full: a trajectory
+    # would stop at its first upward crossing of the first coordinate through 0.
     # In the well below E_c nothing escapes, so every trajectory must reach the final time.
     states = section_at(barbanis, -0.125).initial_state.values[:5]
     result = integrate(barbanis, states, 40.0, FLOW)

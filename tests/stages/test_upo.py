@@ -217,12 +217,11 @@ def test_config_errors_name_the_key(equilibria_files, tmp_path):
 
 def test_cli_subcommands_write_stage_files(tmp_path):
     # The orbit subcommands through the `ldpipe` parser, which registers them (ldpipe.cli.orbits).
-    from pathlib import Path
-
     from ldpipe.cli.main import build_parser
+    from support.workflow import ROOT
 
     parser = build_parser()
-    config = Path(__file__).resolve().parents[2] / "config.yaml"
+    config = ROOT / "config.yaml"
     args = parser.parse_args(["upo", "--config", str(config), "--family", "barbanis_contopoulos_3dof_mode1",
                               "-o", str(tmp_path / "upo.nc")])
     args.handler(args)

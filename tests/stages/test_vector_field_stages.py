@@ -3,8 +3,6 @@ field (closed forms), and the refusals of what needs a Hamiltonian, each naming 
 
 import copy
 import math
-import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +19,7 @@ from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, r
 from ldpipe.stages.poincare import poincare_parameters, run_poincare
 from ldpipe.systems import make_system
 from support.closed_forms import linear_saddle_ld
+from support.workflow import readme_yaml
 
 LAM, MU = 0.8, 0.5
 SYSTEMS = {
@@ -134,10 +133,7 @@ def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
 
 def test_the_readme_example_is_a_valid_configuration():
     # The README's vector_field example validates as written, and its map resolves.
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", readme, flags=re.S | re.M) if "vector_field:" in b]
-    assert len(blocks) == 1
-    cfg = validate_config(yaml.safe_load(blocks[0]))
+    cfg = validate_config(yaml.safe_load(readme_yaml("vector_field:")))
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
     system, section, settings, info = resolve_ld_map(ld_map_parameters(cfg, "forced_duffing_t0"), None, None)
     assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5

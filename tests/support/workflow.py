@@ -1,13 +1,22 @@
-"""The workflow's files as a clone holds them, copied for tests that run or plan Snakemake."""
+"""The repository as a clone holds it, and how tests run its commands: the venv's ``snakemake``
+(on a copy of the workflow's files) and ``ldpipe``, and what they print."""
 
 from __future__ import annotations
 
+import re
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository
-SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))  # the venv's, beside its python
+README = (ROOT / "README.md").read_text()
+BIN = Path(sys.executable).parent  # the venv's commands, beside its python
+SNAKEMAKE = str(BIN / "snakemake")
+LDPIPE = str(BIN / "ldpipe")
+# Two cores on any machine: the quick run is the reference the SLURM test compares its one-thread
+# cluster jobs with, so its multi-threaded stages must really run on more than one thread.
+CORES = 2
 
 
 def copy_workflow(folder: Path) -> Path:
@@ -18,3 +27,25 @@ def copy_workflow(folder: Path) -> Path:
     for name in ("workflow", "profiles"):
         shutil.copytree(ROOT / name, folder / name)
     return folder
+
+
+def run_snakemake(workdir: Path, *arguments: str, env: dict | None = None,
+                  timeout: float = 600) -> subprocess.CompletedProcess:
+    """``snakemake --cores 2 ARGUMENTS`` by the venv's Snakemake in ``workdir``, its output captured
+    as text. Targets go before ``--configfile``, which takes every word after it as a file."""
+    return subprocess.run([SNAKEMAKE, "--cores", str(CORES), *arguments], cwd=workdir, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def job_counts(output: str) -> dict[str, int]:
+    """The first "Job stats" table Snakemake prints (before a run, or of a dry run): rule -> jobs."""
+    table = output.split("Job stats:", 1)[1].split("\n\n", 1)[0]
+    rows = re.finditer(r"^(\w+)\s+(\d+)\s*$", table, flags=re.M)
+    return {m.group(1): int(m.group(2)) for m in rows if m.group(1) != "total"}
+
+
+def readme_yaml(marker: str) -> str:
+    """The README's one ```yaml block that contains ``marker``."""
+    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if marker in b]
+    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md"
+    return blocks[0]

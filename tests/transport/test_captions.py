@@ -3,7 +3,6 @@ with the shipped configuration's studies, they must be clean reStructuredText (n
 message: e.g. |x| is read as a substitution). The report test renders them only in a full run."""
 
 import io
-from pathlib import Path
 from types import SimpleNamespace
 
 import jinja2
@@ -13,8 +12,7 @@ from docutils.core import publish_parts
 from ldpipe.config import load_config
 from ldpipe.stages.saddle_flux import saddle_flux_parameters
 from ldpipe.stages.transport import transport_parameters
-
-ROOT = Path(__file__).resolve().parents[2]
+from support.workflow import ROOT
 
 
 @pytest.mark.parametrize("caption, section, parameters", [

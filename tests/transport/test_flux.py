@@ -1,4 +1,4 @@
-"""Flux over a saddle (issue 17), each number against an independent value.
+"""Flux over a saddle, each number against an independent value.
 
 Closed forms on the quadratic saddle H = (p_x² + p_y²)/2 − λ²x²/2 + ω²y²/2 at excess energy ΔE
 (E_c = 0):

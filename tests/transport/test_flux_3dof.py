@@ -1,4 +1,4 @@
-"""Flux through the dividing plane of a 3 DoF saddle (issue 17), against closed forms.
+"""Flux through the dividing plane of a 3 DoF saddle, against closed forms.
 
 Quadratic saddle (support.quadratic_saddle) V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 in rotated
 coordinates (a, b, c) = R (x, y, z), E_c = 0, excess ΔE: the plane a = 0 carries the one-way flux

@@ -1,4 +1,4 @@
-"""Gap times in the Barbanis well (issue 17), against the exact identity that ties them to survival.
+"""Gap times in the Barbanis well, against the exact identity that ties them to survival.
 
 Independent values: for a well of shell volume V whose dividing lines carry one-way flux Φ (their
 areas, closed-form quadrature), the flux-weighted entering ensemble's gap times τ and the fraction

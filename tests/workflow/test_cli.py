@@ -1,8 +1,6 @@
 """The `ldpipe` command: the equilibrium subcommand writes the paper's values; errors exit 2."""
 
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +8,7 @@ import pytest
 from ldpipe.io import contracts
 from ldpipe.cli import main
 from ldpipe.io.datafile import open_stage_file
-
-ROOT = Path(__file__).resolve().parents[2]
+from support.workflow import LDPIPE, ROOT
 
 
 def test_equilibria_builtin_writes_paper_values(tmp_path):
@@ -55,10 +52,10 @@ def test_bad_arguments_exit_2_with_message(tmp_path, capsys, arguments, message)
 
 
 def test_console_script_help_is_useful():
-    result = subprocess.run([Path(sys.executable).with_name("ldpipe"), "--help"], capture_output=True, text=True)
+    result = subprocess.run([LDPIPE, "--help"], capture_output=True, text=True)
     assert result.returncode == 0
     assert "equilibria" in result.stdout and "Lagrangian descriptors" in result.stdout
-    result = subprocess.run([Path(sys.executable).with_name("ldpipe"), "equilibria", "--help"], capture_output=True, text=True)
+    result = subprocess.run([LDPIPE, "equilibria", "--help"], capture_output=True, text=True)
     assert result.returncode == 0
     for option in ("--system", "--config", "--parameter", "--box", "--output"):
         assert option in result.stdout

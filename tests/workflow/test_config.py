@@ -1,14 +1,11 @@
 """Configuration: the shipped files validate, defaults fill in, bad values name their key."""
 
-from pathlib import Path
-
 import pytest
 import yaml
 
 from ldpipe.config import load_config, validate_config
 from ldpipe.errors import ConfigError
-
-ROOT = Path(__file__).resolve().parents[2]
+from support.workflow import ROOT
 
 
 @pytest.mark.parametrize("name", ["config.yaml", "config.quick.yaml"])

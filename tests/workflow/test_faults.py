@@ -1,4 +1,4 @@
-"""Faults (issue 7, item 4): killed writes, bad input files, bad configuration values, reruns.
+"""Faults: killed writes, bad input files, bad configuration values, reruns.
 
 - A process SIGKILLed while ``write_stage_file`` runs (mid-write, or with the data complete
   but not yet renamed) leaves nothing under the final name, and an earlier complete file
@@ -15,14 +15,11 @@
 
 import copy
 import os
-import re
-import shutil
 import signal
 import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,9 +33,8 @@ from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError, StageFileError
 from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
 from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather
-from support.workflow import SNAKEMAKE
+from support.workflow import copy_workflow, job_counts, run_snakemake
 
-ROOT = Path(__file__).resolve().parents[2]
 PYTHON = sys.executable
 
 
@@ -291,19 +287,9 @@ KILLER = textwrap.dedent("""
 """)
 
 
-def job_counts(output: str) -> dict[str, int]:
-    """The 'Job stats' table of a Snakemake run or dry run, as {rule: count}."""
-    table = output.split("Job stats:", 1)[1].split("\n\n", 1)[0]
-    rows = re.finditer(r"^(\w+)\s+(\d+)\s*$", table, re.M)
-    return {m.group(1): int(m.group(2)) for m in rows if m.group(1) != "total"}
-
-
 @pytest.mark.slow
 def test_killed_job_leaves_no_output_and_the_rerun_redoes_only_it(tmp_path, barbanis):
-    for name in ("Snakefile",):
-        shutil.copy(ROOT / name, tmp_path / name)
-    shutil.copytree(ROOT / "workflow", tmp_path / "workflow")
-    shutil.copytree(ROOT / "profiles", tmp_path / "profiles")
+    copy_workflow(tmp_path)
     (tmp_path / "config.yaml").write_text(yaml.safe_dump(WORKFLOW_CONFIG))
     (tmp_path / "fault").mkdir()
     (tmp_path / "fault" / "sitecustomize.py").write_text(KILLER)
@@ -320,8 +306,7 @@ def test_killed_job_leaves_no_output_and_the_rerun_redoes_only_it(tmp_path, barb
             paths = [str(tmp_path / "fault"), os.environ.get("PYTHONPATH")]
             environment["PYTHONPATH"] = os.pathsep.join(filter(None, paths))
             environment["LDPIPE_TEST_KILL_AT_RENAME"] = kill
-        result = subprocess.run([SNAKEMAKE, "--cores", "2", *arguments, target], cwd=tmp_path, env=environment,
-                                capture_output=True, text=True, timeout=600)
+        result = run_snakemake(tmp_path, *arguments, target, env=environment)
         return result.returncode, result.stdout + result.stderr
 
     # 1. The second tile's job is killed; --keep-going lets the others finish.

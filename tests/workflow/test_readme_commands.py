@@ -1,4 +1,4 @@
-"""Every shell command of README.md's ```bash blocks works as written (issue 14).
+"""Every shell command of README.md's ```bash blocks works as written.
 
 The commands are read from the README itself, so a newly documented command is picked up, and each
 is classified by :func:`plan`:
@@ -29,11 +29,7 @@ import pytest
 
 from ldpipe.io.datafile import open_stage_file
 
-from support.workflow import SNAKEMAKE, copy_workflow
-
-ROOT = Path(__file__).resolve().parents[2]
-README = (ROOT / "README.md").read_text()
-BIN = Path(sys.executable).parent
+from support.workflow import BIN, README, ROOT, copy_workflow, readme_yaml, run_snakemake
 
 
 def bash_commands(text: str) -> list[str]:
@@ -45,13 +41,6 @@ def bash_commands(text: str) -> list[str]:
             if command and not command.startswith("#"):
                 commands.append(" ".join(command.split()))
     return commands
-
-
-def readme_yaml(marker: str) -> str:
-    """The README's ```yaml block that contains ``marker``."""
-    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if marker in b]
-    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md"
-    return blocks[0]
 
 
 INSTALL_AND_SNAKEMAKE = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/snakemake"
@@ -167,16 +156,15 @@ def test_readme_command(command, readme_workdir, request):
 
 
 @pytest.mark.slow
-def test_inline_snakemake_targets_are_planned_and_the_lint_is_clean(readme_workdir):
+def test_inline_snakemake_targets_are_planned_and_the_lint_is_clean(readme_workdir, lint):
     """Commands the README's text names in passing: `snakemake fig3`, `snakemake accuracy_figure`, ...
-    (dry runs, one plan for all), and `snakemake --lint`, which the README says is clean."""
+    (dry runs, one plan for all), and `snakemake --lint`, which the README says is clean (the
+    session's one lint run, conftest's ``lint``)."""
     spans = set(re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")))
     targets = sorted(span.split()[1] for span in spans if re.fullmatch(r"snakemake [\w/.]+", span))
     assert "fig3" in targets and "accuracy_figure" in targets
-    planned = subprocess.run([SNAKEMAKE, *targets, "-n"], cwd=readme_workdir, capture_output=True, text=True,
-                             timeout=600)
+    planned = run_snakemake(readme_workdir, *targets, "-n")
     assert planned.returncode == 0, planned.stderr[-3000:]
     if "snakemake --lint" in spans:
-        lint = subprocess.run([SNAKEMAKE, "--lint"], cwd=readme_workdir, capture_output=True, text=True, timeout=600)
         assert lint.returncode == 0 and "Congratulations, your workflow is in a good condition!" in lint.stdout + lint.stderr, (
             lint.stdout[-3000:] + lint.stderr[-3000:])

@@ -1,4 +1,4 @@
-"""The Snakemake report (issue 14): the main install can build it, its captions are clean
+"""The Snakemake report: the main install can build it, its captions are clean
 reStructuredText, and built from the quick run it shows every figure in a real browser."""
 
 from __future__ import annotations
@@ -18,9 +18,8 @@ from docutils.core import publish_parts
 from matplotlib import image
 from packaging.requirements import Requirement
 
-from support.workflow import SNAKEMAKE
+from support.workflow import ROOT, run_snakemake
 
-ROOT = Path(__file__).resolve().parents[2]
 # docutils' system messages as it prints them, e.g. "(ERROR/3) Undefined substitution referenced"
 DOCUTILS_MESSAGE = re.compile(r"\((DEBUG|INFO|WARNING|ERROR|SEVERE)/\d\)")
 
@@ -63,8 +62,8 @@ def test_plain_captions_render_without_docutils_messages(caption):
 # Shows the result named in the URL's hash exactly as the result's "view" button does (the report
 # is a single-page app without routes: `app` and `results` are its globals); with "?bare" the
 # navigation bar is hidden as its own hide button does, so a screenshot holds the figure alone.
-# The bar slides out with a CSS transition; on a loaded machine a screenshot once caught it still
-# on screen (CI, 2026-11-23), so the bare view switches transitions off and the bar goes at once.
+# The bar slides out with a CSS transition, which a screenshot on a busy machine can catch still
+# on screen, so the bare view switches transitions off and the bar goes at once.
 SHOW_RESULT = """<script>
 if (location.search === "?bare") {
   const still = document.createElement("style");
@@ -113,8 +112,7 @@ def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, 
     assert run.returncode == 0, run.stderr[-3000:]
     report = tmp_path / "report.html"
     # the README's command, against the quick configuration of the run
-    built = subprocess.run([SNAKEMAKE, "--report", str(report), "--configfile=config.quick.yaml"],
-                           cwd=workdir, capture_output=True, text=True, timeout=900)
+    built = run_snakemake(workdir, "--report", str(report), "--configfile=config.quick.yaml", timeout=900)
     assert built.returncode == 0, built.stderr[-3000:]
     messages = [line for line in (built.stdout + built.stderr).splitlines() if DOCUTILS_MESSAGE.search(line)]
     assert not messages, messages  # e.g. a caption's |...| read as a substitution

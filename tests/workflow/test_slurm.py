@@ -1,4 +1,4 @@
-"""The workflow on a real SLURM cluster (issue 8).
+"""The workflow on a real SLURM cluster.
 
 A single-node cluster (munged, slurmctld and slurmd on this machine, accounting off; started by
 tests/workflow/local_cluster.sh) runs stages of the quick configuration through
@@ -21,9 +21,8 @@ from pathlib import Path
 import pytest
 
 from ldpipe.io.filediff import compare_files
-from support.workflow import SNAKEMAKE
+from support.workflow import ROOT, SNAKEMAKE, job_counts
 
-ROOT = Path(__file__).resolve().parents[2]
 CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
 pytestmark = pytest.mark.slow
 
@@ -98,27 +97,14 @@ def finish(run: subprocess.Popen, workdir: Path) -> str:
     return output
 
 
-def job_count(snakemake_output: str) -> dict[str, int]:
-    """The "Job stats" table Snakemake prints before a run: rule -> number of jobs."""
-    lines = snakemake_output.splitlines()
-    start = lines.index("Job stats:") + 3  # the header and its underline follow
-    counts = {}
-    for line in lines[start:]:
-        fields = line.split()
-        if len(fields) != 2 or fields[0] == "total":
-            break
-        counts[fields[0]] = int(fields[1])
-    return counts
-
-
 def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quick_run, workdir):
     local, local_result = quick_run
     assert local_result.returncode == 0, local_result.stderr[-5000:]
-    # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on this
-    # 2-core node, so by default the cluster runs one chain of the quick configuration that has
+    # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on two
+    # cores, so by default the cluster runs one chain of the quick configuration that has
     # every kind of job: equilibria, LD tiles as separate multi-threaded jobs, their gather, a
     # periodic-orbit family and the NHIM study of Fig. 4 (12 jobs). LDPIPE_SLURM_TEST=full runs
-    # every stage file instead (~40 jobs, ~6 min here), leaving out the accuracy-cost stage,
+    # every stage file instead (~40 jobs, minutes), leaving out the accuracy-cost stage,
     # whose numbers are wall times, and the figures, which are drawings of these files.
     if os.environ.get("LDPIPE_SLURM_TEST") == "full":
         stage_files = sorted(
@@ -138,7 +124,7 @@ def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quic
 
     # Every job went through sbatch but those of local rules, which Snakemake's log announces
     # as "localrule".
-    jobs = job_count(output)
+    jobs = job_counts(output)
     assert jobs.get("ld_tile", 0) > 1, jobs  # LD tiles are separate cluster jobs
     local_jobs = len(re.findall(r"^localrule \w+:$", output, flags=re.M))
     submitted = output.count("has been submitted with SLURM jobid")
@@ -157,7 +143,7 @@ def test_slurm_profile_gives_every_job_threads_memory_and_a_time_limit(workdir):
     run = snakemake(workdir, "--workflow-profile", "profiles/slurm", "-n")
     output = finish(run, workdir)
     jobs = re.findall(r"\n(?:local)?rule (\w+):\n(.*?)\n(?:Shell command|\n)", output, flags=re.S)
-    assert len(jobs) == sum(job_count(output).values())
+    assert len(jobs) == sum(job_counts(output).values())
     for rule, block in jobs:
         if rule == "all":
             continue

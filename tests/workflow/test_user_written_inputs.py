@@ -1,12 +1,10 @@
-"""Inputs exactly as a user writes them (issue 14, items 4-8): numbers such as 1e-10 in YAML, the
+"""Inputs exactly as a user writes them: numbers such as 1e-10 in YAML, the
 escape radius on the command line, an energy below the whole section, the SLURM extra, and a
 formula with Abs."""
 
 import subprocess
-import sys
 import textwrap
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,9 +16,7 @@ from ldpipe.engine.settings import DEFAULT_ESCAPE_RADIUS
 from ldpipe.errors import ConfigError
 from ldpipe.stages.figures import run_figure
 
-from support.workflow import SNAKEMAKE
-
-ROOT = Path(__file__).resolve().parents[2]
+from support.workflow import LDPIPE, README, ROOT, run_snakemake
 
 # A small fixed-time map on Fig. 3's section U_xpx (y = 0, p_y > 0) of the Barbanis 2 DoF system.
 # There V = x^2/2, so the allowed region at total energy E is the disc x^2 + p_x^2 <= 2E (closed form).
@@ -46,7 +42,7 @@ ld_maps:
 """
 
 
-# ----------------------------------------------------------------------------- item 4
+# -------------------------------------------------------------- numbers written 1e-10
 
 def test_numbers_written_1e_minus_10_are_numbers_for_ldpipe(tmp_path):
     path = tmp_path / "user.yaml"
@@ -80,17 +76,15 @@ def test_numbers_written_1e_minus_10_are_numbers_for_snakemake(workdir):
           fig4_k-7.0:
             integrator: {rtol: 1e-10, escape_radius: 1e7}
         """))
-    result = subprocess.run([SNAKEMAKE, "results/ld/fig4_k-7.0.nc", "-n", "--configfile", "config.quick.yaml",
-                             "user.yaml"], cwd=workdir, capture_output=True, text=True, timeout=600)
+    result = run_snakemake(workdir, "results/ld/fig4_k-7.0.nc", "-n", "--configfile", "config.quick.yaml", "user.yaml")
     assert result.returncode == 0, result.stderr[-3000:]
     assert "ld_tile" in result.stdout  # the map's tiles are planned
 
 
-# ----------------------------------------------------------------------------- item 5
+# ---------------------------------------------- the escape radius on the command line
 
 def test_escape_radius_from_the_command_line(tmp_path, capsys):
-    help_text = subprocess.run([Path(sys.executable).with_name("ldpipe"), "ld", "--help"],
-                               capture_output=True, text=True).stdout
+    help_text = subprocess.run([LDPIPE, "ld", "--help"], capture_output=True, text=True).stdout
     assert "--escape-radius R" in help_text and f"(default {DEFAULT_ESCAPE_RADIUS:g})" in help_text
     default, small = tmp_path / "default.nc", tmp_path / "r20.nc"
     assert main([*SMALL_MAP, "--excess-energy", "0.125", "-o", str(default)]) == 0
@@ -111,7 +105,7 @@ def test_escape_radius_from_the_command_line(tmp_path, capsys):
         np.testing.assert_array_equal(a[f"ld_{direction}"].values[same], b[f"ld_{direction}"].values[same])
 
 
-# ----------------------------------------------------------------------------- item 6
+# -------------------------------------------------- an energy below the whole section
 
 def test_an_energy_below_the_whole_section_warns_and_a_figure_of_it_is_refused(tmp_path, capsys):
     out = tmp_path / "empty.nc"
@@ -138,7 +132,7 @@ def test_a_map_with_allowed_points_carries_no_warning(tmp_path):
     assert "warning" not in dataset.attrs
 
 
-# ----------------------------------------------------------------------------- item 7
+# -------------------------------------------------------------------- the SLURM extra
 
 def test_the_slurm_plugin_is_an_extra_of_its_own():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
@@ -147,11 +141,11 @@ def test_the_slurm_plugin_is_an_extra_of_its_own():
     assert "ldpipe[slurm]" in extras["test"]
     assert not any(d.startswith("snakemake-executor-plugin-slurm") for d in extras["test"])
     assert any(d.startswith("pygments>=") for d in project["dependencies"])  # snakemake --report needs it
-    cluster = (ROOT / "README.md").read_text().split("## Running on a SLURM cluster")[1].split("\n## ")[0]
+    cluster = README.split("## Running on a SLURM cluster")[1].split("\n## ")[0]
     assert "pip install -e '.[slurm]'" in cluster and ".[test]" not in cluster
 
 
-# ----------------------------------------------------------------------------- item 8
+# ----------------------------------------------------------------- a formula with Abs
 
 def test_a_formula_with_abs_is_a_configuration_error_naming_system_and_term(tmp_path, capsys):
     path = tmp_path / "vee.yaml"

@@ -1,5 +1,5 @@
 rule nhim_sampling:
-    """The NHIM sampled over a family of slices by continuation (issue 16); degenerate slices recorded, not written as points."""
+    """The NHIM sampled over a family of slices by continuation; degenerate slices recorded, not written as points."""
     wildcard_constraints:
         study=_one_of(NHIM_SAMPLING_STUDIES),
     input:
