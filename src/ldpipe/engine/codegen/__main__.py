@@ -83,7 +83,10 @@ def dumped_source(args: argparse.Namespace) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog=PROG, description=__doc__.split("\n\n")[0],
+        epilog="A vector field's module is the flow engine's, the same for every --lanes, --order and --entry.",
+    )
     parser.add_argument("--dump", action="store_true", required=True,
                         help="print the assembled module of SYSTEM and SCHEME to stdout")
     parser.add_argument("system", metavar="SYSTEM", help="a built-in, or an entry of --config's systems:")
