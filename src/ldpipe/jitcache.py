@@ -13,10 +13,12 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import re
 import sys
 import threading
 import types
 from pathlib import Path
+from typing import Callable
 
 import numba
 
@@ -34,10 +36,11 @@ def cache_directory() -> Path:
 def load_generated_module(source: str, prefix: str) -> types.ModuleType:
     """Import ``source`` as a module from a file named by its hash (written once, atomically).
 
-    The numba version is part of the hash, so an upgrade never meets an old cache.
+    The numba version is part of the hash, so an upgrade never meets an old cache. ``prefix``
+    (e.g. a system's name) starts the file name, its non-word characters replaced by ``_``.
     """
     digest = hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:20]
-    name = f"ldpipe_generated_{prefix}_{digest}"
+    name = "ldpipe_generated_" + re.sub(r"\W", "_", prefix) + f"_{digest}"
     with _LOCK:
         if name in sys.modules:
             return sys.modules[name]
@@ -57,3 +60,16 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
             del sys.modules[name]
             raise
         return module
+
+
+def njit_functions(source: str, names: tuple[str, ...], prefix: str) -> list[Callable]:
+    """The functions ``names`` that ``source`` defines, each compiled by ``njit(cache=True)``.
+
+    For a system's kernels (compiled lazily, on first call, or loaded from numba's disk cache).
+    """
+    # Strict IEEE arithmetic (no fastmath): with fastmath, code compiled in this process and
+    # code loaded from the disk cache can round differently, and results must not depend on
+    # which process compiled them.
+    footer = "\nfrom numba import njit as _njit\n\n" + "".join(f"{name} = _njit(cache=True)({name})\n" for name in names)
+    module = load_generated_module(source + footer, prefix=prefix)
+    return [getattr(module, name) for name in names]

@@ -21,8 +21,11 @@ Modules, one job each:
   section crossings, escapes) on the same DOP853 step;
 - :mod:`~ldpipe.engine.codegen` — joins the system's kernel source, the compile-time constants
   and the templates into one module, loaded through :mod:`ldpipe.jitcache` so that numba's
-  on-disk cache serves the next process;
-- :mod:`~ldpipe.engine.integrator` — compiled runners per system, and the thread pool over units;
+  on-disk cache serves the next process (``python -m ldpipe.engine.codegen --dump`` prints it);
+- :mod:`~ldpipe.engine.vector_field` — the flow engine's module for a general vector field,
+  assembled the same way;
+- :mod:`~ldpipe.engine.integrator` — compiled runners per system (of both engines), and the
+  thread pool over units;
 - :mod:`~ldpipe.engine.api` — :func:`compute_ld` and :class:`LDResult`.
 """
 

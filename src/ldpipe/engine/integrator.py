@@ -9,8 +9,8 @@ cost ~13 s more JIT per system and scheme (measured); the thread pool gives the 
 parallelism, with dynamic scheduling.
 
 ``process`` is compiled once per (system, scheme, lanes) and kept twice: in this process
-(:func:`get_runner`), and on disk by numba's cache for the next process
-(:mod:`ldpipe.engine.codegen`).
+(:func:`get_runner`; :func:`kept_runner` keeps the flow engine's runners too), and on disk by
+numba's cache for the next process (:mod:`ldpipe.engine.codegen`, :mod:`ldpipe.jitcache`).
 """
 
 from __future__ import annotations
@@ -18,13 +18,30 @@ from __future__ import annotations
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
 
 from .codegen import load_engine
 
-# Compiled runners, per live System object, scheme and block size. Keyed by id() with a weak reference
-# (System is an unhashable frozen dataclass); an entry dies with its system.
-_RUNNERS: dict[tuple[int, str, int, int | None, str], tuple[weakref.ref, object]] = {}
+# Compiled runners, per live system object and key (scheme, block size, ... of the runner). Keyed
+# by id() with a weak reference (systems are unhashable frozen dataclasses); an entry dies with its system.
+_RUNNERS: dict[tuple[int, tuple], tuple[weakref.ref, object]] = {}
 _LOCK = threading.Lock()
+
+
+def kept_runner(system, key: tuple, build: Callable[[], object]):
+    """The runner ``build()`` returns for ``system``, built once per live system and ``key``.
+
+    Every engine's runners are kept here: the Hamiltonian engine's (:func:`get_runner`) and the
+    flow engine's (:func:`ldpipe.engine.vector_field.get_vector_field_runner`).
+    """
+    cache_key = (id(system), key)
+    with _LOCK:
+        cached = _RUNNERS.get(cache_key)
+        if cached is not None and cached[0]() is system:
+            return cached[1]
+        runner = build()
+        _RUNNERS[cache_key] = (weakref.ref(system, lambda _ref: _RUNNERS.pop(cache_key, None)), runner)
+        return runner
 
 
 def build_runner(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process"):
@@ -39,14 +56,7 @@ def build_runner(system, scheme: str, lanes: int, order: int | None = None, entr
 
 def get_runner(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process"):
     """``build_runner``'s kernel, kept per live system; ``order``: the Taylor scheme's."""
-    key = (id(system), scheme, lanes, order, entry)
-    with _LOCK:
-        cached = _RUNNERS.get(key)
-        if cached is not None and cached[0]() is system:
-            return cached[1]
-        runner = build_runner(system, scheme, lanes, order, entry)
-        _RUNNERS[key] = (weakref.ref(system, lambda _ref, key=key: _RUNNERS.pop(key, None)), runner)
-        return runner
+    return kept_runner(system, (scheme, lanes, order, entry), lambda: build_runner(system, scheme, lanes, order, entry))
 
 
 def run_units(process, states, unit, args, outputs, threads: int) -> None:

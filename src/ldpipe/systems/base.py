@@ -23,13 +23,12 @@ Kernel signatures (all numba ``njit`` functions, float64 throughout):
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from typing import Callable, ClassVar, NamedTuple
 
 import numpy as np
 
-from ..jitcache import load_generated_module
+from ..jitcache import njit_functions
 from .kinetic import inverse_of
 
 
@@ -43,13 +42,7 @@ class Kernels(NamedTuple):
 
 def compile_kernels(kernel_source: str, prefix: str) -> Kernels:
     """Compile the five kernels that ``kernel_source`` defines (cached on disk, see jitcache)."""
-    # Strict IEEE arithmetic (no fastmath): with fastmath, code compiled in this process and
-    # code loaded from the disk cache can round differently, and results must not depend on
-    # which process compiled them.
-    footer = ["", "from numba import njit as _njit", ""]
-    footer += [f"{name} = _njit(cache=True)({name})" for name in Kernels._fields]
-    module = load_generated_module(kernel_source + "\n".join(footer) + "\n", prefix=re.sub(r"\W", "_", prefix))
-    return Kernels(*(getattr(module, name) for name in Kernels._fields))
+    return Kernels(*njit_functions(kernel_source, Kernels._fields, prefix))
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,9 @@
 The generated kernels have exactly the signatures and loop shapes of the
 hand-written built-ins (see :mod:`ldpipe.systems.base`), with the parameter
 values substituted as literals, and are compiled the same way
-(:func:`~ldpipe.systems.base.compile_kernels`).
+(:func:`~ldpipe.systems.base.compile_kernels`). The formula parser (:func:`parse_formulas`)
+and the kernel printer (:func:`kernel_lines`) serve vector fields too
+(:mod:`ldpipe.systems.vector_field`): one set of rules for names, parameters and functions.
 """
 
 from __future__ import annotations
@@ -29,16 +31,22 @@ RESERVED_NAMES = {"q", "out", "count", "j", "math", "value", "_njit", *Kernels._
 ALLOWED_FUNCTIONS["E"] = sympy.E
 
 
-def parse_potential(
-    formula: str, coordinates: tuple[str, ...], parameters: dict[str, float], key: str
-) -> sympy.Expr:
-    """Parse ``formula`` into a sympy expression in the coordinates, parameters substituted.
+def parse_formulas(
+    formulas: dict[str, object],
+    coordinates: tuple[str, ...],
+    parameters: dict[str, float],
+    key: str,
+    reserved: set[str],
+    time: str | None = None,
+) -> list[sympy.Expr]:
+    """Parse each formula into a sympy expression in the coordinates (and ``time``), parameters substituted.
 
-    ``key`` names the configuration entry in error messages.
+    ``formulas`` maps where each formula sits under the configuration entry ``key`` (e.g.
+    ``"formula"``, ``"vector_field.x"``) to its text; error messages name that key. ``reserved``:
+    the names the generated kernels use themselves, which no coordinate or parameter may take.
+    ``time``: the name of the time, if the formulas may use it.
     """
-    coordinate_symbols = {name: sympy.Symbol(name, real=True) for name in coordinates}
-    parameter_symbols = {name: sympy.Symbol(name, real=True) for name in parameters}
-    clash = (set(coordinates) | set(parameters)) & (RESERVED_NAMES | set(ALLOWED_FUNCTIONS))
+    clash = (set(coordinates) | set(parameters)) & (reserved | set(ALLOWED_FUNCTIONS))
     if clash:
         raise ConfigError(f"config key '{key}': the names {sorted(clash)} are reserved; rename them")
     overlap = set(coordinates) & set(parameters)
@@ -46,32 +54,50 @@ def parse_potential(
         raise ConfigError(
             f"config key '{key}.parameters': {sorted(overlap)} are also coordinates; a name is one or the other"
         )
-    namespace = {**ALLOWED_FUNCTIONS, **coordinate_symbols, **parameter_symbols}
-    try:
-        expression = parse_expr(
-            formula,
-            local_dict=namespace,
-            global_dict={"__builtins__": {}, **{k: getattr(sympy, k) for k in SYMPY_LITERALS}},
-            transformations=standard_transformations,
-        )
-    except Exception as error:  # sympy raises many types on bad text
-        raise ConfigError(f"config key '{key}.formula': cannot parse {formula!r}: {error}") from None
-    if not isinstance(expression, sympy.Expr):
-        raise ConfigError(f"config key '{key}.formula': {formula!r} is not an expression")
-    unknown = {str(s) for s in expression.free_symbols} - set(coordinates) - set(parameters)
-    if unknown:
-        raise ConfigError(
-            f"config key '{key}.formula': unknown names {sorted(unknown)}; expected only the coordinates "
-            f"{list(coordinates)} and the parameters {sorted(parameters)}"
-        )
-    undefined = {f.func.__name__ for f in expression.atoms(sympy.Function)} - set(ALLOWED_FUNCTIONS)
-    if undefined:
-        raise ConfigError(
-            f"config key '{key}.formula': unknown functions {sorted(undefined)}; allowed are "
-            f"{sorted(k for k in ALLOWED_FUNCTIONS if k not in ('pi', 'E'))}"
-        )
-    values = {parameter_symbols[name]: sympy.Float(value, 17) for name, value in parameters.items()}
-    return expression.subs(values)
+    names = (*coordinates, *parameters, *((time,) if time else ()))
+    symbols = {name: sympy.Symbol(name, real=True) for name in names}
+    namespace = {**ALLOWED_FUNCTIONS, **symbols}
+    values = {symbols[name]: sympy.Float(value, 17) for name, value in parameters.items()}
+    expected = [f"the coordinates {list(coordinates)}", f"the parameters {sorted(parameters)}"]
+    expected += [f"the time '{time}'"] if time else []
+    expected_text = ", ".join(expected[:-1]) + " and " + expected[-1]
+    expressions = []
+    for place, text in formulas.items():
+        where = f"config key '{key}.{place}'"
+        if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+            raise ConfigError(f"{where}: expected a formula (text), got {text!r}")
+        try:
+            expression = parse_expr(
+                str(text),
+                local_dict=namespace,
+                global_dict={"__builtins__": {}, **{k: getattr(sympy, k) for k in SYMPY_LITERALS}},
+                transformations=standard_transformations,
+            )
+        except Exception as error:  # sympy raises many types on bad text
+            raise ConfigError(f"{where}: cannot parse {text!r}: {error}") from None
+        if not isinstance(expression, sympy.Expr):
+            raise ConfigError(f"{where}: {text!r} is not an expression")
+        unknown = {str(s) for s in expression.free_symbols} - set(symbols)
+        if unknown:
+            raise ConfigError(f"{where}: unknown names {sorted(unknown)}; expected only {expected_text}")
+        undefined = {f.func.__name__ for f in expression.atoms(sympy.Function)} - set(ALLOWED_FUNCTIONS)
+        if undefined:
+            raise ConfigError(
+                f"{where}: unknown functions {sorted(undefined)}; allowed are "
+                f"{sorted(k for k in ALLOWED_FUNCTIONS if k not in ('pi', 'E'))}"
+            )
+        expressions.append(expression.subs(values))
+    return expressions
+
+
+def parse_potential(
+    formula: str, coordinates: tuple[str, ...], parameters: dict[str, float], key: str
+) -> sympy.Expr:
+    """Parse ``formula`` into a sympy expression in the coordinates, parameters substituted.
+
+    ``key`` names the configuration entry in error messages.
+    """
+    return parse_formulas({"formula": formula}, coordinates, parameters, key, RESERVED_NAMES)[0]
 
 
 class _KernelPrinter(PythonCodePrinter):
@@ -81,10 +107,20 @@ class _KernelPrinter(PythonCodePrinter):
         return repr(float(expr))
 
 
-def _scalar_body(coordinates, outputs, printer, indexer):
-    """Lines that load the coordinates, share common subexpressions, then assign outputs."""
+def _printer() -> _KernelPrinter:
+    return _KernelPrinter({"fully_qualified_modules": True, "standard": "python3"})
+
+
+def kernel_lines(coordinates, outputs, load) -> list[str]:
+    """The body of a generated kernel: load the coordinates, share common subexpressions, assign outputs.
+
+    ``outputs`` are ``(target, expression)`` pairs (e.g. ``("out[0]", dV/dx)``); ``load(i)`` is
+    the source of coordinate ``i`` (e.g. ``q[i]``, ``q[i, j]``, ``state[i]``). Raises sympy's
+    PrintMethodNotImplementedError for a term with no code.
+    """
+    printer = _printer()
     replacements, reduced = sympy.cse([expr for _, expr in outputs], optimizations="basic")
-    lines = [f"{name} = {indexer(i)}" for i, name in enumerate(coordinates)]
+    lines = [f"{name} = {load(i)}" for i, name in enumerate(coordinates)]
     lines += [f"{symbol} = {printer.doprint(expr)}" for symbol, expr in replacements]
     lines += [f"{target} = {printer.doprint(expr)}" for (target, _), expr in zip(outputs, reduced)]
     return lines
@@ -95,7 +131,6 @@ def generate_kernel_source(expression: sympy.Expr, coordinates: tuple[str, ...])
     symbols = [sympy.Symbol(name, real=True) for name in coordinates]
     gradient = [sympy.diff(expression, s) for s in symbols]
     hessian = [[sympy.diff(g, s) for s in symbols] for g in gradient]
-    printer = _KernelPrinter({"fully_qualified_modules": True, "standard": "python3"})
     n = len(coordinates)
     scalar = lambda i: f"q[{i}]"  # noqa: E731
     column = lambda i: f"q[{i}, j]"  # noqa: E731
@@ -110,30 +145,25 @@ def generate_kernel_source(expression: sympy.Expr, coordinates: tuple[str, ...])
         return "\n".join(head + body + tail) + "\n"
 
     sources = {
-        "potential": function("potential", "q", _scalar_body(coordinates, [("value", expression)], printer, scalar)),
+        "potential": function("potential", "q", kernel_lines(coordinates, [("value", expression)], scalar)),
         "gradient": function(
-            "gradient", "q, out", _scalar_body(coordinates, [(f"out[{i}]", g) for i, g in enumerate(gradient)], printer, scalar)
+            "gradient", "q, out", kernel_lines(coordinates, [(f"out[{i}]", g) for i, g in enumerate(gradient)], scalar)
         ),
         "hessian": function(
             "hessian",
             "q, out",
-            _scalar_body(
-                coordinates,
-                [(f"out[{i}, {k}]", hessian[i][k]) for i in range(n) for k in range(n)],
-                printer,
-                scalar,
-            ),
+            kernel_lines(coordinates, [(f"out[{i}, {k}]", hessian[i][k]) for i in range(n) for k in range(n)], scalar),
         ),
         "acceleration_block": function(
             "acceleration_block",
             "q, out, count",
-            _scalar_body(coordinates, [(f"out[{i}, j]", -g) for i, g in enumerate(gradient)], printer, column),
+            kernel_lines(coordinates, [(f"out[{i}, j]", -g) for i, g in enumerate(gradient)], column),
             loop=True,
         ),
         "potential_block": function(
             "potential_block",
             "q, out, count",
-            _scalar_body(coordinates, [("out[j]", expression)], printer, column),
+            kernel_lines(coordinates, [("out[j]", expression)], column),
             loop=True,
         ),
     }
@@ -143,7 +173,7 @@ def generate_kernel_source(expression: sympy.Expr, coordinates: tuple[str, ...])
 def _uncompilable(name: str, formula: str, expression: sympy.Expr, coordinates: tuple[str, ...], key: str) -> str:
     """Why the kernels of ``expression`` cannot be generated: the first term of V, its gradient
     or its Hessian that has no code (e.g. DiracDelta, the second derivative of Abs)."""
-    printer = _KernelPrinter({"fully_qualified_modules": True, "standard": "python3"})
+    printer = _printer()
     symbols = [sympy.Symbol(c, real=True) for c in coordinates]
     derivatives = [("V", expression)]
     derivatives += [(f"dV/d{c}", sympy.diff(expression, s)) for c, s in zip(coordinates, symbols)]

@@ -15,19 +15,17 @@ refuse it through :func:`require_hamiltonian`.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Callable, ClassVar
 
 import numpy as np
 import sympy
-from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
 from ..errors import ConfigError
-from ..jitcache import load_generated_module
-from .formula import ALLOWED_FUNCTIONS, SYMPY_LITERALS, _KernelPrinter
+from ..jitcache import njit_functions
+from .formula import kernel_lines, parse_formulas
 
 #: The name of the time in the formulas.
 TIME = "t"
@@ -49,66 +47,14 @@ def parse_vector_field(
             f"config key '{key}.vector_field': expected one formula for each coordinate {list(coordinates)}, "
             f"got formulas for {list(components)}"
         )
-    clash = (set(coordinates) | set(parameters)) & (RESERVED_NAMES | set(ALLOWED_FUNCTIONS))
-    if clash:
-        raise ConfigError(f"config key '{key}': the names {sorted(clash)} are reserved; rename them")
-    overlap = set(coordinates) & set(parameters)
-    if overlap:
-        raise ConfigError(
-            f"config key '{key}.parameters': {sorted(overlap)} are also coordinates; a name is one or the other"
-        )
-    symbols = {name: sympy.Symbol(name, real=True) for name in (*coordinates, *parameters, TIME)}
-    namespace = {**ALLOWED_FUNCTIONS, **symbols}
-    values = {symbols[name]: sympy.Float(value, 17) for name, value in parameters.items()}
-    expressions = []
-    for name in coordinates:
-        text = components[name]
-        where = f"config key '{key}.vector_field.{name}'"
-        if isinstance(text, bool) or not isinstance(text, (str, int, float)):
-            raise ConfigError(f"{where}: expected a formula (text), got {text!r}")
-        try:
-            expression = parse_expr(
-                str(text),
-                local_dict=namespace,
-                global_dict={"__builtins__": {}, **{k: getattr(sympy, k) for k in SYMPY_LITERALS}},
-                transformations=standard_transformations,
-            )
-        except Exception as error:  # sympy raises many types on bad text
-            raise ConfigError(f"{where}: cannot parse {text!r}: {error}") from None
-        if not isinstance(expression, sympy.Expr):
-            raise ConfigError(f"{where}: {text!r} is not an expression")
-        unknown = {str(s) for s in expression.free_symbols} - set(symbols)
-        if unknown:
-            raise ConfigError(
-                f"{where}: unknown names {sorted(unknown)}; expected only the coordinates {list(coordinates)}, "
-                f"the parameters {sorted(parameters)} and the time '{TIME}'"
-            )
-        undefined = {f.func.__name__ for f in expression.atoms(sympy.Function)} - set(ALLOWED_FUNCTIONS)
-        if undefined:
-            raise ConfigError(
-                f"{where}: unknown functions {sorted(undefined)}; allowed are "
-                f"{sorted(k for k in ALLOWED_FUNCTIONS if k not in ('pi', 'E'))}"
-            )
-        expressions.append(sympy.sympify(expression.subs(values)))
-    return expressions
+    formulas = {f"vector_field.{name}": components[name] for name in coordinates}
+    return parse_formulas(formulas, coordinates, parameters, key, RESERVED_NAMES, time=TIME)
 
 
 def _function_source(name: str, coordinates, outputs) -> str:
     """``def name(state, t, out)``: load the coordinates, share subexpressions, assign outputs."""
-    printer = _KernelPrinter({"fully_qualified_modules": True, "standard": "python3"})
-    replacements, reduced = sympy.cse([expr for _, expr in outputs], optimizations="basic")
-    lines = [f"{c} = state[{i}]" for i, c in enumerate(coordinates)]
-    lines += [f"{symbol} = {printer.doprint(expr)}" for symbol, expr in replacements]
-    lines += [f"{target} = {printer.doprint(expr)}" for (target, _), expr in zip(outputs, reduced)]
+    lines = kernel_lines(coordinates, outputs, lambda i: f"state[{i}]")
     return f"def {name}(state, t, out):\n" + "".join(f"    {line}\n" for line in lines)
-
-
-def _compile(source: str, names: tuple[str, ...], prefix: str) -> list[Callable]:
-    """The functions ``names`` of ``source``, njit-compiled (cached on disk, see jitcache)."""
-    # Strict IEEE arithmetic (no fastmath), as the Hamiltonian kernels (systems/base.py).
-    footer = "\nfrom numba import njit as _njit\n\n" + "".join(f"{n} = _njit(cache=True)({n})\n" for n in names)
-    module = load_generated_module(source + footer, prefix=re.sub(r"\W", "_", prefix))
-    return [getattr(module, n) for n in names]
 
 
 @dataclass(frozen=True)
@@ -164,7 +110,7 @@ class VectorFieldSystem:
                 f"config key 'systems.{self.name}.vector_field': the Jacobian contains a term that cannot be "
                 f"compiled ({error}); the vector field must be differentiable in the allowed functions"
             ) from None
-        return _compile(source, ("jacobian",), f"vfield_jacobian_{self.name}")[0]
+        return njit_functions(source, ("jacobian",), f"vfield_jacobian_{self.name}")[0]
 
     def jacobian(self, state: np.ndarray, t: float = 0.0) -> np.ndarray:
         """df_i/dx_k at ``state`` and time ``t``, shape ``(n_state, n_state)``."""
@@ -182,7 +128,7 @@ def make_vector_field_system(
         source = "import math\n\n\n" + _function_source("rhs", coordinates, outputs)
     except PrintMethodNotImplementedError as error:
         raise ConfigError(f"config key '{key}.vector_field': a term cannot be compiled ({error})") from None
-    (rhs,) = _compile(source, ("rhs",), f"vfield_{name}")
+    (rhs,) = njit_functions(source, ("rhs",), f"vfield_{name}")
     text = ", ".join(f"d{c}/dt = {components[c]}" for c in coordinates)
     return VectorFieldSystem(
         name=name,
