@@ -305,7 +305,8 @@ def _instrument_process(probes: Probes) -> None:
             raise InstrumentationError(f"instrumentation: phase {name!r} of `process` ends before the phase before "
                                        "it; the order of PROCESS_PHASES no longer matches the driver")
         previous = position
-        mark = _mark(i, "_t", "_u")
+        # (the last phase closes the turn of the loop: the next starts the clock again)
+        mark = f"PT[{i}] += tick() - _t" if i == len(PROCESS_PHASES) - 1 else _mark(i, "_t", "_u")
         code = f"{counters}\n{mark}" if name == "set h" else mark
         (probes.after if side == "after" else probes.before)(statement, code)
 
