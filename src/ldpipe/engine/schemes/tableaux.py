@@ -25,7 +25,9 @@ import numpy as np
 # ---------------------------------------------------------------------------------------------
 # DOP853
 # ---------------------------------------------------------------------------------------------
-DOP853_ORDER = 8  # order of the propagated solution; step control uses err^(-1/(ORDER + 1)) = err^(-1/9), Hairer's dop853.f err^(-1/8)
+# Order of the propagated solution. The step control scales by err^(-1/(ORDER + 1)) = err^(-1/9),
+# a little more cautious than Hairer's dop853.f, which uses err^(-1/8).
+DOP853_ORDER = 8
 DOP853_STAGES = 12  # stages of one step, without the FSAL evaluation at the new point
 DOP853_STAGES_EXTENDED = 16  # plus the FSAL stage (index 12) and three dense-output stages
 
