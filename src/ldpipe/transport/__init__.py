@@ -39,3 +39,7 @@ __all__ += ["GapTimes", "entering_states", "gap_times"]
 from .plane import DividingPlane  # noqa: E402
 
 __all__ += ["DividingPlane"]
+
+from .study import LyapunovOrbit, TransportAtEnergy, reactive_islands, transport_at_energy  # noqa: E402
+
+__all__ += ["LyapunovOrbit", "TransportAtEnergy", "reactive_islands", "transport_at_energy"]
