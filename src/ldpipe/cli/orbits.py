@@ -16,6 +16,7 @@ from ..config import load_config
 from ..errors import ConfigError
 from ..logs import log_to
 from ..stages.equilibria import equilibria_file
+from ..stages.parameters import parameters_from_config
 from ..systems import is_vector_field
 
 EXAMPLES = """\
@@ -33,35 +34,35 @@ def _entry(args: argparse.Namespace, table: str, name: str) -> dict:
 
 
 def _run_upo(args: argparse.Namespace) -> None:
-    from ..stages.upo import run_upo, upo_parameters
+    from ..stages.upo import run_upo
 
     config = _entry(args, "periodic_orbits", args.family)
-    parameters = upo_parameters(config, args.family)
+    parameters = parameters_from_config(config, "upo", args.family)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
         run_upo(**parameters, equilibria=equilibria, output=args.output)
 
 
 def _run_manifolds(args: argparse.Namespace) -> None:
-    from ..stages.manifolds import manifold_parameters, run_manifolds
-    from ..stages.upo import run_upo, upo_parameters
+    from ..stages.manifolds import run_manifolds
+    from ..stages.upo import run_upo
 
     config = _entry(args, "manifolds", args.manifold)
-    parameters = manifold_parameters(config, args.manifold)
+    parameters = parameters_from_config(config, "manifolds", args.manifold)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         upo = args.upo
         if upo is None:
-            family = upo_parameters(config, parameters["orbits"])
+            family = parameters_from_config(config, "upo", parameters["orbits"])
             equilibria = equilibria_file(config, family["system_name"], args.equilibria, Path(scratch))
             upo = run_upo(**family, equilibria=equilibria, output=Path(scratch) / "upo.nc")
         run_manifolds(**parameters, upo=upo, threads=args.threads, output=args.output)
 
 
 def _run_poincare(args: argparse.Namespace) -> None:
-    from ..stages.poincare import poincare_parameters, run_poincare
+    from ..stages.poincare import run_poincare
 
     config = _entry(args, "poincare_sections", args.section)
-    parameters = poincare_parameters(config, args.section)
+    parameters = parameters_from_config(config, "poincare", args.section)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         if is_vector_field(config["systems"][parameters["system_name"]]):
             equilibria = None  # no energy: a vector field's section needs no equilibria

@@ -12,7 +12,6 @@ its load in the attributes, and Markdown tables summarize it. The science is in
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from pathlib import Path
 
@@ -35,8 +34,7 @@ from ..nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orb
 from ..periodic_orbits import CorrectionFailed, linearize_saddle
 from ..sections import section_states
 from ..systems import make_system
-from .ld import ld_map_parameters, resolve_map
-from .upo import upo_parameters
+from .ld import resolve_map
 
 log = get_logger(__name__)
 
@@ -51,29 +49,6 @@ REFERENCE_VALIDATION = (
     "Each run stores the reference's agreement with reference_check (default: half the step) as "
     "reference_check_quantile; errors below it are not resolved."
 )
-
-
-def accuracy_parameters(config: dict) -> dict:
-    """The keyword arguments of :func:`run_accuracy_cost` for a validated config (besides paths).
-
-    Each sampled map's full parameters (as the ld stage gets them, grid cap applied) and the
-    orbit family's are included, so that changing any of them reruns the measurement.
-    """
-    spec = copy.deepcopy(config["accuracy_cost"])
-    ld = spec["ld"]
-    maps = {name: ld_map_parameters(config, name) for name in ld.pop("maps")}
-    orbit = spec["upo"]
-    family = orbit.pop("family")
-    nhim = spec["nhim"]
-    nhim_map = nhim.pop("map")
-    return {
-        "ld": {**ld, "maps": maps},
-        "upo": {**orbit, "family": upo_parameters(config, family) if family else None},
-        "nhim": {
-            **nhim, "map": ld_map_parameters(config, nhim_map) if nhim_map else None,
-            "refinement": {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"},
-        },
-    }
 
 
 def accuracy_systems(config: dict) -> list[str]:

@@ -38,7 +38,6 @@ equilibria files and writes the study's file.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +49,7 @@ from ..equilibria import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..logs import get_logger
 from ..manifolds import MANIFOLDS
-from ..systems import make_system, require_hamiltonian, system_spec
+from ..systems import make_system, require_hamiltonian
 from ..transport import LyapunovOrbit, harmonic_flux, transport_at_energy
 from .manifolds import select_orbit
 
@@ -99,14 +98,6 @@ VARIABLES = {
     "island": (("manifold", "point", "phase"), {"long_name": "first cut of the inward tube with the section, "
                                                              "ordered by orbit phase"}),
 }
-
-
-def transport_parameters(config: dict, name: str) -> dict:
-    """The keyword arguments of :func:`run_transport` for one study of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["transport"][name])
-    family = config["periodic_orbits"][spec["orbits"]]
-    return {"name": name, "system_name": family["system"], "system_spec": system_spec(config, family["system"]),
-            "saddle_near": family.get("saddle_near"), **spec}
 
 
 def _orbit(orbits: xr.Dataset, index: int) -> LyapunovOrbit:
