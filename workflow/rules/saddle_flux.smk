@@ -1,4 +1,4 @@
-# Saddle flux (issue 17): one study per entry under `saddle_flux:` in the configuration, its file
+# Saddle flux: one study per entry under `saddle_flux:` in the configuration, its file
 # results/saddle_flux/<study>.nc and figure results/figures/saddle_flux_<study>.png. Targets:
 # `snakemake saddle_flux_<study>` for one study, `snakemake saddle_flux` for all of them.
 

@@ -1,4 +1,4 @@
-# Transport (issue 17): one study per entry under `transport:` in the configuration, its file
+# Transport: one study per entry under `transport:` in the configuration, its file
 # results/transport/<study>.nc and figure results/figures/transport_<study>.png. Targets:
 # `snakemake transport_<study>` for one study, `snakemake transport` for all of them.
 

@@ -1,4 +1,4 @@
-"""The saddle-flux figure of one study (issue 17).
+"""The saddle-flux figure of one study.
 
 (a) Flux through the dividing surface against excess energy on log–log axes: the Monte Carlo
 reactive flux (3 standard errors), the surface's one-way flux and the harmonic estimate

@@ -1,4 +1,4 @@
-"""The transport figure of one study (issue 17).
+"""The transport figure of one study.
 
 (a) Flux over the saddle against excess energy by every method: the orbit's action, the
 reactive-island areas, the Monte Carlo reactive flux (with 3 standard errors), the dividing

@@ -1,4 +1,4 @@
-"""Saddle-flux stage: the reactive flux through the dividing surface of a saddle, 2 or 3 DoF (issue 17).
+"""Saddle-flux stage: the reactive flux through the dividing surface of a saddle, 2 or 3 DoF.
 
 A study is declared under ``saddle_flux:`` in the configuration: a system, its saddle
 (``saddle_near``, default the lowest) and energies. At each energy it writes

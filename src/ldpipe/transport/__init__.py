@@ -1,9 +1,11 @@
-"""Transport over an index-1 saddle: flux, reactive islands and rates (issue 17).
+"""Transport over an index-1 saddle: flux, reactive islands and rates.
 
 In 2 DoF three quantities must agree (MacKay 1990; reactive-island theory): the action
 of the Lyapunov orbit, the symplectic area enclosed by a manifold tube's cut with a
 surface of section, and the reactive flux through a dividing surface across the saddle.
-:mod:`ldpipe.transport.flux` computes each of them independently.
+:mod:`ldpipe.transport.flux` computes each of them independently;
+:func:`ldpipe.transport.transport_at_energy` (:mod:`ldpipe.transport.study`) computes them all
+at one energy, with the transition-state rate, survival and gap times.
 """
 
 from .flux import (
