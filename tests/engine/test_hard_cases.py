@@ -37,8 +37,9 @@ from ldpipe.ld_grid import ld_grid_dataset
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.sections import Section
 from ldpipe.stages import upo as upo_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
+from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from ldpipe.variational import sample
 from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2, escaping_states
@@ -307,7 +308,7 @@ def test_zero_excess_energy_puts_the_saddle_on_the_grid(barbanis, barbanis_equil
     # (terms ~ 30 summing to 15: a few ulps of 30), which sqrt turns into |p_y| ~ 1e-7. Linear
     # theory bounds how soon the trajectory may leave the saddle region from that speed; energy
     # is conserved to the tolerance.
-    data = compute_ld_map(ld_map_parameters(ld_config(), "m"), barbanis_equilibria, show_progress=False)
+    data = compute_ld_map(parameters_from_config(ld_config(), "ld", "m"), barbanis_equilibria, show_progress=False)
     allowed = data.allowed.values
     centre = (2, 2)
     assert data.x.values[2] == 5.5 and data.px.values[2] == 0.0
@@ -337,7 +338,7 @@ def test_energy_is_conserved_from_zero_to_large_excess_energy(barbanis, barbanis
     config = ld_config(section=section, energy={"excess": excess}, time="fixed")
     del config["ld_maps"]["m"]["region"]
     with np.errstate(all="raise"):
-        data = compute_ld_map(ld_map_parameters(config, "m"), barbanis_equilibria, show_progress=False)
+        data = compute_ld_map(parameters_from_config(config, "ld", "m"), barbanis_equilibria, show_progress=False)
     allowed = data.allowed.values
     escaped = data.escaped_forward.values | data.escaped_backward.values
     energy = E_C + excess
@@ -396,8 +397,9 @@ def test_all_forbidden_grid_in_tiles_gives_a_valid_empty_file(tmp_path, barbanis
                                          {"name": "px", "range": [-3.0, 3.0], "points": 4}],
                                 "fixed": {"y": 0.0}, "solve": "py"})
     del config["ld_maps"]["m"]["region"]
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
-    parameters = ld_map_parameters(config, "m")
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=tmp_path / "eq.nc")
+    parameters = parameters_from_config(config, "ld", "m")
     tiles = [run_ld_tile(**parameters, equilibria=equilibria, tile=k, tiles=3, show_progress=False,
                          output=tmp_path / f"tile-{k}.nc") for k in range(3)]
     data = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
@@ -421,8 +423,9 @@ def test_lyapunov_family_continues_far_beyond_de_10(tmp_path):
         "periodic_orbits": {"far": {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0711],
                                     "energies": {"excess": targets}, "samples": 101}},
     })
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
-    path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "far"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=tmp_path / "eq.nc")
+    path = upo_stage.run_upo(**parameters_from_config(config, "upo", "far"), equilibria=equilibria,
                              output=tmp_path / "far.nc")
     data = open_stage_file(path, stage=contracts.UPO)
     tolerance = data.attrs["tolerance"]

@@ -22,7 +22,8 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.periodic_orbits import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
 
 # The closed-form M_p of the uncoupled oscillators (Beta functions) of the `oscillator` fixture,
 # frequencies (wx, wy) = (1.0, 1.3): derived in tests/support, checked in tests/engine/test_closed_form.py.
@@ -180,7 +181,8 @@ def test_orbit_ladder_meets_the_definition_of_a_periodic_orbit(barbanis):
 def equilibria_file(tmp_path_factory):
     config = validate_config({"systems": {"barbanis_2dof": {"builtin": "barbanis_2dof"}}})
     folder = tmp_path_factory.mktemp("equilibria")
-    return run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=folder / "barbanis_2dof.nc")
+    return run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                          output=folder / "barbanis_2dof.nc")
 
 
 FIG4 = {
@@ -211,7 +213,7 @@ def stage_output(tmp_path_factory, equilibria_file):
         nhim={"map": "slice", "grid_points": [24, 40], "refinement_grid": 40, "tolerance": [1e-4, 1e-8]},
     )
     folder = tmp_path_factory.mktemp("accuracy")
-    parameters = accuracy_stage.accuracy_parameters(config)
+    parameters = parameters_from_config(config, "accuracy")
     path = accuracy_stage.run_accuracy_cost(**parameters, equilibria=[equilibria_file], output=folder / "a.nc",
                                             table=folder / "a.md", threads=1)
     return path, folder / "a.md"

@@ -13,6 +13,7 @@ def stage_file(path, energy, *, extra=False, wall_time=1.0):
             "energy": (("point",), np.asarray(energy, dtype=np.float64), {"units": "1"}),
             "escaped": (("point",), np.array([True, False, True])),
             "refinement_wall_time": ((), wall_time),
+            "monte_carlo_seconds": ((), 2 * wall_time, {"units": "s"}),
         }
     )
     if extra:

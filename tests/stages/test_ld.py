@@ -8,7 +8,8 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, stage_parameters
 from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, write_ld_map
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
+from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.workflow import ROOT
 
@@ -40,7 +41,7 @@ def equilibria(barbanis):
 
 
 def test_tiles_gathered_equal_the_untiled_map(tmp_path, equilibria):
-    parameters = ld_map_parameters(small_config(), "m")
+    parameters = parameters_from_config(small_config(), "ld", "m")
     whole = compute_ld_map(parameters, equilibria, show_progress=False)
     paths = []
     for tile in range(3):
@@ -56,7 +57,7 @@ def test_tiles_gathered_equal_the_untiled_map(tmp_path, equilibria):
 
 
 def test_masked_points_are_never_integrated(equilibria):
-    parameters = ld_map_parameters(small_config(), "m")
+    parameters = parameters_from_config(small_config(), "ld", "m")
     dataset = compute_ld_map(parameters, equilibria, show_progress=False)
     allowed = dataset.allowed.values
     assert 0 < allowed.sum() < allowed.size  # this slice has both kinds of point
@@ -73,9 +74,9 @@ def test_masked_points_are_never_integrated(equilibria):
 
 def test_grid_entirely_forbidden_writes_an_empty_map(tmp_path, equilibria):
     config = small_config(energy={"excess": -10.0})
-    dataset = compute_ld_map(ld_map_parameters(config, "m"), equilibria, show_progress=False)
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
     assert not dataset.allowed.values.any()
-    path = write_ld_map(dataset, ld_map_parameters(config, "m"), tmp_path / "empty.nc", tile_file=False)
+    path = write_ld_map(dataset, parameters_from_config(config, "ld", "m"), tmp_path / "empty.nc", tile_file=False)
     loaded = open_stage_file(path, stage="ld_grid")
     assert np.all(loaded.ld_forward.values == 0) and np.all(np.isfinite(loaded.energy_error.values))
 
@@ -132,7 +133,7 @@ def test_escaping_fixed_step_map_is_finite_and_records_its_quadrature(equilibria
         "solve": "py",
     }
     config = small_config(section=section, time="fixed", tau=50.0, integrator={"scheme": "sym6", "dt": 0.4})
-    dataset = compute_ld_map(ld_map_parameters(config, "m"), equilibria, show_progress=False)
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
     for name, variable in dataset.data_vars.items():
         if variable.dtype.kind == "f":
             assert np.all(np.isfinite(variable.values)), name
@@ -163,7 +164,7 @@ def test_map_with_a_solved_position_records_it_like_a_momentum(tmp_path):
     config = validate_config({"systems": {"henon_heiles": {"formula": formula, "coordinates": ["x", "y"]}},
                               "ld_maps": {"m": ld_map}})
     system = make_system("henon_heiles", {"formula": formula, "coordinates": ["x", "y"]})
-    parameters = ld_map_parameters(config, "m")
+    parameters = parameters_from_config(config, "ld", "m")
     dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
     path = write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False)
     stored = open_stage_file(path, stage="ld_grid")
@@ -236,7 +237,7 @@ def test_map_with_masses_solves_momenta_with_them_and_records_them(tmp_path):
                                  {"name": "px", "range": [-1.0, 1.0], "points": 5}]
     config = validate_config({"systems": {"barbanis_m8": spec}, "ld_maps": {"m": ld_map}})
     system = make_system("barbanis_m8", spec)
-    parameters = ld_map_parameters(config, "m")
+    parameters = parameters_from_config(config, "ld", "m")
     dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
     stored = open_stage_file(write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False), stage="ld_grid")
     assert stored.attrs["mass_matrix"] == "[[8.0, 0.0], [0.0, 8.0]]"

@@ -14,7 +14,8 @@ from ldpipe.manifolds import ManifoldSettings, manifold_dataset, start_states
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
 
 EXCESS = 0.125
@@ -166,10 +167,11 @@ def test_stage_writes_manifolds_from_the_upo_file(tmp_path):
                                        "energies": {"excess": [0.125, 2.25]}, "samples": 20}},
         "manifolds": {"m": {"orbits": "bottom", "energy": {"excess": 2.25}, "points": 8, "samples": 10, "time": 10}},
     })
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
-    upo = upo_stage.run_upo(**upo_stage.upo_parameters(config, "bottom"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=tmp_path / "eq.nc")
+    upo = upo_stage.run_upo(**parameters_from_config(config, "upo", "bottom"), equilibria=equilibria,
                             output=tmp_path / "upo.nc")
-    path = manifold_stage.run_manifolds(**manifold_stage.manifold_parameters(config, "m"), upo=upo,
+    path = manifold_stage.run_manifolds(**parameters_from_config(config, "manifolds", "m"), upo=upo,
                                         output=tmp_path / "m.nc")
     data = open_stage_file(path, stage=contracts.MANIFOLDS)
     assert data.attrs["excess_energy"] == pytest.approx(2.25, abs=1e-11)

@@ -24,9 +24,10 @@ from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states
 from ldpipe.stages import nhim as nhim_stage
 from ldpipe.stages import nhim_validation
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
-from ldpipe.stages.upo import run_upo, upo_parameters
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import compute_ld_map, write_ld_map
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 
 LAM, OMEGA = 1.5, 1.0
@@ -170,12 +171,13 @@ def barbanis_config(points: int = 48, **nhim_section):
 def barbanis_files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("nhim")
     config = barbanis_config()
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=folder / "equilibria.nc")
-    upo = run_upo(**upo_parameters(config, "bottom"), equilibria=equilibria, output=folder / "bottom.nc")
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=folder / "equilibria.nc")
+    upo = run_upo(**parameters_from_config(config, "upo", "bottom"), equilibria=equilibria, output=folder / "bottom.nc")
     equilibria_data = open_stage_file(equilibria, stage="equilibria")
     maps = {}
     for name in ("k-7.0", "k-7.2", "fixed_time"):
-        parameters = ld_map_parameters(config, name)
+        parameters = parameters_from_config(config, "ld", name)
         if name == "fixed_time":
             parameters["section"]["axes"][0]["points"] = parameters["section"]["axes"][1]["points"] = 6
             parameters["tau"] = 1.0
@@ -253,7 +255,7 @@ def test_derived_slices_take_the_cap_and_names():
         "base_map": "k-7.0", "fixed": {"y": [-7.05, -7.15]}, "excess_energies": [0.125, 0.375], "points": 300,
         "ranges": {"px": [-1.2, 1.2]}}, "reference": ["bottom"]}})
     config["max_grid_points"] = 48
-    parameters = nhim_stage.nhim_study_parameters(config, "s")
+    parameters = parameters_from_config(config, "nhim", "s")
     names = [entry["map_name"] for entry in parameters["derived"]]
     assert names == ["y-7.05_dE0.125", "y-7.05_dE0.375", "y-7.15_dE0.125", "y-7.15_dE0.375"]
     entry = parameters["derived"][1]

@@ -19,10 +19,10 @@ from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe.ld_grid import resolve_ld_map
 from ldpipe.stages import nhim_validation
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import ld_map_parameters
-from ldpipe.stages.nhim_orbits import nhim_orbit_inputs, nhim_orbit_parameters, run_nhim_orbit_validation
-from ldpipe.stages.upo import run_upo, upo_parameters
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.nhim_orbits import nhim_orbit_inputs, run_nhim_orbit_validation
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 from ldpipe.variational import propagate
 
@@ -150,10 +150,11 @@ def orbit_files(tmp_path_factory):
     config = orbit_config()
     files = {"folder": folder, "config": config}
     for system in ("barbanis_2dof", "barbanis_contopoulos_3dof"):
-        files[system] = run_equilibria(**equilibria_parameters(config, system), output=folder / f"{system}.nc")
+        files[system] = run_equilibria(**parameters_from_config(config, "equilibria", system),
+              output=folder / f"{system}.nc")
     for family in ("bottom", "mode0", "mode1"):
         system = config["periodic_orbits"][family]["system"]
-        files[family] = run_upo(**upo_parameters(config, family), equilibria=files[system],
+        files[family] = run_upo(**parameters_from_config(config, "upo", family), equilibria=files[system],
                                 output=folder / f"{family}.nc")
     return files
 
@@ -164,7 +165,7 @@ def three_dof_file(orbit_files):
     # z-p_z kinds on small windows.
     config = orbit_files["config"]
     return run_nhim_orbit_validation(
-        study="bc3", base_map=ld_map_parameters(config, "fig5"), orbits=["mode0", "mode1"],
+        study="bc3", base_map=parameters_from_config(config, "ld", "fig5"), orbits=["mode0", "mode1"],
         orbit_files=[orbit_files["mode0"], orbit_files["mode1"]], equilibria=orbit_files["barbanis_contopoulos_3dof"],
         energies={"total": [24.0]}, phases=4, slices=[["x", "px"], ["z", "pz"]], half_width=0.2, points=33,
         boundary_cells=2.0, min_transversality=1e-3, tolerance=1e-8, refinement={},
@@ -231,7 +232,8 @@ def test_the_same_machinery_returns_the_2dof_orbit_crossings(orbit_files):
     # one-dimensional NHIM meets each slice once in its window.
     config = orbit_files["config"]
     path = run_nhim_orbit_validation(
-        study="b2", base_map=ld_map_parameters(config, "fig4"), orbits=["bottom"], orbit_files=[orbit_files["bottom"]],
+        study="b2", base_map=parameters_from_config(config, "ld",
+                                                    "fig4"), orbits=["bottom"], orbit_files=[orbit_files["bottom"]],
         equilibria=orbit_files["barbanis_2dof"], energies={"excess": [0.125]}, phases=4, slices=[["x", "px"]],
         half_width=0.2, points=41, boundary_cells=2.0, min_transversality=1e-3, tolerance=1e-8, refinement={},
         output=orbit_files["folder"] / "b2.nc",
@@ -239,7 +241,7 @@ def test_the_same_machinery_returns_the_2dof_orbit_crossings(orbit_files):
     data, rows = _rows(path)
     upo = open_stage_file(orbit_files["bottom"], stage=contracts.UPO)
     system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
-    base = ld_map_parameters(config, "fig4")
+    base = parameters_from_config(config, "ld", "fig4")
     for phase in (0.25, 0.75):
         k = rows[("bottom", phase, "x-px")]
         assert str(data.status.values[k]) == "ok" and int(data.crossings.values[k]) == 1
@@ -259,7 +261,7 @@ def test_slices_below_the_transversality_minimum_are_recorded_as_tangent(orbit_f
     # kept in the table, but not checked against the orbit point and not a failure of the run.
     config = orbit_files["config"]
     path = run_nhim_orbit_validation(
-        study="tangent", base_map=ld_map_parameters(config, "fig4"), orbits=["bottom"],
+        study="tangent", base_map=parameters_from_config(config, "ld", "fig4"), orbits=["bottom"],
         orbit_files=[orbit_files["bottom"]], equilibria=orbit_files["barbanis_2dof"], energies={"excess": [0.125]},
         phases=4, slices=[["x", "px"]], half_width=0.2, points=21, boundary_cells=2.0, min_transversality=0.9,
         tolerance=1e-8, refinement={}, output=tmp_path / "tangent.nc",
@@ -285,7 +287,8 @@ def test_validation_table_fails_naming_slice_and_reason(orbit_files, three_dof_f
     # ... a refinement that cannot converge (one secant iteration) fails the run, naming the slice and why.
     config = orbit_files["config"]
     failing = run_nhim_orbit_validation(
-        study="bad", base_map=ld_map_parameters(config, "fig4"), orbits=["bottom"], orbit_files=[orbit_files["bottom"]],
+        study="bad", base_map=parameters_from_config(config, "ld",
+                                                     "fig4"), orbits=["bottom"], orbit_files=[orbit_files["bottom"]],
         equilibria=orbit_files["barbanis_2dof"], energies={"excess": [0.125]}, phases=4, slices=[["x", "px"]],
         half_width=0.2, points=21, boundary_cells=2.0, min_transversality=1e-3, tolerance=1e-8,
         refinement={"max_iterations": 1}, output=tmp_path / "bad.nc",
@@ -312,7 +315,7 @@ def test_orbit_validation_config_errors_name_the_key():
         orbit_config(s={**study, "tolerance": 1e-9})
     config = orbit_config(s=study)
     config["max_grid_points"] = 40
-    assert nhim_orbit_parameters(config, "s")["points"] == 39  # capped, and odd
+    assert parameters_from_config(config, "nhim_orbits", "s")["points"] == 39  # capped, and odd
     assert nhim_orbit_inputs(config, "s") == {"orbits": ["mode0"], "systems": ["barbanis_contopoulos_3dof"]}
 
 

@@ -28,9 +28,10 @@ from ldpipe.nhim.refinement import refine_by_fates_task
 from ldpipe.nhim.sampling import SamplingSettings, predict, sample_family, sample_slice, slice_problem, walk_order
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.sections import Section
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.nhim_sampling import nhim_sampling_parameters, run_nhim_sampling
-from ldpipe.stages.upo import run_upo, upo_parameters
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.nhim_sampling import run_nhim_sampling
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.upo import run_upo
 from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system
 
@@ -201,8 +202,9 @@ def small_study(tmp_path_factory):
             "y": {"range": [5.3, 6.3], "points": 2}, "z": {"range": [2.65, 2.65], "points": 1},
             "py": {"range": [0.0, 0.0], "points": 1}}}},
     })
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_contopoulos_3dof"), output=tmp_path / "eq.nc")
-    parameters = nhim_sampling_parameters(config, "small")
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_contopoulos_3dof"),
+                                output=tmp_path / "eq.nc")
+    parameters = parameters_from_config(config, "nhim_sampling", "small")
     path = run_nhim_sampling(**parameters, equilibria=equilibria, output=tmp_path / "small.nc")
     return config, equilibria, path
 
@@ -266,7 +268,7 @@ def test_figure_draws_the_points_the_orbit_and_the_coverage(small_study, tmp_pat
     config = validate_config({**config, "periodic_orbits": {"mode0": {
         "system": "barbanis_contopoulos_3dof", "saddle_near": [10.29, 5.29, 2.65], "center_mode": 0,
         "energies": {"total": [24.0]}}}})
-    upo = run_upo(**upo_parameters(config, "mode0"), equilibria=equilibria, output=tmp_path / "mode0.nc")
+    upo = run_upo(**parameters_from_config(config, "upo", "mode0"), equilibria=equilibria, output=tmp_path / "mode0.nc")
     figure = draw_nhim_sample({"projections": [["x", "y", "z"], ["y", "z", "pz"]]}, sampling=path, upo=[upo])
     top = [ax for ax in figure.axes if ax.name == "3d"]
     assert len(top) == 2 and all(len(ax.lines) == 1 for ax in top)  # the orbit in each projection

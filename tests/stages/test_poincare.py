@@ -11,7 +11,8 @@ from ldpipe.flow import FlowSettings, integrate
 from ldpipe.poincare import poincare_dataset
 from ldpipe.sections import Section
 from ldpipe.stages import poincare as poincare_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
 
 EC = 15.125  # paper: critical energy of the Barbanis saddles
 GRID = Section(axes=("x", "px"), ranges=((-5.5, 5.5), (-5.5, 5.5)), shape=(7, 7), fixed={"y": 0.0}, solve="py")
@@ -156,8 +157,9 @@ def test_stage_writes_the_section(tmp_path):
                                    "fixed": {"y": 0.0}, "solve": "py"},
         }},
     })
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=tmp_path / "eq.nc")
-    path = poincare_stage.run_poincare(**poincare_stage.poincare_parameters(config, "p"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=tmp_path / "eq.nc")
+    path = poincare_stage.run_poincare(**parameters_from_config(config, "poincare", "p"), equilibria=equilibria,
                                        output=tmp_path / "p.nc")
     data = open_stage_file(path, stage=contracts.POINCARE)
     assert data.attrs["excess_energy"] == pytest.approx(0.125, abs=1e-12)
@@ -223,8 +225,9 @@ def test_stage_with_a_coupled_kinetic_matrix(tmp_path):
                                    "fixed": {"y": 0.0}, "solve": "py"},
         }},
     })
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_coupled"), output=tmp_path / "eq.nc")
-    path = poincare_stage.run_poincare(**poincare_stage.poincare_parameters(config, "p"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_coupled"),
+                                output=tmp_path / "eq.nc")
+    path = poincare_stage.run_poincare(**parameters_from_config(config, "poincare", "p"), equilibria=equilibria,
                                        output=tmp_path / "p.nc")
     data = open_stage_file(path, stage=contracts.POINCARE)
     assert data.attrs["mass_matrix"] == "[[1.5, 0.5], [0.5, 1.5]]"

@@ -9,7 +9,8 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.stages import upo as upo_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
 
 SETTINGS = CorrectorSettings(tolerance=1e-10, rtol=1e-13, atol=1e-13)
 ENERGY_TOLERANCE = 1e-12
@@ -172,7 +173,7 @@ def equilibria_files(tmp_path_factory):
         "barbanis_2dof": {"builtin": "barbanis_2dof"},
         "barbanis_contopoulos_3dof": {"builtin": "barbanis_contopoulos_3dof"},
     }})
-    return {name: run_equilibria(**equilibria_parameters(config, name), output=folder / f"{name}.nc")
+    return {name: run_equilibria(**parameters_from_config(config, "equilibria", name), output=folder / f"{name}.nc")
             for name in config["systems"]}
 
 
@@ -187,7 +188,8 @@ def test_stage_writes_the_family_file(tmp_path, equilibria_files):
         "system": "barbanis_2dof", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.0, 0.125, 2.25]},
         "samples": 50,
     }})
-    path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "bottom"), equilibria=equilibria_files["barbanis_2dof"],
+    path = upo_stage.run_upo(**parameters_from_config(config, "upo", "bottom"),
+                             equilibria=equilibria_files["barbanis_2dof"],
                              output=tmp_path / "bottom.nc")
     data = open_stage_file(path, stage=contracts.UPO)
     assert data.sizes["orbit"] == 3 and data.sizes["sample"] == 50 and data.sizes["mode"] == 4
@@ -211,7 +213,7 @@ def test_config_errors_name_the_key(equilibria_files, tmp_path):
         config_with(periodic_orbits={"f": {"system": "nope", "energies": {"excess": [1.0]}}})
     config = config_with(periodic_orbits={"f": {"system": "barbanis_2dof", "energies": {"total": [15.0]}}})
     with pytest.raises(ConfigError, match="periodic_orbits.f.energies"):
-        upo_stage.run_upo(**upo_stage.upo_parameters(config, "f"), equilibria=equilibria_files["barbanis_2dof"],
+        upo_stage.run_upo(**parameters_from_config(config, "upo", "f"), equilibria=equilibria_files["barbanis_2dof"],
                           output=tmp_path / "f.nc")
 
 
@@ -240,8 +242,9 @@ def test_stage_with_equal_masses_scales_the_periods(tmp_path, bottom):
     spec = {"builtin": "barbanis_2dof", "masses": {"x": 8.0, "y": 8.0}}
     config = validate_config({"systems": {"barbanis_m8": spec}, "periodic_orbits": {"heavy": {
         "system": "barbanis_m8", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}, "samples": 40}}})
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_m8"), output=tmp_path / "eq.nc")
-    path = upo_stage.run_upo(**upo_stage.upo_parameters(config, "heavy"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_m8"),
+                                output=tmp_path / "eq.nc")
+    path = upo_stage.run_upo(**parameters_from_config(config, "upo", "heavy"), equilibria=equilibria,
                              output=tmp_path / "heavy.nc")
     data = open_stage_file(path, stage=contracts.UPO)
     assert data.attrs["mass_matrix"] == "[[8.0, 0.0], [0.0, 8.0]]"

@@ -14,9 +14,10 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.flow import FlowSettings, integrate
 from ldpipe.ld_grid import resolve_ld_map
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather, run_ld_tile
-from ldpipe.stages.poincare import poincare_parameters, run_poincare
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.poincare import run_poincare
 from ldpipe.systems import make_system
 from support.closed_forms import linear_saddle_ld
 from support.workflow import readme_yaml
@@ -50,7 +51,7 @@ def test_ld_map_of_a_vector_field_is_the_closed_form(tmp_path):
     # The uncoupled field's M_p is the sum of the linear closed forms (support.closed_forms): the
     # x, y saddle and z as a growing direction (linear_saddle_ld with y0 = 0); t0 changes nothing
     # for this autonomous field. Two tiles gathered equal the closed form at every grid point.
-    parameters = ld_map_parameters(config(tiles=2), "m")
+    parameters = parameters_from_config(config(tiles=2), "ld", "m")
     tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
              for k in range(2)]
     dataset = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
@@ -71,7 +72,8 @@ def test_time_dependent_map_depends_on_t0():
     spec = {"system": "duffing", "section": {"axes": [{"name": "x", "range": [-1.0, 1.0], "points": 3},
                                                       {"name": "y", "range": [-0.5, 0.5], "points": 3}]},
             "tau": 4.0, "integrator": {"rtol": 1e-10, "atol": 1e-10}}
-    maps = [compute_ld_map(ld_map_parameters(config(**spec, t0=t0), "m"), None, show_progress=False) for t0 in (0.0, 1.5)]
+    maps = [compute_ld_map(parameters_from_config(config(**spec, t0=t0), "ld", "m"), None, show_progress=False)
+            for t0 in (0.0, 1.5)]
     assert maps[0].allowed.values.all()
     assert np.max(np.abs(maps[0].ld_forward.values - maps[1].ld_forward.values)) > 1e-3
 
@@ -90,7 +92,7 @@ def test_bad_vector_field_maps_name_the_key(overrides, key):
 
 
 def test_a_scheme_without_general_flow_is_refused_naming_scheme_and_system():
-    parameters = ld_map_parameters(config(integrator={"scheme": "rk4", "dt": 0.01}), "m")
+    parameters = parameters_from_config(config(integrator={"scheme": "rk4", "dt": 0.01}), "ld", "m")
     with pytest.raises(ConfigError, match=r"'ld_maps.m.integrator.scheme': scheme 'rk4' cannot integrate system 'saddle3'"):
         compute_ld_map(parameters, None, show_progress=False)
 
@@ -112,7 +114,7 @@ def test_equilibria_of_an_autonomous_field_are_the_closed_forms(tmp_path):
     # at 0, lambda^2 + delta lambda - 1 = 0 (a saddle); at +-1, lambda^2 + delta lambda + 2 = 0,
     # lambda = (-delta +- i sqrt(8 - delta^2))/2 (a sink).
     cfg = validate_config({"systems": copy.deepcopy(SYSTEMS)})
-    path = run_equilibria(**equilibria_parameters(cfg, "unforced"), output=tmp_path / "eq.nc")
+    path = run_equilibria(**parameters_from_config(cfg, "equilibria", "unforced"), output=tmp_path / "eq.nc")
     data = open_stage_file(path, stage="flow_equilibria")
     np.testing.assert_allclose(data.position.values, [[-1.0, 0.0], [0.0, 0.0], [1.0, 0.0]], atol=1e-12)
     assert list(data.type.values) == ["sink", "saddle", "sink"]
@@ -128,14 +130,14 @@ def test_equilibria_of_an_autonomous_field_are_the_closed_forms(tmp_path):
 def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
     cfg = validate_config({"systems": copy.deepcopy(SYSTEMS)})
     with pytest.raises(ConfigError, match=r"'systems.duffing': system 'duffing' is a time-dependent vector field"):
-        run_equilibria(**equilibria_parameters(cfg, "duffing"), output=tmp_path / "eq.nc")
+        run_equilibria(**parameters_from_config(cfg, "equilibria", "duffing"), output=tmp_path / "eq.nc")
 
 
 def test_the_readme_example_is_a_valid_configuration():
     # The README's vector_field example validates as written, and its map resolves.
     cfg = validate_config(yaml.safe_load(readme_yaml("vector_field:")))
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
-    system, section, settings, info = resolve_ld_map(ld_map_parameters(cfg, "forced_duffing_t0"), None, None)
+    system, section, settings, info = resolve_ld_map(parameters_from_config(cfg, "ld", "forced_duffing_t0"), None, None)
     assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5
 
 
@@ -152,7 +154,7 @@ def test_poincare_section_of_a_vector_field_closed_form(tmp_path):
             "section": {"coordinate": "y", "value": 0.0, "direction": -1},
         }},
     })
-    path = run_poincare(**poincare_parameters(cfg, "p"), equilibria=None, output=tmp_path / "p.nc")
+    path = run_poincare(**parameters_from_config(cfg, "poincare", "p"), equilibria=None, output=tmp_path / "p.nc")
     data = open_stage_file(path, stage="poincare")
     assert data.attrs["t0"] == 0.7 and "energy" not in data.attrs
     for start, crossings, times, count in zip(data.initial_state.values, data.crossing_state.values,

@@ -18,8 +18,9 @@ from ldpipe.io.contracts import SADDLE_FLUX
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.saddle_flux import draw_saddle_flux
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.saddle_flux import run_saddle_flux, saddle_flux_parameters
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.saddle_flux import run_saddle_flux
 from support import quadratic_saddle as quadratic
 
 BC = {"builtin": "barbanis_contopoulos_3dof",
@@ -37,8 +38,8 @@ def _config(**studies):
 def _run(folder, config, study, system):
     equilibria = folder / f"{system}_eq.nc"
     if not equilibria.exists():
-        run_equilibria(**equilibria_parameters(config, system), output=equilibria)
-    return run_saddle_flux(**saddle_flux_parameters(config, study), equilibria=equilibria,
+        run_equilibria(**parameters_from_config(config, "equilibria", system), output=equilibria)
+    return run_saddle_flux(**parameters_from_config(config, "saddle_flux", study), equilibria=equilibria,
                            output=folder / f"{study}.nc")
 
 

@@ -19,7 +19,8 @@ from ldpipe.errors import ConfigError
 from ldpipe.figures.transport import draw_transport
 from ldpipe.stages import transport as transport_stage
 from ldpipe.stages import upo as upo_stage
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.parameters import parameters_from_config
 
 EXCESS = [0.125, 2.25]
 
@@ -41,10 +42,11 @@ def _config(**transport):
 def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("transport")
     config = _config()
-    equilibria = run_equilibria(**equilibria_parameters(config, "barbanis_2dof"), output=folder / "eq.nc")
-    upo = upo_stage.run_upo(**upo_stage.upo_parameters(config, "bottom"), equilibria=equilibria,
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=folder / "eq.nc")
+    upo = upo_stage.run_upo(**parameters_from_config(config, "upo", "bottom"), equilibria=equilibria,
                             output=folder / "upo.nc")
-    path = transport_stage.run_transport(**transport_stage.transport_parameters(config, "t"), upo=upo,
+    path = transport_stage.run_transport(**parameters_from_config(config, "transport", "t"), upo=upo,
                                          equilibria=equilibria, output=folder / "t.nc")
     return folder, equilibria, upo, path
 
@@ -87,7 +89,7 @@ def test_energy_not_in_the_family_is_refused(files):
     folder, equilibria, upo, _ = files
     config = _config(energies={"excess": [0.5]})
     with pytest.raises(ConfigError, match="no orbit at excess energy 0.5"):
-        transport_stage.run_transport(**transport_stage.transport_parameters(config, "t"), upo=upo,
+        transport_stage.run_transport(**parameters_from_config(config, "transport", "t"), upo=upo,
                                       equilibria=equilibria, output=folder / "bad.nc")
 
 

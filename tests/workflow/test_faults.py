@@ -31,8 +31,9 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, write_stage_file
 from ldpipe.equilibria import equilibria_dataset
 from ldpipe.errors import ConfigError, StageFileError
-from ldpipe.stages.equilibria import equilibria_parameters, run_equilibria
-from ldpipe.stages.ld import compute_ld_map, ld_map_parameters, run_ld_gather
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather
+from ldpipe.stages.parameters import parameters_from_config
 from support.workflow import copy_workflow, job_counts, run_snakemake
 
 PYTHON = sys.executable
@@ -126,8 +127,8 @@ def bad_inputs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("inputs")
     config = folder / "config.yaml"
     config.write_text(yaml.safe_dump(TINY_CONFIG))
-    good = run_equilibria(**equilibria_parameters(validate_config(yaml.safe_load(config.read_text())), "barbanis_2dof"),
-                          output=folder / "equilibria.nc")
+    good = run_equilibria(**parameters_from_config(validate_config(yaml.safe_load(config.read_text())), "equilibria",
+                                                   "barbanis_2dof"), output=folder / "equilibria.nc")
     truncated = folder / "truncated.nc"
     truncated.write_bytes(good.read_bytes()[:400])
     foreign = folder / "foreign.nc"
@@ -297,7 +298,7 @@ def test_killed_job_leaves_no_output_and_the_rerun_redoes_only_it(tmp_path, barb
     # The equilibria the map needs, written beforehand (one job less to start): Snakemake takes a
     # file newer than its inputs, without its own metadata, as up to date.
     config = validate_config(copy.deepcopy(WORKFLOW_CONFIG))
-    run_equilibria(**equilibria_parameters(config, "barbanis_2dof"),
+    run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
                    output=tmp_path / "results/barbanis_2dof/equilibria.nc")
 
     def snakemake(*arguments, kill=None):
@@ -329,7 +330,7 @@ def test_killed_job_leaves_no_output_and_the_rerun_redoes_only_it(tmp_path, barb
     code, log = snakemake()
     assert code == 0, log
     data = open_stage_file(tmp_path / target, stage="ld_grid")
-    fresh = compute_ld_map(ld_map_parameters(config, "tiny"),
+    fresh = compute_ld_map(parameters_from_config(config, "ld", "tiny"),
                            equilibria_dataset(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}), show_progress=False)
     for name in fresh.data_vars:
         np.testing.assert_array_equal(data[name].values, fresh[name].values, err_msg=name)

@@ -8,6 +8,7 @@ try:
     from ldpipe.config import validate_config
     from ldpipe.errors import ConfigError
     from ldpipe.io.provenance import library_sources
+    from ldpipe.stages.parameters import parameters_from_config
     from ldpipe.systems import has_equilibria, is_vector_field
 except ImportError as error:
     raise WorkflowError(
@@ -73,15 +74,11 @@ def all_targets():
 
 
 def equilibria_params(wildcards):
-    from ldpipe.stages.equilibria import equilibria_parameters
-
-    return equilibria_parameters(config, wildcards.system)
+    return parameters_from_config(config, "equilibria", wildcards.system)
 
 
 def ld_params(wildcards):
-    from ldpipe.stages.ld import ld_map_parameters
-
-    return ld_map_parameters(config, wildcards.map)
+    return parameters_from_config(config, "ld", wildcards.map)
 
 
 def ld_equilibria_file(wildcards):
@@ -100,9 +97,7 @@ def ld_tile_files(wildcards):
 
 
 def _ld_points(map_name):
-    from ldpipe.stages.ld import ld_map_parameters
-
-    axes = ld_map_parameters(config, map_name)["section"]["axes"]
+    axes = parameters_from_config(config, "ld", map_name)["section"]["axes"]
     return axes[0]["points"] * axes[1]["points"]
 
 
@@ -126,9 +121,7 @@ def ld_tile_memory_mb(wildcards):
 
 def ld_tile_runtime_min(wildcards, threads, attempt):
     # A time limit that fits the tile (a scheduler starts short jobs sooner), doubled on a retry.
-    from ldpipe.stages.ld import ld_map_parameters
-
-    tau = ld_map_parameters(config, wildcards.map)["tau"]
+    tau = parameters_from_config(config, "ld", wildcards.map)["tau"]
     tile_points = _ld_points(wildcards.map) / int(wildcards.tiles)
     core_seconds = tile_points * tau * LD_CORE_SECONDS_PER_POINT_TAU
     return (10 + math.ceil(core_seconds / threads / 60)) * attempt
@@ -139,9 +132,7 @@ def ld_gather_memory_mb(wildcards):
 
 
 def upo_params(wildcards):
-    from ldpipe.stages.upo import upo_parameters
-
-    return upo_parameters(config, wildcards.family)
+    return parameters_from_config(config, "upo", wildcards.family)
 
 
 def upo_equilibria_file(wildcards):
@@ -149,9 +140,7 @@ def upo_equilibria_file(wildcards):
 
 
 def manifold_params(wildcards):
-    from ldpipe.stages.manifolds import manifold_parameters
-
-    return manifold_parameters(config, wildcards.manifold)
+    return parameters_from_config(config, "manifolds", wildcards.manifold)
 
 
 def manifold_upo_file(wildcards):
@@ -165,9 +154,7 @@ def manifold_memory_mb(wildcards):
 
 
 def poincare_params(wildcards):
-    from ldpipe.stages.poincare import poincare_parameters
-
-    return poincare_parameters(config, wildcards.section)
+    return parameters_from_config(config, "poincare", wildcards.section)
 
 
 def poincare_equilibria_file(wildcards):
@@ -186,9 +173,7 @@ def poincare_memory_mb(wildcards):
 
 
 def nhim_params(wildcards):
-    from ldpipe.stages.nhim import nhim_study_parameters
-
-    return nhim_study_parameters(config, wildcards.study)
+    return parameters_from_config(config, "nhim", wildcards.study)
 
 
 def _nhim_inputs(study):
@@ -220,9 +205,7 @@ def nhim_study_files():
 
 
 def nhim_orbit_params(wildcards):
-    from ldpipe.stages.nhim_orbits import nhim_orbit_parameters
-
-    return nhim_orbit_parameters(config, wildcards.study)
+    return parameters_from_config(config, "nhim_orbits", wildcards.study)
 
 
 def _nhim_orbit_inputs(study):
@@ -270,9 +253,7 @@ def nhim_targets():
 
 
 def nhim_sampling_params(wildcards):
-    from ldpipe.stages.nhim_sampling import nhim_sampling_parameters
-
-    return nhim_sampling_parameters(config, wildcards.study)
+    return parameters_from_config(config, "nhim_sampling", wildcards.study)
 
 
 def nhim_sampling_equilibria_file(wildcards):
@@ -301,9 +282,7 @@ def transport_equilibria_file(wildcards):
 
 
 def transport_params(wildcards):
-    from ldpipe.stages.transport import transport_parameters
-
-    return transport_parameters(config, wildcards.study)
+    return parameters_from_config(config, "transport", wildcards.study)
 
 
 def saddle_flux_targets():
@@ -321,15 +300,11 @@ def saddle_flux_equilibria_file(wildcards):
 
 
 def saddle_flux_params(wildcards):
-    from ldpipe.stages.saddle_flux import saddle_flux_parameters
-
-    return saddle_flux_parameters(config, wildcards.study)
+    return parameters_from_config(config, "saddle_flux", wildcards.study)
 
 
 def accuracy_params(wildcards):
-    from ldpipe.stages.accuracy import accuracy_parameters
-
-    return accuracy_parameters(config)
+    return parameters_from_config(config, "accuracy")
 
 
 def accuracy_equilibria_files(wildcards):

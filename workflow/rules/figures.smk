@@ -1,7 +1,8 @@
 # Figures: one rule per entry under `figures:` in the configuration, named after it, so that
 # `snakemake fig3` builds that figure and only the stages it draws. The helpers are library
 # functions (ldpipe.stages.figures), tested there.
-from ldpipe.stages.figures import figure_input_files, figure_memory_mb, figure_outputs, figure_parameters
+from ldpipe.stages.figures import figure_input_files, figure_memory_mb, figure_outputs
+from ldpipe.stages.parameters import parameters_from_config
 
 
 report: "../report/workflow.rst"
@@ -30,7 +31,7 @@ for _figure in FIGURES:
             ),
             pdf=figure_outputs(_figure, RESULTS)["pdf"],
         params:
-            figure=figure_parameters(config, _figure),
+            figure=parameters_from_config(config, "figures", _figure),
         log:
             f"{RESULTS}/logs/figures/{_figure}.log",
         benchmark:

@@ -81,11 +81,12 @@ def _system_config(args: argparse.Namespace) -> dict:
 
 
 def _run_equilibria(args: argparse.Namespace) -> None:
-    from ..stages.equilibria import equilibria_parameters, run_equilibria
+    from ..stages.equilibria import run_equilibria
+    from ..stages.parameters import parameters_from_config
 
     config = _system_config(args)
     with log_to(None):
-        run_equilibria(**equilibria_parameters(config, args.system), output=args.output)
+        run_equilibria(**parameters_from_config(config, "equilibria", args.system), output=args.output)
 
 
 def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> dict:
@@ -173,7 +174,8 @@ def _run_ld(args: argparse.Namespace) -> None:
     from ..io.contracts import EQUILIBRIA
     from ..io.datafile import open_stage_file
     from ..stages import equilibria as equilibria_stage
-    from ..stages.ld import compute_ld_map, ld_map_parameters, write_ld_map
+    from ..stages.ld import compute_ld_map, write_ld_map
+    from ..stages.parameters import parameters_from_config
 
     if args.map is not None:
         if args.config is None:
@@ -193,7 +195,7 @@ def _run_ld(args: argparse.Namespace) -> None:
         config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field)
         config = validate_config(config)
         args.map = "cli"
-    parameters = ld_map_parameters(config, args.map)
+    parameters = parameters_from_config(config, "ld", args.map)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         if is_vector_field(config["systems"][parameters["system_name"]]):
             equilibria = None  # a vector field's map has no energy and no saddle

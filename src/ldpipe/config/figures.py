@@ -8,13 +8,8 @@ import io
 
 from ..errors import ConfigError
 from ..systems import system_coordinates
-from .maps import check_interval
-from .studies import (
-    check_family_energies,
-    check_names,
-    check_saddle_near,
-    check_system_reference,
-)
+from .maps import check_interval, check_names
+from .studies import check_family_energies, check_saddle_near, check_system_reference
 
 FIGURE_REQUIRED = {
     "potential": ("system", "plane", "energies"),

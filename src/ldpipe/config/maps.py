@@ -2,7 +2,8 @@
 Hamiltonian and vector-field systems alike (:func:`ldpipe.config.validate_config` calls them).
 
 A Hamiltonian's map has an energy and a coordinate solved from it; a vector field's has neither,
-only two state variables on the grid, the others fixed, and an optional start time ``t0``.
+only two state variables on the grid, the others fixed, and an optional start time ``t0``. The
+checks every configuration module shares (an interval, names of other entries) are here too.
 """
 
 from __future__ import annotations
@@ -17,14 +18,35 @@ def check_interval(value, key: str) -> None:
         raise ConfigError(f"config key {key!r}: expected an interval [low, high] with low < high, got {value}")
 
 
+def check_names(names: list[str], section: str, key: str, config: dict, noun: str | None = None) -> None:
+    """Every name given at config key ``key`` is an entry of the config's ``section`` (``noun``: what
+    such an entry is called in the error; default "<section> entry")."""
+    for name in names:
+        if name not in config[section]:
+            raise ConfigError(f"config key {key!r}: no {noun or section + ' entry'} {name!r}; expected one of "
+                              f"{sorted(config[section])}")
+
+
+def check_energy_surface_grid(spec: dict, key: str, grid: str, what: str) -> None:
+    """A Hamiltonian's map or Poincaré section (``what``, for errors) starts on its energy surface:
+    it has an energy, no start time, and its grid (the key ``grid``) names the coordinate solved
+    from the energy."""
+    if "energy" not in spec:
+        raise ConfigError(f"config key '{key}.energy': {what} of the Hamiltonian system {spec['system']!r} needs an "
+                          "energy (total or excess)")
+    if "t0" in spec:
+        raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
+                          "a start time changes nothing, leave t0 out")
+    if "solve" not in spec[grid]:
+        raise ConfigError(f"config key '{key}.{grid}.solve': a grid on the energy surface of a Hamiltonian needs the "
+                          "coordinate solved from the energy")
+
+
 def check_ld_maps(config: dict) -> None:
     """Every map: its system exists, its section splits the phase space (or state), tiles, region."""
     for name, spec in config["ld_maps"].items():
         key = f"ld_maps.{name}"
-        if spec["system"] not in config["systems"]:
-            raise ConfigError(
-                f"config key '{key}.system': no system {spec['system']!r}; expected one of {sorted(config['systems'])}"
-            )
+        check_names([spec["system"]], "systems", f"{key}.system", config, "system")
         system = config["systems"][spec["system"]]
         coordinates = system_coordinates(system)
         phase = system_phase_coordinates(system)
@@ -34,15 +56,7 @@ def check_ld_maps(config: dict) -> None:
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
-        if "energy" not in spec:
-            raise ConfigError(f"config key '{key}.energy': a map of the Hamiltonian system {spec['system']!r} needs an "
-                              "energy (total or excess)")
-        if "t0" in spec:
-            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
-                              "a start time changes nothing, leave t0 out")
-        if "solve" not in spec["section"]:
-            raise ConfigError(f"config key '{key}.section.solve': a section of a Hamiltonian needs the coordinate "
-                              "solved from the energy")
+        check_energy_surface_grid(spec, key, "section", "a map")
         named = [*axes, *spec["section"]["fixed"], spec["section"]["solve"]]
         if sorted(named) != sorted(phase):
             raise ConfigError(

@@ -8,14 +8,13 @@ from __future__ import annotations
 from ..errors import ConfigError
 from ..systems import is_vector_field, system_coordinates
 from ..systems.kinetic import kinetic_matrix
-from .maps import check_interval, check_vector_field_poincare
+from .maps import check_energy_surface_grid, check_interval, check_names, check_vector_field_poincare
 
 
 def check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
     """The coordinates of the Hamiltonian system ``name`` a stage at ``key`` refers to (orbits,
     Hamiltonian Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
-    if name not in config["systems"]:
-        raise ConfigError(f"config key '{key}': no system {name!r}; expected one of {sorted(config['systems'])}")
+    check_names([name], "systems", key, config, "system")
     if is_vector_field(config["systems"][name]):
         raise ConfigError(f"config key '{key}': system {name!r} is a vector field (no Hamiltonian); this stage needs "
                           "a Hamiltonian system ('builtin' or 'formula')")
@@ -40,12 +39,6 @@ def check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system:
             f"config key '{key}.coordinate': crossings of the momentum {surface['coordinate']} are located for "
             f"diagonal masses only, and {system_key}.mass_matrix couples it to other momenta; use a coordinate"
         )
-
-
-def check_names(names: list[str], section: str, key: str, config: dict) -> None:
-    for name in names:
-        if name not in config[section]:
-            raise ConfigError(f"config key {key!r}: no {section} entry {name!r}; expected one of {sorted(config[section])}")
 
 
 def check_family_energies(config: dict, family: str, energies: dict, key: str) -> None:
@@ -73,10 +66,7 @@ def check_orbits(config: dict) -> None:
             )
     for name, spec in config["manifolds"].items():
         key = f"manifolds.{name}"
-        if spec["orbits"] not in config["periodic_orbits"]:
-            raise ConfigError(
-                f"config key '{key}.orbits': no family {spec['orbits']!r}; expected one of {sorted(config['periodic_orbits'])}"
-            )
+        check_names([spec["orbits"]], "periodic_orbits", f"{key}.orbits", config, "family")
         family = config["periodic_orbits"][spec["orbits"]]
         kind, value = next(iter(spec["energy"].items()))
         if kind not in family["energies"] or not any(
@@ -95,15 +85,7 @@ def check_orbits(config: dict) -> None:
             check_vector_field_poincare(config, spec, key)
             continue
         coordinates = check_system_reference(config, spec["system"], f"{key}.system")
-        if "energy" not in spec:
-            raise ConfigError(f"config key '{key}.energy': a Poincaré section of the Hamiltonian system "
-                              f"{spec['system']!r} needs an energy (total or excess)")
-        if "t0" in spec:
-            raise ConfigError(f"config key '{key}.t0': system {spec['system']!r} is autonomous (a Hamiltonian); "
-                              "a start time changes nothing, leave t0 out")
-        if "solve" not in spec["initial_conditions"]:
-            raise ConfigError(f"config key '{key}.initial_conditions.solve': initial conditions of a Hamiltonian "
-                              "need the momentum solved from the energy")
+        check_energy_surface_grid(spec, key, "initial_conditions", "a Poincaré section")
         check_saddle_near(spec, coordinates, key)
         check_surface(spec["section"], coordinates, f"{key}.section", config["systems"][spec["system"]],
                        f"systems.{spec['system']}")
@@ -132,9 +114,7 @@ def check_nhim_sampling(config: dict) -> None:
     for name, spec in config.get("nhim_sampling", {}).items():
         key = f"nhim_sampling.{name}"
         map_name = spec["base_map"]
-        if map_name not in config["ld_maps"]:
-            raise ConfigError(f"config key '{key}.base_map': no LD map {map_name!r}; expected one of "
-                              f"{sorted(config['ld_maps'])}")
+        check_names([map_name], "ld_maps", f"{key}.base_map", config, "LD map")
         map_spec = config["ld_maps"][map_name]
         if map_spec["time"] != "variable":
             raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; NHIM sampling needs "
@@ -172,8 +152,7 @@ def check_nhim(config: dict) -> None:
         where = f"{key}.maps" if "maps" in spec else f"{key}.derived.base_map"
         systems = set()
         for map_name in maps:
-            if map_name not in config["ld_maps"]:
-                raise ConfigError(f"config key {where!r}: no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
+            check_names([map_name], "ld_maps", where, config, "LD map")
             if config["ld_maps"][map_name]["time"] != "variable":
                 raise ConfigError(f"config key {where!r}: map {map_name!r} is fixed time; NHIM detection needs variable time")
             if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
@@ -194,12 +173,8 @@ def check_nhim(config: dict) -> None:
                 if axis not in [a["name"] for a in section["axes"]]:
                     raise ConfigError(f"config key '{key}.derived.ranges.{axis}': not an axis of map {maps[0]!r}")
                 check_interval(interval, f"{key}.derived.ranges.{axis}")
+        check_names(spec["reference"], "periodic_orbits", f"{key}.reference", config, "family")
         for family in spec["reference"]:
-            if family not in config["periodic_orbits"]:
-                raise ConfigError(
-                    f"config key '{key}.reference': no family {family!r} under periodic_orbits; expected one of "
-                    f"{sorted(config['periodic_orbits'])}"
-                )
             if config["periodic_orbits"][family]["system"] not in systems:
                 raise ConfigError(f"config key '{key}.reference': family {family!r} is of another system than the maps")
     for name, spec in nhim["orbit_validation"].items():
@@ -211,15 +186,12 @@ def check_nhim_orbit_validation(config: dict, key: str, spec: dict) -> None:
     its slice axes are a position and its momentum, its window's grid has a centre point, and its
     tolerance is no tighter than the refinement's."""
     map_name = spec["base_map"]
-    if map_name not in config["ld_maps"]:
-        raise ConfigError(f"config key '{key}.base_map': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}")
+    check_names([map_name], "ld_maps", f"{key}.base_map", config, "LD map")
     if config["ld_maps"][map_name]["time"] != "variable":
         raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; the fates need its saddle region")
     system = config["ld_maps"][map_name]["system"]
+    check_names(spec["orbits"], "periodic_orbits", f"{key}.orbits", config, "family")
     for family in spec["orbits"]:
-        if family not in config["periodic_orbits"]:
-            raise ConfigError(f"config key '{key}.orbits': no family {family!r} under periodic_orbits; expected one of "
-                              f"{sorted(config['periodic_orbits'])}")
         if config["periodic_orbits"][family]["system"] != system:
             raise ConfigError(f"config key '{key}.orbits': family {family!r} is not of the map's system {system!r}")
         # Energies given the same way (both total or both excess) are checked here; mixed ones, which
@@ -245,11 +217,8 @@ def check_accuracy_cost(config: dict) -> None:
     spec = config.get("accuracy_cost")
     if spec is None:
         return
+    check_names(spec["ld"]["maps"], "ld_maps", "accuracy_cost.ld.maps", config, "LD map")
     for map_name in spec["ld"]["maps"]:
-        if map_name not in config["ld_maps"]:
-            raise ConfigError(
-                f"config key 'accuracy_cost.ld.maps': no LD map {map_name!r}; expected one of {sorted(config['ld_maps'])}"
-            )
         if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
             raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {map_name!r} is of a vector field; the "
                               "accuracy ladder's reference LD and energy errors need a Hamiltonian system")
@@ -271,15 +240,12 @@ def check_accuracy_cost(config: dict) -> None:
                 f"{len(tolerances['rtol'])} rtol values; give one atol per rtol (or none: atol = rtol)"
             )
     family = spec["upo"]["family"]
-    if family is not None and family not in config["periodic_orbits"]:
-        raise ConfigError(
-            f"config key 'accuracy_cost.upo.family': no family {family!r}; expected one of {sorted(config['periodic_orbits'])}"
-        )
+    if family is not None:
+        check_names([family], "periodic_orbits", "accuracy_cost.upo.family", config, "family")
     nhim_map = spec["nhim"]["map"]
     if nhim_map is not None:
         key = "accuracy_cost.nhim.map"
-        if nhim_map not in config["ld_maps"]:
-            raise ConfigError(f"config key {key!r}: no LD map {nhim_map!r}; expected one of {sorted(config['ld_maps'])}")
+        check_names([nhim_map], "ld_maps", key, config, "LD map")
         map_spec = config["ld_maps"][nhim_map]
         if map_spec["time"] != "variable" or len(map_spec["section"]["fixed"]) != 1:
             raise ConfigError(

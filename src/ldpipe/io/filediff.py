@@ -5,8 +5,8 @@ a SLURM run of one commit, or a run before and after a refactoring. Values are c
 stored (no CF decoding), bit for bit; where they differ the largest absolute difference is
 reported, so a change can be told from a round-off. What cannot be equal between two runs is
 left out: the ``history`` attribute (when and how the file was written) and measured run times
-(variables named ``*wall_time``); more attributes can be left out by name (``git_commit`` when
-two commits are compared).
+(variables named ``*wall_time`` or ``*_seconds``); more attributes can be left out by name
+(``git_commit`` when two commits are compared).
 
     python -m ldpipe.io.filediff RUN_A/results RUN_B/results [--ignore-attribute git_commit]
         [--exclude 'accuracy/*']
@@ -30,7 +30,7 @@ import xarray as xr
 from .datafile import ENGINE
 
 VOLATILE_ATTRIBUTES = frozenset({"history"})
-MEASURED_TIME = re.compile(r"wall_time$")
+MEASURED_TIME = re.compile(r"(wall_time|_seconds)$")
 
 
 @dataclass(frozen=True)

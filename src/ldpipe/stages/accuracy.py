@@ -12,7 +12,6 @@ its load in the attributes, and Markdown tables summarize it. The science is in
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from pathlib import Path
 
@@ -35,8 +34,7 @@ from ..nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orb
 from ..periodic_orbits import CorrectionFailed, linearize_saddle
 from ..sections import section_states
 from ..systems import make_system
-from .ld import ld_map_parameters, resolve_map
-from .upo import upo_parameters
+from .ld import resolve_map
 
 log = get_logger(__name__)
 
@@ -51,29 +49,6 @@ REFERENCE_VALIDATION = (
     "Each run stores the reference's agreement with reference_check (default: half the step) as "
     "reference_check_quantile; errors below it are not resolved."
 )
-
-
-def accuracy_parameters(config: dict) -> dict:
-    """The keyword arguments of :func:`run_accuracy_cost` for a validated config (besides paths).
-
-    Each sampled map's full parameters (as the ld stage gets them, grid cap applied) and the
-    orbit family's are included, so that changing any of them reruns the measurement.
-    """
-    spec = copy.deepcopy(config["accuracy_cost"])
-    ld = spec["ld"]
-    maps = {name: ld_map_parameters(config, name) for name in ld.pop("maps")}
-    orbit = spec["upo"]
-    family = orbit.pop("family")
-    nhim = spec["nhim"]
-    nhim_map = nhim.pop("map")
-    return {
-        "ld": {**ld, "maps": maps},
-        "upo": {**orbit, "family": upo_parameters(config, family) if family else None},
-        "nhim": {
-            **nhim, "map": ld_map_parameters(config, nhim_map) if nhim_map else None,
-            "refinement": {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"},
-        },
-    }
 
 
 def accuracy_systems(config: dict) -> list[str]:
@@ -272,6 +247,16 @@ def _scientific(value: float) -> str:
     return f"{value:.1e}" if value else "0"
 
 
+def _table_head(columns: list[str], left: tuple[str, ...] = ()) -> list[str]:
+    """A Markdown table's header and alignment rows: numbers right-aligned, the columns in ``left`` not."""
+    return ["| " + " | ".join(columns) + " |", "| " + " | ".join("---" if c in left else "---:" for c in columns) + " |"]
+
+
+def _default_mark(is_default) -> str:
+    """The mark of the row of the configured setting."""
+    return " *" if bool(is_default) else ""
+
+
 def _ld_tables(data: xr.Dataset) -> list[str]:
     quantiles = list(np.round(data["quantile"].values, 6))
     median, p99, worst = quantiles.index(0.5), quantiles.index(0.99), quantiles.index(1.0)
@@ -297,16 +282,15 @@ def _ld_tables(data: xr.Dataset) -> list[str]:
             f"{int(d.reference_escapes)} of {2 * int(d.sampled_points)} reference trajectories escaped "
             "(left out of the error columns).",
             "",
-            "| setting | wall s (sample) | full map s | time units / s | LD error median | 99% | worst "
-            "| energy drift median | worst | stop mismatches | non-finite energy |",
-            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+            *_table_head(["setting", "wall s (sample)", "full map s", "time units / s", "LD error median", "99%",
+                          "worst", "energy drift median", "worst", "stop mismatches", "non-finite energy"],
+                         left=("setting",)),
         ]
         for s in range(d.sizes["setting"]):
             e = d.ld_error_quantile.values[s]
             h = d.energy_error_quantile.values[s]
-            mark = " *" if bool(d.is_default.values[s]) else ""
             lines.append(
-                f"| {d.label.values[s]}{mark} | {float(d.wall_time[s]):.3f} | {float(d.map_wall_time_estimate[s]):.1f} "
+                f"| {d.label.values[s]}{_default_mark(d.is_default.values[s])} | {float(d.wall_time[s]):.3f} | {float(d.map_wall_time_estimate[s]):.1f} "
                 f"| {float(d.throughput[s]):.2e} | {_scientific(e[median])} | {_scientific(e[p99])} "
                 f"| {_scientific(e[worst])} | {_scientific(h[median])} | {_scientific(h[worst])} "
                 f"| {int(d.stop_mismatches[s])} | {int(d.nonfinite_energy_errors[s])} |"
@@ -326,12 +310,11 @@ def _orbit_table(data: xr.Dataset) -> list[str]:
         f"energy tolerance {ratio:g} x tolerance; wall time from the saddle (continuation, bracketing, "
         "correction, monodromy). `*` marks the family's own setting.",
         "",
-        "| tolerance | integrator rtol | wall s | closure error | period error | energy error | x(0) error |",
-        "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        *_table_head(["tolerance", "integrator rtol", "wall s", "closure error", "period error", "energy error",
+                      "x(0) error"]),
     ]
     for k in range(data.sizes["orbit_setting"]):
-        mark = " *" if bool(data.orbit_is_default.values[k]) else ""
-        head = (f"| {float(data.orbit_tolerance[k]):g}{mark} | {float(data.orbit_rtol[k]):g} "
+        head = (f"| {float(data.orbit_tolerance[k]):g}{_default_mark(data.orbit_is_default.values[k])} | {float(data.orbit_rtol[k]):g} "
                 f"| {float(data.orbit_wall_time[k]):.3f} ")
         if not bool(data.orbit_converged.values[k]):
             lines.append(head + "| did not converge | | | |")
@@ -353,13 +336,11 @@ def _nhim_tables(data: xr.Dataset) -> list[str]:
         "backward) and its cell of largest min(F/F_ridge, B/B_ridge); the plain maximum of F + B for comparison. "
         "`*` marks the map's own grid.",
         "",
-        "| n | wall s | cell diagonal | distance (detected cell) | distance (plain maximum) |",
-        "| ---: | ---: | ---: | ---: | ---: |",
+        *_table_head(["n", "wall s", "cell diagonal", "distance (detected cell)", "distance (plain maximum)"]),
     ]
     for k in range(data.sizes["nhim_grid"]):
-        mark = " *" if bool(data.nhim_grid_is_default.values[k]) else ""
         lines.append(
-            f"| {int(data.nhim_grid_points[k])}{mark} | {float(data.nhim_grid_wall_time[k]):.3f} "
+            f"| {int(data.nhim_grid_points[k])}{_default_mark(data.nhim_grid_is_default.values[k])} | {float(data.nhim_grid_wall_time[k]):.3f} "
             f"| {_scientific(float(data.nhim_grid_diagonal[k]))} | {_scientific(float(data.nhim_detection_error[k]))} "
             f"| {_scientific(float(data.nhim_argmax_error[k]))} |"
         )
@@ -369,11 +350,10 @@ def _nhim_tables(data: xr.Dataset) -> list[str]:
         f"(distance {a['nhim_refinement_start_error']:.1e}); bisection precision {a['nhim_precision_ratio']:g} x "
         "tolerance. `*` marks the configured tolerance (nhim.refinement.tolerance).",
         "",
-        "| tolerance | method | wall s | trajectories | distance from the crossing |",
-        "| ---: | --- | ---: | ---: | ---: |",
+        *_table_head(["tolerance", "method", "wall s", "trajectories", "distance from the crossing"], left=("method",)),
     ]
     for k in range(data.sizes["nhim_refinement"]):
-        mark = " *" if bool(data.nhim_refinement_is_default.values[k]) else ""
+        mark = _default_mark(data.nhim_refinement_is_default.values[k])
         for m, method in enumerate(data.nhim_method.values):
             head = f"| {float(data.nhim_tolerance[k]):g}{mark} | {method} "
             if not bool(data.nhim_refinement_converged.values[m, k]):

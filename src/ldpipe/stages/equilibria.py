@@ -4,28 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..systems import equilibrium_box, system_coordinates, system_spec
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA
 from ..io.datafile import write_stage_file
 from ..equilibria import equilibria_dataset
 from ..flow_equilibria import vector_field_equilibria_dataset
 from ..logs import get_logger
 from ..systems import make_system
+from .parameters import parameters_from_config
 
 log = get_logger(__name__)
-
-
-def equilibria_parameters(config: dict, system_name: str) -> dict:
-    """The keyword arguments of :func:`run_equilibria` for one system of a validated config."""
-    spec = config["systems"][system_name]
-    settings = spec["equilibria"]
-    return {
-        "system_name": system_name,
-        "system_spec": system_spec(config, system_name),
-        "box": equilibrium_box(spec, system_coordinates(spec)),
-        "seeds_per_axis": settings["seeds_per_axis"],
-        "tolerance": settings["tolerance"],
-    }
 
 
 def equilibria_file(config: dict, system_name: str, given: str | Path | None, scratch: Path) -> Path:
@@ -33,9 +20,8 @@ def equilibria_file(config: dict, system_name: str, given: str | Path | None, sc
     whose later stages read the equilibria from a file as their Snakemake rules do)."""
     if given is not None:
         return Path(given)
-    return run_equilibria(
-        **equilibria_parameters(config, system_name), output=Path(scratch) / f"{system_name}_equilibria.nc"
-    )
+    parameters = parameters_from_config(config, "equilibria", system_name)
+    return run_equilibria(**parameters, output=Path(scratch) / f"{system_name}_equilibria.nc")
 
 
 def run_equilibria(

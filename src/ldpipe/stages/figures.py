@@ -3,9 +3,10 @@
 An entry names a figure ``kind`` and the stage outputs it draws (LD maps, Poincaré sections,
 manifold sets, a periodic-orbit family, a system's equilibria). :func:`figure_input_files`
 lists exactly those files, so asking Snakemake for one figure runs only the stages it needs;
-:func:`figure_parameters` gives the settings that apply to the kind (so only they rerun it)
-and the text of its caption (the parameters actually used, for the report); :func:`run_figure`
-draws it and writes a PNG and a PDF.
+its parameters (:mod:`ldpipe.stages.parameters`) are the settings that apply to the kind
+(:func:`figure_settings`, so only they rerun it) and the text of its caption
+(:func:`figure_caption`, the parameters actually used, for the report); :func:`run_figure` draws
+it and writes a PNG and a PDF.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
 from ..logs import get_logger
-from .ld import ld_map_parameters
+from .parameters import parameters_from_config
 
 log = get_logger(__name__)
 
@@ -116,7 +117,7 @@ def _section_text(section: dict) -> str:
 
 def ld_map_caption(config: dict, map_name: str) -> str:
     """One line on an LD map: section, energy, τ, p, fixed or variable time, saddle region, grid."""
-    parameters = ld_map_parameters(config, map_name)
+    parameters = parameters_from_config(config, "ld", map_name)
     axes = parameters["section"]["axes"]
     p = integrands.caption(parameters["p"], _number)
     text = (
@@ -241,13 +242,6 @@ def figure_caption(config: dict, name: str) -> dict:
     return {"text": spec.get("caption", "").strip(), "lines": lines}
 
 
-def figure_parameters(config: dict, name: str) -> dict:
-    """The keyword arguments of :func:`run_figure` for figure ``name`` (besides paths)."""
-    spec = config["figures"][name]
-    return {"figure_name": name, "kind": spec["kind"], "settings": figure_settings(config, name),
-            "caption": figure_caption(config, name)}
-
-
 # ----------------------------------------------------------------------------- drawing
 
 def _as_list(value) -> list[str]:
@@ -309,7 +303,7 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     Parameters
     ----------
     figure_name, kind, settings, caption
-        As :func:`figure_parameters` returns them (the caption is for the report only).
+        As ``parameters_from_config(config, "figures", name)`` gives them (the caption is for the report only).
     inputs : dict
         Input files by role ('equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', 'nhim_sampling'), as
         :func:`figure_input_files` lists them; other roles are ignored.
@@ -334,6 +328,6 @@ def figure_memory_mb(config: dict, name: str) -> int:
     spec = config["figures"][name]
     points = []
     for map_name in spec.get("ld_maps", []):
-        axes = ld_map_parameters(config, map_name)["section"]["axes"]
+        axes = parameters_from_config(config, "ld", map_name)["section"]["axes"]
         points.append(axes[0]["points"] * axes[1]["points"])
     return 1000 + (100 * max(points, default=0) + 10 * sum(points)) // 2**20

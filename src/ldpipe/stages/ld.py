@@ -8,7 +8,6 @@ from the system's equilibria file.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numba
@@ -22,31 +21,15 @@ from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle
 from ..ld_grid import gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
-from ..systems import system_spec
+from .parameters import parameters_from_config
 
 log = get_logger(__name__)
-
-
-def ld_map_parameters(config: dict, map_name: str) -> dict:
-    """The scientific parameters of one map of a validated config (what :func:`run_ld_tile` takes
-    besides paths, tile and threads), with the config's grid cap applied."""
-    spec = copy.deepcopy(config["ld_maps"][map_name])
-    cap = config.get("max_grid_points")
-    if cap:
-        for axis in spec["section"]["axes"]:
-            axis["points"] = min(axis["points"], cap)
-    return {
-        "map_name": map_name,
-        "system_name": spec["system"],
-        "system_spec": system_spec(config, spec["system"]),
-        **{k: v for k, v in spec.items() if k not in ("system", "tiles")},
-    }
 
 
 def ld_map_tiles(config: dict, map_name: str) -> int:
     """How many tiles the map is split into (never more than its rows)."""
     spec = config["ld_maps"][map_name]
-    rows = ld_map_parameters(config, map_name)["section"]["axes"][0]["points"]
+    rows = parameters_from_config(config, "ld", map_name)["section"]["axes"][0]["points"]
     return min(spec["tiles"], rows)
 
 

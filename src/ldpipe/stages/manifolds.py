@@ -8,12 +8,10 @@ displacement epsilon, the integration time and the surface of section.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
 
-from ..systems import system_spec
 from ..io.contracts import MANIFOLDS, UPO
 from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
@@ -23,18 +21,6 @@ from ..manifolds import ManifoldSettings, manifold_dataset
 from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)
-
-
-def manifold_parameters(config: dict, name: str) -> dict:
-    """The keyword arguments of :func:`run_manifolds` for one manifold set of a validated config."""
-    spec = copy.deepcopy(config["manifolds"][name])
-    family = config["periodic_orbits"][spec["orbits"]]
-    return {
-        "name": name,
-        "system_name": family["system"],
-        "system_spec": system_spec(config, family["system"]),
-        **spec,
-    }
 
 
 def select_orbit(orbits, energy: dict, key: str, path) -> int:

@@ -17,7 +17,6 @@ has the science).
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from pathlib import Path
 
@@ -37,33 +36,6 @@ from ..nhim import (
 from . import ld as ld_stage
 
 log = get_logger(__name__)
-
-
-def nhim_study_parameters(config: dict, study: str) -> dict:
-    """The keyword arguments of :func:`run_nhim_study` for one study of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["nhim"]["studies"][study])
-    parameters = {"study": study, "refinement": copy.deepcopy(config["nhim"]["refinement"]),
-                  "references": spec.get("reference", [])}
-    if "derived" in spec:
-        derived = spec["derived"]
-        base = ld_stage.ld_map_parameters(config, derived["base_map"])
-        cap = config.get("max_grid_points")
-        points = min(derived["points"], cap) if cap else derived["points"]
-        slices = []
-        for coordinate, values in derived["fixed"].items():
-            for value in values:
-                for excess in derived["excess_energies"]:
-                    entry = copy.deepcopy(base)
-                    entry["map_name"] = f"{coordinate}{value:g}_dE{excess:g}"
-                    entry["section"]["fixed"][coordinate] = value
-                    entry["energy"] = {"excess": excess}
-                    for axis in entry["section"]["axes"]:
-                        axis["points"] = points
-                        if axis["name"] in derived.get("ranges", {}):
-                            axis["range"] = derived["ranges"][axis["name"]]
-                    slices.append(entry)
-        parameters["derived"] = slices
-    return parameters
 
 
 def nhim_study_inputs(config: dict, study: str) -> dict[str, list[str]]:
@@ -235,7 +207,7 @@ def run_nhim_study(
     maps : list of paths
         LD map files (stage ``ld_grid``), variable-time.
     derived : list of dict, optional
-        Map parameters (as :func:`ldpipe.stages.ld.ld_map_parameters` returns) of slices computed here;
+        Map parameters (``parameters_from_config(config, "ld", name)``) of slices computed here;
         needs ``equilibria``.
     references, reference_files : lists of the same length
         Periodic-orbit family names and their UPO files.

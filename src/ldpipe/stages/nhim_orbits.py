@@ -25,7 +25,6 @@ failed slice has none there.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from pathlib import Path
 
@@ -42,26 +41,8 @@ from ..nhim import (
     RefinementSettings, boundary_distance, find_every_crossing, make_slice_problem, point_slice, slice_transversality,
 )
 from ..variational import propagate
-from .ld import ld_map_parameters
 
 log = get_logger(__name__)
-
-
-def nhim_orbit_parameters(config: dict, study: str) -> dict:
-    """The keyword arguments of :func:`run_nhim_orbit_validation` for one study (besides paths)."""
-    spec = copy.deepcopy(config["nhim"]["orbit_validation"][study])
-    refinement = {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"}
-    cap = config.get("max_grid_points")
-    base = spec.pop("base_map")
-    return {
-        "study": study, "base_map": ld_map_parameters(config, base), "refinement": refinement,
-        **spec, "points": _odd(min(spec["points"], cap)) if cap else spec["points"],
-    }
-
-
-def _odd(points: int) -> int:
-    """The largest odd number <= points (the window's centre must be a grid point)."""
-    return points if points % 2 else points - 1
 
 
 def nhim_orbit_inputs(config: dict, study: str) -> dict[str, list[str]]:

@@ -13,7 +13,6 @@ residual, residence times and detection evidence.
 
 from __future__ import annotations
 
-import copy
 import time
 from pathlib import Path
 
@@ -29,28 +28,6 @@ from ..nhim.sampling import STATUS, SamplingSettings, SliceSample, sample_family
 from . import ld as ld_stage
 
 log = get_logger(__name__)
-
-
-def nhim_sampling_parameters(config: dict, study: str) -> dict:
-    """The keyword arguments of :func:`run_nhim_sampling` for one study of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["nhim_sampling"][study])
-    refinement = {k: v for k, v in config["nhim"]["refinement"].items() if k not in ("zoom",)}
-    base_map = ld_stage.ld_map_parameters(config, spec["base_map"])
-    # The map's own grid is never computed here; the whole window is searched on seed_points^2, so
-    # that stands in for it (and the map's resolution, or a quick run's cap, does not rerun the study).
-    for axis in base_map["section"]["axes"]:
-        axis["points"] = spec["seed_points"]
-    return {
-        "study": study,
-        "base_map": base_map,
-        "fixed": spec["fixed"],
-        "signs": spec["signs"],
-        "sampling": {"window_points": spec["window"]["points"], "window_half_width": spec["window"]["half_width"],
-                     "widen": spec["window"]["widen"], "max_widenings": spec["window"]["max_widenings"],
-                     "seed_points": spec["seed_points"], "min_angle": spec["min_angle"],
-                     "min_momentum": spec["min_momentum"], "batch": spec["batch"]},
-        "refinement": refinement,
-    }
 
 
 def nhim_sampling_system(config: dict, study: str) -> str:
@@ -149,7 +126,7 @@ def run_nhim_sampling(
     Parameters
     ----------
     base_map : dict
-        The base map's parameters (:func:`ldpipe.stages.ld.ld_map_parameters`).
+        The base map's parameters (``parameters_from_config(config, "ld", name)``).
     fixed : dict
         ``{coordinate: {range: [low, high], points: n}}`` for every fixed coordinate of the base section.
     signs : list of {+1, -1}

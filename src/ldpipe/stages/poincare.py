@@ -9,12 +9,10 @@ final time.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numba
 
-from ..systems import system_spec
 from ..io.contracts import EQUILIBRIA, POINCARE
 from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
@@ -26,18 +24,6 @@ from ..sections import Section
 from ..systems import make_system
 
 log = get_logger(__name__)
-
-
-def poincare_parameters(config: dict, name: str) -> dict:
-    """The keyword arguments of :func:`run_poincare` for one section of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["poincare_sections"][name])
-    system = spec.pop("system")
-    return {
-        "name": name,
-        "system_name": system,
-        "system_spec": system_spec(config, system),
-        **spec,
-    }
 
 
 def run_poincare(*, output: str | Path, equilibria: str | Path | None, threads: int | None = None,

@@ -21,7 +21,6 @@ Unlike the ``transport`` stage it needs no periodic orbit, so it runs where a fa
 
 from __future__ import annotations
 
-import copy
 import time
 from pathlib import Path
 
@@ -34,7 +33,7 @@ from ..equilibria import select_saddle, well_and_frequencies
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
-from ..systems import make_system, system_spec
+from ..systems import make_system
 from ..transport import DividingLine, DividingPlane, harmonic_flux, reactive_flux_monte_carlo
 from .upo import target_energies
 
@@ -42,13 +41,6 @@ log = get_logger(__name__)
 
 SURFACES = {2: DividingLine, 3: DividingPlane}
 COUNTS = ("samples", "reactive", "antireactive", "nonreactive", "undecided")
-
-
-def saddle_flux_parameters(config: dict, name: str) -> dict:
-    """The keyword arguments of :func:`run_saddle_flux` for one study of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["saddle_flux"][name])
-    system = spec.pop("system")
-    return {"name": name, "system_name": system, "system_spec": system_spec(config, system), **spec}
 
 
 def run_saddle_flux(*, output: str | Path, equilibria: str | Path, threads: int | None = None,

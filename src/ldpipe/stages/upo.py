@@ -9,13 +9,11 @@ each target is found by bracketing and correction (:mod:`ldpipe.periodic_orbits`
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from ..systems import system_spec
 from ..io.contracts import EQUILIBRIA, UPO
 from ..io.datafile import open_stage_file, write_stage_file
 from ..equilibria import select_saddle
@@ -27,18 +25,6 @@ from ..periodic_orbits import (
 from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)
-
-
-def upo_parameters(config: dict, family: str) -> dict:
-    """The keyword arguments of :func:`run_upo` for one family of a validated config (besides paths)."""
-    spec = copy.deepcopy(config["periodic_orbits"][family])
-    system = spec.pop("system")
-    return {
-        "family": family,
-        "system_name": system,
-        "system_spec": system_spec(config, system),
-        **spec,
-    }
 
 
 def target_energies(energies: dict, critical_energy: float, key: str) -> np.ndarray:

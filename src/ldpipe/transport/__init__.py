@@ -3,7 +3,9 @@
 In 2 DoF three quantities must agree (MacKay 1990; reactive-island theory): the action
 of the Lyapunov orbit, the symplectic area enclosed by a manifold tube's cut with a
 surface of section, and the reactive flux through a dividing surface across the saddle.
-:mod:`ldpipe.transport.flux` computes each of them independently.
+:mod:`ldpipe.transport.flux` computes each of them independently;
+:func:`ldpipe.transport.transport_at_energy` (:mod:`ldpipe.transport.study`) computes them all
+at one energy, with the transition-state rate, survival and gap times.
 """
 
 from .flux import (
@@ -39,3 +41,7 @@ __all__ += ["GapTimes", "entering_states", "gap_times"]
 from .plane import DividingPlane  # noqa: E402
 
 __all__ += ["DividingPlane"]
+
+from .study import LyapunovOrbit, TransportAtEnergy, reactive_islands, transport_at_energy  # noqa: E402
+
+__all__ += ["LyapunovOrbit", "TransportAtEnergy", "reactive_islands", "transport_at_energy"]

@@ -108,6 +108,20 @@ def orbit_action(trajectory: np.ndarray, n_dof: int, *, endpoint: bool = True) -
     return float(2.0 * math.pi / len(q) * np.sum(p * _spectral_derivative(q)))
 
 
+def saddle_eigenvectors(system: System, saddle, well=None) -> tuple[np.ndarray, np.ndarray]:
+    """The saddle as an array and the Hessian's unit eigenvectors there (columns, by increasing
+    eigenvalue), the first, unstable, one pointing away from ``well`` (default: the origin), so
+    that s = n·(q − q_s) > 0 is the product side; a ValueError unless the saddle has index 1."""
+    saddle = np.asarray(saddle, dtype=np.float64)
+    values, vectors = np.linalg.eigh(system.hessian(saddle))
+    if not (values[0] < 0 < values[1]):
+        raise ValueError(f"{saddle} is not an index-1 saddle: Hessian eigenvalues {values}")
+    well = np.zeros(len(saddle)) if well is None else np.asarray(well, dtype=np.float64)
+    if vectors[:, 0] @ (saddle - well) < 0:
+        vectors[:, 0] = -vectors[:, 0]
+    return saddle, vectors
+
+
 @dataclass(frozen=True)
 class DividingLine:
     """The straight dividing surface of a 2 DoF saddle at energy E, and its allowed region.
@@ -131,15 +145,8 @@ class DividingLine:
         """
         if system.n_dof != 2:
             raise ValueError(f"DividingLine is for 2 DoF systems; {system.name} has {system.n_dof}")
-        saddle = np.asarray(saddle, dtype=np.float64)
-        values, vectors = np.linalg.eigh(system.hessian(saddle))
-        if not (values[0] < 0 < values[1]):
-            raise ValueError(f"{saddle} is not an index-1 saddle: Hessian eigenvalues {values}")
-        normal = vectors[:, 0] / np.linalg.norm(vectors[:, 0])
-        well = np.zeros(2) if well is None else np.asarray(well, dtype=np.float64)
-        if normal @ (saddle - well) < 0:
-            normal = -normal
-        return cls(system, saddle, normal, float(energy))
+        saddle, vectors = saddle_eigenvectors(system, saddle, well)
+        return cls(system, saddle, vectors[:, 0] / np.linalg.norm(vectors[:, 0]), float(energy))
 
     @property
     def tangent(self) -> np.ndarray:

@@ -28,6 +28,7 @@ from scipy import optimize
 
 from ..sections import potential_of_columns
 from ..systems import System
+from .flux import saddle_eigenvectors
 
 
 @dataclass(frozen=True)
@@ -46,17 +47,10 @@ class DividingPlane:
         from ``well`` (default the origin), so s > 0 is the product side."""
         if system.n_dof != 3:
             raise ValueError(f"DividingPlane is for 3 DoF systems; {system.name} has {system.n_dof}")
-        saddle = np.asarray(saddle, dtype=np.float64)
-        values, vectors = np.linalg.eigh(system.hessian(saddle))
-        if not (values[0] < 0 < values[1]):
-            raise ValueError(f"{saddle} is not an index-1 saddle: Hessian eigenvalues {values}")
-        normal = vectors[:, 0]
-        well = np.zeros(3) if well is None else np.asarray(well, dtype=np.float64)
-        if normal @ (saddle - well) < 0:
-            normal = -normal
+        saddle, vectors = saddle_eigenvectors(system, saddle, well)
         if energy <= system.potential(saddle):
             raise ValueError(f"energy {energy!r} is not above the saddle's {system.potential(saddle)!r}")
-        return cls(system, saddle, normal, vectors[:, 1:].T.copy(), float(energy))
+        return cls(system, saddle, vectors[:, 0], vectors[:, 1:].T.copy(), float(energy))
 
     def potential(self, u: np.ndarray) -> np.ndarray:
         """V at plane coordinates ``u`` of shape (count, 2)."""
