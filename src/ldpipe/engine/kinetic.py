@@ -38,7 +38,6 @@ def kinetic_source(system) -> str:
     n = system.n_dof
     mass, inverse = system.mass, system.inverse_mass
     g = [f"g{i}" for i in range(n)]
-    v = [f"v{i}" for i in range(n)]
     kinetic = " + ".join(
         f"{float(mass[i, k] * (1.0 if i == k else 2.0))!r} * v{i} * v{k}"
         for i in range(n) for k in range(i, n) if mass[i, k] != 0.0

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..engine import LDSettings, compute_ld
 from .batched import bisect_task, run_tasks
-from .fates import Cost, RefinementFailed, RefinementSettings, exit_fates
+from .fates import Cost, RefinementFailed, RefinementSettings
 from .slices import SliceProblem, section_point_states
 
 
