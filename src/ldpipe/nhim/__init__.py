@@ -36,7 +36,8 @@ stage (:mod:`ldpipe.stages.nhim`) does the I/O.
 The package, by job: :mod:`.slices` (the section slice and its states), :mod:`.detection` (the
 grid cell), :mod:`.fates` (exit fates and their bisection), :mod:`.refinement` (by fates, by LD
 zoom), :mod:`.evidence` (the periodic orbit's crossing, residence times), :mod:`.crossings` (every
-crossing in a slice's window, each refined, degenerate ones recorded as such).
+crossing in a slice's window, each refined, degenerate ones recorded as such), :mod:`.study` (one
+slice of a stage's study, as its file records it: an LD map's slice, a slice through an orbit point).
 """
 
 from .crossings import CROSSING_STATUS, Crossing, SliceCrossings, find_every_crossing
@@ -51,6 +52,7 @@ from .refinement import ManifoldsTangent, Refined, ld_at_points, refine_by_fates
 from .slices import (
     SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality,
 )
+from .study import ReferenceOrbit, study_map_slice, validate_orbit_slice
 
 __all__ = [
     "CROSSING_STATUS", "Candidate", "boundary_distance", "Crossing", "ManifoldsTangent", "SliceCrossings", "crossing_candidates",
@@ -59,4 +61,5 @@ __all__ = [
     "detect_global_argmax", "detect_nhim_cell", "exit_fates", "ld_at_points", "make_slice_problem", "nhim_score",
     "orbit_section_crossing", "orbit_section_residual", "refine_by_fates", "refine_by_ld_zoom", "residence_evidence",
     "ridge_level", "section_point_states",
+    "ReferenceOrbit", "study_map_slice", "validate_orbit_slice",
 ]

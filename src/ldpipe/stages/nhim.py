@@ -10,14 +10,14 @@ re-gridding, their LD values and exit times, the cost of each refinement, the
 residence evidence, and the reference: for 2 DoF sections the crossing of the
 family's periodic orbit at the slice's energy, for higher DoF the closest
 approach of each Lyapunov orbit to the section. The validation
-(:mod:`ldpipe.stages.nhim_validation`, re-exported here) turns the studies into
-tables and fails when a point is too far from its reference (:mod:`ldpipe.nhim`
-has the science).
+(:mod:`ldpipe.stages.nhim_validation`) turns the studies into
+tables and fails when a point is too far from its reference. The science of a slice is
+:func:`ldpipe.nhim.study_map_slice`; this module reads the maps and orbit files and writes the
+study file.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -28,11 +28,7 @@ from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map
 from ..logs import get_logger
-from ..nhim import (
-    RefinementFailed, RefinementSettings, SliceProblem, detect_global_argmax, detect_nhim_cell, ld_at_points,
-    make_slice_problem, orbit_section_crossing, orbit_section_residual, refine_by_fates, refine_by_ld_zoom,
-    residence_evidence, section_point_states,
-)
+from ..nhim import ReferenceOrbit, RefinementSettings, SliceProblem, make_slice_problem, study_map_slice
 from . import ld as ld_stage
 
 log = get_logger(__name__)
@@ -65,89 +61,13 @@ def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
                               saddle, settings)
 
 
-def _orbits_at_energy(path: str | Path, energy: float) -> tuple[np.ndarray, float, np.ndarray] | None:
+def _orbit_at_energy(data: xr.Dataset, energy: float) -> ReferenceOrbit | None:
     """(initial state, period, samples) of the orbit of a UPO file at ``energy``, or None."""
-    data = open_stage_file(path, stage=UPO)
     match = np.flatnonzero(np.abs(data.energy.values - energy) <= 1e-9 * max(1.0, abs(energy)))
     if not len(match):
         return None
     i = int(match[0])
     return data.initial_state.values[i], float(data.period.values[i]), data.trajectory.values[i]
-
-
-def analyse_slice(
-    problem: SliceProblem, ld_forward: np.ndarray, ld_backward: np.ndarray, allowed: np.ndarray,
-    axes: tuple[np.ndarray, np.ndarray], references: dict[str, str | Path], settings: RefinementSettings,
-    zoom: bool = True,
-) -> dict:
-    """Detection, both refinements, evidence and reference comparison of one slice, as a flat record."""
-    record: dict = {"map": problem.name, "axis_names": list(problem.section.axes), "energy": problem.energy,
-                    "excess_energy": problem.excess_energy, "grid_spacing": problem.spacing}
-    detected = detect_nhim_cell(ld_forward, ld_backward, allowed, axes)
-    naive = detect_global_argmax(ld_forward, ld_backward, allowed, axes)
-    i, j = detected.index
-    record.update(detected_point=detected.point, detected_score=detected.score, argmax_sum_point=naive.point,
-                  detected_grid_ld_forward=float(ld_forward[i, j]), detected_grid_ld_backward=float(ld_backward[i, j]))
-    fates = refine_by_fates(problem, detected.point, settings)
-    record.update(refined_point=fates.point, refined_uncertainty=fates.uncertainty, refined_iterations=fates.iterations,
-                  refined_trajectories=fates.cost.trajectories, refined_time_units=fates.cost.time_units,
-                  refined_steps=fates.cost.steps, refined_wall_time=fates.cost.wall_time, manifold_angle=fates.angle)
-    log.info("%s: detected %s (score %.3f), refined by fates to %s (+- %.2g, %d iterations, %d trajectories, %.2f s)",
-             problem.name, detected.point, detected.score, fates.point, fates.uncertainty, fates.iterations,
-             fates.cost.trajectories, fates.cost.wall_time)
-    record["zoom_converged"] = False
-    record.update(zoom_point=detected.point, zoom_uncertainty=0.0, zoom_iterations=0, zoom_trajectories=0,
-                  zoom_time_units=0.0, zoom_wall_time=0.0)
-    if zoom:
-        try:
-            z = refine_by_ld_zoom(problem, detected.point, settings)
-            record.update(zoom_converged=True, zoom_point=z.point, zoom_uncertainty=z.uncertainty,
-                          zoom_iterations=z.iterations, zoom_trajectories=z.cost.trajectories,
-                          zoom_time_units=z.cost.time_units, zoom_wall_time=z.cost.wall_time)
-            log.info("%s: zoomed re-gridding to %s (%d iterations), %.3g from the fate refinement", problem.name,
-                     z.point, z.iterations, np.linalg.norm(z.point - fates.point))
-        except RefinementFailed as error:
-            log.warning("%s: zoomed re-gridding failed (%s); the fate refinement stands", problem.name, error)
-    record["refined_state"] = section_point_states(problem, fates.point[None, :])[0][0]
-    tight = dataclasses.replace(problem.ld_settings, scheme="dop853", rtol=settings.rtol, atol=settings.atol)
-    values = ld_at_points(problem, np.vstack([detected.point, fates.point]), tight)
-    for name, array in values.items():
-        record[f"detected_{name}"] = float(array[0])
-        record[f"refined_{name}"] = float(array[1])
-    evidence = residence_evidence(problem, fates.point, settings)
-    record.update(evidence)
-    record.update(reference_kind="none", reference_family="", reference_point=np.zeros(2), reference_residual=0.0)
-    if problem.system.n_dof == 2 and references:
-        family, path = next(iter(references.items()))
-        orbit = _orbits_at_energy(path, problem.energy)
-        if orbit is None:
-            raise ConfigError(f"{path}: family {family} has no orbit at E = {problem.energy:.12g} "
-                              f"(dE = {problem.excess_energy:.6g}) of slice {problem.name}; add the energy to it")
-        state, period, _ = orbit
-        record.update(reference_kind="orbit_crossing", reference_family=family,
-                      reference_point=orbit_section_crossing(problem, state, period))
-    elif references:
-        best = None
-        for family, path in references.items():
-            orbit = _orbits_at_energy(path, problem.energy)
-            if orbit is None:
-                continue
-            residual, point = orbit_section_residual(problem, orbit[2])
-            if best is None or residual < best[0]:
-                best = (residual, point, family)
-        if best is not None:
-            record.update(reference_kind="closest_orbit_sample", reference_family=best[2], reference_point=best[1],
-                          reference_residual=best[0])
-    reference = record["reference_point"]
-    for name in ("refined", "zoom", "detected", "argmax_sum"):
-        record[f"distance_{name}"] = (float(np.linalg.norm(record[f"{name}_point"] - reference))
-                                      if record["reference_kind"] != "none" else 0.0)
-    record["distance_zoom_to_refined"] = float(np.linalg.norm(record["zoom_point"] - fates.point))
-    log.info("%s: reference %s (%s): distance refined %.3g, detected %.3g, argmax of F + B %.3g; residence %.2f, "
-             "%.2f, neighbours at most %.2f", problem.name, record["reference_kind"], record["reference_family"],
-             record["distance_refined"], record["distance_detected"], record["distance_argmax_sum"],
-             record["residence_forward"], record["residence_backward"], record["neighbour_residence_max"])
-    return record
 
 
 def _study_dataset(records: list[dict], system_phase: tuple[str, ...]) -> xr.Dataset:
@@ -221,6 +141,7 @@ def run_nhim_study(
     zoom = refinement.get("zoom", True)
     settings = RefinementSettings(**{k: v for k, v in refinement.items() if k != "zoom"})
     references = dict(zip(references, reference_files))
+    families = {family: open_stage_file(path, stage=UPO) for family, path in references.items()}
     records = []
     phase = None
     sources = []
@@ -242,8 +163,9 @@ def run_nhim_study(
         elif phase != problem.system.phase_coordinates:
             raise ConfigError(f"config key 'nhim.studies.{study}': slices of different systems; one system per study")
         axes = (data[problem.section.axes[0]].values, data[problem.section.axes[1]].values)
-        records.append(analyse_slice(problem, data.ld_forward.values, data.ld_backward.values,
-                                     data.allowed.values.astype(bool), axes, references, settings, zoom=zoom))
+        reference_orbits = {family: _orbit_at_energy(orbits, problem.energy) for family, orbits in families.items()}
+        records.append(study_map_slice(problem, data.ld_forward.values, data.ld_backward.values,
+                                       data.allowed.values.astype(bool), axes, reference_orbits, settings, zoom=zoom))
     dataset = _study_dataset(records, phase)
     dataset.attrs.update(problem.system.kinetic_attributes())
     dataset.attrs.update({f"refinement_{k}": (int(v) if isinstance(v, bool) else v) for k, v in refinement.items()})

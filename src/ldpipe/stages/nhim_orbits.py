@@ -18,6 +18,8 @@ and records per slice a status:
   candidate refined; crossings refined but none within the tolerance.
 
 The reference (the orbit point) comes from the periodic-orbit corrector, not from LDs or fates.
+:func:`ldpipe.nhim.validate_orbit_slice` searches and classifies one slice; this module reads the
+orbit files, computes each orbit point's monodromy matrix and writes the study file.
 The validation stage (:mod:`ldpipe.stages.nhim_validation`) writes the table and fails the run on
 any ``fail:``. Refined crossings are in their own table (dimension ``crossing``); a degenerate or
 failed slice has none there.
@@ -37,9 +39,7 @@ from ..equilibria import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map
 from ..logs import get_logger
-from ..nhim import (
-    RefinementSettings, boundary_distance, find_every_crossing, make_slice_problem, point_slice, slice_transversality,
-)
+from ..nhim import RefinementSettings, validate_orbit_slice
 from ..variational import propagate
 
 log = get_logger(__name__)
@@ -101,9 +101,12 @@ def run_nhim_orbit_validation(
                 state = samples[index]
                 monodromy = propagate(system, state, period, rtol=settings.rtol, atol=settings.atol).stm
                 for axes in slices:
-                    row = _slice_row(system, state, axes, half_width, points, family, energy, critical, saddle,
-                                     ld_settings, monodromy, settings, boundary_cells, min_transversality,
-                                     tolerance, crossing_rows, len(slice_rows))
+                    row, crossings = validate_orbit_slice(
+                        system, state, axes, monodromy, family=family, energy=energy, critical_energy=critical,
+                        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width,
+                        points=points, boundary_cells=boundary_cells, min_transversality=min_transversality,
+                        tolerance=tolerance)
+                    crossing_rows += [{"slice": len(slice_rows), **crossing} for crossing in crossings]
                     row.update(family=family, energy=energy, excess_energy=energy - critical,
                                orbit_phase=index / (len(samples) - 1), orbit_state=state)
                     slice_rows.append(row)
@@ -122,66 +125,6 @@ def run_nhim_orbit_validation(
                                parameters=parameters)
     log.info("wrote %s (%d slices, %d crossings)", written, len(slice_rows), len(crossing_rows))
     return written
-
-
-def _slice_row(system, state, axes, half_width, points, family, energy, critical, saddle, ld_settings, monodromy,
-               settings, boundary_cells, min_transversality, tolerance, crossing_rows, slice_index) -> dict:
-    """One slice's record (its refined crossings appended to ``crossing_rows``)."""
-    phase = system.phase_coordinates
-    section = point_slice(system, state, tuple(axes), half_width, points)
-    centre = np.array([state[phase.index(a)] for a in axes])
-    momentum = float(state[phase.index(section.solve)])
-    name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
-    row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
-           "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
-           "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
-           "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
-    boundary = boundary_distance(system, section, state)
-    reach = boundary_cells * 2 * half_width / (points - 1)
-    row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
-    if boundary < reach:
-        row.update(status="degenerate:solved_momentum_vanishes", reason=(
-            f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
-            f"{boundary_cells:g} grid cells ({reach:.3g})"))
-        return row
-    row["transversality"] = slice_transversality(system, section, state, monodromy)
-    problem = make_slice_problem(name, system, section, energy, critical, saddle, ld_settings)
-    found = find_every_crossing(problem, settings)
-    statuses = [c.status for c in found.crossings]
-    row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
-               tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,
-               trajectories=found.cost.trajectories, wall_time=found.cost.wall_time)
-    for crossing in found.crossings:
-        if crossing.status == "refined":
-            crossing_rows.append({"slice": slice_index, "point": crossing.refined.point,
-                                  "uncertainty": crossing.refined.uncertainty, "angle": crossing.refined.angle,
-                                  "distance": float(np.linalg.norm(crossing.refined.point - centre))})
-    mine = [c for c in crossing_rows if c["slice"] == slice_index]
-    if mine:
-        nearest = min(mine, key=lambda c: c["distance"])
-        row.update(distance=nearest["distance"], uncertainty=nearest["uncertainty"])
-    if row["transversality"] < min_transversality:
-        row.update(status="degenerate:tangent", reason=(
-            f"transversality {row['transversality']:.3g} < min_transversality {min_transversality:g}; "
-            f"{row['crossings']} crossing(s) of {row['candidates']} candidate(s) recorded, not checked"))
-    elif not statuses:
-        row.update(status="fail:no_crossing", reason=(
-            f"no grid cell crossed by both manifold curves in the window ({found.forward_cells} crossed by W^s, "
-            f"{found.backward_cells} by W^u)"))
-    elif not mine:
-        messages = "; ".join(c.message for c in found.crossings if c.message)
-        row.update(status="fail:not_converged", reason=f"{len(statuses)} candidate(s), none refined: {messages}")
-    elif row["distance"] > tolerance:
-        row.update(status="fail:missed", reason=(
-            f"{len(mine)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
-            f"{tolerance:g}"))
-    else:
-        notes = [f"{len(mine)} crossings in the window"] if len(mine) > 1 else []
-        if row["not_converged"] or row["tangent_candidates"]:
-            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
-                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
-        row.update(status="ok", reason="; ".join(notes))
-    return row
 
 
 def _dataset(slice_rows: list[dict], crossing_rows: list[dict], phase: tuple[str, ...]) -> xr.Dataset:
