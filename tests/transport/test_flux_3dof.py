@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from ldpipe.flow import FlowSettings
 from ldpipe.systems import make_system
@@ -54,12 +55,24 @@ def test_quadratic_plane_samples_are_uniform_in_the_mode_energies(quadratic_sadd
 
 
 def test_quadratic_plane_monte_carlo_counts_every_crossing_reactive(quadratic_saddle):
+    """Every crossing reactive: the estimate is the plane's flux A exactly, and its standard error is the
+    floor A/N (the sample variance is 0; the floor 1/N is the variance, ddof = 1, of N − 1 ones and one
+    zero). With none of N crossings non-reactive, the exact (Clopper–Pearson) one-sided upper bound on
+    the non-reactive fraction at confidence 1 − α is 1 − α^{1/N} ≈ −ln α / N, so k floor errors below
+    the estimate is that bound at confidence ≈ 1 − e^{−k}: 63 % at k = 1, 95 % at k = 3, the rule of
+    three; not the 84 % and 99.9 % of k normal standard errors."""
     system, _ = quadratic_saddle
-    excess = 0.7
+    excess, count = 0.7, 500
     plane = DividingPlane.at_saddle(system, np.zeros(3), excess)
-    result = reactive_flux_monte_carlo(plane, commit=1.0, duration=12.0, batch=500, max_samples=500, flow=FLOW)
-    assert (result.reactive, result.antireactive, result.undecided) == (500, 0, 0)
-    assert result.flux == pytest.approx(quadratic.plane_flux(excess), rel=1e-12)
+    result = reactive_flux_monte_carlo(plane, commit=1.0, duration=12.0, batch=count, max_samples=count, flow=FLOW)
+    assert (result.reactive, result.antireactive, result.undecided) == (count, 0, 0)
+    exact = quadratic.plane_flux(excess)
+    assert result.flux == pytest.approx(exact, rel=1e-12)
+    assert result.stderr == pytest.approx(exact / count, rel=1e-12)
+    assert np.var(np.r_[np.ones(count - 1), 0.0], ddof=1) == pytest.approx(1 / count, rel=1e-12)
+    for k in (1, 3):
+        bound = stats.beta.ppf(1 - math.exp(-k), 1, count)  # Clopper–Pearson, 0 of N
+        assert bound * result.surface_flux / result.stderr == pytest.approx(k, rel=k / count)
 
 
 @pytest.fixture(scope="module")
