@@ -303,7 +303,8 @@ def reactive_flux_monte_carlo(
     A reactive trajectory that crosses the line 2k + 1 times crosses it k + 1 times outwards and
     k times inwards; by time reversal (p → −p) each inward crossing of it is an outward sample of
     weight −1, so its net count is one. The flux is A·mean(w), its standard error A·std(w)/√N,
-    with var(w) at least 1/N (so never below A/N).
+    with var(w) at least 1/N (so never below A/N: a one-sigma-sized error when every sample has the
+    same weight, not a 95 % bound; see where it is set).
     Batches of ``batch`` samples are drawn until the relative standard error is at most
     ``target_stderr`` or ``max_samples`` is reached.
     """
@@ -319,9 +320,13 @@ def reactive_flux_monte_carlo(
         undecided += int(open_.sum())
         allw = np.concatenate(weights)
         mean = float(allw.mean())
-        # Floor on the variance of w: 1/N, as if one sample in N had another weight. Without it a
-        # batch of all-reactive samples (common at low energy, where recrossings are rare) would
-        # claim a zero standard error.
+        # Floor on the variance of w: 1/N, the sample variance (ddof=1) of N − 1 equal weights and one
+        # that differs by 1, as if one sample in N had another weight. Without it a batch of
+        # all-reactive samples (common at low energy, where recrossings are rare) would claim a zero
+        # standard error. With none of N samples non-reactive, the exact (Clopper–Pearson) one-sided
+        # upper bound on their fraction at confidence 1 − α is 1 − α^{1/N} ≈ −ln α / N: the flux lies
+        # within k floor errors below the estimate with confidence ≈ 1 − e^{−k}, 63 % for k = 1 and
+        # 95 % for k = 3 (the rule of three, 3/N), not the 84 % and 99.9 % of k normal errors.
         variance = max(float(allw.var(ddof=1)), 1.0 / len(allw))
         stderr = math.sqrt(variance / len(allw))
         if (mean != 0 and stderr <= target_stderr * abs(mean)) or len(allw) >= max_samples:
