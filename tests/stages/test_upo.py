@@ -11,7 +11,7 @@ from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_mu
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
-from support.lindstedt import barbanis_contopoulos_saddle, barbanis_saddle, period_energy_slope
+from support.lindstedt import REMAINDER, barbanis_contopoulos_saddle, barbanis_saddle, period_energy_slope
 
 SETTINGS = CorrectorSettings(tolerance=1e-10, rtol=1e-13, atol=1e-13)
 ENERGY_TOLERANCE = 1e-12
@@ -24,10 +24,8 @@ E_C = 15.125  # paper: the critical energy of both saddles
 # kappa = -5.733e-5.
 OMEGA = np.sqrt(np.linalg.eigvalsh(barbanis_saddle()[0])[1])
 KAPPA = period_energy_slope(*barbanis_saddle())
-# The O(dE^2) remainder, relative to |kappa| dE^2: measured -0.0030 (2 DoF, dE up to 10, and the
-# 3 DoF x-y mode) and 1e-4 (3 DoF z mode); bound 0.01. The periods themselves are good to the
-# corrector's tolerance (measured 2e-11 relative on the smallest members).
-REMAINDER = 0.01
+# The O(dE^2) remainder is bounded by support.lindstedt.REMAINDER |kappa| dE^2; the periods themselves
+# are good to the corrector's tolerance (measured 2e-11 relative on the smallest members).
 
 
 def assert_lindstedt_period(period, omega, kappa, excess):

@@ -30,6 +30,11 @@ import math
 
 import numpy as np
 
+#: A bound on the O(dE^2) remainder |T omega / (2 pi) - 1 - kappa dE| / (|kappa| dE^2) for the paper's
+#: systems: measured 0.0030 on the Barbanis family up to dE = 10 and the 3 DoF x-y mode at E = 24,
+#: 1e-4 on the 3 DoF z mode. The action's remainder is then below a third of it (integrate over dE).
+REMAINDER = 0.01
+
 
 def period_energy_slope(hessian: np.ndarray, third: np.ndarray, mode: int = 0) -> float:
     """kappa in T = (2 pi / omega) (1 + kappa dE + O(dE^2)) for centre ``mode`` (0: the lowest
