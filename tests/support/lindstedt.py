@@ -22,6 +22,9 @@ first correction needs. With tau = Omega t, Omega = omega + eps^2 omega_2, a = e
 So T = 2 pi / Omega = (2 pi / omega) (1 + kappa dE + O(dE^2)) with kappa = -2 omega_2 / omega^3. The
 orbit's action J = integral of T dE (dJ/dE = T on a family of periodic orbits) is then
 (2 pi dE / omega) (1 + kappa dE / 2 + O(dE^2)).
+
+The closed-form saddles of the paper's two systems (position, energy, Hessian, third derivatives)
+are here too, for these slopes and for other linearizations at the saddle (the NHIM's tangent).
 """
 
 from __future__ import annotations
