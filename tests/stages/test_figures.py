@@ -13,6 +13,7 @@ import pytest
 import xarray as xr
 import yaml
 from docutils.core import publish_parts
+from matplotlib.image import imread
 
 from ldpipe.config import load_config, validate_config
 from ldpipe.io.datafile import write_stage_file
@@ -30,19 +31,25 @@ E_C = 15.125  # the paper's critical energy of both Barbanis 2 DoF saddles
 SADDLE = np.array([5.5, -np.sqrt(50.0)])  # closed form: x = wy^2/(2|delta|)... y^2 = wx^2 x/|delta|
 
 
-def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time="fixed", spec_y=None):
+def paraboloid(x, px):
+    return 1.0 + x**2 + px**2
+
+
+def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time="fixed", spec_y=None,
+            total=paraboloid):
     """A synthetic LD map on U_xpx (y = fixed_y, p_y > 0) written like the LD stage writes one
     (its recorded spec fixes y at ``spec_y`` if given, e.g. 'saddle').
 
-    The allowed mask is the real one (section_states); the LD fields are 1 + x^2 + p_x^2 on
-    allowed points and 0 elsewhere, as the stage leaves points it never integrates.
+    The allowed mask is the real one (section_states); the total LD is ``total(x, px)`` (default
+    1 + x^2 + p_x^2), half forward and half backward, on allowed points and 0 elsewhere, as the
+    stage leaves points it never integrates.
     """
     section = Section(axes=("x", "px"), ranges=((-6.0, 6.0), (-6.0, 6.0)), shape=points, fixed={"y": fixed_y},
                       solve="py")
     energy = E_C + excess
     _, allowed, solved = section_states(barbanis, section, energy)
     x, px = section.axis_values()
-    field = np.where(allowed, 1.0 + x[:, None] ** 2 + px[None, :] ** 2, 0.0)
+    field = np.where(allowed, total(x[:, None], px[None, :]), 0.0)
     dataset = xr.Dataset(
         {"ld_forward": (("x", "px"), field / 2), "ld_backward": (("x", "px"), field / 2),
          "allowed": (("x", "px"), allowed), "py": (("x", "px"), solved)},
@@ -95,6 +102,28 @@ def upo_file(path, barbanis):
                             parameters={"system_name": "barbanis_2dof", "system_spec": BARBANIS})
 
 
+def rendered(figure) -> np.ndarray:
+    """The figure's pixels as drawn (RGB in [0, 1], rows from the top), at its dpi."""
+    figure.canvas.draw()
+    return np.asarray(figure.canvas.buffer_rgba())[..., :3] / 255.0
+
+
+def pixels_at(image: np.ndarray, ax, x: float, y: float, radius: int = 0) -> np.ndarray:
+    """The pixels of ``image`` within ``radius`` of the data point (x, y) of ``ax``, shape (k, 3)."""
+    column, height = ax.transData.transform((x, y))
+    row, column = int(image.shape[0] - height), int(column)
+    return image[row - radius:row + radius + 1, column - radius:column + radius + 1].reshape(-1, 3)
+
+
+def map_colors(values: np.ndarray, allowed: np.ndarray, percentiles=(5.0, 99.9)) -> np.ndarray:
+    """What a map's cells must look like: viridis over the given percentiles of the allowed values
+    (the documented colour scale), FORBIDDEN_COLOR where not allowed; RGB, shape values.shape + (3,)."""
+    low, high = np.percentile(values[allowed], percentiles)
+    colors = plt.get_cmap("viridis")(np.clip((values - low) / (high - low), 0.0, 1.0))[..., :3]
+    colors[~allowed] = plt.matplotlib.colors.to_rgb(style.FORBIDDEN_COLOR)
+    return colors
+
+
 @pytest.fixture(scope="module")
 def equilibria_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("equilibria") / "equilibria.nc"
@@ -136,6 +165,25 @@ def test_section_maps_figure_has_labels_colour_bar_grey_forbidden_and_green_boun
     vertices = np.concatenate([p.vertices for p in boundary[0].get_paths()])
     radius = np.hypot(vertices[:, 0], vertices[:, 1])
     np.testing.assert_allclose(radius, np.sqrt(2 * (E_C + 0.125)), atol=2 * 12.0 / 600)
+    # The pixels drawn: where the circle x^2 + px^2 = 2E crosses the axes, a green pixel within
+    # 2 px (the 1 pt line); at four of the synthetic crossings (x, px) = 2 (cos a, sin a), a dark
+    # point within 2 px; the map's cells at grid nodes in the colours their values and the colour
+    # scale give (measured within 1 level of 255; bound 5), its corners grey. A transposed or empty
+    # panel fails (the grid is 41 x 37 and the nodes are off its diagonal).
+    image = rendered(figure)
+    green = np.array(plt.matplotlib.colors.to_rgb(style.BOUNDARY_COLOR))
+    for x, px in np.sqrt(2 * (E_C + 0.125)) * np.array([[1, 0], [-1, 0], [0, 1], [0, -1]]):
+        assert np.min(np.abs(pixels_at(image, poincare_ax, x, px, radius=2) - green).max(axis=1)) < 0.02
+    angles = np.linspace(0, 2 * np.pi, 50)  # poincare_file's crossings
+    for k in (0, 12, 25, 37):
+        assert pixels_at(image, poincare_ax, 2 * np.cos(angles[k]), 2 * np.sin(angles[k]), radius=2).min() < 0.6
+    assert np.all(pixels_at(image, poincare_ax, 4.0, 0.0, radius=2) == 1.0)  # nothing drawn there
+    x, px = np.linspace(-6, 6, 41), np.linspace(-6, 6, 37)
+    grid_x, grid_px = np.meshgrid(x, px, indexing="ij")
+    allowed = grid_x**2 + grid_px**2 <= 2 * (E_C + 0.125)
+    colors = map_colors(paraboloid(grid_x, grid_px), allowed)
+    for i, j in ((20, 18), (30, 20), (8, 25), (14, 5), (33, 30), (1, 1), (39, 35)):
+        np.testing.assert_allclose(pixels_at(image, map_ax, x[i], px[j])[0], colors[i, j], atol=0.02)
     plt.close(figure)
 
 
@@ -215,11 +263,30 @@ def test_potential_figure_marks_the_paper_saddles(equilibria_file):
     titles = [ax.get_title(loc="right") for ax in figure.axes]
     assert r"$\Delta E = -1.000$" in titles and r"$\Delta E = 1.000$" in titles
     assert contour_ax.get_xlabel() == "$x$" and contour_ax.get_ylabel() == "$y$"
+    # The pixels drawn: red at both saddles of the contour panel; in each Hill's region panel grey
+    # (HILL_COLOR) where V <= E and white elsewhere, at points of closed-form V, each at least 0.6
+    # from the boundary V = E (8 px): V(0, 0) = 0 and V(12, -11) = -14.5 inside both; V(-8, 0) = 32
+    # outside both; on x = 5.5, V = E_c = 15.125 for every y, so (5.5, +-6) is outside at dE = -1 and
+    # inside at dE = +1 (the bottlenecks open). A swapped axis or an empty panel fails.
+    image = rendered(figure)
+    for y in (-np.sqrt(50.0), np.sqrt(50.0)):
+        np.testing.assert_allclose(pixels_at(image, contour_ax, 5.5, y)[0], (1.0, 0.0, 0.0), atol=0.02)
+    hill = np.array(plt.matplotlib.colors.to_rgb(style.HILL_COLOR))
+    panels = {ax.get_title(loc="right"): ax for ax in figure.axes}
+    for excess in (-1.0, 1.0):
+        ax = panels[rf"$\Delta E = {excess:.3f}$"]
+        for x, y, inside in ((0.0, 0.0, True), (12.0, -11.0, True), (-8.0, 0.0, False),
+                             (5.5, -6.0, excess > 0), (5.5, 6.0, excess > 0)):
+            np.testing.assert_allclose(pixels_at(image, ax, x, y)[0], hill if inside else (1.0, 1.0, 1.0), atol=0.02)
     plt.close(figure)
 
 
+def tilted(x, px):
+    return 10.0 + x + 0.0 * px
+
+
 def test_run_figure_writes_small_png_and_pdf_with_the_map_rasterized(tmp_path, barbanis):
-    path = ld_file(tmp_path / "m.nc", barbanis, points=(300, 300))
+    path = ld_file(tmp_path / "m.nc", barbanis, points=(300, 300), total=tilted)
     settings = {"kind": "ld_slices", "ld_maps": ["m"], "slices": [0.0, 1.0], "slice_through_orbit": True,
                 "descriptor": "forward", "color_percentiles": [5.0, 99.9], "color_limits": None, "view": [20.0, -60.0]}
     written = run_figure(figure_name="m", kind="ld_slices", settings=settings, inputs={"ld_maps": path},
@@ -229,6 +296,24 @@ def test_run_figure_writes_small_png_and_pdf_with_the_map_rasterized(tmp_path, b
     assert b"/Subtype /Image" in pdf  # the map is an embedded raster, not 90 000 vector cells
     assert len(pdf) < 400_000 and (tmp_path / "out/m.png").stat().st_size < 400_000
     assert not list((tmp_path / "out").glob(".*"))  # no temporary file left behind
+    # The PNG's pixels. The map (forward LD (10 + x) / 2 on the disc x^2 + px^2 <= 2E, forbidden
+    # corners grey) fills its axes, x and px in [-6, 6]: its edges are the outermost rows and
+    # columns of more than 100 grey pixels (all grey there: |x| or |px| > sqrt(2E) = 5.5; text
+    # antialiasing gives a few). Inside, at grid nodes off the slice lines, the colour is the
+    # value's under the documented scale (measured within 1 level of 255; bound 5): it changes
+    # along x and not along px, so transposed axes fail, as does an empty or uniform map.
+    image = imread(tmp_path / "out/m.png")[..., :3]
+    grey = np.all(np.abs(image - plt.matplotlib.colors.to_rgb(style.FORBIDDEN_COLOR)) < 0.01, axis=-1)
+    rows = np.flatnonzero(grey.sum(axis=1) > 100)
+    columns = np.flatnonzero(grey.sum(axis=0) > 100)
+    top, bottom, left, right = rows[0], rows[-1], columns[0], columns[-1]
+    axis = np.linspace(-6.0, 6.0, 300)
+    grid_x, grid_px = np.meshgrid(axis, axis, indexing="ij")
+    colors = map_colors(tilted(grid_x, grid_px) / 2, grid_x**2 + grid_px**2 <= 2 * (E_C + 0.125))
+    for i, j in ((40, 120), (150, 60), (150, 230), (260, 110), (60, 250), (250, 40), (5, 5), (290, 290)):
+        row = round(bottom - (axis[j] + 6) / 12 * (bottom - top))
+        column = round(left + (axis[i] + 6) / 12 * (right - left))
+        np.testing.assert_allclose(image[row, column], colors[i, j], atol=0.02, err_msg=f"node {i, j}")
 
 
 def quick_config():

@@ -17,6 +17,7 @@ from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
+from ldpipe.variational import propagate
 
 EXCESS = 0.125
 EPSILON = 1e-6
@@ -161,6 +162,15 @@ def test_time_reversal_and_mirror_map_top_manifolds_onto_bottom(bottom, top):
 
 
 def test_stage_writes_manifolds_from_the_upo_file(tmp_path):
+    # The file's shape, and its values: (1) the starts leave the orbit along the monodromy matrix's
+    # unstable (stable) eigenvector, computed here at each orbit point over one period from the
+    # UPO file's period (independent of the stage's transport of one eigenvector by the STM):
+    # direction measured within 3.5e-10 (round-off of a 1e-6 difference of states of size 10 is
+    # ~2e-9), bound 1e-8. (2) The starts lie on H = E: an eigenvector of a multiplier != 1 is
+    # tangent to the energy surface (dH.e = w(f, e) = lambda w(f, e) = 0), so only epsilon^2 ~ 1e-12
+    # remains (measured 1.0e-12, the orbit samples' own error), bound 1e-10. (3) The trajectories
+    # stay on H = E to the integration tolerance (rtol 1e-10 over 10 time units: measured 3.7e-9,
+    # bound 3e-8). H is written out here; E = E_c + 2.25 with the paper's E_c = 15.125.
     config = validate_config({
         "systems": {"barbanis_2dof": {"builtin": "barbanis_2dof"}},
         "periodic_orbits": {"bottom": {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0],
@@ -177,6 +187,27 @@ def test_stage_writes_manifolds_from_the_upo_file(tmp_path):
     assert data.attrs["excess_energy"] == pytest.approx(2.25, abs=1e-11)
     assert dict(data.trajectory.sizes) == {"manifold": 2, "branch": 2, "point": 8, "sample": 10, "phase": 4}
     assert list(data.manifold.values) == ["stable", "unstable"]
+
+    def energy(states):
+        x, y, px, py = np.moveaxis(states, -1, 0)
+        return (px**2 + py**2) / 2 + x**2 / 2 + 1.21 * y**2 / 2 - 0.11 * x * y**2
+
+    system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
+    period = float(open_stage_file(upo, stage=contracts.UPO).period.values[1])  # the family's dE = 2.25
+    starts, orbit = data.start_state.values, data.orbit_state.values
+    for j, point in enumerate(orbit):
+        values, vectors = np.linalg.eig(propagate(system, point, period, rtol=1e-12, atol=1e-12).stm)
+        for k, column in ((1, np.argmax(np.abs(values))), (0, np.argmin(np.abs(values)))):  # unstable, stable
+            eigenvector = vectors[:, column].real / np.linalg.norm(vectors[:, column].real)
+            for branch in range(2):
+                offset = starts[k, branch, j] - point
+                direction = offset / np.linalg.norm(offset)
+                assert min(np.linalg.norm(direction - eigenvector), np.linalg.norm(direction + eigenvector)) < 1e-8
+    np.testing.assert_allclose(energy(starts), 15.125 + 2.25, rtol=0, atol=1e-10)
+    counts = data.sample_count.values
+    samples = data.trajectory.values[np.arange(10) < counts[..., None]]
+    assert len(samples) == counts.sum() > 0
+    np.testing.assert_allclose(energy(samples), 15.125 + 2.25, rtol=0, atol=3e-8)
 
 
 def test_manifolds_with_equal_masses(barbanis, bottom):

@@ -25,6 +25,7 @@ from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 from ldpipe.variational import propagate
+from support.lindstedt import barbanis_contopoulos_saddle
 
 LAM, OMEGA = 1.5, 1.0
 SETTINGS = nhim.RefinementSettings(tolerance=1e-8, bisection_precision=5e-10, max_time=40.0)
@@ -199,14 +200,32 @@ def test_3dof_slices_through_the_lyapunov_orbits_find_the_orbit_points(three_dof
 
 
 def test_every_crossing_is_found_where_the_slice_meets_the_nhim_twice(three_dof_file):
-    # The observation: a z-p_z slice through the x-y orbit (centre mode 1) meets the NHIM
-    # twice, 0.08-0.3 apart (at E = 24). Both are found and refined: the orbit point and another, distinct one.
+    # A z-p_z slice through the x-y orbit (centre mode 1) meets the NHIM twice (at E = 24); both are
+    # found and refined: the orbit point and the other one the linearization predicts. Near the
+    # saddle the NHIM is where the saddle mode's coordinate and momentum, e_s.(q - q_s) and e_s.p,
+    # vanish (e_s the Hessian's negative-eigenvalue eigenvector, closed form). The slice holds x, y,
+    # p_x at the orbit point's values, so to first order both crossings share its z, and their
+    # (p_y, p_z) lie on the line e_s.p = e_s.p0 and on the energy circle |(p_y, p_z)| = |(p0_y, p0_z)|:
+    # the orbit point's and the chord's other end p0 - 2 (p0.d) d, d the line's direction. Measured:
+    # the refined crossing 1.0e-3 from it in z and 2.6e-5 in p_z (the NHIM's curvature); bound
+    # 3e-3, a quarter of a grid cell. Its p_y has the slice's sign, so it is in the slice.
     data, rows = _rows(three_dof_file)
+    _, _, hessian, _ = barbanis_contopoulos_saddle(0.9, 1.6, 0.4, 0.08, 0.01)  # orbit_config's parameters
+    saddle_mode = np.linalg.eigh(hessian)[1][:, 0]
+    direction = np.array([saddle_mode[2], -saddle_mode[1]]) / np.linalg.norm(saddle_mode[1:])
     for phase in (0.25, 0.75):
         k = rows[("mode1", phase, "z-pz")]
         assert int(data.crossings.values[k]) == 2
-        distances = np.sort(data.crossing_distance.values[data.crossing_slice.values == k])
-        assert distances[0] <= 1e-8 and 0.08 <= distances[1] <= 0.3
+        mine = data.crossing_slice.values == k
+        order = np.argsort(data.crossing_distance.values[mine])
+        distances, points = data.crossing_distance.values[mine][order], data.crossing_point.values[mine][order]
+        assert distances[0] <= 1e-8
+        _, _, z, _, py, pz = data.orbit_state.values[k]
+        momenta = np.array([py, pz])
+        other = momenta - 2 * (momenta @ direction) * direction
+        assert np.sign(other[0]) == np.sign(py)
+        np.testing.assert_allclose(points[1], [z, other[1]], rtol=0, atol=3e-3)
+        assert distances[1] == pytest.approx(abs(other[1] - pz), abs=3e-3)
 
 
 def test_degenerate_slices_are_recorded_never_written_as_points(three_dof_file):

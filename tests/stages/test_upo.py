@@ -11,12 +11,29 @@ from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_mu
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
+from support.lindstedt import REMAINDER, barbanis_contopoulos_saddle, barbanis_saddle, period_energy_slope
 
 SETTINGS = CorrectorSettings(tolerance=1e-10, rtol=1e-13, atol=1e-13)
 ENERGY_TOLERANCE = 1e-12
 # The appendix figure's excess energies (0.125 to 2.125 in steps of 0.25), 2.25, and well beyond.
 TARGETS = [*np.arange(0.125, 2.2, 0.25), 2.25, 5.0, 10.0]
 SADDLE_Y = np.sqrt(50.0)  # closed form: y_e = -omega_x omega_y / (sqrt(2) delta) = 7.0711
+E_C = 15.125  # paper: the critical energy of both saddles
+# Closed form: the centre frequency (the Hessian's positive eigenvalue is omega^2) and the
+# Lindstedt-Poincare slope kappa of T = (2 pi / omega) (1 + kappa dE + O(dE^2)) (support.lindstedt):
+# kappa = -5.733e-5.
+OMEGA = np.sqrt(np.linalg.eigvalsh(barbanis_saddle()[0])[1])
+KAPPA = period_energy_slope(*barbanis_saddle())
+# The O(dE^2) remainder is bounded by support.lindstedt.REMAINDER |kappa| dE^2; the periods themselves
+# are good to the corrector's tolerance (measured 2e-11 relative on the smallest members).
+
+
+def assert_lindstedt_period(period, omega, kappa, excess):
+    """T / (2 pi / omega) - 1 = kappa dE, to the O(dE^2) remainder and the corrector's tolerance."""
+    deviation = np.asarray(period) * omega / (2 * np.pi) - 1
+    excess = np.asarray(excess)
+    bound = REMAINDER * abs(kappa) * excess**2 + SETTINGS.tolerance
+    np.testing.assert_array_less(np.abs(deviation - kappa * excess), bound)
 
 
 def make_family(system, y_sign, mode=0, position=None):
@@ -77,14 +94,18 @@ def test_energy_equals_the_target(bottom, barbanis):
 
 def test_period_tends_to_the_linear_period(barbanis):
     # Lyapunov's theorem: T -> 2 pi / omega as dE -> 0 (omega from the linearization), and the
-    # deviation is linear in dE for a smooth family: doubling dE doubles T - 2 pi / omega.
+    # deviation is linear in dE for a smooth family: doubling dE doubles T - 2 pi / omega. Its
+    # rate is Lindstedt-Poincare's kappa (closed form): (T omega / 2 pi - 1) / dE -> kappa
+    # (measured 4e-6 relative off at dE = 1e-3).
     family = make_family(barbanis, -1)
     ec = family.saddle.critical_energy
     family.continue_to(ec + 1e-2, initial_amplitude=1e-4, max_step=0.1, max_members=500)
     linear = 2 * np.pi / family.omega
-    small, double = (family.at_energy(ec + de, energy_tolerance=1e-14).period - linear for de in (1e-3, 2e-3))
+    orbits = [family.at_energy(ec + de, energy_tolerance=1e-14) for de in (1e-3, 2e-3)]
+    small, double = (orbit.period - linear for orbit in orbits)
     assert abs(small) < 1e-5 * linear
     assert double / small == pytest.approx(2.0, rel=0.02)
+    assert_lindstedt_period([orbit.period for orbit in orbits], OMEGA, KAPPA, [1e-3, 2e-3])
 
 
 def test_zero_and_tiny_excess_energy_degrade_gracefully(barbanis):
@@ -126,7 +147,9 @@ def test_multiplier_tends_to_the_linear_one(bottom):
 
 def test_family_does_not_jump(bottom):
     # One family: amplitude, energy and the corrected coordinate change monotonically and smoothly
-    # along the continuation, up to dE = 10, and the period stays within 0.1 % of the linear one.
+    # along the continuation, up to dE = 10, and every member's period is Lindstedt-Poincare's
+    # (2 pi / omega) (1 + kappa dE) to the O(dE^2) remainder; so it stays within 0.1 % of the
+    # linear one (|kappa| 10 (1 + 0.01 10) = 6.3e-4).
     family, orbits = bottom
     amplitudes = np.array([m.amplitude for m in family.members])
     energies = np.array([m.energy for m in family.members])
@@ -134,7 +157,9 @@ def test_family_does_not_jump(bottom):
     periods = np.array([m.period for m in family.members])
     assert np.all(np.diff(amplitudes) > 0) and np.all(np.diff(energies) > 0) and np.all(np.diff(free) > 0)
     assert np.all(np.abs(np.diff(periods)) < 1e-3)
-    assert np.all(np.abs(periods * family.omega / (2 * np.pi) - 1) < 1e-3)
+    assert energies[-1] - E_C >= 10.0
+    assert_lindstedt_period(periods, OMEGA, KAPPA, energies - E_C)
+    assert np.all(np.abs(periods * OMEGA / (2 * np.pi) - 1) < 1e-3)
     target_amplitudes = [orbits[de].amplitude for de in TARGETS]
     assert np.all(np.diff(target_amplitudes) > 0)
 
@@ -151,8 +176,11 @@ def test_saddles_orbits_mirror_under_y_reflection(bottom, top):
 @pytest.mark.parametrize("mode", [0, 1])
 def test_three_dof_lyapunov_orbits_at_paper_energy(barbanis_contopoulos, mode):
     # Paper: E = 24 (dE = 0.176). Checks: closure, energy, multipliers lambda, 1/lambda, a conjugate pair
-    # on the unit circle (the other centre), and the unit pair; period near 2 pi / omega of the mode.
+    # on the unit circle (the other centre), and the unit pair; the period is Lindstedt-Poincare's
+    # (2 pi / omega) (1 + kappa dE) of the mode (closed form: kappa = 1.34e-6 and -1.79e-4).
     position = np.array([10.289915108550531, 5.294117647058823, 2.6470588235294117])  # closed form, paper eq.
+    saddle, critical, hessian, third = barbanis_contopoulos_saddle(0.9, 1.6, 0.4, 0.08, 0.01)  # the built-in's defaults
+    np.testing.assert_allclose(saddle, position, rtol=1e-15)
     family = make_family(barbanis_contopoulos, +1, mode=mode, position=position)
     assert np.linalg.norm(barbanis_contopoulos.gradient(position)) < 1e-12
     family.continue_to(24.0, initial_amplitude=1e-4, max_step=0.1, max_members=500)
@@ -163,6 +191,8 @@ def test_three_dof_lyapunov_orbits_at_paper_energy(barbanis_contopoulos, mode):
     assert mu[0].real * mu[1].real == pytest.approx(1.0, rel=1e-7)
     assert abs(mu[2]) == pytest.approx(1.0, abs=1e-7) and mu[3] == pytest.approx(np.conj(mu[2]), abs=1e-7)
     np.testing.assert_allclose(mu[4:], 1.0, atol=1e-5)
+    omega = np.sqrt(np.linalg.eigvalsh(hessian)[1 + mode])
+    assert_lindstedt_period(orbit.period, omega, period_energy_slope(hessian, third, mode), 24.0 - critical)
     assert orbit.period == pytest.approx(2 * np.pi / family.omega, rel=1e-3)
 
 
