@@ -26,10 +26,15 @@ import numpy as np
 from .engine.integrator import get_runner, run_units
 from .engine.kinetic import to_engine_states, to_momenta
 from .engine.settings import DEFAULT_ESCAPE_RADIUS
+from .engine.templates import flow_status
 from .systems import System
 
-COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW = 0, 1, 2, 3  # as FLOW_* in templates/flow_driver.py
-STATUS_MEANINGS = "completed escaped crossings_full step_underflow"
+# How a trajectory ended (``Trajectories.status``): the drivers' own codes, read from their template.
+COMPLETED = flow_status.FLOW_COMPLETED
+ESCAPED = flow_status.FLOW_ESCAPED
+CROSSINGS_FULL = flow_status.FLOW_CROSSINGS_FULL
+STEP_UNDERFLOW = flow_status.FLOW_STEP_UNDERFLOW
+STATUS_MEANINGS = flow_status.FLOW_STATUS_MEANINGS
 # Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
 # (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
 # spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
