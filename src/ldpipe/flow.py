@@ -26,10 +26,15 @@ import numpy as np
 from .engine.integrator import get_runner, run_units
 from .engine.kinetic import to_engine_states, to_momenta
 from .engine.settings import DEFAULT_ESCAPE_RADIUS
+from .engine.templates import flow_status
 from .systems import System
 
-COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW = 0, 1, 2, 3  # as FLOW_* in templates/flow_driver.py
-STATUS_MEANINGS = "completed escaped crossings_full step_underflow"
+# How a trajectory ended (``Trajectories.status``): the drivers' own codes, read from their template.
+COMPLETED = flow_status.FLOW_COMPLETED
+ESCAPED = flow_status.FLOW_ESCAPED
+CROSSINGS_FULL = flow_status.FLOW_CROSSINGS_FULL
+STEP_UNDERFLOW = flow_status.FLOW_STEP_UNDERFLOW
+STATUS_MEANINGS = flow_status.FLOW_STATUS_MEANINGS
 # Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
 # (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
 # spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
@@ -111,22 +116,18 @@ def integrate(
     if len(sample_times) and (np.any(np.diff(np.abs(sample_times)) < 0) or np.any(sample_times * duration < 0)
                               or abs(sample_times[-1]) > abs(duration)):
         raise ValueError("sample_times must run from 0 towards duration, within it")
-    if section is None:
-        index, value, direction = 0, 0.0, 1
-        max_crossings = 0
-    else:
-        name, value, direction = section
-        index = system.phase_coordinates.index(name)
-        if index >= system.n_dof and system.mass_matrix is not None:
-            # The driver carries v = M^-1 p (ldpipe.engine.kinetic). With diagonal masses p_i = m_i v_i,
-            # so p_i = c is v_i = c / m_i, crossed the same way; otherwise p_i mixes every v.
-            row = system.mass[index - system.n_dof]
-            if np.count_nonzero(row) != 1:
-                raise ValueError(
-                    f"section {name} = {value}: crossings of a momentum are located for diagonal masses only; "
-                    f"{system.name}'s kinetic matrix couples {name} to other momenta (use a coordinate section)"
-                )
-            value = value / row[index - system.n_dof]
+    index, value, direction, max_crossings = _section_arguments(section, system.phase_coordinates, max_crossings)
+    if index >= system.n_dof and system.mass_matrix is not None:
+        # The driver carries v = M^-1 p (ldpipe.engine.kinetic). With diagonal masses p_i = m_i v_i,
+        # so p_i = c is v_i = c / m_i, crossed the same way; otherwise p_i mixes every v.
+        name = system.phase_coordinates[index]
+        row = system.mass[index - system.n_dof]
+        if np.count_nonzero(row) != 1:
+            raise ValueError(
+                f"section {name} = {value}: crossings of a momentum are located for diagonal masses only; "
+                f"{system.name}'s kinetic matrix couples {name} to other momenta (use a coordinate section)"
+            )
+        value = value / row[index - system.n_dof]
     samples = np.zeros((count, len(sample_times), m))
     crossings = np.zeros((count, max_crossings, m))
     crossing_times = np.zeros((count, max_crossings))
@@ -138,7 +139,7 @@ def integrate(
     if count == 0:
         return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time,
                             steps)
-    threads = min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+    threads = _thread_count(threads)
     lanes = SMALL_LANES if count <= SMALL_LANES else LANES
     # Units of at most a block (fewer trajectories when a block each would leave a thread idle),
     # or ~8 per thread for load balance, up to 16 blocks (as the LD engine).
@@ -157,6 +158,20 @@ def integrate(
     return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
 
 
+def _section_arguments(section, coordinates, max_crossings: int) -> tuple[int, float, int, int]:
+    """The drivers' (index, value, direction, max_crossings) of ``section`` = (name, value,
+    direction) over the state's ``coordinates``; without a section, no crossings."""
+    if section is None:
+        return 0, 0.0, 1, 0
+    name, value, direction = section
+    return coordinates.index(name), value, direction, max_crossings
+
+
+def _thread_count(threads: int | None) -> int:
+    """``threads`` within numba's pool, or all of it."""
+    return min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+
+
 def _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, t0) -> Trajectories:
     """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring)."""
     from .engine.vector_field import get_vector_field_runner
@@ -164,12 +179,7 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
     count, m = states.shape
     if m != system.n_state:
         raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
-    if section is None:
-        index, value, direction = 0, 0.0, 1
-        max_crossings = 0
-    else:
-        name, value, direction = section
-        index = system.coordinates.index(name)
+    index, value, direction, max_crossings = _section_arguments(section, system.coordinates, max_crossings)
     crossings = np.zeros((count, max_crossings, m))
     crossing_times = np.zeros((count, max_crossings))
     n_cross = np.zeros(count, dtype=np.int64)
@@ -177,7 +187,7 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
     final_time = np.zeros(count)
     steps = np.zeros(count, dtype=np.int64)
     if count:
-        threads = min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+        threads = _thread_count(threads)
         runner = get_vector_field_runner(system, "vector_field_crossings")
         args = (t0, 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
                 settings.escape_radius, settings.max_steps, index, float(value), float(direction))

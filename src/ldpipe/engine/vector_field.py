@@ -2,7 +2,8 @@
 
 The generated module is the system's ``rhs`` source, a header (the tableau of DOP853 as
 arrays, the state dimension, the integrand kinds) and the templates ``quadrature`` and
-``events`` (the same LD quadrature and event location as the Hamiltonian engine) and
+``events`` (the same LD quadrature and event location as the Hamiltonian engine),
+``step_control`` and ``flow_status`` (the Hamiltonian drivers' step control and flow outcomes) and
 ``vector_field_driver`` (first-order DOP853, one trajectory at a time, see its docstring),
 assembled by :func:`ldpipe.engine.codegen.assemble` as the Hamiltonian engine is.
 Only schemes whose record says ``general_flow`` take this path (today: dop853).
@@ -18,7 +19,7 @@ from .codegen import assemble, template
 from .integrands import KINDS
 from .integrator import kept_runner
 
-TEMPLATES = ("quadrature", "events", "vector_field_driver")
+TEMPLATES = ("quadrature", "events", "step_control", "flow_status", "vector_field_driver")
 NC = 8  # coefficients of the dense output (degree 7) and of its derivative
 #: The driver functions of the generated module: LDs, and section crossings (ldpipe.flow).
 ENTRIES = ("vector_field_process", "vector_field_crossings")

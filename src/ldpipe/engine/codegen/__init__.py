@@ -13,8 +13,8 @@ The generated module is, in this order:
 
 Two drivers can be assembled on the same step: ``process`` (the LD driver, ``driver.py``) and
 ``flow_process`` (samples, section crossings and escapes for :mod:`ldpipe.flow`,
-``flow_driver.py``, which uses the step control of ``driver.py``); ``DRIVERS`` lists the
-templates each needs.
+``flow_driver.py``, which loads lanes with ``driver.py``'s ``load_lane``); both take the step
+control of ``step_control.py``. ``DRIVERS`` lists the templates each needs.
 
 The flow engine's module (:mod:`ldpipe.engine.vector_field`) is assembled by the same
 :func:`assemble` (kernel source, :func:`header`, templates, the name-clash check).
@@ -41,10 +41,10 @@ from ..kinetic import kinetic_source
 from ..schemes import scheme_source
 
 COMMON_TEMPLATES = ("quadrature", "block_arclength", "block_quadrature", "flag_checks", "events", "block_two_roots",
-                    "block_dips")
+                    "block_dips", "step_control")
 DRIVER_TEMPLATE = "driver"
 # The templates of each entry point, by the name of its compiled function.
-DRIVERS = {"process": (DRIVER_TEMPLATE,), "flow_process": (DRIVER_TEMPLATE, "flow_driver")}
+DRIVERS = {"process": (DRIVER_TEMPLATE,), "flow_process": (DRIVER_TEMPLATE, "flow_status", "flow_driver")}
 # numba options of every engine function, the system kernels the engine calls included.
 # No fastmath: with it LLVM may round a function differently in each context it optimizes it
 # in, and the copy of a callee that a compiling process runs (compiled on its own) and the one
@@ -136,7 +136,6 @@ def engine_source(system, scheme: str, lanes: int, order: int | None = None, ent
         "ADAPTIVE": parts.adaptive,
         "SELF_SIZED": parts.self_sized,
         "ORDER": parts.order,
-        "ERROR_EXPONENT": -1.0 / (parts.order + 1.0),
         **parts.constants,
         **KINDS,
     }

@@ -15,34 +15,20 @@ Each trajectory's end is written with its results: ``o_end[k]`` the state where 
 (the same state its energy error is taken at) and ``o_face[k]`` the region face it left by
 (``first_exit``'s; for a start outside the region ``outside_face``'s; else 0).
 
-Header names used: N, LANES, NC, NCOMP, SIZE, NB, ADAPTIVE, SELF_SIZED, ORDER, ERROR_EXPONENT,
-KIND_ARCLENGTH, the workspace offsets, and the kernels ``potential`` and ``gradient``.
+Header and template names used: N, LANES, NC, NCOMP, SIZE, NB, ADAPTIVE, SELF_SIZED,
+KIND_ARCLENGTH, the workspace offsets, the kernels ``potential`` and ``gradient``, and the step
+control of ``step_control.py``.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT, np and the kernels come from the generated module)
-
-SAFETY = 0.9
-MIN_FACTOR = 0.2
-MAX_FACTOR = 10.0
-
-# Lane outcomes at load time
-START = 0
-START_OUTSIDE_REGION = 1
-START_ESCAPED = 2
-START_FAILED = 3
 
 
 @njit(**JIT)
 def step_factors(err, kind, FC, fac_accept, fac_reject, inc):
     """Per lane: the step-size factors after an accepted and after a rejected attempt, from
-    the scaled error err (SAFETY * err^ERROR_EXPONENT, clipped), and the LD integrand of the
-    step summed over components (from the quadrature's FC), in loops over lanes outside the
-    scalar pass."""
+    the scaled error err (``error_factors``), and the LD integrand of the step summed over
+    components (from the quadrature's FC), in loops over lanes outside the scalar pass."""
     for j in range(LANES):
-        e = err[j]
-        scaled = SAFETY * e**ERROR_EXPONENT if e > 0.0 else MAX_FACTOR
-        fac_accept[j] = min(MAX_FACTOR, scaled)
-        # NaN or inf error (e.g. a non-finite state): the smallest factor
-        fac_reject[j] = max(MIN_FACTOR, scaled) if (e < math.inf and e > 0.0) else MIN_FACTOR
+        fac_accept[j], fac_reject[j] = error_factors(err[j])
     if kind == KIND_ARCLENGTH:
         for j in range(LANES):
             inc[j] = FC[0, j]
@@ -64,7 +50,8 @@ def energy(qv, pv):
 
 @njit(**JIT)
 def initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1):
-    """Hairer's starting step (Solving ODEs I, II.4), for the state (qv, pv)."""
+    """Hairer's starting step (``step_control.py``) for the state (qv, pv), whose derivative
+    is (pv, av): the norms of (q, p) and of (q', p') = (p, a(q)) scaled per component."""
     d0 = 0.0
     d1 = 0.0
     for i in range(N):
@@ -72,10 +59,8 @@ def initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1):
         sp = atol + rtol * abs(pv[i])
         d0 += (qv[i] / sq) ** 2 + (pv[i] / sp) ** 2
         d1 += (pv[i] / sq) ** 2 + (av[i] / sp) ** 2
-    d0 = math.sqrt(d0 / NCOMP)
     d1 = math.sqrt(d1 / NCOMP)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, tau)
+    h0 = trial_step(math.sqrt(d0 / NCOMP), d1, tau)
     for i in range(N):
         q1[i] = qv[i] + direction * h0 * pv[i]
     gradient(q1, g1)
@@ -86,58 +71,14 @@ def initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1):
         dq = h0 * av[i]  # change of q' = p over the trial step
         dp = -g1[i] - av[i]
         d2 += (dq / sq) ** 2 + (dp / sp) ** 2
-    d2 = math.sqrt(d2 / NCOMP) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / (ORDER + 1.0))
-    return min(100.0 * h0, h1, tau)
+    return starting_step(h0, d1, math.sqrt(d2 / NCOMP) / h0, tau)
 
 
 @njit(**JIT)
-def inside(qv, lo, hi):
-    for i in range(N):
-        if not (lo[i] <= qv[i] <= hi[i]):
-            return False
-    return True
-
-
-@njit(**JIT)
-def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, rtol, atol, lo, hi, has_region, elo, ehi):
-    """Put trajectory k into lane j; return (outcome, H0, first |h|)."""
-    finite = True
-    for i in range(N):
-        qv[i] = states[k, i]
-        pv[i] = states[k, N + i]
-        finite = finite and math.isfinite(qv[i]) and math.isfinite(pv[i])
-    if not finite:
-        return START_FAILED, 0.0, 0.0
-    h0 = energy(qv, pv)
-    if has_region and not inside(qv, lo, hi):
-        return START_OUTSIDE_REGION, h0, 0.0
-    if not inside(qv, elo, ehi):
-        return START_ESCAPED, h0, 0.0
-    gradient(qv, g1)
-    for i in range(N):
-        av[i] = -g1[i]
-        q[i, j] = qv[i]
-        p[i, j] = pv[i]
-        acc[i, j] = av[i]
-    if ADAPTIVE:
-        first = initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1)
-    else:
-        first = min(dt, tau)
-    return START, h0, first
-
-
-@njit(nogil=True, **JIT)
-def process(
-    states, start, stop, direction, tau, dt, n_fixed, rtol, atol, kind, p_exp,
-    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
-    o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,
-):  # fmt: skip
-    lanes = LANES
-    W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout); views below
+def workspace_views(W):
+    """The arrays of the block workspace W the drivers read and write: the lanes' state (q, p)
+    and acceleration at the step's start and end, the signed steps hh, the scaled errors, and
+    the step's velocity and configuration polynomials VC and QC."""
     q = W[OQ : OQ + NB].reshape((N, LANES))
     p = W[OP : OP + NB].reshape((N, LANES))
     acc = W[OA : OA + NB].reshape((N, LANES))
@@ -148,6 +89,69 @@ def process(
     err = W[OERR : OERR + LANES]
     VC = W[OVC : OVC + NC * NCOMP * LANES].reshape((NC, NCOMP, LANES))
     QC = W[OQC : OQC + NC * NB].reshape((NC, N, LANES))
+    return q, p, acc, qn, pn, accn, hh, err, VC, QC
+
+
+@njit(**JIT)
+def set_lane_steps(active, habs, t, nsteps, hh, direction, tau, dt, n_fixed):
+    """The signed step hh of every lane for the next attempt (0 for an idle lane): |h| cut to
+    what remains of tau (adaptive), or dt and the rest of tau last (n_fixed steps of a fixed
+    step). Returns how many lanes are active."""
+    n_active = 0
+    for j in range(LANES):
+        if active[j]:
+            n_active += 1
+            if ADAPTIVE:
+                habs[j] = clipped_step(habs[j], t[j], tau)
+            else:
+                habs[j] = dt if nsteps[j] < n_fixed - 1 else tau - (n_fixed - 1) * dt
+            hh[j] = direction * habs[j]
+        else:
+            hh[j] = 0.0
+    return n_active
+
+
+@njit(**JIT)
+def lane_buffers():
+    """``load_lane``'s scratch: a state (qv, pv), its acceleration av, and the starting step's
+    trial configuration q1 and gradient g1."""
+    return np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(N)
+
+
+@njit(**JIT)
+def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, rtol, atol, lo, hi, has_region, elo, ehi):
+    """Put trajectory k into lane j, its start state left in (qv, pv); return (outcome
+    (``start_outcome``'s), H0, first |h|), H0 and |h| 0 for a trajectory that does not start."""
+    finite = True
+    for i in range(N):
+        qv[i] = states[k, i]
+        pv[i] = states[k, N + i]
+        finite = finite and math.isfinite(qv[i]) and math.isfinite(pv[i])
+    outcome = start_outcome(finite, qv, lo, hi, has_region, elo, ehi)
+    if outcome != START:
+        return outcome, 0.0, 0.0
+    gradient(qv, g1)
+    for i in range(N):
+        av[i] = -g1[i]
+        q[i, j] = qv[i]
+        p[i, j] = pv[i]
+        acc[i, j] = av[i]
+    if ADAPTIVE:
+        first = initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1)
+    else:
+        first = min(dt, tau)
+    return START, energy(qv, pv), first
+
+
+@njit(nogil=True, **JIT)
+def process(
+    states, start, stop, direction, tau, dt, n_fixed, rtol, atol, kind, p_exp,
+    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
+    o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,
+):  # fmt: skip
+    lanes = LANES
+    W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout)
+    q, p, acc, qn, pn, accn, hh, err, VC, QC = workspace_views(W)
     FC = W[OFC : OFC + NCOMP * LANES].reshape((NCOMP, LANES))
     SP = np.zeros((NCOMP, LANES), dtype=np.int8)  # SP_* codes of block_quadrature.py
     fac_accept = np.zeros(LANES)
@@ -167,11 +171,7 @@ def process(
     reg_flag = np.zeros(lanes, dtype=np.bool_)
     # component_integral's roots: at most 2 per sample interval and 1 per sample (its docstring)
     roots = np.zeros(6 * SAMPLES_PER_STEP + 16 + int(12 * window * SAMPLES_PER_STEP))
-    qv = np.zeros(N)
-    pv = np.zeros(N)
-    av = np.zeros(N)
-    q1 = np.zeros(N)
-    g1 = np.zeros(N)
+    qv, pv, av, q1, g1 = lane_buffers()
     elo = np.full(N, -radius)
     ehi = np.full(N, radius)
     cursor = start
@@ -206,19 +206,7 @@ def process(
                         o_end[k, i] = qv[i]
                         o_end[k, N + i] = pv[i]
                     o_face[k] = outside_face(qv, lo, hi) if outcome == START_OUTSIDE_REGION else 0
-        n_active = 0
-        for j in range(lanes):
-            if active[j]:
-                n_active += 1
-                remaining = tau - t[j]
-                if ADAPTIVE:
-                    if habs[j] > remaining:
-                        habs[j] = remaining
-                else:
-                    habs[j] = dt if nsteps[j] < n_fixed - 1 else tau - (n_fixed - 1) * dt
-                hh[j] = direction * habs[j]
-            else:
-                hh[j] = 0.0
+        n_active = set_lane_steps(active, habs, t, nsteps, hh, direction, tau, dt, n_fixed)
         if n_active == 0:
             break
 
@@ -284,13 +272,8 @@ def process(
                     ld[j] += habs[j] * inc
                     t[j] += theta * habs[j]
                     for i in range(N):
-                        w = QC[NC - 1, i, j]
-                        u = VC[NC - 1, i, j]
-                        for kk in range(NC - 2, -1, -1):
-                            w = w * theta + QC[kk, i, j]
-                            u = u * theta + VC[kk, i, j]
-                        qv[i] = w
-                        pv[i] = u
+                        qv[i] = horner(QC, i, j, NC, theta)
+                        pv[i] = horner(VC, i, j, NC, theta)
                     if left and face == 0:
                         # flagged, but the polynomial inside at the samples by rounding (theta = 1):
                         # the face nearest the end state
@@ -311,13 +294,9 @@ def process(
                         acc[i, j] = accn[i, j]
                         qv[i] = qn[i, j]
                         pv[i] = pn[i, j]
-                    last = habs[j] >= tau - t[j]
                     if ADAPTIVE:
-                        t[j] = tau if last else t[j] + habs[j]
-                        factor = fac_accept[j]
-                        if was_rejected[j]:
-                            factor = min(1.0, factor)
-                        habs[j] *= factor
+                        t[j], last = advance(t[j], habs[j], tau)
+                        habs[j] = accepted_step(habs[j], fac_accept[j], was_rejected[j])
                         was_rejected[j] = False
                     else:
                         last = nsteps[j] >= n_fixed
@@ -327,8 +306,7 @@ def process(
                 if ADAPTIVE:
                     habs[j] *= fac_reject[j]
                     was_rejected[j] = True
-                    if habs[j] < 1e-13 * max(1.0, tau):
-                        failed = True
+                    failed = underflow(habs[j], tau)
             if not done and not failed and nsteps[j] >= max_steps:
                 failed = True
             if failed:

@@ -61,6 +61,15 @@ def first_exit(QC, j, nc, n, lo, hi):
 
 
 @njit(**JIT)
+def inside(qv, lo, hi):
+    """Whether the configuration qv lies in the box [lo, hi] (not for a NaN coordinate)."""
+    for i in range(N):
+        if not (lo[i] <= qv[i] <= hi[i]):
+            return False
+    return True
+
+
+@njit(**JIT)
 def outside_face(qv, lo, hi):
     """The face of the box [lo, hi] a configuration outside it is beyond: +(i+1) above the
     upper face of coordinate i, -(i+1) below the lower, for the lowest such i; 0 if inside."""

@@ -2,10 +2,10 @@
 
 ``flow_process(states, start, stop, ...)`` integrates trajectories start..stop-1 with one
 block of LANES lanes, on the same step attempt as the LD driver (``attempt``: DOP853 in
-Nyström form, per-lane step size) and the same step control (``driver.py``: Hairer's
-starting step, SAFETY * err^ERROR_EXPONENT clipped to [MIN_FACTOR, MAX_FACTOR], no growth
-right after a rejection). It releases the GIL, so units run in parallel threads. As in the
-LD driver, a lane whose trajectory ends takes the next one of the range.
+Nyström form, per-lane step size), the same step control (``step_control.py``) and the same
+loading of a lane (``driver.py``'s ``load_lane``). It releases the GIL, so units run in
+parallel threads. As in the LD driver, a lane whose trajectory ends takes the next one of the
+range.
 
 Along each trajectory, on every accepted step, from the step's dense output (q(x) from the
 configuration polynomials QC, p(x) = q'(x) from the velocity polynomials VC of the q
@@ -20,23 +20,17 @@ components, x = (t - t0)/h in [0, 1]):
 * an escape, max_i |q_i| > radius at the step end, located on QC by ``first_exit`` (as in the
   LD driver); the trajectory stops there. Events after the stopping point are not recorded.
 
-A step attempt that fails (non-finite state or error) is rejected; a step size below
-1e-13 max(1, tau), or ``max_steps`` attempts, end the trajectory as failed.
+A step attempt that fails (non-finite state or error) is rejected; a step size underflow
+(``step_control.py``), or ``max_steps`` attempts, end the trajectory as failed.
 
-Outcomes (``o_status``): FLOW_COMPLETED, FLOW_ESCAPED, FLOW_CROSSINGS_FULL, FLOW_FAILED;
-``o_time`` is |t| where the trajectory stopped. Samples after the stopping time are the state
-there. Header and template names used: N, LANES, NC, NCOMP, SIZE, NB, the workspace offsets,
-ERROR_EXPONENT, ``attempt``, ``qpoly``, ``horner``, ``refine_root``, ``first_exit``,
-``flag_escapes``, and from ``driver.py`` ``initial_step``, ``inside``, SAFETY, MIN_FACTOR,
-MAX_FACTOR.
+Outcomes (``o_status``): the codes of ``flow_status.py``; ``o_time`` is |t| where the
+trajectory stopped. Samples after the stopping time are the state there. Header and template
+names used: N, LANES, NC, NCOMP, SIZE, NB, the workspace offsets, ``attempt``, ``qpoly``,
+``horner``, ``refine_root``, ``first_exit``, ``flag_escapes``, from ``driver.py`` ``load_lane``,
+``lane_buffers``, ``workspace_views`` and ``set_lane_steps``, the step control of
+``step_control.py`` and the codes of ``flow_status.py``.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT, np and the other templates come from the generated module)
-
-FLOW_COMPLETED = 0
-FLOW_ESCAPED = 1
-FLOW_CROSSINGS_FULL = 2
-FLOW_FAILED = 3
-FLOW_RUNNING = -1
 
 
 @njit(**JIT)
@@ -73,17 +67,8 @@ def flow_process(
     o_samples, o_sample_count, o_crossings, o_crossing_times, o_crossing_count, o_status, o_time, o_steps,
 ):  # fmt: skip
     """``sample_times``: |t| of the samples, non-decreasing; ``sec_direction``: +1 or -1 in forward time."""
-    W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout); views below
-    q = W[OQ : OQ + NB].reshape((N, LANES))
-    p = W[OP : OP + NB].reshape((N, LANES))
-    acc = W[OA : OA + NB].reshape((N, LANES))
-    qn = W[OQN : OQN + NB].reshape((N, LANES))
-    pn = W[OPN : OPN + NB].reshape((N, LANES))
-    accn = W[OAN : OAN + NB].reshape((N, LANES))
-    hh = W[OH : OH + LANES]
-    err = W[OERR : OERR + LANES]
-    VC = W[OVC : OVC + NC * NCOMP * LANES].reshape((NC, NCOMP, LANES))
-    QC = W[OQC : OQC + NC * NB].reshape((NC, N, LANES))
+    W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout)
+    q, p, acc, qn, pn, accn, hh, err, VC, QC = workspace_views(W)
     n_samples = sample_times.shape[0]
     max_cross = o_crossing_times.shape[1]
     on_p = sec_index >= N  # the section is p_row = value, else q_row = value
@@ -101,11 +86,7 @@ def flow_process(
     was_rejected = np.zeros(LANES, dtype=np.bool_)
     hit = np.zeros(LANES, dtype=np.bool_)
     esc_flag = np.zeros(LANES, dtype=np.bool_)
-    qv = np.zeros(N)
-    pv = np.zeros(N)
-    av = np.zeros(N)
-    q1 = np.zeros(N)
-    g1 = np.zeros(N)
+    qv, pv, av, q1, g1 = lane_buffers()
     y = np.zeros(NCOMP)
     elo = np.full(N, -radius)
     ehi = np.full(N, radius)
@@ -117,54 +98,40 @@ def flow_process(
             while cursor < stop and not active[j]:
                 k = cursor
                 cursor += 1
-                finite = True
-                for i in range(NCOMP):
-                    y[i] = states[k, i]
-                    finite = finite and math.isfinite(y[i])
+                # no region: the escape box in its place
+                outcome, _, first = load_lane(
+                    j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, 0.0, rtol, atol, elo, ehi, False, elo, ehi
+                )
                 for i in range(N):
-                    qv[i] = y[i]
-                    pv[i] = y[N + i]
+                    y[i] = qv[i]
+                    y[N + i] = pv[i]
                 s = 0
                 while s < n_samples and sample_times[s] == 0.0:
                     for i in range(NCOMP):
                         o_samples[k, s, i] = y[i]
                     s += 1
-                if not finite:
-                    finish(k, FLOW_FAILED, 0.0, y, 0, s, 0, o_samples, o_sample_count, o_crossing_count,
-                           o_status, o_time, o_steps)
-                elif not inside(qv, elo, ehi):
-                    finish(k, FLOW_ESCAPED, 0.0, y, 0, s, 0, o_samples, o_sample_count, o_crossing_count,
-                           o_status, o_time, o_steps)
+                status = FLOW_RUNNING
+                if outcome == START_FAILED:
+                    status = FLOW_STEP_UNDERFLOW
+                elif outcome == START_ESCAPED:
+                    status = FLOW_ESCAPED
                 elif tau == 0.0:
-                    finish(k, FLOW_COMPLETED, 0.0, y, 0, s, 0, o_samples, o_sample_count, o_crossing_count,
-                           o_status, o_time, o_steps)
+                    status = FLOW_COMPLETED
+                if status != FLOW_RUNNING:
+                    finish(k, status, 0.0, y, 0, s, 0, o_samples, o_sample_count, o_crossing_count, o_status, o_time,
+                           o_steps)
                 else:
-                    gradient(qv, g1)
-                    for i in range(N):
-                        av[i] = -g1[i]
-                        q[i, j] = qv[i]
-                        p[i, j] = pv[i]
-                        acc[i, j] = av[i]
                     idx[j] = k
                     active[j] = True
-                    habs[j] = initial_step(qv, pv, av, direction, tau, rtol, atol, q1, g1)
+                    habs[j] = first
                     t[j] = 0.0
                     nsteps[j] = 0
                     next_sample[j] = s
                     n_cross[j] = 0
                     was_rejected[j] = False
                     g_prev[j] = y[sec_index] - sec_value
-        n_active = 0
-        for j in range(LANES):
-            if active[j]:
-                n_active += 1
-                remaining = tau - t[j]
-                if habs[j] > remaining:
-                    habs[j] = remaining
-                hh[j] = direction * habs[j]
-            else:
-                hh[j] = 0.0
-        if n_active == 0:
+        # dop853 is adaptive: no fixed step (dt, n_fixed)
+        if set_lane_steps(active, habs, t, nsteps, hh, direction, tau, 0.0, 1) == 0:
             break
 
         attempt(W, rtol, atol)
@@ -196,8 +163,7 @@ def flow_process(
                 finite = finite and math.isfinite(qn[i, j]) and math.isfinite(pn[i, j])
             status = FLOW_RUNNING
             if finite and e <= 1.0:  # NaN error: not accepted
-                last = habs[j] >= tau - t[j]
-                t_end = tau if last else t[j] + habs[j]
+                t_end, last = advance(t[j], habs[j], tau)
                 x_stop = 1.0
                 if esc_flag[j]:
                     x_stop = min(first_exit(QC, j, NC, N, elo, ehi)[0], 1.0)
@@ -235,10 +201,7 @@ def flow_process(
                         acc[i, j] = accn[i, j]
                     t[j] = t_end
                     g_prev[j] = g_new[j]
-                    factor = min(MAX_FACTOR, SAFETY * e**ERROR_EXPONENT) if e > 0.0 else MAX_FACTOR
-                    if was_rejected[j]:
-                        factor = min(1.0, factor)
-                    habs[j] *= factor
+                    habs[j] = accepted_step(habs[j], error_factors(e)[0], was_rejected[j])
                     was_rejected[j] = False
                     if last:
                         status = FLOW_COMPLETED
@@ -251,15 +214,13 @@ def flow_process(
                     active[j] = False
                     continue
             else:
-                # NaN or inf error (e.g. a non-finite state): the smallest factor
-                factor = max(MIN_FACTOR, SAFETY * e**ERROR_EXPONENT) if (e < math.inf and e > 0.0) else MIN_FACTOR
-                habs[j] *= factor
+                habs[j] *= error_factors(e)[1]
                 was_rejected[j] = True
-                if habs[j] < 1e-13 * max(1.0, tau):
-                    status = FLOW_FAILED
+                if underflow(habs[j], tau):
+                    status = FLOW_STEP_UNDERFLOW
             if status == FLOW_RUNNING and nsteps[j] >= max_steps:
-                status = FLOW_FAILED
-            if status == FLOW_FAILED:
+                status = FLOW_STEP_UNDERFLOW
+            if status == FLOW_STEP_UNDERFLOW:
                 for i in range(N):
                     y[i] = q[i, j]
                     y[N + i] = p[i, j]

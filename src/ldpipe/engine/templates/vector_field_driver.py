@@ -11,40 +11,31 @@ extension), so every component's zero crossings are cut as there; ``QC[k, c, 0]`
 polynomial, for the region exit and the escape (``events.py``).
 
 ``t`` starts at ``t0`` and runs to ``t0 + direction tau``; the results' times are |t - t0|.
+The step control is shared with the Hamiltonian drivers (``step_control.py``); this form
+gives the starting step its own norms (``initial_step``).
 
-Header names used: N (state dimension), NC, ORDER, KIND_ARCLENGTH, the tableau arrays
-A, C, E3, E5, G, and the kernel ``rhs(state, t, out)``.
+Header and template names used: N (state dimension), NC, KIND_ARCLENGTH, the tableau arrays
+A, C, E3, E5, G, the kernel ``rhs(state, t, out)``, the step control of ``step_control.py``
+and the outcome codes of ``flow_status.py``.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT, np and the kernel come from the generated module)
 
-SAFETY = 0.9
-MIN_FACTOR = 0.2
-MAX_FACTOR = 10.0
 FSAL = 12  # the stage evaluated at the step's end
 DENSE_STAGES = 16
 
 
 @njit(**JIT)
-def inside(xv, lo, hi):
-    for i in range(N):
-        if not (lo[i] <= xv[i] <= hi[i]):
-            return False
-    return True
-
-
-@njit(**JIT)
 def initial_step(xv, f0, t, direction, tau, rtol, atol, x1, f1):
-    """Hairer's starting step (Solving ODEs I, II.4) from xv with f0 = f(xv, t)."""
+    """Hairer's starting step (``step_control.py``) from xv with f0 = f(xv, t): the norms of
+    x and of x' = f scaled per component."""
     d0 = 0.0
     d1 = 0.0
     for i in range(N):
         sk = atol + rtol * abs(xv[i])
         d0 += (xv[i] / sk) ** 2
         d1 += (f0[i] / sk) ** 2
-    d0 = math.sqrt(d0 / N)
     d1 = math.sqrt(d1 / N)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, tau)
+    h0 = trial_step(math.sqrt(d0 / N), d1, tau)
     for i in range(N):
         x1[i] = xv[i] + direction * h0 * f0[i]
     rhs(x1, t + direction * h0, f1)
@@ -52,12 +43,30 @@ def initial_step(xv, f0, t, direction, tau, rtol, atol, x1, f1):
     for i in range(N):
         sk = atol + rtol * abs(xv[i])
         d2 += ((f1[i] - f0[i]) / sk) ** 2
-    d2 = math.sqrt(d2 / N) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / (ORDER + 1.0))
-    return min(100.0 * h0, h1, tau)
+    return starting_step(h0, d1, math.sqrt(d2 / N) / h0, tau)
+
+
+@njit(**JIT)
+def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs, f1):
+    """Put trajectory k's start state in xv; return (outcome (``start_outcome``'s), first |h|),
+    with K[0] = f(xv, t0) for a trajectory that starts."""
+    finite = True
+    for i in range(N):
+        xv[i] = states[k, i]
+        finite = finite and math.isfinite(xv[i])
+    outcome = start_outcome(finite, xv, lo, hi, has_region, elo, ehi)
+    if outcome != START:
+        return outcome, 0.0
+    rhs(xv, t0, K[0])
+    return START, initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, f1)
+
+
+@njit(**JIT)
+def step_buffers():
+    """The scratch of a trajectory's steps: the stages K, the state xv, a stage's state xs, the
+    step's end xn, f at the starting step's trial f1, and the dense output QC, VC (one lane)."""
+    return (np.zeros((DENSE_STAGES, N)), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros((NC, N, 1)),
+            np.zeros((NC, N, 1)))
 
 
 @njit(**JIT)
@@ -123,67 +132,63 @@ def step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots):
     return total
 
 
+@njit(**JIT)
+def acceptable(xn, err):
+    """Whether an attempt that ended at xn with scaled error err is accepted (a NaN error is not)."""
+    finite = True
+    for i in range(N):
+        finite = finite and math.isfinite(xn[i])
+    return finite and err <= 1.0
+
+
+@njit(**JIT)
+def commit(xv, xn, K):
+    """Move to the accepted step's end xn, whose f is the next step's first stage."""
+    for i in range(N):
+        xv[i] = xn[i]
+        K[0, i] = K[FSAL, i]
+
+
+@njit(**JIT)
+def beyond(xn, radius):
+    """Whether max_i |x_i| > radius."""
+    out = False
+    for i in range(N):
+        out = out or abs(xn[i]) > radius
+    return out
+
+
 @njit(nogil=True, **JIT)
 def vector_field_process(
     states, start, stop, t0, direction, tau, rtol, atol, kind, p_exp,
     lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
     o_ld, o_time, o_escaped, o_left, o_steps, o_failed, o_end, o_face,
 ):  # fmt: skip
-    K = np.zeros((DENSE_STAGES, N))
-    xv = np.zeros(N)
-    xs = np.zeros(N)
-    xn = np.zeros(N)
-    f1 = np.zeros(N)
-    QC = np.zeros((NC, N, 1))
-    VC = np.zeros((NC, N, 1))
+    K, xv, xs, xn, f1, QC, VC = step_buffers()
     # component_integral's roots: at most 2 per sample interval and 1 per sample (its docstring)
     roots = np.zeros(6 * SAMPLES_PER_STEP + 16 + int(12 * window * SAMPLES_PER_STEP))
     elo = np.full(N, -radius)
     ehi = np.full(N, radius)
     for k in range(start, stop):
-        finite = True
-        for i in range(N):
-            xv[i] = states[k, i]
-            o_end[k, i] = xv[i]
-            finite = finite and math.isfinite(xv[i])
-        o_ld[k] = 0.0
-        o_time[k] = 0.0
-        o_escaped[k] = False
-        o_left[k] = False
-        o_failed[k] = False
-        o_steps[k] = 0
-        o_face[k] = 0
-        if not finite:
-            o_failed[k] = True
-            continue
-        if has_region and not inside(xv, lo, hi):
-            o_left[k] = True
-            o_face[k] = outside_face(xv, lo, hi)
-            continue
-        if not inside(xv, elo, ehi):
-            o_escaped[k] = True
-            continue
-        rhs(xv, t0, K[0])
-        habs = initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, f1)
+        outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K,
+                                        xs, f1)
         elapsed = 0.0
         ld = 0.0
         steps = 0
         rejected = False
-        failed = False
-        escaped = False
-        left = False
-        face = 0
-        while True:
-            if habs > tau - elapsed:
-                habs = tau - elapsed
+        failed = outcome == START_FAILED
+        escaped = outcome == START_ESCAPED
+        left = outcome == START_OUTSIDE_REGION
+        face = outside_face(xv, lo, hi) if left else 0
+        while outcome == START:  # a step attempt a pass, until the trajectory ends (break)
+            # attempt and dense are called from the loop itself: wrapped in a helper they ran 10-15% slower
+            habs = clipped_step(habs, elapsed, tau)
             h = direction * habs
             t = t0 + direction * elapsed
             err = attempt(xv, t, h, K, xs, xn, rtol, atol)
             steps += 1
-            finite = True
-            for i in range(N):
-                finite = finite and math.isfinite(xn[i])
-            if finite and err <= 1.0:  # NaN error: not accepted
+            accepted = acceptable(xn, err)
+            if accepted:
                 dense(xv, t, h, K, xs, QC, VC)
                 theta = NO_EXIT
                 if has_region:
@@ -191,10 +196,7 @@ def vector_field_process(
                     left = theta <= 1.0
                     if not left:
                         face = 0
-                beyond = False
-                for i in range(N):
-                    beyond = beyond or abs(xn[i]) > radius
-                if beyond:
+                if beyond(xn, radius):
                     theta_e = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
                     if theta_e < theta:
                         theta = theta_e
@@ -205,34 +207,16 @@ def vector_field_process(
                     ld += habs * step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots)
                     elapsed += theta * habs
                     for i in range(N):
-                        w = QC[NC - 1, i, 0]
-                        for kk in range(NC - 2, -1, -1):
-                            w = w * theta + QC[kk, i, 0]
-                        xv[i] = w
+                        xv[i] = horner(QC, i, 0, NC, theta)
                     break
                 ld += habs * step_ld(VC, 1.0, kind, p_exp, glx, glw, gjx, gjf, window, roots)
-                for i in range(N):
-                    xv[i] = xn[i]
-                    K[0, i] = K[FSAL, i]
-                last = habs >= tau - elapsed
-                elapsed = tau if last else elapsed + habs
+                commit(xv, xn, K)
+                elapsed, last = advance(elapsed, habs, tau)
                 if last:
                     break
-                e = err
-                factor = min(MAX_FACTOR, SAFETY * e**(-1.0 / (ORDER + 1.0))) if e > 0.0 else MAX_FACTOR
-                if rejected:
-                    factor = min(1.0, factor)
-                habs *= factor
-                rejected = False
-            else:
-                e = err
-                factor = max(MIN_FACTOR, SAFETY * e**(-1.0 / (ORDER + 1.0))) if (e < math.inf and e > 0.0) else MIN_FACTOR
-                habs *= factor
-                rejected = True
-                if habs < 1e-13 * max(1.0, tau):
-                    failed = True
-                    break
-            if steps >= max_steps:
+            habs, failed = step_after(habs, err, accepted, rejected, tau)
+            rejected = not accepted
+            if failed or steps >= max_steps:
                 failed = True
                 break
         o_ld[k] = ld
@@ -246,12 +230,6 @@ def vector_field_process(
             o_end[k, i] = xv[i]
 
 
-FLOW_COMPLETED = 0  # as ldpipe.flow's statuses
-FLOW_ESCAPED = 1
-FLOW_CROSSINGS_FULL = 2
-FLOW_STEP_UNDERFLOW = 3
-
-
 @njit(nogil=True, **JIT)
 def vector_field_crossings(
     states, start, stop, t0, direction, tau, rtol, atol, radius, max_steps, sec_index, sec_value, sec_direction,
@@ -263,57 +241,38 @@ def vector_field_crossings(
     As ``ldpipe.flow``'s Hamiltonian driver: a crossing is a sign change of x_i - value between
     the ends of an accepted step, located on the step's dense output (``refine_root``); the
     trajectory stops at the last crossing kept, at the escape radius (located as the LD's), or
-    on a step-size underflow. Times are signed, from t0: direction * |t - t0|.
+    on a step-size underflow. Times are signed, from t0: direction * |t - t0|. Outcomes
+    (``o_status``): the codes of ``flow_status.py``.
     """
-    K = np.zeros((DENSE_STAGES, N))
-    xv = np.zeros(N)
-    xs = np.zeros(N)
-    xn = np.zeros(N)
-    f1 = np.zeros(N)
-    QC = np.zeros((NC, N, 1))
-    VC = np.zeros((NC, N, 1))
+    K, xv, xs, xn, f1, QC, VC = step_buffers()
     elo = np.full(N, -radius)
     ehi = np.full(N, radius)
     max_cross = o_crossing_times.shape[1]
     crossing_sign = sec_direction * direction  # the sign change seen in integration order
     for k in range(start, stop):
-        finite = True
-        for i in range(N):
-            xv[i] = states[k, i]
-            finite = finite and math.isfinite(xv[i])
-        o_crossing_count[k] = 0
-        o_time[k] = 0.0
-        o_steps[k] = 0
-        if not finite:
-            o_status[k] = FLOW_STEP_UNDERFLOW
-            continue
-        if not inside(xv, elo, ehi):
-            o_status[k] = FLOW_ESCAPED
-            continue
-        rhs(xv, t0, K[0])
-        habs = initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, f1)
+        # no region: the escape box in its place
+        outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, elo, ehi, False, elo, ehi, xv, K, xs,
+                                        f1)
         elapsed = 0.0
         steps = 0
         crossings = 0
         rejected = False
-        status = FLOW_COMPLETED
-        while True:
-            if habs > tau - elapsed:
-                habs = tau - elapsed
+        status = FLOW_RUNNING
+        if outcome == START_FAILED:
+            status = FLOW_STEP_UNDERFLOW
+        elif outcome == START_ESCAPED:
+            status = FLOW_ESCAPED
+        while status == FLOW_RUNNING:  # a step attempt a pass
+            habs = clipped_step(habs, elapsed, tau)
             h = direction * habs
             t = t0 + direction * elapsed
             err = attempt(xv, t, h, K, xs, xn, rtol, atol)
             steps += 1
-            finite = True
-            for i in range(N):
-                finite = finite and math.isfinite(xn[i])
-            if finite and err <= 1.0:
+            accepted = acceptable(xn, err)
+            if accepted:
                 dense(xv, t, h, K, xs, QC, VC)
                 x_stop = 1.0
-                beyond = False
-                for i in range(N):
-                    beyond = beyond or abs(xn[i]) > radius
-                if beyond:
+                if beyond(xn, radius):
                     x_stop = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
                     status = FLOW_ESCAPED
                 if max_cross > 0:
@@ -323,41 +282,25 @@ def vector_field_crossings(
                         xc = 1.0 if g == 0.0 else refine_root(QC, sec_index, 0, NC, sec_value, 0.0, 1.0, gp, g)
                         if xc <= x_stop:
                             for i in range(N):
-                                w = QC[NC - 1, i, 0]
-                                for kk in range(NC - 2, -1, -1):
-                                    w = w * xc + QC[kk, i, 0]
-                                o_crossings[k, crossings, i] = w
+                                o_crossings[k, crossings, i] = horner(QC, i, 0, NC, xc)
                             o_crossing_times[k, crossings] = direction * (elapsed + xc * habs)
                             crossings += 1
                             if crossings >= max_cross:
                                 x_stop = xc
                                 status = FLOW_CROSSINGS_FULL
-                if x_stop < 1.0 or status != FLOW_COMPLETED:
+                if status != FLOW_RUNNING:
                     elapsed += x_stop * habs
                     break
-                for i in range(N):
-                    xv[i] = xn[i]
-                    K[0, i] = K[FSAL, i]
-                last = habs >= tau - elapsed
-                elapsed = tau if last else elapsed + habs
+                commit(xv, xn, K)
+                elapsed, last = advance(elapsed, habs, tau)
                 if last:
+                    status = FLOW_COMPLETED
                     break
-                factor = min(MAX_FACTOR, SAFETY * err**(-1.0 / (ORDER + 1.0))) if err > 0.0 else MAX_FACTOR
-                if rejected:
-                    factor = min(1.0, factor)
-                habs *= factor
-                rejected = False
-            else:
-                factor = max(MIN_FACTOR, SAFETY * err**(-1.0 / (ORDER + 1.0))) if (err < math.inf and err > 0.0) else MIN_FACTOR
-                habs *= factor
-                rejected = True
-                if habs < 1e-13 * max(1.0, tau):
-                    status = FLOW_STEP_UNDERFLOW
-                    break
-            if steps >= max_steps:
+            habs, failed = step_after(habs, err, accepted, rejected, tau)
+            rejected = not accepted
+            if failed or steps >= max_steps:
                 status = FLOW_STEP_UNDERFLOW
-                break
         o_crossing_count[k] = crossings
         o_status[k] = status
-        o_time[k] = direction * elapsed
+        o_time[k] = direction * elapsed if outcome == START else 0.0  # not started: 0.0, not -0.0 backward
         o_steps[k] = steps
