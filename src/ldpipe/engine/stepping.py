@@ -105,3 +105,15 @@ class SchemeSource:
     templates: tuple[str, ...] = ()
     source: str = ""
     constants: dict = field(default_factory=dict)
+
+
+def lane_loops(signature: str, rows: int, lanes: int) -> list[str]:
+    """Source lines that open a generated block function ``def SIGNATURE:`` (compiled with the
+    engine's ``JIT`` options) with its loops over rows ``i`` and lanes ``j``, the lane innermost so
+    that LLVM vectorizes across trajectories; the body follows at eight spaces."""
+    return [
+        "@njit(**JIT)",
+        f"def {signature}:",
+        f"    for i in range({rows}):",
+        f"      for j in range({lanes}):",
+    ]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import tableaux
-from ..stepping import Layout, SchemeSource
+from ..stepping import Layout, SchemeSource, lane_loops
 from .base import AdaptiveScheme
 
 
@@ -157,10 +157,7 @@ def dop853_source(L: Layout) -> str:
     lines += [
         "",
         "",
-        "@njit(**JIT)",
-        "def qpoly(W):",
-        f"    for i in range({n}):",
-        f"      for j in range({B}):",
+        *lane_loops("qpoly(W)", n, B),
         f"        k = i * {B} + j",
         f"        hj = W[{L.OH} + j]",
         f"        W[{L.OSP} + k] = W[{L.OP} + k]",

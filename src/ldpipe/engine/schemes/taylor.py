@@ -46,7 +46,7 @@ import sympy
 
 from ...errors import ConfigError
 from ..integrands import is_arclength
-from ..stepping import Layout, SchemeSource
+from ..stepping import Layout, SchemeSource, lane_loops
 from .base import AdaptiveScheme
 
 # Safety factor of the step rule: the coefficient estimate of the truncation error is not a
@@ -335,10 +335,7 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
         return f"({weighted(weights, own, f, k)}) / ({float(k)!r} * {operand(f, 0)})"
 
     lines = [
-        "@njit(**JIT)",
-        "def attempt(W, rtol, atol):",
-        f"    for i in range({n}):",
-        f"      for j in range({B}):",
+        *lane_loops("attempt(W, rtol, atol)", n, B),
         f"        W[{L.OTS} + i * {B} + j] = W[{L.OQ} + i * {B} + j]",
         f"        W[{L.OTS + NB} + i * {B} + j] = W[{L.OP} + i * {B} + j]",
     ]
@@ -428,10 +425,7 @@ def taylor_source(L, acceleration: Acceleration, order: int) -> str:
     lines += [
         "",
         "",
-        "@njit(**JIT)",
-        "def qpoly(W):",
-        f"    for i in range({n}):",
-        f"      for j in range({B}):",
+        *lane_loops("qpoly(W)", n, B),
         f"        h = W[{L.OH} + j]",
         "        hk = 1.0",
     ]
