@@ -20,7 +20,6 @@ compiles once per (system, integrand), 20-50 s.
 
 from __future__ import annotations
 
-import math
 from types import SimpleNamespace
 
 import numpy as np
