@@ -1,4 +1,5 @@
-"""The DOP853 step in Nyström form against the first-order formulation, and the folded Gauss–Jacobi rule.
+"""The DOP853 step in Nyström form against the first-order formulation, its tableau against scipy's,
+and the folded Gauss–Jacobi rule.
 
 The engine forms no stage momenta (ldpipe.engine.schemes.dop853.nystrom_form): its step must equal,
 up to rounding, DOP853 written for the first-order system y' = f(y) straight from the tableau
@@ -7,6 +8,7 @@ up to rounding, DOP853 written for the first-order system y' = f(y) straight fro
 
 import numpy as np
 import pytest
+from scipy.integrate._ivp import dop853_coefficients as scipy_dop853
 
 from ldpipe.engine.schemes import tableaux
 from ldpipe.engine.codegen import load_engine
@@ -70,6 +72,19 @@ def test_nystrom_step_equals_first_order_step(barbanis):
         assert np.allclose(VC[0, :, j], field(y0), rtol=1e-15, atol=0.0)
         # (the acceleration polynomial is the derivative of the momentum's: coefficients k G A)
         assert np.allclose(VC[:, :, j].sum(axis=0), K[12], rtol=1e-11, atol=3e-11)
+
+
+def test_tableau_is_scipys_element_by_element():
+    # The stated source of the coefficients: scipy's dop853_coefficients (Hairer's dop853.f).
+    # Exact equality, not 1 ulp: both modules write the same 30-digit decimal literals, which
+    # Python rounds correctly to the same doubles, and form B (a row of A) and E3 (B minus the same
+    # three literals, in the same order) by the same IEEE operations. The order conditions
+    # (test_settings.py) hold only to ~1e-14, so a digit wrong past the 14th would pass them, and
+    # none of them sees D (its terms vanish at both ends of the step).
+    assert tableaux.DOP853_STAGES == scipy_dop853.N_STAGES
+    assert tableaux.DOP853_STAGES_EXTENDED == scipy_dop853.N_STAGES_EXTENDED
+    for name in ("A", "B", "C", "E3", "E5", "D"):
+        np.testing.assert_array_equal(getattr(tableaux, name), getattr(scipy_dop853, name), err_msg=name)
 
 
 def test_nystrom_form_refuses_a_tableau_whose_sums_break_the_rewrite():

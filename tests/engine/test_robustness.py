@@ -79,12 +79,13 @@ def test_partial_blocks_give_the_same_bits(barbanis, fig3_high_energy_states, se
         np.testing.assert_array_equal(getattr(part, name), getattr(full, name)[:200], err_msg=name)
 
 
-@pytest.mark.parametrize("rtol", [1e-10, 1e-12])
-def test_two_roots_in_one_step_match_the_reference(barbanis, rtol):
+@pytest.mark.parametrize(("rtol", "bound"), [(1e-10, 1.5e-9), (1e-12, 1e-10)])
+def test_two_roots_in_one_step_match_the_reference(barbanis, rtol, bound):
     # The accuracy–cost stage's case: Fig. 4 map at dE 0.125, point (x, y, px) on U_xpx+, where
     # p_x' has roots at t ~ 2.6088 and 2.6188, inside one DOP853 step. Independent method:
     # ldpipe.testing.reference_ld (zero crossings located, pieces integrated apart; 6.7793060198).
-    # Before the fix the error was 1.3e-5 at rtol 1e-10 and 4.5e-5 at rtol 1e-12.
+    # Before the fix the error was 1.3e-5 at rtol 1e-10 and 4.5e-5 at rtol 1e-12. Bounds a few
+    # times the measured relative error: 4.0e-10 at rtol 1e-10, 3.3e-11 at 1e-12.
     x, y, px = 5.58452302, -7.0, 0.32221481
     py = np.sqrt(2.0 * (15.25 - reference.barbanis_potential(x, y)) - px**2)
     state = np.array([x, y, px, py])
@@ -93,7 +94,7 @@ def test_two_roots_in_one_step_match_the_reference(barbanis, rtol):
     settings = LDSettings(rtol=rtol, atol=rtol, region_lower=(4.5, -8.5), region_upper=(6.5, -5.5))
     result = compute_ld(barbanis, state, +1, settings)
     assert result.left_region[0]
-    assert abs(result.ld[0] - expected.ld) < 1e-6
+    assert abs(result.ld[0] - expected.ld) < bound * expected.ld
 
 
 @pytest.mark.slow  # compiles the engine for a new formula system (~40 s on a cold cache)
