@@ -29,7 +29,8 @@ Method
 
 Accuracy: see ``estimate_accuracy`` and benchmarks/README.md (on the Barbanis section,
 rtol 1e-13 vs 1e-11 agree to ~1e-12 relative; the closed-form tests in
-tests/engine/test_reference_ld.py hold to 1e-9 relative and in practice to ~1e-12).
+tests/engine/test_reference_ld.py hold it to 5e-14 relative for M_1/2 and the arc length, 5e-13
+with a box exit).
 
 Variable time: ``box`` = {coordinate index: (lo, hi)} stops the integration (terminal event) the
 first time one of those coordinates leaves [lo, hi]; the LD is then integrated up to that exit
