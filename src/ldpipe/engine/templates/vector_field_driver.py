@@ -69,7 +69,9 @@ def step_buffers():
             np.zeros((NC, N, 1)))
 
 
-@njit(**JIT)
+# Inlined by numba where it is called (15 times a step): the stage sums then compile in their
+# loops in attempt and dense, and a step costs ~25 % less than with calls.
+@njit(inline="always", **JIT)
 def stage_state(xv, h, K, m, out):
     """out = xv + h sum_{l < m} A[m, l] K_l."""
     for i in range(N):
@@ -181,7 +183,9 @@ def vector_field_process(
         left = outcome == START_OUTSIDE_REGION
         face = outside_face(xv, lo, hi) if left else 0
         while outcome == START:  # a step attempt a pass, until the trajectory ends (break)
-            # attempt and dense are called from the loop itself: wrapped in a helper they ran 10-15% slower
+            # The attempt and dense output are written out here and in vector_field_crossings: a helper
+            # around them ran 10-15 % slower, even inlined by numba (inline="always"), whose copies of
+            # its array arguments cost a reference-count pair each per attempt.
             habs = clipped_step(habs, elapsed, tau)
             h = direction * habs
             t = t0 + direction * elapsed
