@@ -23,6 +23,10 @@ class Composition(FixedStepScheme):
 
     weights: tuple[float, ...] = ()
 
+    def __post_init__(self):
+        # The record holds plain floats (hashable, printable) whatever sequence the tableau is.
+        object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
+
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         weights = np.array(self.weights, dtype=np.float64)
         return SchemeSource(
@@ -35,16 +39,10 @@ class Composition(FixedStepScheme):
 
 
 SYM4 = Composition(
-    name="sym4",
+    name="sym4", order=4, weights=tableaux.SUZUKI4, ladder=(0.2, 0.1, 0.05, 0.02, 0.01),
     description="symplectic, Suzuki's 4th-order composition of Stormer-Verlet, fixed step (dt)",
-    order=4,
-    ladder=(0.2, 0.1, 0.05, 0.02, 0.01),
-    weights=tuple(float(w) for w in tableaux.SUZUKI4),
 )
 SYM6 = Composition(
-    name="sym6",
+    name="sym6", order=6, weights=tableaux.YOSHIDA6, ladder=(0.4, 0.2, 0.1, 0.05, 0.02),
     description="symplectic, Yoshida's 6th-order triple jump of sym4, fixed step (dt)",
-    order=6,
-    ladder=(0.4, 0.2, 0.1, 0.05, 0.02),
-    weights=tuple(float(w) for w in tableaux.YOSHIDA6),
 )
