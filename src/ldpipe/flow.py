@@ -35,6 +35,7 @@ ESCAPED = flow_status.FLOW_ESCAPED
 CROSSINGS_FULL = flow_status.FLOW_CROSSINGS_FULL
 STEP_UNDERFLOW = flow_status.FLOW_STEP_UNDERFLOW
 STATUS_MEANINGS = flow_status.FLOW_STATUS_MEANINGS
+STATUS_VALUES = np.array([COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW], dtype=np.int8)  # CF flag_values
 # Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
 # (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
 # spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,

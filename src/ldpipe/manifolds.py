@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from .flow import ESCAPED, STATUS_MEANINGS, FlowSettings, integrate
+from .flow import ESCAPED, STATUS_MEANINGS, STATUS_VALUES, FlowSettings, integrate
 from .periodic_orbits import floquet_multipliers
 from .systems import System
 from .variational import sample
@@ -142,7 +142,7 @@ def manifold_dataset(
             "trajectory": ((*dims4, "sample", "phase"), trajectory,
                            {"long_name": "manifold trajectories; after an early end the last state repeats"}),
             "sample_count": (dims4, sample_count, {"long_name": "samples reached before the trajectory ended"}),
-            "status": (dims4, status, {"flag_values": np.arange(4, dtype=np.int8), "flag_meanings": STATUS_MEANINGS}),
+            "status": (dims4, status, {"flag_values": STATUS_VALUES, "flag_meanings": STATUS_MEANINGS}),
             "escaped": (dims4, status == ESCAPED, {"long_name": "left the escape radius before the final time"}),
             "end_time": (dims4, end_time, {"long_name": "time the integration ended"}),
             "section_state": (("manifold", "branch", "crossing", "point", "phase"), section_state,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .flow import ESCAPED, STATUS_MEANINGS, FlowSettings, integrate
+from .flow import ESCAPED, STATUS_MEANINGS, STATUS_VALUES, FlowSettings, integrate
 from .sections import Section, section_states
 from .systems import System
 
@@ -50,7 +50,7 @@ def poincare_dataset(
             "crossing_valid": (("trajectory", "crossing"), valid),
             "crossing_count": ("trajectory", result.crossing_count, {"long_name": "crossings recorded"}),
             "status": ("trajectory", status,
-                       {"flag_values": np.arange(4, dtype=np.int8), "flag_meanings": STATUS_MEANINGS}),
+                       {"flag_values": STATUS_VALUES, "flag_meanings": STATUS_MEANINGS}),
             "escaped": ("trajectory", status == ESCAPED, {"long_name": "left the escape radius before the final time"}),
             "end_time": ("trajectory", result.final_time, {"long_name": "time the integration ended"}),
             "steps": ("trajectory", result.steps, {"long_name": "DOP853 steps taken (accepted and rejected)"}),
