@@ -63,7 +63,8 @@ class LogStream(io.TextIOBase):
 
 
 def progress_output(logger: logging.Logger) -> tuple[io.TextIOBase, float]:
-    """Where a progress bar goes, and how often: the terminal when there is one, else the log."""
-    if sys.stderr.isatty():
+    """Where a progress bar goes, and how often: the terminal (or a notebook's output) when there
+    is one, else the log."""
+    if sys.stderr.isatty() or "ipykernel" in sys.modules:
         return sys.stderr, 1.0
     return LogStream(logger), 30.0

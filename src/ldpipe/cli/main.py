@@ -165,10 +165,8 @@ def _solve_options(args: argparse.Namespace) -> dict:
 
 
 def _run_ld(args: argparse.Namespace) -> None:
-    from ..io.contracts import EQUILIBRIA
-    from ..io.datafile import open_stage_file
     from ..stages import equilibria as equilibria_stage
-    from ..stages.ld import compute_ld_map, write_ld_map
+    from ..stages.ld import ld_map_tiles, run_ld_map
     from ..stages.parameters import parameters_from_config
 
     if args.map is not None:
@@ -194,10 +192,9 @@ def _run_ld(args: argparse.Namespace) -> None:
         if is_vector_field(config["systems"][parameters["system_name"]]):
             equilibria = None  # a vector field's map has no energy and no saddle
         else:
-            path = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
-            equilibria = open_stage_file(path, stage=EQUILIBRIA)
-        dataset = compute_ld_map(parameters, equilibria, threads=args.threads, show_progress=not args.quiet)
-        write_ld_map(dataset, parameters, args.output, tile_file=False)
+            equilibria = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+        run_ld_map(**parameters, equilibria=equilibria, tiles=ld_map_tiles(config, args.map), threads=args.threads,
+                   show_progress=not args.quiet, output=args.output)
 
 
 def build_parser() -> argparse.ArgumentParser:

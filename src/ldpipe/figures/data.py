@@ -76,7 +76,7 @@ def load_ld_map(path: str | Path, descriptor: str = "total") -> LDMap:
         values = dataset[f"ld_{descriptor}"].values
     allowed = dataset.allowed.values.astype(bool)
     return LDMap(
-        name=str(dataset.attrs.get("map", Path(path).stem)),
+        name=str(dataset.attrs["map"]) if "map" in dataset.attrs else Path(path).stem,
         axes=(str(axes[0]), str(axes[1])),
         first=dataset[axes[0]].values.copy(),
         second=dataset[axes[1]].values.copy(),
