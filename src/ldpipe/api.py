@@ -28,7 +28,7 @@ import copy
 import dataclasses
 import re
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import xarray as xr
@@ -68,6 +68,16 @@ SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
 
 AnySystem = System | VectorFieldSystem
 
+#: Each stage's function (the one Snakemake's script and the command line call) and its file's contract.
+RUNS = {
+    "ld": (run_ld_map, LD_GRID),
+    "upo": (run_upo, UPO),
+    "manifolds": (run_manifolds, MANIFOLDS),
+    "poincare": (run_poincare, POINCARE),
+    "saddle_flux": (run_saddle_flux, SADDLE_FLUX),
+    "transport": (run_transport, TRANSPORT),
+}
+
 
 @contextlib.contextmanager
 def _arguments_of(function: str, key: str) -> Iterator[None]:
@@ -101,13 +111,25 @@ def _system_entry(system: AnySystem) -> dict:
     return copy.deepcopy(system.spec)
 
 
-def _run_entry(function: str, stage: str, section: str, name: str, entry: dict, config: dict) -> tuple[dict, dict]:
-    """The configuration with ``entry`` under ``section`` (validated, defaults filled) and the
-    stage's parameters for it, errors naming the arguments of ``ldpipe.<function>``."""
-    config = {**config, section: {name: entry}}
+def _system_config(system: AnySystem) -> dict:
+    """The configuration holding ``system`` alone, as its entry."""
+    return {"systems": {system.name: _system_entry(system)}}
+
+
+def _run_stage(function: str, stage: str, section: str, name: str, entry: dict, config: dict,
+               inputs: Callable[[dict], dict]) -> xr.Dataset:
+    """Run ``stage`` on ``entry``, put under ``section`` of ``config`` as the entry ``name``: the
+    configuration validated (defaults filled), the stage's parameters taken from it, and its
+    ``run_*`` function (:data:`RUNS`) given them and ``inputs(config)`` (the files it reads, threads
+    ...), writing into a scratch folder; returns the file it wrote, read back. A ConfigError names
+    the arguments of ``ldpipe.<function>``."""
+    run, contract = RUNS[stage]
     with _arguments_of(function, f"{section}.{name}"):
-        config = validate_config(copy.deepcopy(config))
-        return config, parameters_from_config(config, stage, name)
+        config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
+        parameters = parameters_from_config(config, stage, name)
+        with tempfile.TemporaryDirectory() as scratch:
+            path = run(**parameters, **inputs(config), output=Path(scratch) / f"{stage}.nc")
+            return open_stage_file(path, stage=contract)
 
 
 def _equilibria_input(system: AnySystem, given: xr.Dataset | None) -> xr.Dataset | None:
@@ -117,10 +139,6 @@ def _equilibria_input(system: AnySystem, given: xr.Dataset | None) -> xr.Dataset
     if not system.hamiltonian:
         return None
     return equilibria(system)
-
-
-def _read(path: Path, stage) -> xr.Dataset:
-    return open_stage_file(path, stage=stage)
 
 
 def system(*, name: str | None = None, **spec) -> AnySystem:
@@ -230,7 +248,7 @@ def equilibria(system: AnySystem, **spec) -> xr.Dataset:
         parameters = parameters_from_config(config, "equilibria", system.name)
         with tempfile.TemporaryDirectory() as scratch:
             path = run_equilibria(**parameters, output=Path(scratch) / "equilibria.nc")
-            return _read(path, EQUILIBRIA if system.hamiltonian else FLOW_EQUILIBRIA)
+            return open_stage_file(path, stage=EQUILIBRIA if system.hamiltonian else FLOW_EQUILIBRIA)
 
 
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
@@ -275,12 +293,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     >>> m.ldpipe.plot()  # doctest: +SKIP
     """
     entry = {"system": system.name, **_energy_shorthand(spec)}
-    config, parameters = _run_entry("ld_map", "ld", "ld_maps", name, entry, {"systems": {system.name: _system_entry(system)}})
-    with _arguments_of("ld_map", f"ld_maps.{name}"), tempfile.TemporaryDirectory() as scratch:
-        inputs = _equilibria_input(system, equilibria)
-        path = run_ld_map(**parameters, equilibria=inputs, tiles=ld_map_tiles(config, name), threads=threads,
-                          show_progress=progress, output=Path(scratch) / "map.nc")
-        return _read(path, LD_GRID)
+    return _run_stage("ld_map", "ld", "ld_maps", name, entry, _system_config(system), lambda config: {
+        "equilibria": _equilibria_input(system, equilibria), "tiles": ld_map_tiles(config, name), "threads": threads,
+        "show_progress": progress})
 
 
 def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.Dataset | None = None,
@@ -312,11 +327,8 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
     >>> orbits = ldpipe.periodic_orbits(b, name="bottom", energies={"excess": [0.125]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **_energy_shorthand(spec)}
-    _, parameters = _run_entry("periodic_orbits", "upo", "periodic_orbits", name, entry,
-                               {"systems": {system.name: _system_entry(system)}})
-    with _arguments_of("periodic_orbits", f"periodic_orbits.{name}"), tempfile.TemporaryDirectory() as scratch:
-        inputs = _equilibria_input(system, equilibria)
-        return _read(run_upo(**parameters, equilibria=inputs, output=Path(scratch) / "upo.nc"), UPO)
+    return _run_stage("periodic_orbits", "upo", "periodic_orbits", name, entry, _system_config(system),
+                      lambda _: {"equilibria": _equilibria_input(system, equilibria)})
 
 
 def _family_config(orbits: xr.Dataset) -> tuple[str, dict]:
@@ -362,10 +374,8 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
     """
     family, config = _family_config(orbits)
     entry = {"orbits": family, **_energy_shorthand(spec)}
-    _, parameters = _run_entry("manifolds", "manifolds", "manifolds", name, entry, config)
-    with _arguments_of("manifolds", f"manifolds.{name}"), tempfile.TemporaryDirectory() as scratch:
-        path = run_manifolds(**parameters, upo=orbits, threads=threads, output=Path(scratch) / "manifolds.nc")
-        return _read(path, MANIFOLDS)
+    return _run_stage("manifolds", "manifolds", "manifolds", name, entry, config,
+                      lambda _: {"upo": orbits, "threads": threads})
 
 
 def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset | None = None,
@@ -398,12 +408,8 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
     ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
     """
     entry = {"system": system.name, **_energy_shorthand(spec)}
-    config, parameters = _run_entry("poincare", "poincare", "poincare_sections", name, entry,
-                                    {"systems": {system.name: _system_entry(system)}})
-    with _arguments_of("poincare", f"poincare_sections.{name}"), tempfile.TemporaryDirectory() as scratch:
-        inputs = _equilibria_input(system, equilibria)
-        path = run_poincare(**parameters, equilibria=inputs, threads=threads, output=Path(scratch) / "poincare.nc")
-        return _read(path, POINCARE)
+    return _run_stage("poincare", "poincare", "poincare_sections", name, entry, _system_config(system),
+                      lambda _: {"equilibria": _equilibria_input(system, equilibria), "threads": threads})
 
 
 def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset | None = None,
@@ -434,12 +440,8 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
     >>> f = ldpipe.saddle_flux(b, energies={"excess": [0.1]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **_energy_shorthand(spec)}
-    _, parameters = _run_entry("saddle_flux", "saddle_flux", "saddle_flux", name, entry,
-                               {"systems": {system.name: _system_entry(system)}})
-    with _arguments_of("saddle_flux", f"saddle_flux.{name}"), tempfile.TemporaryDirectory() as scratch:
-        inputs = _equilibria_input(system, equilibria)
-        path = run_saddle_flux(**parameters, equilibria=inputs, threads=threads, output=Path(scratch) / "flux.nc")
-        return _read(path, SADDLE_FLUX)
+    return _run_stage("saddle_flux", "saddle_flux", "saddle_flux", name, entry, _system_config(system),
+                      lambda _: {"equilibria": _equilibria_input(system, equilibria), "threads": threads})
 
 
 def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dataset | None = None,
@@ -472,12 +474,8 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
     """
     family, config = _family_config(orbits)
     entry = {"orbits": family, **_energy_shorthand(spec)}
-    _, parameters = _run_entry("transport", "transport", "transport", name, entry, config)
-    with _arguments_of("transport", f"transport.{name}"), tempfile.TemporaryDirectory() as scratch:
-        inputs = _equilibria_input(_orbits_system(orbits), equilibria)
-        path = run_transport(**parameters, upo=orbits, equilibria=inputs, threads=threads,
-                             output=Path(scratch) / "transport.nc")
-        return _read(path, TRANSPORT)
+    return _run_stage("transport", "transport", "transport", name, entry, config, lambda _: {
+        "upo": orbits, "equilibria": _equilibria_input(_orbits_system(orbits), equilibria), "threads": threads})
 
 
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
@@ -521,7 +519,7 @@ def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequen
             path = run_nhim_study(study=study, refinement=config["nhim"]["refinement"], maps=list(maps),
                                   references=families, reference_files=list(references), threads=threads,
                                   output=Path(scratch) / "nhim.nc")
-            return _read(path, NHIM)
+            return open_stage_file(path, stage=NHIM)
 
 
 def open_dataset(path: str | Path) -> xr.Dataset:
