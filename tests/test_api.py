@@ -81,7 +81,10 @@ def hh_map(hh):
 
 
 def test_import_is_cheap_and_names_the_api():
-    code = ("import sys, ldpipe; print(sorted(m for m in ('numba', 'matplotlib', 'sympy', 'scipy') if m in sys.modules));"
+    # importing ldpipe loads none of the heavy libraries; the API's names (some shared with
+    # science modules, loaded by the API itself) are its functions
+    code = ("import sys, ldpipe; "
+            "print(sorted(m for m in ('numba', 'matplotlib', 'sympy', 'scipy') if m in sys.modules));"
             "print(callable(ldpipe.ld_map), callable(ldpipe.nhim), callable(ldpipe.transport))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split("\n")
     assert out[:2] == ["[]", "True True True"]
@@ -149,9 +152,9 @@ def test_bad_arguments_get_the_config_message_naming_the_argument(hh):
     unknown = r"ldpipe.ld_map: invalid arguments:\n  unknown arguments \['taux'\]; allowed are \[.*'tau'"
     with pytest.raises(ConfigError, match=unknown):
         ldpipe.ld_map(hh, section=section, energy=0.125, taux=1.0)
-    with pytest.raises(ConfigError, match=r"ldpipe.system: invalid arguments:\n  argument 'builtin': 'barbanis' is not"):
+    with pytest.raises(ConfigError, match=r"ldpipe.system: invalid arguments:\n  argument 'builtin': 'barbanis'"):
         ldpipe.system(builtin="barbanis")
-    with pytest.raises(ConfigError, match=r"ldpipe.equilibria: invalid arguments:\n  argument 'seeds_per_axis': 0 is less"):
+    with pytest.raises(ConfigError, match=r"ldpipe.equilibria: invalid arguments:\n  argument 'seeds_per_axis': 0"):
         ldpipe.equilibria(hh, seeds_per_axis=0)
 
 

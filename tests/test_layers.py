@@ -1,11 +1,12 @@
 """The layers of docs/architecture.md, read from the import statements of every ldpipe module.
 
 From the bottom: the foundations (errors, logs, text, the numba cache of generated source, the
-stage-file plumbing in ``ldpipe.io``, the Dataset accessor), the systems, the engine, the science (everything else:
-equilibria, orbits, sections, NHIM, transport, accuracy, configuration, the independent
-references in ``ldpipe.testing``), the figures, and on top the stages, the command line and the Python API (``ldpipe.api``). A
-module imports only from its own layer or those below. A figure reads a stage's file through
-:mod:`ldpipe.io.contracts`, never through the stage that wrote it.
+stage-file plumbing in ``ldpipe.io``, the Dataset accessor), the systems, the engine, the science
+(everything else: equilibria, orbits, sections, NHIM, transport, accuracy, configuration, the
+independent references in ``ldpipe.testing``), the figures, and on top the stages, the command
+line and the Python API (``ldpipe.api``). A module imports only from its own layer or those below.
+A figure reads a stage's file through :mod:`ldpipe.io.contracts`, never through the stage that
+wrote it.
 """
 
 import ast
@@ -14,7 +15,8 @@ import pytest
 
 from ldpipe.io.provenance import PACKAGE_ROOT, imported_modules
 
-FOUNDATIONS = {"ldpipe", "ldpipe.errors", "ldpipe.logs", "ldpipe.text", "ldpipe.jitcache", "ldpipe.io", "ldpipe.accessor"}
+FOUNDATIONS = {"ldpipe", "ldpipe.errors", "ldpipe.logs", "ldpipe.text", "ldpipe.jitcache", "ldpipe.io",
+               "ldpipe.accessor"}
 LAYERS = ("foundations", "systems", "engine", "science", "figures", "stages and command line")
 
 

@@ -2,7 +2,8 @@
 
 An LD map with the paper's colour scale (the ``section_maps`` figure's panel), a periodic-orbit
 family in the configuration plane, a Poincaré section with its energy boundary, the curves where
-manifolds cut their section, or the equilibria in the configuration plane. The options an LD map
+manifolds cut their section, or the equilibria (of a Hamiltonian or a vector field) in the plane of
+the first two coordinates. The options an LD map
 takes are the figure keys of the same names, with their defaults from the configuration schema.
 """
 
@@ -14,7 +15,7 @@ import xarray as xr
 
 from ..config import load_schema
 from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
 from . import style
 from .data import load_orbits
@@ -95,6 +96,7 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, **options):
         UPO.stage: lambda: _draw_orbits(ax, dataset, **options),
         MANIFOLDS.stage: lambda: _draw_manifolds(ax, dataset, **options),
         EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
+        FLOW_EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
     }
     if stage not in drawings:
         raise ConfigError(f"ldpipe draws files of the stages {sorted(drawings)}; this Dataset is "

@@ -12,6 +12,7 @@ import dataclasses
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import xarray as xr
 
 from ..io.contracts import POINCARE
 from ..io.datafile import input_name, open_stage_file, stage_parameters
@@ -31,7 +32,7 @@ def energy_title(excess: float, energy: float) -> str:
     return rf"$\Delta E = {excess:.3f}$ ($E = {energy:.4g}$)"
 
 
-def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
+def draw_poincare(ax, path: str | Path | xr.Dataset, *, point_size: float) -> None:
     """One Poincaré section: every located crossing, and the section's energy boundary in green."""
     dataset = open_stage_file(path, stage=POINCARE, variables=("crossing_state", "crossing_valid"))
     parameters = stage_parameters(dataset)
@@ -62,7 +63,7 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     log.info("Poincaré section %s: %d crossings", input_name(path), len(states))
 
 
-def draw_manifold_curves(ax, paths: list[str | Path], axes: tuple[str, str]) -> None:
+def draw_manifold_curves(ax, paths: list[str | Path | xr.Dataset], axes: tuple[str, str]) -> None:
     """The curves where manifolds cut the section, projected on the map's axes."""
     for path in paths:
         curves = load_manifold_curves(path)
@@ -72,7 +73,8 @@ def draw_manifold_curves(ax, paths: list[str | Path], axes: tuple[str, str]) -> 
                         color=color, linewidth=0.9)
 
 
-def draw_ld_panel(ax, path: str | Path, settings: dict, manifolds: list[str | Path] = ()) -> None:
+def draw_ld_panel(ax, path: str | Path | xr.Dataset, settings: dict,
+                  manifolds: list[str | Path | xr.Dataset] = ()) -> None:
     """One LD map with its colour bar, the forbidden region grey, optional manifold curves."""
     ld_map = load_ld_map(path, settings["descriptor"])
     limits = settings.get("color_limits") or style.color_limits(ld_map.values, settings["color_percentiles"])

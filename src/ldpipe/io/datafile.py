@@ -146,7 +146,8 @@ def open_stage_file(
             variables = stage.variables
         unnamed = [name for name in variables if name not in stage.variables]
         if unnamed:
-            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract (ldpipe.io.contracts)")
+            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract "
+                             "(ldpipe.io.contracts)")
         stage = stage.stage
     variables = variables or ()
     if isinstance(path, xr.Dataset):
