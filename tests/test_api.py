@@ -26,6 +26,7 @@ from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.manifolds import run_manifolds
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
+from support.stage_files import assert_same_file
 
 HENON_HEILES = {"formula": "(x**2 + y**2)/2 + x**2*y - y**3/3", "coordinates": ["x", "y"]}
 #: ldds' Hénon–Heiles slice at the settings of tests/stages/test_ld.py, in two tiles (gathered).
@@ -48,16 +49,6 @@ FAMILY = {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0711], "energies": 
 MANIFOLD = {"orbits": "bottom", "energy": {"excess": 0.125}, "points": 40, "samples": 150, "displacement": 1e-6,
             "time": 30, "section": {"coordinate": "y", "value": 0.0, "direction": 1}, "crossings": 2,
             "integrator": {"rtol": 1e-10, "atol": 1e-10, "escape_radius": 30}}
-
-
-def assert_same_file(result: xr.Dataset, stored: xr.Dataset) -> None:
-    """Data, coordinates and attributes (of the file and every variable) equal, bit for bit."""
-    result, stored = result.copy(), stored.copy()
-    for dataset in (result, stored):
-        dataset.attrs.pop("history")
-    xr.testing.assert_identical(result, stored)
-    for name in stored.variables:
-        assert result[name].dtype == stored[name].dtype, name
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,140 @@
+"""The Python API's Poincaré, saddle-flux, transport and NHIM calls against the stage functions.
+
+The expected values are the pipeline's own files: each stage's ``run_*`` function (the one
+Snakemake's script calls) given ``parameters_from_config`` of the same configuration entry and
+the input files the workflow wires to it. The API must give them back bit for bit, data and
+attributes, but for ``history`` (when and how a file was written), the values of wall times (the
+seconds a part of the run took, measured: never the same twice) and, where a stage records its
+input files, their names (a path in the pipeline, the title of a Dataset given in memory).
+
+The Poincaré and saddle-flux calls find their system's equilibria themselves, with the system's
+own settings, as the workflow's equilibria rule does; the files the transport and NHIM stages read
+(equilibria, the orbit family, the LD map) are computed once by their stage functions and given to
+both sides, the API as the Datasets ``ldpipe.open_dataset`` reads, so that each of these tests checks
+one API call. The systems and settings are those other tests compile: Barbanis'
+section of tests/stages/test_poincare.py, the quadratic 3 DoF saddle of
+tests/transport/test_saddle_flux.py, Barbanis' bottom family of tests/transport/test_stage.py (on
+smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window).
+"""
+
+import json
+
+import pytest
+
+import ldpipe
+from ldpipe.config import validate_config
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import ld_map_tiles, run_ld_map
+from ldpipe.stages.nhim import run_nhim_study
+from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.poincare import run_poincare
+from ldpipe.stages.saddle_flux import run_saddle_flux
+from ldpipe.stages.transport import run_transport
+from ldpipe.stages.upo import run_upo
+from support import quadratic_saddle as quadratic
+from support.stage_files import assert_same_file
+
+BARBANIS = {"builtin": "barbanis_2dof"}
+#: tests/stages/test_poincare.py's stage section.
+POINCARE = {
+    "system": "barbanis_2dof", "energy": {"excess": 0.125}, "time": 50, "max_crossings": 20,
+    "initial_conditions": {"axes": [{"name": "x", "range": [-5, 5], "points": 4},
+                                    {"name": "px", "range": [-5, 5], "points": 4}],
+                           "fixed": {"y": 0.0}, "solve": "py"},
+}
+#: The quadratic saddle with its non-default equilibrium box (tests/transport/test_saddle_flux.py).
+QUADRATIC = {**quadratic.spec(), "equilibria": {"default_interval": [-3.0, 3.0]}}
+SADDLE_FLUX = {"system": "quadratic", "energies": {"excess": [0.05, 0.4]},
+               "monte_carlo": {"batch": 100, "max_samples": 100, "commit": 1.0, "duration": 12.0}}
+#: tests/transport/test_stage.py's family and study at one energy, on the schema's smallest ensembles.
+FAMILY = {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}, "samples": 64}
+TRANSPORT = {"orbits": "bottom", "energies": {"excess": [0.125]}, "island": {"points": 8},
+             "monte_carlo": {"batch": 20, "max_samples": 20},
+             "survival": {"initial_count": 200, "count": 20, "duration": 0.5, "decay_window": [0.2, 0.5],
+                          "points": 10},
+             "gap_times": {"count": 20}}
+#: Fig. 4's slice y = -7 (tests/stages/test_nhim.py) on a 16 x 16 grid about its NHIM point (the
+#: orbit's crossing is (5.6025, 0.3768)), in two tiles.
+NHIM_MAP = {
+    "system": "barbanis_2dof", "saddle_near": [5.5, -7.0],
+    "section": {"axes": [{"name": "x", "range": [5.4, 5.8], "points": 16},
+                         {"name": "px", "range": [0.18, 0.58], "points": 16}],
+                "fixed": {"y": -7.0}, "solve": "py"},
+    "energy": {"excess": 0.125}, "tau": 50, "time": "variable", "region": {"x": [4.5, 6.5], "y": [-8.5, -5.5]},
+    "tiles": 2,
+}
+#: Both keys differ from the schema's defaults (1e-8, zoom on): the user's values must reach the stage.
+REFINEMENT = {"tolerance": 1e-9, "zoom": False}
+
+
+def without(entry: dict, key: str) -> dict:
+    """An entry's keys as an API call's arguments: the one naming another entry left out."""
+    return {k: v for k, v in entry.items() if k != key}
+
+
+@pytest.fixture(scope="module")
+def pipeline(tmp_path_factory):
+    """The configuration of every entry here and the files of its Barbanis inputs, as the workflow makes them."""
+    folder = tmp_path_factory.mktemp("api_stages")
+    config = validate_config({
+        "systems": {"barbanis_2dof": dict(BARBANIS), "quadratic": QUADRATIC},
+        "poincare_sections": {"p": dict(POINCARE)},
+        "saddle_flux": {"q": dict(SADDLE_FLUX)},
+        "periodic_orbits": {"bottom": dict(FAMILY)},
+        "transport": {"t": dict(TRANSPORT)},
+        "ld_maps": {"k-7.0": dict(NHIM_MAP)},
+        "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}}},
+    })
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
+                                output=folder / "eq.nc")
+    upo = run_upo(**parameters_from_config(config, "upo", "bottom"), equilibria=equilibria,
+                  output=folder / "bottom.nc")
+    ld_map = run_ld_map(**parameters_from_config(config, "ld", "k-7.0"), equilibria=equilibria,
+                        tiles=ld_map_tiles(config, "k-7.0"), show_progress=False, output=folder / "k-7.0.nc")
+    return {"folder": folder, "config": config, "equilibria": equilibria, "upo": upo, "map": ld_map}
+
+
+def test_poincare_equals_the_stage_functions_file(pipeline):
+    # the API finds the equilibria itself, with the system's settings (here the defaults), as the
+    # workflow's equilibria rule does
+    stored = run_poincare(**parameters_from_config(pipeline["config"], "poincare", "p"),
+                          equilibria=pipeline["equilibria"], output=pipeline["folder"] / "p.nc")
+    barbanis = ldpipe.system(**BARBANIS)
+    assert_same_file(ldpipe.poincare(barbanis, name="p", **without(POINCARE, "system")), ldpipe.open_dataset(stored))
+
+
+def test_saddle_flux_equals_the_stage_functions_file(pipeline):
+    # the equilibria found by the API with the system's own (non-default) box, as the workflow does
+    config, folder = pipeline["config"], pipeline["folder"]
+    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "quadratic"),
+                                output=folder / "quadratic_eq.nc")
+    stored = run_saddle_flux(**parameters_from_config(config, "saddle_flux", "q"), equilibria=equilibria,
+                             output=folder / "q.nc")
+    system = ldpipe.system(name="quadratic", **QUADRATIC)
+    assert_same_file(ldpipe.saddle_flux(system, name="q", **without(SADDLE_FLUX, "system")),
+                     ldpipe.open_dataset(stored))
+
+
+def test_transport_equals_the_stage_functions_file(pipeline):
+    stored = run_transport(**parameters_from_config(pipeline["config"], "transport", "t"), upo=pipeline["upo"],
+                           equilibria=pipeline["equilibria"], output=pipeline["folder"] / "t.nc")
+    orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
+    result = ldpipe.transport(orbits, name="t", equilibria=equilibria, **without(TRANSPORT, "orbits"))
+    assert_same_file(result, ldpipe.open_dataset(stored))
+
+
+def test_nhim_equals_the_stage_functions_file_but_for_the_inputs_names(pipeline):
+    stored = ldpipe.open_dataset(run_nhim_study(
+        **parameters_from_config(pipeline["config"], "nhim", "s"), maps=[pipeline["map"]],
+        reference_files=[pipeline["upo"]], output=pipeline["folder"] / "s.nc"))
+    ld_map, orbits = ldpipe.open_dataset(pipeline["map"]), ldpipe.open_dataset(pipeline["upo"])
+    result = ldpipe.nhim([ld_map], study="s", references=[orbits], **REFINEMENT)
+    # The one difference: the pipeline records its input files' paths, the API the titles of the
+    # Datasets it was given (which have no path).
+    recorded, stored_recorded = (json.loads(data.attrs["parameters"]) for data in (result, stored))
+    assert stored_recorded["maps"] == [str(pipeline["map"])]
+    assert stored_recorded["references"] == {"bottom": str(pipeline["upo"])}
+    assert recorded["maps"] == [f"(in memory) {ld_map.attrs['title']}"]
+    assert recorded["references"] == {"bottom": f"(in memory) {orbits.attrs['title']}"}
+    assert_same_file(result, stored, inputs=("maps", "references"))
+    assert list(stored.slice.values) == ["k-7.0"]
