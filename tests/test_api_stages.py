@@ -23,6 +23,7 @@ import pytest
 
 import ldpipe
 from ldpipe.config import validate_config
+from ldpipe.errors import ConfigError
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import ld_map_tiles, run_ld_map
 from ldpipe.stages.nhim import run_nhim_study
@@ -89,9 +90,12 @@ def pipeline(tmp_path_factory):
                                 output=folder / "eq.nc")
     upo = run_upo(**parameters_from_config(config, "upo", "bottom"), equilibria=equilibria,
                   output=folder / "bottom.nc")
+    quadratic_equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "quadratic"),
+                                          output=folder / "quadratic_eq.nc")
     ld_map = run_ld_map(**parameters_from_config(config, "ld", "k-7.0"), equilibria=equilibria,
                         tiles=ld_map_tiles(config, "k-7.0"), show_progress=False, output=folder / "k-7.0.nc")
-    return {"folder": folder, "config": config, "equilibria": equilibria, "upo": upo, "map": ld_map}
+    return {"folder": folder, "config": config, "equilibria": equilibria, "quadratic_equilibria": quadratic_equilibria,
+            "upo": upo, "map": ld_map}
 
 
 def test_poincare_equals_the_stage_functions_file(pipeline):
@@ -105,11 +109,8 @@ def test_poincare_equals_the_stage_functions_file(pipeline):
 
 def test_saddle_flux_equals_the_stage_functions_file(pipeline):
     # the equilibria found by the API with the system's own (non-default) box, as the workflow does
-    config, folder = pipeline["config"], pipeline["folder"]
-    equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "quadratic"),
-                                output=folder / "quadratic_eq.nc")
-    stored = run_saddle_flux(**parameters_from_config(config, "saddle_flux", "q"), equilibria=equilibria,
-                             output=folder / "q.nc")
+    stored = run_saddle_flux(**parameters_from_config(pipeline["config"], "saddle_flux", "q"),
+                             equilibria=pipeline["quadratic_equilibria"], output=pipeline["folder"] / "q.nc")
     system = ldpipe.system(name="quadratic", **QUADRATIC)
     assert_same_file(ldpipe.saddle_flux(system, name="q", **without(SADDLE_FLUX, "system")),
                      ldpipe.open_dataset(stored))
@@ -121,6 +122,37 @@ def test_transport_equals_the_stage_functions_file(pipeline):
     orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
     result = ldpipe.transport(orbits, name="t", equilibria=equilibria, **without(TRANSPORT, "orbits"))
     assert_same_file(result, ldpipe.open_dataset(stored))
+
+
+def test_transport_takes_the_familys_equilibria_and_no_others(pipeline):
+    """The study reads the well, the centre frequencies and every other saddle from the equilibria,
+    and a family's file records its system without the equilibrium-search settings (so that changing
+    them reruns only the equilibria). Found again with the search's defaults they can differ from
+    the pipeline's: for Barbanis with delta = -0.03 and the box [-30, 30] its saddles (x = 20.17) are
+    outside the default [-20, 20], and the stage failed ("the well is not bounded") where the
+    pipeline's file had the study. So the call needs them, and refuses those of a system with
+    another spec, before any work."""
+    orbits = ldpipe.open_dataset(pipeline["upo"])
+    arguments = without(TRANSPORT, "orbits")
+    with pytest.raises(ConfigError, match=r"^ldpipe.transport: argument 'equilibria': required: give the equilibria "
+                                          r"of the family's system \(ldpipe.equilibria\(system\), found with the "
+                                          r"system's own 'equilibria' settings\)"):
+        ldpipe.transport(orbits, name="t", **arguments)
+    quadratic_equilibria = ldpipe.open_dataset(pipeline["quadratic_equilibria"])
+    with pytest.raises(ConfigError, match=r"^ldpipe.transport: argument 'equilibria': equilibria of system "
+                                          r"'quadratic' \{.*\}, but the family is of 'barbanis_2dof' "
+                                          r"\{'builtin': 'barbanis_2dof', 'parameters': \{\}\}$"):
+        ldpipe.transport(orbits, name="t", equilibria=quadratic_equilibria, **arguments)
+    # Barbanis' equilibria under the family's system name, as the equilibria stage records them for
+    # other parameters (the check reads the record, not the numbers)
+    other = ldpipe.open_dataset(pipeline["equilibria"])
+    recorded = json.loads(other.attrs["parameters"])
+    recorded["system_spec"]["parameters"] = {"delta": -0.03}
+    other.attrs["parameters"] = json.dumps(recorded, sort_keys=True)
+    with pytest.raises(ConfigError, match=r"^ldpipe.transport: argument 'equilibria': equilibria of system "
+                                          r"'barbanis_2dof' \{'builtin': 'barbanis_2dof', 'parameters': "
+                                          r"\{'delta': -0.03\}\}, but the family is of 'barbanis_2dof'"):
+        ldpipe.transport(orbits, name="t", equilibria=other, **arguments)
 
 
 def test_nhim_equals_the_stage_functions_file_but_for_the_inputs_names(pipeline):

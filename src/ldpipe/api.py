@@ -342,11 +342,6 @@ def _family_config(orbits: xr.Dataset) -> tuple[str, dict]:
                     "periodic_orbits": {family: {"system": system_name, **entry}}}
 
 
-def _orbits_system(orbits: xr.Dataset) -> AnySystem:
-    recorded = stage_parameters(orbits)
-    return system(name=recorded["system_name"], **recorded["system_spec"])
-
-
 def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | None = None, **spec) -> xr.Dataset:
     """The stable and unstable manifolds of one orbit of a family, cut by a section (the
     manifolds stage), from a ``manifolds:`` entry.
@@ -455,27 +450,55 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
         The Lyapunov family (:func:`periodic_orbits`; the entry's ``orbits`` name replaced by it).
     name : str
         The entry's name (default ``"transport"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (default computed now, with the equilibrium search's defaults).
+    equilibria : xarray.Dataset
+        Required: the equilibria of the family's system (:func:`equilibria`), as the pipeline's
+        equilibria stage finds them with the system's ``equilibria`` settings. The study reads the
+        well, the saddle's centre frequencies and every other saddle from them, and a family's file
+        does not record those settings, so they cannot be found again from ``orbits`` alone.
     threads : int, optional
         Threads (default every core).
     **spec
-        The entry's keys: ``energies`` (some of the family's target energies), ``islands``,
-        ``monte_carlo``, ``survival``, ...
+        The entry's keys: ``energies`` (some of the family's target energies), ``island``,
+        ``monte_carlo``, ``survival``, ``gap_times``.
 
     Returns
     -------
     xarray.Dataset
         The study's file (contract ``transport``).
 
+    Raises
+    ------
+    ConfigError
+        naming the argument: ``equilibria`` missing, or of a system whose spec is not the family's.
+
     Examples
     --------
-    >>> t = ldpipe.transport(orbits, energies={"excess": [0.125]})  # doctest: +SKIP
+    >>> eq = ldpipe.equilibria(b)  # doctest: +SKIP
+    >>> orbits = ldpipe.periodic_orbits(b, name="bottom", equilibria=eq, energies={"excess": [0.125]})  # doctest: +SKIP
+    >>> t = ldpipe.transport(orbits, equilibria=eq, energies={"excess": [0.125]})  # doctest: +SKIP
     """
     family, config = _family_config(orbits)
     entry = {"orbits": family, **_energy_shorthand(spec)}
     return _run_stage("transport", "transport", "transport", name, entry, config, lambda _: {
-        "upo": orbits, "equilibria": _equilibria_input(_orbits_system(orbits), equilibria), "threads": threads})
+        "upo": orbits, "equilibria": _family_equilibria(orbits, equilibria), "threads": threads})
+
+
+def _family_equilibria(orbits: xr.Dataset, given: xr.Dataset | None) -> xr.Dataset:
+    """The equilibria given for a family's study, checked to be of the family's system (its spec
+    as both files record it; the name a system goes by does not change its equilibria); required,
+    since the family's file does not record the system's equilibrium-search settings that would
+    find them again. A ConfigError here names the argument (``_arguments_of`` adds the function)."""
+    if given is None:
+        raise ConfigError("argument 'equilibria': required: give the equilibria of the family's system "
+                          "(ldpipe.equilibria(system), found with the system's own 'equilibria' settings); "
+                          "a family's file does not record those settings, so they cannot be found again here")
+    family = stage_parameters(open_stage_file(orbits, stage=UPO))
+    recorded = stage_parameters(open_stage_file(given, stage=EQUILIBRIA))
+    if recorded["system_spec"] != family["system_spec"]:
+        raise ConfigError(f"argument 'equilibria': equilibria of system {recorded['system_name']!r} "
+                          f"{recorded['system_spec']}, but the family is of {family['system_name']!r} "
+                          f"{family['system_spec']}")
+    return given
 
 
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
