@@ -33,8 +33,8 @@ import numba
 import numpy as np
 
 from ldpipe.engine import LDSettings
-from ldpipe.nhim import Cost, RefinementSettings, make_slice_problem
-from ldpipe.nhim.sampling import STATUS, SamplingSettings, sample_family, sample_slice
+from ldpipe.nhim_points import Cost, RefinementSettings, make_slice_problem
+from ldpipe.nhim_points.sampling import STATUS, SamplingSettings, sample_family, sample_slice
 from ldpipe.sections import Section
 from ldpipe.systems import make_system
 

@@ -29,7 +29,7 @@ import numpy as np
 from ldpipe.accuracy.machine import load_average, machine_attributes
 from ldpipe.flow import FlowSettings
 from ldpipe.systems import make_system
-from ldpipe.transport import DividingLine, DividingPlane, reactive_flux_monte_carlo
+from ldpipe.saddle_transport import DividingLine, DividingPlane, reactive_flux_monte_carlo
 
 RESULTS = Path(__file__).parent / "results"
 

@@ -8,8 +8,6 @@ one function per stage (``ldpipe.equilibria``, ``ldpipe.ld_map``, ``ldpipe.perio
 accessor ``ds.ldpipe.plot()`` once ldpipe is imported.
 """
 
-import sys
-import types
 from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
 
@@ -29,20 +27,12 @@ API = (
 __all__ = ["__version__", *API]
 
 
-class _Package(types.ModuleType):
-    """ldpipe's own module type: the API's names win over the subpackages named alike
-    (``ldpipe.equilibria``, ``ldpipe.nhim``, ``ldpipe.transport`` ...), which the import system sets
-    as attributes of the package when it loads them. Those stay importable by their full names
-    (``from ldpipe.nhim import study_map_slice``, ``importlib.import_module("ldpipe.nhim")``)."""
-
-    def __getattribute__(self, name: str):
-        if name in API:
-            # The API module imports every stage (and numba): loaded when a name of it is first used.
-            return getattr(import_module(f"{__name__}.api"), name)
-        return super().__getattribute__(name)
-
-    def __dir__(self) -> list[str]:
-        return sorted({*super().__dir__(), *API})
+def __getattr__(name: str):
+    # The API module imports every stage (and numba): loaded when a name of it is first used.
+    if name in API:
+        return getattr(import_module(f"{__name__}.api"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-sys.modules[__name__].__class__ = _Package
+def __dir__() -> list[str]:
+    return sorted({*globals(), *API})

@@ -13,14 +13,14 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .equilibria import box_bounds, roots_in_box, spectrum_variables
+from .critical_points import box_bounds, roots_in_box, spectrum_variables
 from .errors import ConfigError
 
 
 def vector_field_equilibria(system, lower: np.ndarray, upper: np.ndarray, seeds_per_axis: int = 9,
                             tolerance: float = 1e-10) -> np.ndarray:
     """Roots of f in the box, shape (k, n_state), sorted, with Df as the Jacobian (see
-    :func:`ldpipe.equilibria.roots_in_box` for the seeds, the acceptance test and the merge)."""
+    :func:`ldpipe.critical_points.roots_in_box` for the seeds, the acceptance test and the merge)."""
     return roots_in_box(system.vector_field, system.jacobian, lower, upper, seeds_per_axis, tolerance)
 
 

@@ -32,9 +32,9 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.equilibria import equilibria_dataset
+from ldpipe.critical_points import equilibria_dataset
 from ldpipe.ld_grid import ld_grid_dataset
-from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.sections import Section
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria

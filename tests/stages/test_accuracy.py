@@ -20,7 +20,7 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.periodic_orbits import BrakeOrbit, linearize_saddle
+from ldpipe.lyapunov_orbits import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config

@@ -6,7 +6,7 @@ import pytest
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, stage_parameters
-from ldpipe.equilibria import equilibria_dataset
+from ldpipe.critical_points import equilibria_dataset
 from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config

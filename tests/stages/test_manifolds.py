@@ -10,8 +10,8 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.flow import FlowSettings, integrate
-from ldpipe.manifolds import ManifoldSettings, manifold_dataset, start_states
-from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.invariant_manifolds import ManifoldSettings, manifold_dataset, start_states
+from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria

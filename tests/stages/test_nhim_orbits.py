@@ -8,11 +8,10 @@ through an orbit point has a NHIM point exactly at that point.
 
 from __future__ import annotations
 
-import importlib
-
 import numpy as np
 import pytest
 
+from ldpipe import nhim_points as nhim
 from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
@@ -27,8 +26,6 @@ from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 from ldpipe.variational import propagate
 from support.lindstedt import barbanis_contopoulos_saddle
-
-nhim = importlib.import_module("ldpipe.nhim")  # the package; ldpipe.nhim is the API's stage function
 
 LAM, OMEGA = 1.5, 1.0
 SETTINGS = nhim.RefinementSettings(tolerance=1e-8, bisection_precision=5e-10, max_time=40.0)
@@ -249,7 +246,7 @@ def test_degenerate_slices_are_recorded_never_written_as_points(three_dof_file):
 
 def test_the_same_machinery_returns_the_2dof_orbit_crossings(orbit_files):
     # Independent method: the 2 DoF periodic orbit's crossing of the slice y = y(t), p_y of the
-    # orbit's sign (ldpipe.nhim.orbit_section_crossing, the engine's located section crossing of the
+    # orbit's sign (ldpipe.nhim_points.orbit_section_crossing, the engine's located section crossing of the
     # corrector's orbit, as the fig4 study's validation uses) is the slice's one crossing: the
     # one-dimensional NHIM meets each slice once in its window.
     config = orbit_files["config"]

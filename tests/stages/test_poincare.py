@@ -8,7 +8,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.flow import FlowSettings, integrate
-from ldpipe.poincare import poincare_dataset
+from ldpipe.poincare_sections import poincare_dataset
 from ldpipe.sections import Section
 from ldpipe.stages import poincare as poincare_stage
 from ldpipe.stages.equilibria import run_equilibria

@@ -7,7 +7,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
-from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
+from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config

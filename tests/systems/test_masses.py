@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from ldpipe.config import validate_config
-from ldpipe.equilibria import linear_analysis
+from ldpipe.critical_points import linear_analysis
 from ldpipe.errors import ConfigError
-from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
+from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
 from support.workflow import readme_yaml

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ldpipe.equilibria import equilibria_dataset, select_saddle
+from ldpipe.critical_points import equilibria_dataset, select_saddle
 from ldpipe.errors import ConfigError
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 from ldpipe.flow import FlowSettings
-from ldpipe.manifolds import ManifoldSettings, manifold_dataset
-from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.invariant_manifolds import ManifoldSettings, manifold_dataset
+from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.systems import make_system
-from ldpipe.transport import (
+from ldpipe.saddle_transport import (
     DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo, well_area, well_shell_volume,
 )
 

@@ -16,8 +16,8 @@ from scipy import stats
 
 from ldpipe.flow import FlowSettings
 from ldpipe.systems import make_system
-from ldpipe.transport import reactive_flux_monte_carlo
-from ldpipe.transport.flux import classify
+from ldpipe.saddle_transport import reactive_flux_monte_carlo
+from ldpipe.saddle_transport.flux import classify
 from support import quadratic_planes as planes
 from support import quadratic_saddle as quadratic
 

@@ -21,9 +21,9 @@ same run:
   to a tight reference orbit.
 * **NHIM ladders** (2 DoF, where the periodic orbit's crossing of a variable-time slice is the
   exact NHIM point). Grid resolution: the LD map at n x n points and the detected cell
-  (:func:`ldpipe.nhim.detect_nhim_cell`, and the plain LD maximum for comparison); per n the
+  (:func:`ldpipe.nhim_points.detect_nhim_cell`, and the plain LD maximum for comparison); per n the
   wall time and the distance from the crossing. Refinement depth: from one detected cell, both
-  refinements of :mod:`ldpipe.nhim` (bisection on fates, zoomed LD grids) at each tolerance;
+  refinements of :mod:`ldpipe.nhim_points` (bisection on fates, zoomed LD grids) at each tolerance;
   per tolerance the wall time, trajectories integrated and the distance from the crossing.
 
 Timing is wall clock by design: it is the measurement. Everything else is deterministic (the

@@ -10,7 +10,7 @@ import xarray as xr
 
 from ..ld_grid import ld_grid_dataset
 from ..logs import get_logger
-from ..nhim import (
+from ..nhim_points import (
     RefinementFailed, RefinementSettings, SliceProblem, detect_global_argmax, detect_nhim_cell, refine_by_fates,
     refine_by_ld_zoom,
 )
@@ -18,7 +18,7 @@ from ..nhim import (
 log = get_logger(__package__)  # the package's name, as before the split, in the log lines
 
 
-#: The refinement methods of :mod:`ldpipe.nhim` the refinement ladder measures.
+#: The refinement methods of :mod:`ldpipe.nhim_points` the refinement ladder measures.
 REFINEMENT_METHODS = ("fates", "ld_zoom")
 
 
@@ -33,7 +33,7 @@ def nhim_grid_dataset(
 
     Parameters
     ----------
-    problem : ldpipe.nhim.SliceProblem
+    problem : ldpipe.nhim_points.SliceProblem
         The slice (its section's ranges and LD settings are kept; the grid changes).
     crossing : ndarray, shape (2,)
         The periodic orbit's crossing of the slice (section coordinates), the exact NHIM point.
@@ -91,7 +91,7 @@ def nhim_refinement_dataset(
     precision_ratio: float,
     repeats: int = 1,
 ) -> xr.Dataset:
-    """Location error against refinement depth, for both refinement methods of :mod:`ldpipe.nhim`.
+    """Location error against refinement depth, for both refinement methods of :mod:`ldpipe.nhim_points`.
 
     Each tolerance t refines ``guess`` with ``base`` at tolerance t and bisection precision
     ``precision_ratio`` x t, by fates (``refine_by_fates``) and by zoomed LD re-gridding

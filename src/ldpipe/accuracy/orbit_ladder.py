@@ -9,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from ..logs import get_logger
-from ..periodic_orbits import BrakeOrbit, CorrectionFailed, CorrectorSettings, LyapunovFamily, SaddleLinearization
+from ..lyapunov_orbits import BrakeOrbit, CorrectionFailed, CorrectorSettings, LyapunovFamily, SaddleLinearization
 from ..systems import System
 from ..variational import propagate
 

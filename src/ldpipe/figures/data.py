@@ -16,7 +16,7 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from ..equilibria import select_saddle
+from ..critical_points import select_saddle
 from ..errors import ConfigError
 from ..sections import Section, section_states
 from ..systems import System, make_system
@@ -286,7 +286,7 @@ def potential_on_plane(system: System, axes: tuple[str, str], ranges, points: in
 def saddles(path: str | Path, near: list[float] | None = None
             ) -> tuple[np.ndarray, np.ndarray, float, tuple[str, ...], dict]:
     """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), the one nearest ``near``
-    (:func:`ldpipe.equilibria.select_saddle`) and its critical energy, the coordinate names, and
+    (:func:`ldpipe.critical_points.select_saddle`) and its critical energy, the coordinate names, and
     the stage parameters (with the system's spec)."""
     dataset = open_stage_file(path, stage=EQUILIBRIA, variables=("position", "saddle_equilibrium", "critical_energy"))
     indices = dataset.saddle_equilibrium.values

@@ -26,12 +26,12 @@ from ..accuracy import (
 )
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
-from ..equilibria import select_saddle
+from ..critical_points import select_saddle
 from ..errors import ConfigError, StageFileError
 from ..ld_grid import ld_grid_dataset
 from ..logs import get_logger
-from ..nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
-from ..periodic_orbits import CorrectionFailed, linearize_saddle
+from ..nhim_points import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
+from ..lyapunov_orbits import CorrectionFailed, linearize_saddle
 from ..sections import section_states
 from ..systems import make_system
 from .ld import resolve_map

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA
 from ..io.datafile import write_stage_file
-from ..equilibria import equilibria_dataset
+from ..critical_points import equilibria_dataset
 from ..flow_equilibria import vector_field_equilibria_dataset
 from ..logs import get_logger
 from ..systems import make_system

@@ -19,7 +19,7 @@ from ..io.contracts import EQUILIBRIA, LD_GRID, LD_TILE
 from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
-from ..equilibria import select_saddle
+from ..critical_points import select_saddle
 from ..ld_grid import gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
 from .parameters import parameters_from_config

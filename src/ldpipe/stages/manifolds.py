@@ -17,7 +17,7 @@ from ..io.datafile import input_name, open_stage_file, stage_parameters, write_s
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
-from ..manifolds import ManifoldSettings, manifold_dataset
+from ..invariant_manifolds import ManifoldSettings, manifold_dataset
 from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)

@@ -15,11 +15,11 @@ import numba
 
 from ..io.contracts import EQUILIBRIA, POINCARE
 from ..io.datafile import open_stage_file, write_stage_file
-from ..equilibria import select_saddle
+from ..critical_points import select_saddle
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
-from ..poincare import poincare_dataset
+from ..poincare_sections import poincare_dataset
 from ..sections import Section
 from ..systems import make_system
 

@@ -3,7 +3,7 @@
 The plane passes through the saddle q_s normal to the unstable eigenvector n of the Hessian; its
 tangents t_1, t_2 are the other two eigenvectors (for a quadratic saddle they diagonalize the
 restricted Hessian). With q = q_s + u_1 t_1 + u_2 t_2 + s n and the momenta rotated alike
-(a rotation is canonical), ṡ = p_n and, as for the 2 DoF line (:mod:`ldpipe.transport.flux`),
+(a rotation is canonical), ṡ = p_n and, as for the 2 DoF line (:mod:`ldpipe.saddle_transport.flux`),
 
     flux = ∫ δ(E − H) δ(s) p_n θ(p_n) dq dp = vol{(u, p_u): |p_u|²/2 + V(u) ≤ E}
          = ∫ π · 2 (E − V(u)) d²u          (a disc of p_u of radius √(2(E − V)))
@@ -15,7 +15,7 @@ V = E_c + ω_1² u_1²/2 + ω_2² u_2²/2 on the plane, with ΔE = E − E_c and
 the volume {ω_1 I_1 + ω_2 I_2 ≤ ΔE} of the centre–centre actions times (2π)² of angles.
 
 Every point of that 4-volume is an outward crossing; uniform samples of it are flux-weighted
-crossings, so :func:`ldpipe.transport.reactive_flux_monte_carlo` takes a plane as it takes a line.
+crossings, so :func:`ldpipe.saddle_transport.reactive_flux_monte_carlo` takes a plane as it takes a line.
 """
 
 from __future__ import annotations

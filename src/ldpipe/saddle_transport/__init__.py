@@ -3,8 +3,8 @@
 In 2 DoF three quantities must agree (MacKay 1990; reactive-island theory): the action
 of the Lyapunov orbit, the symplectic area enclosed by a manifold tube's cut with a
 surface of section, and the reactive flux through a dividing surface across the saddle.
-:mod:`ldpipe.transport.flux` computes each of them independently;
-:func:`ldpipe.transport.transport_at_energy` (:mod:`ldpipe.transport.study`) computes them all
+:mod:`ldpipe.saddle_transport.flux` computes each of them independently;
+:func:`ldpipe.saddle_transport.transport_at_energy` (:mod:`ldpipe.saddle_transport.study`) computes them all
 at one energy, with the transition-state rate, survival and gap times.
 """
 

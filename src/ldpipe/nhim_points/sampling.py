@@ -5,18 +5,18 @@ surface; a two-dimensional slice (2n - 3 phase coordinates fixed, one momentum s
 energy with a sign) meets it in isolated points. A *slice family* is a grid of the fixed values
 (for the 3 DoF x-p_x slices: y, z, p_y) and a sign of the solved momentum; each slice of it
 yields its NHIM point, where the forward and backward fates both switch
-(:func:`ldpipe.nhim.refine_by_fates`).
+(:func:`ldpipe.nhim_points.refine_by_fates`).
 
 A full LD map per slice would cost a map per point. Instead the family is walked from its middle
 outwards in waves (:func:`walk_order`), so each slice has a grid neighbour done before it, the
-slices of a wave searched together (:mod:`ldpipe.nhim.batched`), and a slice's point is
+slices of a wave searched together (:mod:`ldpipe.nhim_points.batched`), and a slice's point is
 *predicted* from its refined neighbours (:func:`predict`: linear extrapolation along each grid
 axis where two neighbours in a row are known, the neighbour itself where one is); both LDs are
 computed on a small grid around the prediction (``window_points``^2 points,
-``window_half_width`` wide), the NHIM cell detected on it (:func:`ldpipe.nhim.detect_nhim_cell`)
+``window_half_width`` wide), the NHIM cell detected on it (:func:`ldpipe.nhim_points.detect_nhim_cell`)
 and refined by fates with the window's spacing as the stencil's
-(:func:`ldpipe.nhim.refinement.refine_by_fates_task`, the algorithm of
-:func:`ldpipe.nhim.refine_by_fates`). When that fails (no allowed point, the detection on the
+(:func:`ldpipe.nhim_points.refinement.refine_by_fates_task`, the algorithm of
+:func:`ldpipe.nhim_points.refine_by_fates`). When that fails (no allowed point, the detection on the
 window's edge, no fate switch) the window widens by ``widen``, up to ``max_widenings`` times. A
 slice with no neighbour to predict from (the first, the seed) is searched on the base map's whole
 window on a ``seed_points``^2 grid.
@@ -203,7 +203,7 @@ def slice_task(
     base: SliceProblem, fixed: dict[str, float], sign: int, prediction: np.ndarray | None,
     settings: SamplingSettings, refinement: RefinementSettings,
 ):
-    """The search of one slice of the family as a task (:mod:`ldpipe.nhim.batched`): detected on zoomed
+    """The search of one slice of the family as a task (:mod:`ldpipe.nhim_points.batched`): detected on zoomed
     windows around ``prediction`` (widening on failure, the whole base window last), refined by
     fates; returns its :class:`SliceSample`, a point or a degeneracy."""
     sample = SliceSample(fixed=dict(fixed), sign=int(sign), status="no_crossing", predicted=prediction is not None)
@@ -258,7 +258,7 @@ def slice_task(
                 f"|{problem.section.solve}| = {momentum:.3g} < min_momentum x sqrt(2 dE) = "
                 f"{settings.min_momentum * scale:.3g}")
         else:
-            # Residence evidence as ldpipe.nhim.residence_evidence takes it: the point and the 8 points
+            # Residence evidence as ldpipe.nhim_points.residence_evidence takes it: the point and the 8 points
             # one window cell away, DOP853 at the refinement's tolerances, tau = max_time.
             offsets = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)], dtype=float)
             around = np.vstack([refined.point, refined.point + offsets * problem.spacing])
@@ -298,7 +298,7 @@ def sample_family(
     section's fixed coordinates) for each sign of the solved momentum, by continuation.
 
     The slices run in waves: the nodes ``k`` grid steps from the middle (:func:`walk_order`), of
-    every sign, together (:func:`ldpipe.nhim.batched.run_tasks`, at most ``settings.batch`` slices
+    every sign, together (:func:`ldpipe.nhim_points.batched.run_tasks`, at most ``settings.batch`` slices
     at a time), each predicted from the refined nodes of the earlier waves (:func:`predict`). Until
     a sign has a point, slices without a prediction are searched on the whole base window (the
     seeds); afterwards such a slice has only failed neighbours nearer the middle, lies beyond the

@@ -22,7 +22,7 @@ import numpy as np
 import xarray as xr
 
 from .flow import ESCAPED, STATUS_MEANINGS, STATUS_VALUES, FlowSettings, integrate
-from .periodic_orbits import floquet_multipliers
+from .lyapunov_orbits import floquet_multipliers
 from .systems import System
 from .variational import sample
 

@@ -70,7 +70,7 @@ class Refined:
 
 def refine_by_fates_task(problem: SliceProblem, guess: np.ndarray, settings: RefinementSettings):
     """The refinement of a detected NHIM point by bisection on forward and backward fates, as a task
-    of :func:`ldpipe.nhim.batched.run_tasks` (the stable curve's segments by forward fates, the
+    of :func:`ldpipe.nhim_points.batched.run_tasks` (the stable curve's segments by forward fates, the
     unstable curve's by backward fates, bisected in the same rounds): returns a :class:`Refined`
     (its ``cost`` left empty: a batch's cost is shared) or raises :class:`RefinementFailed`
     (:class:`ManifoldsTangent` where the curves cross too flatly for the tolerance)."""

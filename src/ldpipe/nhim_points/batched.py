@@ -10,8 +10,8 @@ call over all their points, and resumes the tasks with their share.
 
 :func:`bisect_task` is the bisection of fate switches as such a task (each segment in its own
 direction of time); :func:`bisect_fate_switch` runs it alone. The refinement of a point
-(:func:`ldpipe.nhim.refinement.refine_by_fates_task`) is built on it, and
-:func:`ldpipe.nhim.refine_by_fates` runs that alone: one algorithm, batched or not.
+(:func:`ldpipe.nhim_points.refinement.refine_by_fates_task`) is built on it, and
+:func:`ldpipe.nhim_points.refine_by_fates` runs that alone: one algorithm, batched or not.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ Task = Generator
 
 
 def _states(problems: list[SliceProblem], points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`ldpipe.nhim.section_point_states` of rows of many slices of one family at once (one
+    """:func:`ldpipe.nhim_points.section_point_states` of rows of many slices of one family at once (one
     potential call): row k is ``points[k]`` on ``problems[k]``."""
     first = problems[0]
     system, section = first.system, first.section
@@ -140,7 +140,7 @@ def run_tasks(tasks: list[Task], refinement: RefinementSettings, cost: Cost | No
 
 def bisect_task(problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, directions: np.ndarray,
                 settings: RefinementSettings):
-    """:func:`ldpipe.nhim.bisect_fate_switch` as a task, each segment in its own direction of time
+    """:func:`ldpipe.nhim_points.bisect_fate_switch` as a task, each segment in its own direction of time
     (so the forward and backward curves are bisected in the same rounds): returns (points, widths)."""
     directions = np.asarray(directions)
     lo = clip_to_allowed(problem, np.array(starts, dtype=np.float64), np.array(ends, dtype=np.float64))

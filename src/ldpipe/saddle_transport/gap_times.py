@@ -1,11 +1,11 @@
 """Gap times: how long a trajectory entering the well through a dividing line stays before it leaves.
 
 The entering ensemble is flux-weighted: points uniform on each line's allowed (u, p_u) region (the
-measure δ(E − H) δ(s) |ṡ| dq dp, see :mod:`ldpipe.transport.flux`), the line chosen with
+measure δ(E − H) δ(s) |ṡ| dq dp, see :mod:`ldpipe.saddle_transport.flux`), the line chosen with
 probability proportional to its area, with the normal momentum pointing into the well. Each is
-integrated until it crosses any of the lines outwards (:func:`ldpipe.transport.exit_times`).
+integrated until it crosses any of the lines outwards (:func:`ldpipe.saddle_transport.exit_times`).
 
-What holds exactly (derived in :mod:`ldpipe.transport.survival`): with Φ the total one-way flux
+What holds exactly (derived in :mod:`ldpipe.saddle_transport.survival`): with Φ the total one-way flux
 (the lines' areas), V the shell volume of the well, G(s) = Pr(τ > s) and P(t) the survival of the
 well's microcanonical ensemble,
 

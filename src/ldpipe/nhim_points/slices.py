@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import LDSettings
-from ..periodic_orbits import linearize_saddle
+from ..lyapunov_orbits import linearize_saddle
 from ..sections import Section, solve_momentum
 from ..systems import System
 

@@ -120,7 +120,7 @@ def crossing_candidates(
     Parameters
     ----------
     forward, backward : ndarray of int, shape (m, n)
-        Fates on the grid (:func:`ldpipe.nhim.exit_fates`).
+        Fates on the grid (:func:`ldpipe.nhim_points.exit_fates`).
     allowed : ndarray of bool, shape (m, n)
     axes : (ndarray (m,), ndarray (n,))
     """

@@ -7,7 +7,7 @@ with φ uniform. A trajectory leaves when it crosses a dividing line outwards (s
 on one of the lines), the exit time found on samples and refined by linear interpolation of s.
 
 The fraction left by t, F(t) = 1 − P(t), is exactly related to the gap times τ (entry to exit,
-:mod:`ldpipe.transport.gap_times`) of the flux-weighted ensemble entering through the lines. An
+:mod:`ldpipe.saddle_transport.gap_times`) of the flux-weighted ensemble entering through the lines. An
 exit at time s by a state that was in the well at 0 is an outward crossing of the lines (one-way flux
 Φ, the sum of the lines' areas, :meth:`DividingLine.area`) whose time since its previous crossing
 exceeds s; by time reversal (p → −p) that time has the gap times' distribution. So

@@ -2,17 +2,17 @@
 
 :func:`transport_at_energy` computes, at the energy of one orbit of the family,
 
-* the flux three independent ways: the orbit's action (:func:`~ldpipe.transport.orbit_action`),
+* the flux three independent ways: the orbit's action (:func:`~ldpipe.saddle_transport.orbit_action`),
   the area of the reactive islands, the first cuts of the inward stable and unstable tubes with a
-  section (:func:`~ldpipe.transport.closed_curve_area`; every other point and the shoelace rule
+  section (:func:`~ldpipe.saddle_transport.closed_curve_area`; every other point and the shoelace rule
   for comparison), and the Monte Carlo reactive flux through the straight dividing line at the
-  saddle (:func:`~ldpipe.transport.reactive_flux_monte_carlo`);
+  saddle (:func:`~ldpipe.saddle_transport.reactive_flux_monte_carlo`);
 * the microcanonical transition-state rate: the flux out of the well (the action plus the Monte
   Carlo flux over the other open saddles) over the well's shell volume
-  (:func:`~ldpipe.transport.well_shell_volume`);
-* the survival of a microcanonical ensemble of the well (:mod:`ldpipe.transport.survival`): its
+  (:func:`~ldpipe.saddle_transport.well_shell_volume`);
+* the survival of a microcanonical ensemble of the well (:mod:`ldpipe.saddle_transport.survival`): its
   initial slope, which must equal the rate, its long-time decay rate and its curve;
-* the gap times of the flux-weighted ensemble entering the well (:mod:`ldpipe.transport.gap_times`),
+* the gap times of the flux-weighted ensemble entering the well (:mod:`ldpipe.saddle_transport.gap_times`),
   and both sides of the exact identity Φ E[min(τ, T)] = V (1 − P(T)) that ties them to the survival.
 
 The settings are the blocks of a ``transport:`` study of the configuration (``island``,
@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..flow import FlowSettings
 from ..logs import get_logger
-from ..manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
+from ..invariant_manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
 from ..systems import System
 from .flux import DividingLine, MonteCarloFlux, closed_curve_area, orbit_action, reactive_flux_monte_carlo
 from .gap_times import gap_times
@@ -63,7 +63,7 @@ class TransportAtEnergy:
     ``island`` has shape (2, points, 2 n_dof) (stable, unstable: the section states in orbit-phase
     order) and the ``flux_island_area*`` shape (2,); ``survival_time``, ``survival_probability`` and
     ``gap_time_survival`` share one time grid from 0 to the horizon T. ``flux_monte_carlo`` to
-    ``monte_carlo_undecided`` are the :class:`~ldpipe.transport.MonteCarloFlux` of the saddle's line.
+    ``monte_carlo_undecided`` are the :class:`~ldpipe.saddle_transport.MonteCarloFlux` of the saddle's line.
     """
 
     flux_action: float

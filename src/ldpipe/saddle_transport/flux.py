@@ -245,7 +245,7 @@ def harmonic_flux(excess_energy, frequencies) -> np.ndarray:
 
     The centre–centre part of phase space at energy ΔE above the saddle is {Σ ω_i I_i ≤ ΔE} in
     actions times (2π)^{n−1} in angles, a simplex of volume ΔE^{n−1}/((n−1)! ∏ ω_i): 2πΔE/ω in 2 DoF
-    (:class:`DividingLine`), (2π)² ΔE²/(2 ω_1 ω_2) in 3 DoF (derived in :mod:`ldpipe.transport.plane`).
+    (:class:`DividingLine`), (2π)² ΔE²/(2 ω_1 ω_2) in 3 DoF (derived in :mod:`ldpipe.saddle_transport.plane`).
     """
     m = len(frequencies)
     return (2 * math.pi * np.asarray(excess_energy)) ** m / (math.factorial(m) * float(np.prod(frequencies)))
@@ -294,7 +294,7 @@ def reactive_flux_monte_carlo(
 ) -> MonteCarloFlux:
     """The reactive flux through ``line`` at its energy, by Monte Carlo with recrossings counted once.
 
-    ``line`` is a :class:`DividingLine` (2 DoF) or a :class:`~ldpipe.transport.plane.DividingPlane`
+    ``line`` is a :class:`DividingLine` (2 DoF) or a :class:`~ldpipe.saddle_transport.plane.DividingPlane`
     (3 DoF): anything with ``area``, ``sample``, ``states``, ``system``, ``saddle`` and ``normal``.
 
     Points (u, p_u) are drawn uniformly on the allowed region of the line (area A, the directional
