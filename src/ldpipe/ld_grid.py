@@ -17,6 +17,7 @@ from tqdm import tqdm
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
 from .errors import ConfigError
+from .ftle import END_STATE_NAME, ftle
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
 from .systems import System, make_system
@@ -120,17 +121,21 @@ def ld_grid_dataset(
     rows: slice | None = None,
     show_progress: bool = False,
     t0: float = 0.0,
+    flow_map: bool = False,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
 
     For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
-    the start time ``t0``, and the file has no energy error and no solved coordinate.
+    the start time ``t0``, and the file has no energy error and no solved coordinate. With
+    ``flow_map`` the end state of every trajectory is kept too (``end_<coordinate>_<direction>``,
+    the flow map :func:`add_ftle` differentiates).
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
     first = section.axis_values()[0][rows]
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
     fields: dict[str, np.ndarray] = {}
+    ends: dict[str, np.ndarray] = {}
     stream, interval = progress_output(log)
     progress = tqdm(total=2 * len(states), unit="traj", desc="LD", disable=not show_progress, file=stream,
                     mininterval=interval, ascii=stream is not sys.stderr)
@@ -142,6 +147,10 @@ def ld_grid_dataset(
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
+            if flow_map:
+                end = np.zeros(shape + (result.end_state.shape[1],))
+                end[allowed] = result.end_state
+                ends[label] = end
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
     variables = {
@@ -169,11 +178,49 @@ def ld_grid_dataset(
     else:  # a vector field: no energy, every point integrated
         del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
+    for label, end in ends.items():
+        for i, coordinate in enumerate(system.phase_coordinates):
+            variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = (
+                dims, end[..., i], {"long_name": f"{_long_name(coordinate, system)} where the {label} trajectory stopped",
+                                    "comment": mask_note})
     coords = {
         section.axes[0]: (section.axes[0], first, {"long_name": _long_name(section.axes[0], system)}),
         section.axes[1]: (section.axes[1], section.axis_values()[1], {"long_name": _long_name(section.axes[1], system)}),
     }
     return xr.Dataset(variables, coords=coords)
+
+
+def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float) -> xr.Dataset:
+    """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
+    that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.ftle.ftle`.
+
+    ``coordinates`` are the system's state variables (the end-state variables' names), ``tau``
+    the map's integration time; a trajectory ran the whole time when its exit time is ``tau`` and
+    it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
+    """
+    axes = tuple(dataset[d].values for d in dataset.ld_forward.dims)
+    for label in ("forward", "backward"):
+        ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
+        complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
+                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"left_region_{label}"].values
+                    & ~dataset[f"failed_{label}"].values)
+        for flag in STOP_FLAGS:
+            if f"{flag}_{label}" in dataset:
+                complete &= ~dataset[f"{flag}_{label}"].values
+        values, defined = ftle(ends, axes, tau, complete)
+        dims = dataset.ld_forward.dims
+        dataset[f"ftle_{label}"] = (dims, values, {
+            "long_name": f"finite-time Lyapunov exponent, {label} time",
+            "units": "1/time",
+            "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
+                       "by differences of end states over the grid; 0 where not defined (see ftle_defined)"})
+        dataset[f"ftle_defined_{label}"] = (dims, defined, {
+            "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
+    return dataset
+
+
+#: Per-trajectory stop flags of systems with boundaries of their own (velocity data: land, the data's edge).
+STOP_FLAGS = ("on_land", "left_data")
 
 
 def gather_tiles(tiles: list[xr.Dataset], axis: str) -> xr.Dataset:
