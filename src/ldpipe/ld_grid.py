@@ -25,6 +25,10 @@ from .systems import System, make_system
 log = get_logger(__name__)
 # Points per engine call: small enough for steady progress, large enough to keep every core busy.
 CHUNK = 1 << 15
+#: Per-trajectory stop flags of systems with boundaries of their own (velocity data's
+#: ``stop_flags``: land, the data's edge), with what they say.
+STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
+              "left_data": "stopped at the edge of the data (or of its window)"}
 
 
 def tile_rows(rows: int, tile: int, tiles: int) -> slice:
@@ -89,6 +93,8 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
             get_scheme(settings.scheme).check_system(system)
         except ValueError as error:
             raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
+    if hasattr(system, "check_times"):  # velocity data: the window must lie in the data's times
+        system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")
     info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": excess,
             "saddle": [] if saddle is None else np.asarray(saddle).tolist(), "t0": float(t0)}
     return system, section, settings, info
@@ -147,6 +153,12 @@ def ld_grid_dataset(
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
+            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
+                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+                for flag, values in flags.items():
+                    full = np.zeros(shape, dtype=bool)
+                    full[allowed] = values
+                    fields[f"{flag}_{label}"] = full
             if flow_map:
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
@@ -178,6 +190,10 @@ def ld_grid_dataset(
     else:  # a vector field: no energy, every point integrated
         del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
+    for flag, text in STOP_FLAGS.items():
+        for label in ("forward", "backward"):
+            if f"{flag}_{label}" in fields:
+                variables[f"{flag}_{label}"] = (dims, fields[f"{flag}_{label}"], {"long_name": f"trajectory {text} ({label})"})
     for label, end in ends.items():
         for i, coordinate in enumerate(system.phase_coordinates):
             variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = (
@@ -217,10 +233,6 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float) -> x
         dataset[f"ftle_defined_{label}"] = (dims, defined, {
             "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
     return dataset
-
-
-#: Per-trajectory stop flags of systems with boundaries of their own (velocity data: land, the data's edge).
-STOP_FLAGS = ("on_land", "left_data")
 
 
 def gather_tiles(tiles: list[xr.Dataset], axis: str) -> xr.Dataset:

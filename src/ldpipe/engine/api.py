@@ -221,6 +221,7 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
                 settings.variable_time, settings.escape_radius, settings.max_steps, glx, glw, gjx, gjf,
                 settings.quadrature_window)
         threads = get_num_threads()
-        run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
+        with system.time_window(t0, t0 + direction * settings.tau):
+            run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, left, steps, failed, end, face = outputs
     return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)
