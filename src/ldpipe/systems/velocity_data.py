@@ -32,6 +32,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 import xarray as xr
+from scipy import ndimage
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
@@ -197,6 +198,18 @@ def index_window(grid: tuple[float, float, int], low: float, high: float) -> tup
     return a, b
 
 
+def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
+    """``values`` (time, y, x) with each land node given its nearest water node's value: the
+    stencils of water cells by the coast then see the flow continued, not a wall of zeros (a
+    trajectory still stops on entering a cell with a land node)."""
+    if not land.any():
+        return values
+    if land.all():
+        return np.zeros_like(values)
+    nearest = ndimage.distance_transform_edt(land, return_distances=False, return_indices=True)
+    return values[:, nearest[0], nearest[1]]
+
+
 @dataclass(frozen=True)
 class DataWindow:
     """The bound buffer of a window (see the kernel's header comment) and its land mask."""
@@ -219,9 +232,8 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
         u = np.asarray(dataset[source.u].isel(region).values, dtype=float)
         v = np.asarray(dataset[source.v].isel(region).values, dtype=float)
     land_all = ~(np.isfinite(u) & np.isfinite(v))
-    u = np.where(land_all, 0.0, u)
-    v = np.where(land_all, 0.0, v)
     land_nodes = land_all.any(axis=0)
+    u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
     padded = []
     for array in (u, v):
         for axis, (lo, hi, low_read, high_read) in enumerate(zip((ta, ya, xa), (tb, yb, xb), lows, highs)):
