@@ -9,6 +9,11 @@ Cauchy-Green tensor ``C = J^T J`` (2 x 2) has largest eigenvalue lambda_max, and
 
     FTLE = ln(lambda_max) / (2 |T|).
 
+On the sphere (state longitude, latitude in degrees) lengths are great-circle ones: a
+longitude difference counts cos(latitude) times a latitude difference, at the start point for
+the grid's spacing and at the end point for the end states' (``sphere_metric``); the Earth's
+radius cancels in the ratio.
+
 A point is *defined* when it and every grid neighbour its differences use ran the whole time
 (no region exit, escape, land, data edge or failure): elsewhere the exponent is written as 0
 and the ``ftle_defined_*`` flag is false (the files hold no NaN).
@@ -57,14 +62,33 @@ def complete_neighbourhood(complete: np.ndarray) -> np.ndarray:
     return ok
 
 
+def sphere_metric(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray],
+                  axes: tuple[str, str], coordinates: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """The length scales of :func:`ftle`'s ``metric`` on the sphere: cos(latitude) for longitude,
+    1 for latitude, at the end states (n0, n1, 2) and at the grid's points along its axes (n0, n1, 2)."""
+    lon, lat = coordinates
+    end_scale = np.ones(end_states.shape)
+    end_scale[..., coordinates.index(lon)] = np.cos(np.radians(end_states[..., coordinates.index(lat)]))
+    grid = np.meshgrid(*axis_values, indexing="ij")
+    start_lat = grid[axes.index(lat)]
+    axis_scale = np.ones(end_states.shape[:2] + (2,))
+    axis_scale[..., axes.index(lon)] = np.cos(np.radians(start_lat))
+    return end_scale, axis_scale
+
+
 def ftle(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray], time: float,
-         complete: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+         complete: np.ndarray, metric: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(FTLE, defined) on the grid: see the module docstring; ``time`` is |T|, ``complete`` (n0, n1)
-    where a trajectory ran the whole time."""
+    where a trajectory ran the whole time; ``metric`` (optional) the length per unit of each end
+    state component (n0, n1, n_state) and of each axis at the grid points (n0, n1, 2)."""
     if not time > 0:
         raise ValueError(f"FTLE: expected a positive integration time, got {time!r}")
     defined = complete_neighbourhood(np.asarray(complete, dtype=bool))
-    stretch = largest_stretching(flow_map_gradient(np.asarray(end_states, dtype=float), axis_values))
+    gradient = flow_map_gradient(np.asarray(end_states, dtype=float), axis_values)
+    if metric is not None:
+        end_scale, axis_scale = metric
+        gradient = gradient * end_scale[..., :, None] / axis_scale[..., None, :]
+    stretch = largest_stretching(gradient)
     defined &= np.isfinite(stretch) & (stretch > 0)
     values = np.zeros(defined.shape)
     values[defined] = np.log(stretch[defined]) / (2.0 * time)

@@ -17,7 +17,7 @@ from tqdm import tqdm
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
 from .errors import ConfigError
-from .ftle import END_STATE_NAME, ftle
+from .ftle import END_STATE_NAME, ftle, sphere_metric
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
 from .systems import System, make_system
@@ -206,13 +206,14 @@ def ld_grid_dataset(
     return xr.Dataset(variables, coords=coords)
 
 
-def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float) -> xr.Dataset:
+def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False) -> xr.Dataset:
     """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
     that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.ftle.ftle`.
 
     ``coordinates`` are the system's state variables (the end-state variables' names), ``tau``
     the map's integration time; a trajectory ran the whole time when its exit time is ``tau`` and
     it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
+    ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.ftle.sphere_metric`).
     """
     axes = tuple(dataset[d].values for d in dataset.ld_forward.dims)
     for label in ("forward", "backward"):
@@ -223,7 +224,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float) -> x
         for flag in STOP_FLAGS:
             if f"{flag}_{label}" in dataset:
                 complete &= ~dataset[f"{flag}_{label}"].values
-        values, defined = ftle(ends, axes, tau, complete)
+        metric = sphere_metric(ends, axes, dataset.ld_forward.dims, coordinates) if sphere else None
+        values, defined = ftle(ends, axes, tau, complete, metric)
         dims = dataset.ld_forward.dims
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",

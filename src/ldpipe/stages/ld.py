@@ -21,7 +21,7 @@ from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle
 from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
-from ..systems import system_phase_coordinates
+from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
 
 log = get_logger(__name__)
@@ -126,7 +126,7 @@ def compute_ld_map(
     dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
                               t0=info["t0"], flow_map=ftle)
     if ftle and tiles == 1:
-        add_ftle(dataset, system.phase_coordinates, settings.tau)
+        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
@@ -182,7 +182,8 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
     if common.get("ftle", False) and len(tiles) > 1:  # one tile has its FTLE already
-        add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]))
+        add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]),
+                 on_sphere(common["system_spec"]))
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})

@@ -21,7 +21,7 @@ from .velocity_data import VelocityDataSystem, make_velocity_data_system, veloci
 
 __all__ = [
     "BUILTINS", "Kernels", "System", "VectorFieldSystem", "VelocityDataSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
-    "has_equilibria", "is_vector_field", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
+    "has_equilibria", "is_vector_field", "on_sphere", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
 ]
 
 
@@ -126,6 +126,11 @@ def has_equilibria(name: str, spec: dict) -> bool:
     parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
     fields = parse_vector_field(spec["vector_field"], tuple(spec["coordinates"]), parameters, f"systems.{name}")
     return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
+
+
+def on_sphere(spec: dict) -> bool:
+    """Whether a ``systems:`` entry's state is longitude and latitude on the sphere (velocity data)."""
+    return spec.get("velocity_data", {}).get("coordinates") == "sphere"
 
 
 def system_phase_coordinates(spec: dict) -> tuple[str, ...]:
