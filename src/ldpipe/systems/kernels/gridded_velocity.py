@@ -55,8 +55,10 @@ def rhs(state, t, out):
     sx = fx - i
     sy = fy - j
     st = ft - k
-    wx = (((-0.5 * sx + 1.0) * sx - 0.5) * sx, (1.5 * sx - 2.5) * sx * sx + 1.0,
-          ((-1.5 * sx + 2.0) * sx + 0.5) * sx, (0.5 * sx - 0.5) * sx * sx)
+    wx0 = ((-0.5 * sx + 1.0) * sx - 0.5) * sx
+    wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
+    wx2 = ((-1.5 * sx + 2.0) * sx + 0.5) * sx
+    wx3 = (0.5 * sx - 0.5) * sx * sx
     wy = (((-0.5 * sy + 1.0) * sy - 0.5) * sy, (1.5 * sy - 2.5) * sy * sy + 1.0,
           ((-1.5 * sy + 2.0) * sy + 0.5) * sy, (0.5 * sy - 0.5) * sy * sy)
     wt = (((-0.5 * st + 1.0) * st - 0.5) * st, (1.5 * st - 2.5) * st * st + 1.0,
@@ -67,13 +69,9 @@ def rhs(state, t, out):
         for b in range(4):
             row = DATA_HEADER + ((k + a) * py + j + b) * px + i
             wab = wt[a] * wy[b]
-            su = 0.0
-            sv = 0.0
-            for c in range(4):
-                su += wx[c] * data[row + c]
-                sv += wx[c] * data[row + size + c]
-            u += wab * su
-            v += wab * sv
+            u += wab * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
+            row += size
+            v += wab * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
     scale = head[11]
     if head[9] > 0.0:
         degrees = 180.0 / math.pi
