@@ -147,6 +147,36 @@ def test_land_and_edge_stop_trajectories(tmp_path):
     assert not north_map.failed_forward.values.any()
 
 
+def test_ld_ftle_figure_draws_ld_and_both_ftle(tmp_path):
+    # the figure kind reads a map file with ftle: three panels (LD, FTLE forward, backward) and their
+    # colour bars; a map without FTLE is refused naming the key
+    from ldpipe.io.datafile import write_stage_file
+    from ldpipe.stages.figures import draw_figure
+
+    path = write_velocity_file(tmp_path / "shear.nc", lambda X, Y, T: (0.1 * Y + 0 * T, 0.05 + 0 * X),
+                               np.linspace(0, 4, 5), np.linspace(0, 4, 5), np.linspace(0, 4, 5))
+    spec = {"system": "shear", "t0": 2.0, "tau": 1.0, "p": 0.5, "ftle": True,
+            "section": {"axes": [{"name": "x", "range": [1.0, 3.0], "points": 5},
+                                 {"name": "y", "range": [1.0, 3.0], "points": 5}]}}
+    config = validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}}, "ld_maps": {"s": spec},
+                              "figures": {"f": {"kind": "ld_ftle", "ld_maps": ["s"]}}})
+    parameters = parameters_from_config(config, "ld", "s")
+    dataset = compute_ld_map(parameters, None, show_progress=False)
+    # the shear's flow map over T = 1 is (x + 0.1 y, y + 0.05): C = [[1, 0.1], [0.1, 1.01]] (closed form)
+    expected = math.log((2.01 + math.sqrt(0.01**2 + 4 * 0.01)) / 2) / 2
+    for label in ("forward", "backward"):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        np.testing.assert_allclose(dataset[f"ftle_{label}"].values, expected, rtol=1e-12)  # measured 5e-14
+    written = write_stage_file(dataset, tmp_path / "s.nc", stage="ld_grid", title="s", parameters=parameters)
+    settings = parameters_from_config(config, "figures", "f")["settings"]
+    figure = draw_figure("ld_ftle", settings, {"ld_maps": [str(written)]})
+    assert len(figure.axes) == 6  # three panels, three colour bars
+    with pytest.raises(ConfigError, match=r"ld_maps\.s\.ftle"):
+        validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}},
+                         "ld_maps": {"s": {k: v for k, v in spec.items() if k != "ftle"}},
+                         "figures": {"f": {"kind": "ld_ftle", "ld_maps": ["s"]}}})
+
+
 def _write(tmp_path, name, **changes):
     x, y, t = np.arange(5.0), np.arange(4.0), np.arange(3.0)
     kwargs = {"units": "m/s"} | changes
