@@ -294,6 +294,14 @@ class VelocityDataSystem:
     def kinetic_attributes(self) -> dict[str, str]:
         return {}
 
+    @property
+    def coordinate_bound(self) -> float:
+        """A bound on |x|, |y| of any trajectory that can move (twice the data's extent, and 720
+        degrees on the sphere, where longitudes wrap): the engine raises its escape radius to it."""
+        extent = max(abs(v) for grid in (self.source.x_grid, self.source.y_grid)
+                     for v in (grid[0], grid[0] + grid[1] * (grid[2] - 1)))
+        return max(2.0 * extent, 720.0 if self.source.sphere else 0.0)
+
     def check_times(self, start: float, end: float, key: str | None = None) -> None:
         """ConfigError unless [min, max] of ``start``, ``end`` lies in the data's time range, naming both."""
         low, high = sorted((start, end))
@@ -337,7 +345,10 @@ class VelocityDataSystem:
         """Where trajectories stopped: ``on_land`` (in a cell with a land node) and ``left_data``
         (outside the data's extent or its spatial window), the boundaries the kernel stops them at."""
         window = self.data_window(start, end)
-        fx = (end_states[:, 0] - window.x_grid[0]) / window.x_grid[1]
+        east = end_states[:, 0] - window.x_grid[0]
+        if self.source.sphere:  # longitudes modulo 360, as the kernel takes them
+            east = np.mod(east, 360.0)
+        fx = east / window.x_grid[1]
         fy = (end_states[:, 1] - window.y_grid[0]) / window.y_grid[1]
         nx, ny = window.x_grid[2], window.y_grid[2]
         outside = ~((fx >= 0.0) & (fx <= nx - 1) & (fy >= 0.0) & (fy <= ny - 1))

@@ -12,7 +12,8 @@
 # Boundaries: a point outside the grid's extent, or in a cell with a land corner, has velocity 0,
 # so a trajectory stops where it reaches land or the data's edge (the LD stage flags it); times
 # outside the window are clamped (the caller refuses a window that leaves the data's times).
-# On the sphere x, y are longitude and latitude in degrees and
+# On the sphere x, y are longitude and latitude in degrees, a longitude taken modulo 360 from the
+# grid's first (so -170 and 190 are the same point, in a grid of either convention), and
 # d lon/dt = u / (R cos lat) * 180/pi, d lat/dt = v / R * 180/pi.
 import math
 
@@ -31,7 +32,10 @@ def rhs(state, t, out):
         out[0] = math.nan
         out[1] = math.nan
         return
-    fx = (state[0] - head[3]) / head[4]
+    east = state[0] - head[3]
+    if head[9] > 0.0:  # on the sphere a longitude in either convention, across the dateline too
+        east -= 360.0 * math.floor(east / 360.0)
+    fx = east / head[4]
     fy = (state[1] - head[5]) / head[6]
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
         out[0] = 0.0
