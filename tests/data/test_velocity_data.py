@@ -174,6 +174,19 @@ def test_land_and_edge_stop_trajectories(tmp_path):
     # backward: from y0 down to the edge y = 0 after y0 seconds
     np.testing.assert_allclose(north_map.ld_backward.values, y0, rtol=5e-7)
     assert not north_map.failed_forward.values.any()
+    # the same coast as a land-sea mask variable (0 on land) over finite velocities: the same stops
+    import xarray as xr
+    with xr.open_dataset(north) as dataset:
+        masked = dataset.load()
+    masked = masked.assign(u=masked.u + 1.0, v=masked.v - 1.0)  # u = 1, v = 0 as on the coast file
+    masked["u"].attrs["units"] = masked["v"].attrs["units"] = "m/s"
+    masked["sea"] = (("y", "x"), (masked.x.values[None, :] < 6) * np.ones((len(y), 1)))
+    masked.to_netcdf(tmp_path / "masked.nc")
+    config = validate_config({"systems": {"masked": {"velocity_data": {"path": str(tmp_path / "masked.nc"), "mask": "sea"}}},
+                              "ld_maps": {"c": {**base, "system": "masked"}}})
+    masked_map = compute_ld_map(parameters_from_config(config, "ld", "c"), None, show_progress=False)
+    assert masked_map.on_land_forward.values.all()
+    np.testing.assert_allclose(masked_map.ld_forward.values, coast_map.ld_forward.values, rtol=1e-12)
 
 
 def test_ld_ftle_figure_draws_ld_and_both_ftle(tmp_path):

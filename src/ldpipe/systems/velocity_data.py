@@ -113,6 +113,7 @@ class DataSource:
     velocity_scale: float
     sphere: bool
     radius: float
+    mask: str | None = None  # a (y, x) variable, 0 on land (besides missing velocities)
 
     def open(self) -> xr.Dataset:
         if self.path.rstrip("/").endswith(".zarr"):
@@ -132,7 +133,7 @@ class DataSource:
 def open_source(spec: dict, key: str) -> DataSource:
     """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units."""
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -146,9 +147,9 @@ def open_source(spec: dict, key: str) -> DataSource:
         raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
     source = DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
                         x_grid=(0, 1, 0), y_grid=(0, 1, 0), t_grid=(0, 1, 0), velocity_scale=1.0, sphere=sphere,
-                        radius=float(entry["earth_radius"]))
+                        radius=float(entry["earth_radius"]), mask=entry.get("mask"))
     with source.open() as dataset:
-        for role in ("u", "v", "x", "y", "time"):
+        for role in ("u", "v", "x", "y", "time") + (("mask",) if source.mask else ()):
             name = entry[role]
             if name not in dataset.variables:
                 raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
@@ -171,6 +172,9 @@ def open_source(spec: dict, key: str) -> DataSource:
             scales.append(parse_velocity_units(units, f"{key}.{role}"))
         if scales[0] != scales[1]:
             raise ConfigError(f"config key '{key}.v': u and v have different units")
+        if source.mask and tuple(dataset[source.mask].dims) != expected[1:]:
+            raise ConfigError(f"config key '{key}.mask': variable {source.mask!r} has dimensions "
+                              f"{tuple(dataset[source.mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
         data_seconds = time_unit_seconds(dataset[entry["time"]].attrs.get("units")) or seconds
         if sphere:
@@ -182,7 +186,8 @@ def open_source(spec: dict, key: str) -> DataSource:
             length = LENGTHS[x_units] if x_units else metres
     return DataSource(path=source.path, u=source.u, v=source.v, x=source.x, y=source.y, time=source.time,
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
-                      velocity_scale=metres / length * data_seconds / seconds, sphere=sphere, radius=source.radius)
+                      velocity_scale=metres / length * data_seconds / seconds, sphere=sphere, radius=source.radius,
+                      mask=source.mask)
 
 
 def index_window(grid: tuple[float, float, int], low: float, high: float) -> tuple[int, int]:
@@ -231,7 +236,9 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
                   source.x: slice(lows[2], highs[2] + 1)}
         u = np.asarray(dataset[source.u].isel(region).values, dtype=float)
         v = np.asarray(dataset[source.v].isel(region).values, dtype=float)
-    land_all = ~(np.isfinite(u) & np.isfinite(v))
+        water = (np.asarray(dataset[source.mask].isel({k: region[k] for k in (source.y, source.x)}).values) != 0
+                 if source.mask else True)
+    land_all = ~(np.isfinite(u) & np.isfinite(v) & water)
     land_nodes = land_all.any(axis=0)
     u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
     padded = []
