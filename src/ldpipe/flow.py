@@ -193,6 +193,7 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
         args = (t0, 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
                 settings.escape_radius, settings.max_steps, index, float(value), float(direction))
         outputs = (crossings, crossing_times, n_cross, status, final_time, steps)
-        run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
+        with system.time_window(t0, t0 + float(duration)):
+            run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
     return Trajectories(np.zeros(0), np.zeros((count, 0, m)), np.zeros(count, dtype=np.int64), crossings,
                         crossing_times, n_cross, status, final_time, steps)

@@ -17,6 +17,7 @@ from tqdm import tqdm
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
 from .errors import ConfigError
+from .ftle import END_STATE_NAME, ftle, sphere_metric
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
 from .systems import System, make_system
@@ -24,6 +25,10 @@ from .systems import System, make_system
 log = get_logger(__name__)
 # Points per engine call: small enough for steady progress, large enough to keep every core busy.
 CHUNK = 1 << 15
+#: Per-trajectory stop flags of systems with boundaries of their own (velocity data's
+#: ``stop_flags``: land, the data's edge), with what they say.
+STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
+              "left_data": "stopped at the edge of the data (or of its window)"}
 
 
 def tile_rows(rows: int, tile: int, tiles: int) -> slice:
@@ -88,6 +93,8 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
             get_scheme(settings.scheme).check_system(system)
         except ValueError as error:
             raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
+    if hasattr(system, "check_times"):  # velocity data: the window must lie in the data's times
+        system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")
     info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": excess,
             "saddle": [] if saddle is None else np.asarray(saddle).tolist(), "t0": float(t0)}
     return system, section, settings, info
@@ -120,17 +127,21 @@ def ld_grid_dataset(
     rows: slice | None = None,
     show_progress: bool = False,
     t0: float = 0.0,
+    flow_map: bool = False,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
 
     For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
-    the start time ``t0``, and the file has no energy error and no solved coordinate.
+    the start time ``t0``, and the file has no energy error and no solved coordinate. With
+    ``flow_map`` the end state of every trajectory is kept too (``end_<coordinate>_<direction>``,
+    the flow map :func:`add_ftle` differentiates).
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
     first = section.axis_values()[0][rows]
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
     fields: dict[str, np.ndarray] = {}
+    ends: dict[str, np.ndarray] = {}
     stream, interval = progress_output(log)
     progress = tqdm(total=2 * len(states), unit="traj", desc="LD", disable=not show_progress, file=stream,
                     mininterval=interval, ascii=stream is not sys.stderr)
@@ -142,6 +153,16 @@ def ld_grid_dataset(
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
+            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
+                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+                for flag, values in flags.items():
+                    full = np.zeros(shape, dtype=bool)
+                    full[allowed] = values
+                    fields[f"{flag}_{label}"] = full
+            if flow_map:
+                end = np.zeros(shape + (result.end_state.shape[1],))
+                end[allowed] = result.end_state
+                ends[label] = end
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
     variables = {
@@ -169,11 +190,51 @@ def ld_grid_dataset(
     else:  # a vector field: no energy, every point integrated
         del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
+    for flag, text in STOP_FLAGS.items():
+        for label in ("forward", "backward"):
+            if f"{flag}_{label}" in fields:
+                variables[f"{flag}_{label}"] = (dims, fields[f"{flag}_{label}"], {"long_name": f"trajectory {text} ({label})"})
+    for label, end in ends.items():
+        for i, coordinate in enumerate(system.phase_coordinates):
+            variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = (
+                dims, end[..., i], {"long_name": f"{_long_name(coordinate, system)} where the {label} trajectory stopped",
+                                    "comment": mask_note})
     coords = {
         section.axes[0]: (section.axes[0], first, {"long_name": _long_name(section.axes[0], system)}),
         section.axes[1]: (section.axes[1], section.axis_values()[1], {"long_name": _long_name(section.axes[1], system)}),
     }
     return xr.Dataset(variables, coords=coords)
+
+
+def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False) -> xr.Dataset:
+    """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
+    that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.ftle.ftle`.
+
+    ``coordinates`` are the system's state variables (the end-state variables' names), ``tau``
+    the map's integration time; a trajectory ran the whole time when its exit time is ``tau`` and
+    it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
+    ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.ftle.sphere_metric`).
+    """
+    axes = tuple(dataset[d].values for d in dataset.ld_forward.dims)
+    for label in ("forward", "backward"):
+        ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
+        complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
+                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"left_region_{label}"].values
+                    & ~dataset[f"failed_{label}"].values)
+        for flag in STOP_FLAGS:
+            if f"{flag}_{label}" in dataset:
+                complete &= ~dataset[f"{flag}_{label}"].values
+        metric = sphere_metric(ends, axes, dataset.ld_forward.dims, coordinates) if sphere else None
+        values, defined = ftle(ends, axes, tau, complete, metric)
+        dims = dataset.ld_forward.dims
+        dataset[f"ftle_{label}"] = (dims, values, {
+            "long_name": f"finite-time Lyapunov exponent, {label} time",
+            "units": "1/time",
+            "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
+                       "by differences of end states over the grid; 0 where not defined (see ftle_defined)"})
+        dataset[f"ftle_defined_{label}"] = (dims, defined, {
+            "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
+    return dataset
 
 
 def gather_tiles(tiles: list[xr.Dataset], axis: str) -> xr.Dataset:

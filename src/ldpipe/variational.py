@@ -141,3 +141,23 @@ def sample(
     states = result.y[:m].T.copy()
     stms = result.y[m:].T.reshape(len(times), m, m).copy() if stm else None
     return states, stms
+
+
+def propagate_flow(system, state: np.ndarray, t0: float, duration: float, *, rtol: float, atol: float) -> FlowResult:
+    """A general flow's trajectory from ``state`` at ``t0`` for ``duration`` (negative: backward)
+    with its state transition matrix, dPhi/dt = Df(x, t) Phi (Df the system's compiled Jacobian)."""
+    m = system.n_state
+
+    def rhs(t, y):
+        out = np.empty_like(y)
+        out[:m] = system.vector_field(y[:m], t)
+        out[m:] = (system.jacobian(y[:m], t) @ y[m:].reshape(m, m)).ravel()
+        return out
+
+    y0 = np.concatenate([np.asarray(state, dtype=np.float64), np.eye(m).ravel()])
+    result = solve_ivp(rhs, (t0, t0 + duration), y0, method="DOP853", rtol=rtol, atol=atol)
+    if result.status == -1:
+        raise RuntimeError(f"integration failed: {result.message}")
+    y = result.y[:, -1]
+    return FlowResult(time=float(result.t[-1]) - t0, state=np.array(y[:m]), stm=np.array(y[m:]).reshape(m, m),
+                      event=False, nfev=int(result.nfev))

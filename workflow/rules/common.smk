@@ -89,6 +89,12 @@ def ld_equilibria_file(wildcards):
     return f"{RESULTS}/{system}/equilibria.nc"
 
 
+def ld_velocity_data_file(wildcards):
+    """The dataset of a map's velocity-data system (made by a rule if it is the example's); none otherwise."""
+    spec = config["systems"][config["ld_maps"][wildcards.map]["system"]]
+    return [spec["velocity_data"]["path"]] if "velocity_data" in spec else []
+
+
 def ld_tile_files(wildcards):
     from ldpipe.stages.ld import ld_map_tiles
 

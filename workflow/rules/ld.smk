@@ -2,6 +2,7 @@ rule ld_tile:
     """One band of rows of an LD map, integrated forward and backward."""
     input:
         equilibria=ld_equilibria_file,
+        velocity_data=ld_velocity_data_file,
         code=library_code("ldpipe.stages.ld"),
     output:
         temp(f"{RESULTS}/ld/{{map}}/tile-{{tile}}-of-{{tiles}}.nc"),

@@ -17,6 +17,7 @@ FIGURE_REQUIRED = {
     "ld_slices": ("ld_maps",),
     "orbit_family": ("family",),
     "nhim_sample": ("sampling",),
+    "ld_ftle": ("ld_maps",),
 }
 
 
@@ -42,8 +43,13 @@ def check_figures(config: dict) -> None:
                 )
             for coordinate, interval in spec["plane"].items():
                 check_interval(interval, f"{key}.plane.{coordinate}")
-        if kind in ("section_maps", "ld_slices"):
+        if kind in ("section_maps", "ld_slices", "ld_ftle"):
             check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+        if kind == "ld_ftle":
+            for map_name in spec["ld_maps"]:
+                if not config["ld_maps"][map_name].get("ftle"):
+                    raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has no FTLE to draw; give it "
+                                      f"ftle: true (config key ld_maps.{map_name}.ftle)")
         if kind == "section_maps":
             check_names(spec["poincare"], "poincare_sections", f"{key}.poincare", config)
             for map_name, sets in spec["manifold_curves"].items():

@@ -81,6 +81,9 @@ def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:
     region = spec.get("region")
     if spec["time"] == "variable" and not region:
         raise ConfigError(f"config key '{key}.region': a variable-time map needs a saddle region (an interval per coordinate)")
+    if spec.get("ftle") and spec["time"] == "variable":
+        raise ConfigError(f"config key '{key}.ftle': the FTLE is of a fixed-time map (a flow map over the time tau); "
+                          "give time: fixed")
     if region:
         if sorted(region) != sorted(coordinates):
             raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")

@@ -217,10 +217,14 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
                np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, n)), np.zeros(N, dtype=np.int64))
     if N:
         runner = get_vector_field_runner(system)
+        # velocity data bound their trajectories themselves (land, the data's edge): the escape
+        # radius never stops one inside the data (coordinates in metres or longitudes beyond 100)
+        radius = max(settings.escape_radius, getattr(system, "coordinate_bound", 0.0))
         args = (t0, float(direction), settings.tau, settings.rtol, settings.atol, kind, p_exp, lo, hi,
-                settings.variable_time, settings.escape_radius, settings.max_steps, glx, glw, gjx, gjf,
+                settings.variable_time, radius, settings.max_steps, glx, glw, gjx, gjf,
                 settings.quadrature_window)
         threads = get_num_threads()
-        run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
+        with system.time_window(t0, t0 + direction * settings.tau):
+            run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, left, steps, failed, end, face = outputs
     return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)

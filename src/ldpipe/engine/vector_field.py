@@ -50,6 +50,6 @@ def get_vector_field_runner(system, entry: str = "vector_field_process"):
         raise ValueError(f"entry: expected one of {ENTRIES}, got {entry!r}")
 
     def build():
-        return getattr(load_generated_module(vector_field_source(system), f"vfield_engine_{system.name}"), entry)
+        return getattr(load_generated_module(vector_field_source(system), f"vfield_engine_{system.engine_name}"), entry)
 
     return kept_runner(system, ("vector_field", entry), build)

@@ -32,6 +32,7 @@ KIND_SETTINGS = {
     "orbit_family": ("family", "energies", "manifolds", "configuration", "view3d_axes", "view3d_limits",
                      "trajectories_per_branch", "view"),
     "nhim_sample": ("sampling", "orbits", "projections", "view"),
+    "ld_ftle": ("ld_maps", "descriptor", "color_percentiles"),
 }
 FORMATS = ("png", "pdf")
 
@@ -56,7 +57,7 @@ def figure_input_files(config: dict, name: str, results: str = "results") -> dic
     files: dict[str, list[str]] = {}
     if kind == "potential":
         files["equilibria"] = [f"{results}/{spec['system']}/equilibria.nc"]
-    if kind in ("section_maps", "ld_slices"):
+    if kind in ("section_maps", "ld_slices", "ld_ftle"):
         files["ld_maps"] = [f"{results}/ld/{m}.nc" for m in spec["ld_maps"]]
     if kind == "section_maps":
         if spec.get("poincare"):
@@ -228,6 +229,11 @@ def figure_caption(config: dict, name: str) -> dict:
         lines.append("family " + _family_caption(config, spec["family"]))
         lines.append("orbits at " + (_energies_text(spec["energies"]) if spec.get("energies") else "every target energy"))
         lines += ["manifolds " + _manifold_caption(config, s) for s in spec.get("manifolds", [])]
+    if kind == "ld_ftle":
+        lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        lines.append(f"LD shown: {spec['descriptor']}; FTLE forward and backward over each map's τ, colour scales "
+                     f"from the {_number(spec['color_percentiles'][0])}th to the "
+                     f"{_number(spec['color_percentiles'][1])}th percentile; grey where not defined")
     if kind == "nhim_sample":
         lines.append("NHIM sampling " + _sampling_caption(config, spec["sampling"]))
         lines += ["Lyapunov orbit at the study's energy of family " + _family_caption(config, f) for f in spec["orbits"]]
@@ -277,6 +283,10 @@ def draw_figure(kind: str, settings: dict, inputs: dict):
         from ..figures.nhim_sample import draw_nhim_sample
 
         return draw_nhim_sample(settings, sampling=inputs["nhim_sampling"][0], upo=inputs.get("upo", []))
+    if kind == "ld_ftle":
+        from ..figures.ld_ftle import draw_ld_ftle
+
+        return draw_ld_ftle(settings, ld_maps=inputs["ld_maps"])
     raise ConfigError(f"figure kind {kind!r}: expected one of {sorted(KIND_SETTINGS)}")
 
 

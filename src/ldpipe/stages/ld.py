@@ -20,8 +20,9 @@ from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters,
 from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
 from ..critical_points import select_saddle
-from ..ld_grid import gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
+from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
+from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
 
 log = get_logger(__name__)
@@ -122,8 +123,11 @@ def compute_ld_map(
         parameters["map_name"], tile + 1, tiles, rows.start, rows.stop, section.shape[0], system.name,
         where, settings.tau, parameters["time"], settings.scheme,
     )
+    ftle = parameters.get("ftle", False)
     dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                              t0=info["t0"])
+                              t0=info["t0"], flow_map=ftle)
+    if ftle and tiles == 1:
+        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
@@ -199,6 +203,9 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
+    if common.get("ftle", False) and len(tiles) > 1:  # one tile has its FTLE already
+        add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]),
+                 on_sphere(common["system_spec"]))
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})

@@ -17,10 +17,11 @@ from .builtin import BUILTINS, make_builtin
 from .formula import make_formula_system
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
 from .kinetic import kinetic_matrix
+from .velocity_data import VelocityDataSystem, make_velocity_data_system, velocity_data_coordinates
 
 __all__ = [
-    "BUILTINS", "Kernels", "System", "VectorFieldSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
-    "has_equilibria", "is_vector_field", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
+    "BUILTINS", "Kernels", "System", "VectorFieldSystem", "VelocityDataSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
+    "has_equilibria", "is_vector_field", "on_sphere", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
 ]
 
 
@@ -62,8 +63,10 @@ def _make_system_cached(name: str, spec_json: str, key: str) -> System | VectorF
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"config key '{key}.parameters.{parameter}': expected a number, got {value!r}")
     parameters = {k: float(v) for k, v in parameters.items()}
-    if sum(kind in spec for kind in ("builtin", "formula", "vector_field")) != 1:
-        raise ConfigError(f"config key '{key}': give exactly one of 'builtin', 'formula' or 'vector_field'")
+    if sum(kind in spec for kind in ("builtin", "formula", "vector_field", "velocity_data")) != 1:
+        raise ConfigError(f"config key '{key}': give exactly one of 'builtin', 'formula', 'vector_field' or 'velocity_data'")
+    if "velocity_data" in spec:
+        return make_velocity_data_system(name, spec, key)
     if "builtin" in spec:
         builtin = spec["builtin"]
         if builtin not in BUILTINS:
@@ -109,8 +112,8 @@ def system_spec(config: dict, name: str) -> dict:
 
 
 def is_vector_field(spec: dict) -> bool:
-    """Whether a ``systems:`` entry is a general vector field (no Hamiltonian)."""
-    return "vector_field" in spec
+    """Whether a ``systems:`` entry is a general vector field (no Hamiltonian): formulas or velocity data."""
+    return "vector_field" in spec or "velocity_data" in spec
 
 
 def has_equilibria(name: str, spec: dict) -> bool:
@@ -118,9 +121,16 @@ def has_equilibria(name: str, spec: dict) -> bool:
     field that does not depend on the time (a time-dependent flow has no fixed equilibria)."""
     if not is_vector_field(spec):
         return True
+    if "velocity_data" in spec:  # data depend on time
+        return False
     parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
     fields = parse_vector_field(spec["vector_field"], tuple(spec["coordinates"]), parameters, f"systems.{name}")
     return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
+
+
+def on_sphere(spec: dict) -> bool:
+    """Whether a ``systems:`` entry's state is longitude and latitude on the sphere (velocity data)."""
+    return spec.get("velocity_data", {}).get("coordinates") == "sphere"
 
 
 def system_phase_coordinates(spec: dict) -> tuple[str, ...]:
@@ -134,4 +144,6 @@ def system_coordinates(spec: dict) -> tuple[str, ...]:
     """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's or vector field's list)."""
     if "builtin" in spec:
         return BUILTINS[spec["builtin"]]["coordinates"]
+    if "velocity_data" in spec:
+        return velocity_data_coordinates(spec["velocity_data"])
     return tuple(spec["coordinates"])

@@ -15,6 +15,7 @@ refuse it through :func:`require_hamiltonian`.
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Callable, ClassVar
@@ -93,6 +94,16 @@ class VectorFieldSystem:
     def kinetic_attributes(self) -> dict[str, str]:
         """A flow has no kinetic matrix: stage files record nothing of one (as for unit masses)."""
         return {}
+
+    @property
+    def engine_name(self) -> str:
+        """What the generated engine module's file is named after (velocity data share one)."""
+        return self.name
+
+    def time_window(self, start: float, end: float):
+        """The context the compiled kernels run in over times [start, end]: formulas need nothing
+        (velocity data bind the window they read, :class:`ldpipe.systems.VelocityDataSystem`)."""
+        return nullcontext()
 
     def vector_field(self, state: np.ndarray, t: float = 0.0) -> np.ndarray:
         out = np.empty(self.n_state)

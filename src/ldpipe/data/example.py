@@ -1,0 +1,94 @@
+"""A realistic example of ocean-current data: a meandering jet by a coast, as a CF netCDF file.
+
+``python -m ldpipe.data.example OUTPUT.nc`` writes u, v (m/s, float32) on (time, lat, lon): a
+perturbed Bickley jet (Rypina et al. 2007, J. Atmos. Sci. 64, 3595) along 37.5 N in a basin 80 W
+to 40 W, 25 N to 50 N, every 0.25 degree and every 6 hours over 40 days, with land (missing
+values) west of a wavy coastline near 75 W. The jet's streamfunction, in metres on a local plane
+x = R cos(37.5 deg) (lon - lon_c), y = R (lat - 37.5 deg), is
+
+    psi = U L (-tanh(y/L) + sech^2(y/L) sum_n eps_n cos(k_n (x - c_n t))),
+
+u = -d psi/dy, v = d psi/dx. Nothing here is fitted to observations: it looks like a western
+boundary current's extension and is known exactly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+EARTH_RADIUS = 6371000.0
+U, L = 1.2, 120e3  # jet speed (m/s) and half-width (m)
+WAVES = ((0.075, 1, 0.15), (0.4, 2, 0.10), (0.3, 3, 0.05))  # eps_n, wavenumber index n, phase speed c_n (m/s)
+WAVELENGTH = 2.0e6  # the longest meander (m): k_n = 2 pi n / WAVELENGTH
+LAT_C, LON_C = 37.5, -60.0
+
+
+def coast_longitude(lat):
+    """The coastline: land west of it."""
+    return -76.0 + 2.5 * np.sin(np.pi * (np.asarray(lat) - 25.0) / 12.5)
+
+
+def jet_velocity(lon, lat, t_seconds):
+    """(u, v) in m/s of the jet at lon, lat (degrees) and time (seconds)."""
+    x = EARTH_RADIUS * math.cos(math.radians(LAT_C)) * np.radians(lon - LON_C)
+    y = EARTH_RADIUS * np.radians(lat - LAT_C)
+    s = 1.0 / np.cosh(y / L) ** 2
+    th = np.tanh(y / L)
+    waves_cos = sum(eps * np.cos(2 * np.pi * n / WAVELENGTH * (x - c * t_seconds)) for eps, n, c in WAVES)
+    waves_dx = sum(-eps * 2 * np.pi * n / WAVELENGTH * np.sin(2 * np.pi * n / WAVELENGTH * (x - c * t_seconds))
+                   for eps, n, c in WAVES)
+    return U * (s + 2 * s * th * waves_cos), U * L * s * waves_dx
+
+
+def example_dataset(days: float = 40.0, step_hours: float = 6.0, resolution: float = 0.25) -> xr.Dataset:
+    """The example as a Dataset (see the module docstring)."""
+    lon = np.arange(-80.0, -40.0 + resolution / 2, resolution)
+    lat = np.arange(25.0, 50.0 + resolution / 2, resolution)
+    time = np.arange(0.0, days + step_hours / 48, step_hours / 24)
+    T, LAT, LON = np.meshgrid(time * 86400.0, lat, lon, indexing="ij")
+    u, v = jet_velocity(LON, LAT, T)
+    land = LON < coast_longitude(LAT)
+    u = np.where(land, np.nan, u).astype(np.float32)
+    v = np.where(land, np.nan, v).astype(np.float32)
+    encoding = {"_FillValue": np.float32(-999.0)}
+    dataset = xr.Dataset(
+        {"u": (("time", "lat", "lon"), u, {"units": "m/s", "standard_name": "eastward_sea_water_velocity",
+                                            "long_name": "eastward velocity"}),
+         "v": (("time", "lat", "lon"), v, {"units": "m/s", "standard_name": "northward_sea_water_velocity",
+                                            "long_name": "northward velocity"})},
+        coords={"lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"}),
+                "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+                "time": ("time", time, {"units": "days since 2000-01-01", "standard_name": "time",
+                                        "calendar": "standard"})},
+        attrs={"Conventions": "CF-1.8", "title": "ldpipe example: a meandering jet by a coast (analytic)",
+               "source": "ldpipe.data.example (analytic perturbed Bickley jet; no observations)"})
+    for name in ("u", "v"):
+        dataset[name].encoding.update(encoding)
+    return dataset
+
+
+def write_example(path: str | Path, **options) -> Path:
+    """Write :func:`example_dataset` to ``path`` (netCDF), atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp")
+    example_dataset(**options).to_netcdf(temporary)
+    temporary.replace(path)
+    return path
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m ldpipe.data.example", description=__doc__.splitlines()[0])
+    parser.add_argument("output", help="the netCDF file to write")
+    parser.add_argument("--days", type=float, default=40.0)
+    args = parser.parse_args(argv)
+    print(write_example(args.output, days=args.days))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+"""FTLE of fixed-time maps against closed forms and an independent scipy flow map.
+
+- The linear saddle x' = lam x, y' = -lam y: its flow map is linear, F = diag(e^(lam T), e^(-lam T))
+  (closed form), so differences over any grid are exact and the FTLE is lam forward and backward.
+- The double gyre of Shadden, Lekien & Marsden (2005): at a few grid points the FTLE from scipy's
+  DOP853 (rtol 1e-12) flow map, differenced over the same neighbours and its Cauchy-Green
+  eigenvalue from numpy.linalg.eigvalsh (no ldpipe code).
+"""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from ldpipe.config import validate_config
+from ldpipe.errors import ConfigError
+from ldpipe.ftle import complete_neighbourhood, ftle
+from ldpipe.io.datafile import open_stage_file
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
+from ldpipe.stages.parameters import parameters_from_config
+from support.double_gyre import DOUBLE_GYRE, double_gyre_field
+
+LAM = 0.8  # the linear saddle of tests/engine/test_vector_field.py (same kernel: its engine is compiled once)
+SYSTEMS = {
+    "linear_saddle": {"vector_field": {"x": "lam*x", "y": "-lam*y"}, "coordinates": ["x", "y"],
+                      "parameters": {"lam": LAM}},
+    "double_gyre": DOUBLE_GYRE,
+}
+SADDLE_MAP = {
+    "system": "linear_saddle",
+    "section": {"axes": [{"name": "x", "range": [-0.5, 0.5], "points": 7}, {"name": "y", "range": [-0.4, 0.6], "points": 6}]},
+    "tau": 2.5, "p": 0.5, "integrator": {"rtol": 1e-12, "atol": 1e-12}, "ftle": True,
+}
+
+
+def config(name: str, spec: dict):
+    return validate_config({"systems": copy.deepcopy(SYSTEMS), "ld_maps": {name: copy.deepcopy(spec)}})
+
+
+def test_linear_saddle_ftle_is_its_eigenvalue(tmp_path):
+    # closed form: FTLE = ln(e^(2 lam T)) / (2 T) = lam, both directions, every grid point (edges too:
+    # the one-sided differences are exact on a linear map). Tiled and gathered: the same.
+    parameters = parameters_from_config(config("m", {**SADDLE_MAP, "tiles": 2}), "ld", "m")
+    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
+             for k in range(2)]
+    dataset = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+    for label in ("forward", "backward"):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        # measured relative error 3.2e-13 (the integrator's rtol 1e-12)
+        np.testing.assert_allclose(dataset[f"ftle_{label}"].values, LAM, rtol=2e-12, err_msg=label)
+    # the flow map is kept: x e^(lam T) forward (closed form)
+    x = dataset.x.values[:, None]
+    np.testing.assert_allclose(dataset.end_x_forward.values, x * math.exp(LAM * 2.5) + 0 * dataset.y.values, rtol=1e-11)
+    whole = compute_ld_map(parameters_from_config(config("m", SADDLE_MAP), "ld", "m"), None, show_progress=False)
+    np.testing.assert_array_equal(whole.ftle_forward.values, dataset.ftle_forward.values)
+
+
+def test_map_without_ftle_has_no_flow_map():
+    spec = {k: v for k, v in SADDLE_MAP.items() if k != "ftle"}
+    dataset = compute_ld_map(parameters_from_config(config("m", spec), "ld", "m"), None, show_progress=False)
+    assert not any(name.startswith(("ftle", "end_")) for name in dataset.data_vars)
+
+
+def test_ftle_needs_a_fixed_time_map():
+    spec = {**SADDLE_MAP, "time": "variable", "region": {"x": [-1, 1], "y": [-1, 1]}}
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle"):
+        config("m", spec)
+
+
+def _scipy_ftle(x, y, hx, hy, t0, tau, direction):
+    """Central differences of scipy's flow map over the four neighbours, then eigvalsh of C."""
+    def end(a, b):
+        sol = solve_ivp(double_gyre_field, (t0, t0 + direction * tau), [a, b], method="DOP853", rtol=1e-12, atol=1e-12)
+        return sol.y[:, -1]
+    j = np.column_stack([(end(x + hx, y) - end(x - hx, y)) / (2 * hx), (end(x, y + hy) - end(x, y - hy)) / (2 * hy)])
+    return math.log(np.linalg.eigvalsh(j.T @ j)[-1]) / (2 * tau)
+
+
+def test_double_gyre_ftle_matches_scipy_flow_map():
+    spec = {"system": "double_gyre", "t0": 0.0,
+            "section": {"axes": [{"name": "x", "range": [0.0, 2.0], "points": 21},
+                                 {"name": "y", "range": [0.0, 1.0], "points": 11}]},
+            "tau": 10.0, "p": 0.5, "integrator": {"rtol": 1e-12, "atol": 1e-12}, "ftle": True}
+    dataset = compute_ld_map(parameters_from_config(config("g", spec), "ld", "g"), None, show_progress=False)
+    hx, hy = 0.1, 0.1
+    for i, k in ((5, 5), (10, 3), (14, 7)):
+        x, y = float(dataset.x[i]), float(dataset.y[k])
+        for label, direction in (("forward", 1), ("backward", -1)):
+            expected = _scipy_ftle(x, y, hx, hy, 0.0, 10.0, direction)
+            assert dataset[f"ftle_defined_{label}"].values[i, k]
+            # measured agreement 1.4e-13 (both integrators at rtol 1e-12)
+            assert dataset[f"ftle_{label}"].values[i, k] == pytest.approx(expected, abs=1e-12), (label, i, k)
+
+
+def test_undefined_where_a_neighbour_stopped_early():
+    # a 5 x 5 grid with the centre's trajectory stopped: its four neighbours along the axes and itself
+    # (their differences read it) and the edge points whose one-sided differences reach it are undefined
+    complete = np.ones((5, 5), dtype=bool)
+    complete[2, 2] = False
+    defined = complete_neighbourhood(complete)
+    expected = np.ones((5, 5), dtype=bool)
+    expected[1:4, 2] = False
+    expected[2, 1:4] = False
+    expected[0, 2] = expected[4, 2] = expected[2, 0] = expected[2, 4] = False
+    np.testing.assert_array_equal(defined, expected)
+    values, ok = ftle(np.zeros((5, 5, 2)), (np.arange(5.0), np.arange(5.0)), 1.0, complete)
+    assert not ok.any() and not values.any()  # a collapsed map has no positive stretching: undefined
+
+
+def test_grid_ftle_converges_to_the_variational_ftle():
+    # The exact gradient (variational equations along each trajectory, scipy) is what the grid's
+    # central differences approximate to second order in the spacing: their error must fall at slope 2.
+    from ldpipe.engine import LDSettings, compute_ld
+    from ldpipe.ftle import variational_ftle
+    from ldpipe.systems import make_system
+
+    system = make_system("double_gyre", DOUBLE_GYRE)
+    points = np.array([[0.5, 0.5], [1.0, 0.3], [1.4, 0.7]])
+    tau, t0 = 10.0, 0.0
+    exact = variational_ftle(system, points, (0, 1), t0, tau)
+    spacings, errors = [0.02, 0.01, 0.005], []
+    settings = LDSettings(tau=tau, p=0.5, rtol=1e-12, atol=1e-12)
+    for h in spacings:
+        offsets = np.array([(a, b) for a in (-h, 0.0, h) for b in (-h, 0.0, h)])
+        stencils = (points[:, None, :] + offsets[None]).reshape(-1, 2)
+        ends = compute_ld(system, stencils, 1, settings, t0=t0).end_state.reshape(len(points), 3, 3, 2)
+        values = [ftle(end, (np.array([-h, 0.0, h]), np.array([-h, 0.0, h])), tau, np.ones((3, 3), bool))[0][1, 1]
+                  for end in ends]
+        errors.append(np.max(np.abs(np.array(values) - exact)))
+    slope = np.polyfit(np.log(spacings), np.log(errors), 1)[0]
+    # measured: errors 3.3e-3, 8.4e-4, 2.1e-4, slope 1.98
+    assert 1.7 < slope < 2.3, errors
