@@ -93,3 +93,30 @@ def test_kernel_source_may_not_shadow_engine_names(barbanis):
                              mass_matrix=None)
     with pytest.raises(ValueError, match="LANES"):
         engine_source(system, "dop853", 8)
+
+
+# A generated module of one small function, compiled by ldpipe.jitcache in a child process.
+LOGGED_CHILD = """
+from ldpipe.jitcache import njit_functions
+
+(double,) = njit_functions("def double(x):\\n    return 2.0 * x\\n", ("double",), "compile_log_check")
+print(double(1.5))
+"""
+
+
+def test_compile_log_records_compiles_and_loads(tmp_path):
+    # Invariant of numba's cache: the first process compiles the function (one compile line with
+    # its times), the second loads it from the disk cache (a load line and no compile line).
+    log = tmp_path / "compiles.jsonl"
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
+    for _ in range(2):
+        child = subprocess.run([sys.executable, "-c", LOGGED_CHILD], env=env, capture_output=True, text=True, timeout=300)
+        assert child.returncode == 0 and child.stdout.strip() == "3.0", child.stderr
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    first, second = sorted({r["pid"] for r in records}, key=[r["pid"] for r in records].index)
+    events = {pid: [(r["event"], r.get("function")) for r in records if r["pid"] == pid] for pid in (first, second)}
+    assert events[first] == [("load", None), ("compile", "double")]
+    assert events[second] == [("load", None)]
+    compiled = next(r for r in records if r["event"] == "compile")
+    assert compiled["module"].startswith("ldpipe_generated_compile_log_check_")
+    assert compiled["wall_s"] > 0 and compiled["cpu_s"] > 0
