@@ -31,6 +31,8 @@ import numba
 from numba.core import event
 
 _LOCK = threading.Lock()
+# The module name of each (cache directory, hash of a source) loaded by this process.
+_NAMES: dict[tuple[Path, str], str] = {}
 GENERATED_PREFIX = "ldpipe_generated_"
 COMPILE_LOG_VARIABLE = "LDPIPE_COMPILE_LOG"
 
@@ -48,13 +50,19 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
 
     The numba version is part of the hash, so an upgrade never meets an old cache. ``prefix``
     (e.g. a system's name) starts the file name, its non-word characters replaced by ``_``.
+    The same text under another prefix (two names for one system: the same kernels, the same
+    engine) reuses the file already there, and with it numba's compiled code.
     """
     digest = hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:20]
-    name = GENERATED_PREFIX + re.sub(r"\W", "_", prefix) + f"_{digest}"
     with _LOCK:
+        directory = cache_directory()
+        name = _NAMES.get((directory, digest))
+        if name is None:
+            existing = sorted(directory.glob(f"{GENERATED_PREFIX}*_{digest}.py"))
+            name = existing[0].stem if existing else GENERATED_PREFIX + re.sub(r"\W", "_", prefix) + f"_{digest}"
+            _NAMES[directory, digest] = name
         if name in sys.modules:
             return sys.modules[name]
-        directory = cache_directory()
         directory.mkdir(parents=True, exist_ok=True)
         path = directory / f"{name}.py"
         if not path.is_file() or path.read_text() != source:
