@@ -39,6 +39,9 @@ from support.barbanis import E_C, escaping_states
 from support.closed_forms import STATES, WX, WY, oscillator_ld
 from support.scipy_reference import m1_and_arclength
 
+# Taylor engines of its own orders and systems (see the module docstring).
+pytestmark = pytest.mark.compiles
+
 FORMULA_ORDER = 14  # the oscillator and the quartic system
 BARBANIS_ORDER = 13  # = LDSettings(scheme="taylor", rtol=1e-12, p=0.5).order
 RESULT_FIELDS = ("ld", "time", "energy_error", "steps")
