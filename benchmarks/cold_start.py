@@ -42,20 +42,12 @@ import time
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
+from ldpipe.accuracy import cpu_model
+
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 WORKFLOW_FILES = ("Snakefile", "config.yaml", "config.quick.yaml")
 WORKFLOW_FOLDERS = ("workflow", "profiles")
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def load_average() -> str:
