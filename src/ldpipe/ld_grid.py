@@ -40,6 +40,22 @@ def tile_rows(rows: int, tile: int, tiles: int) -> slice:
     return slice(rows * tile // tiles, rows * (tile + 1) // tiles)
 
 
+def ld_map_settings(parameters: dict, lower=None, upper=None) -> LDSettings:
+    """The engine settings of an LD map's parameters, ``lower`` and ``upper`` its region box (None: fixed time).
+
+    The scheme, block size and order they give (what the map's engine module is compiled for)
+    need no saddle, so the workflow can name a map's engine modules before any stage has run.
+    """
+    try:
+        return LDSettings.from_parts(
+            IntegratorSettings.from_config(parameters["integrator"]),
+            DescriptorSettings(p=parameters["p"], quad_nodes=parameters.get("quad_nodes")),
+            StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
+        )
+    except ValueError as error:
+        raise ConfigError(f"config key 'ld_maps.{parameters['map_name']}': {error}") from None
+
+
 def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy: float | None) -> tuple:
     """What an LD map's recorded parameters describe: ``(system, section, settings, info)``.
 
@@ -80,14 +96,7 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
         upper = [region[c][1] for c in system.coordinates]
     else:
         lower = upper = None
-    try:
-        settings = LDSettings.from_parts(
-            IntegratorSettings.from_config(parameters["integrator"]),
-            DescriptorSettings(p=parameters["p"], quad_nodes=parameters.get("quad_nodes")),
-            StoppingRules(tau=parameters["tau"], region_lower=lower, region_upper=upper),
-        )
-    except ValueError as error:
-        raise ConfigError(f"config key '{key}': {error}") from None
+    settings = ld_map_settings(parameters, lower, upper)
     if not hamiltonian:
         try:
             get_scheme(settings.scheme).check_system(system)

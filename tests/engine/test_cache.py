@@ -93,3 +93,51 @@ def test_kernel_source_may_not_shadow_engine_names(barbanis):
                              mass_matrix=None)
     with pytest.raises(ValueError, match="LANES"):
         engine_source(system, "dop853", 8)
+
+
+# A generated module of one small function, compiled by ldpipe.jitcache in a child process.
+LOGGED_CHILD = """
+import sys
+
+from ldpipe.jitcache import njit_functions
+
+(double,) = njit_functions("def double(x):\\n    return 2.0 * x\\n", ("double",), sys.argv[1])
+print(double(1.5))
+"""
+
+
+def run_logged_child(env, prefix):
+    child = subprocess.run([sys.executable, "-c", LOGGED_CHILD, prefix], env=env, capture_output=True, text=True,
+                           timeout=300)
+    assert child.returncode == 0 and child.stdout.strip() == "3.0", child.stderr
+
+
+def test_compile_log_records_compiles_and_loads(tmp_path):
+    # Invariant of numba's cache: the first process compiles the function (one compile line with
+    # its times), the second loads it from the disk cache (a load line and no compile line).
+    log = tmp_path / "compiles.jsonl"
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
+    for _ in range(2):
+        run_logged_child(env, "compile_log_check")
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    first, second = sorted({r["pid"] for r in records}, key=[r["pid"] for r in records].index)
+    events = {pid: [(r["event"], r.get("function")) for r in records if r["pid"] == pid] for pid in (first, second)}
+    assert events[first] == [("load", None), ("compile", "double")]
+    assert events[second] == [("load", None)]
+    compiled = next(r for r in records if r["event"] == "compile")
+    assert compiled["module"].startswith("ldpipe_generated_compile_log_check_")
+    assert compiled["wall_s"] > 0 and compiled["cpu_s"] > 0
+
+
+def test_the_same_source_under_another_name_reuses_the_compiled_module(tmp_path):
+    # Invariant: the file is named by the hash of its text, so a second name for the same text
+    # (two names for one system) finds the first file and numba's cache beside it: one file, and
+    # the second process loads it under the first name without compiling.
+    log = tmp_path / "compiles.jsonl"
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
+    run_logged_child(env, "first_name")
+    run_logged_child(env, "second_name")
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [r["event"] for r in records] == ["load", "compile", "load"]
+    assert records[0]["module"] == records[2]["module"] and "first_name" in records[2]["module"]
+    assert len(list((tmp_path / "cache").glob("ldpipe_generated_*.py"))) == 1

@@ -26,6 +26,9 @@ from ldpipe.systems import make_system
 from support.closed_forms import massive_harmonic_ld
 from support.scipy_reference import m1_and_arclength
 
+# Eleven engines of systems with masses that no other test loads.
+pytestmark = pytest.mark.compiles
+
 STIFFNESS = (2.0, 1.5)
 MASSES = (8.0, 0.5)
 OSCILLATOR = {"formula": "(kx*x**2 + ky*y**2)/2", "coordinates": ["x", "y"], "parameters": {"kx": 2.0, "ky": 1.5},

@@ -24,6 +24,9 @@ from support.barbanis import E_C
 from support.step_integral import from_roots, mpmath_step_integral
 from support.step_rules import rule_engine, rules
 
+# Taylor engines of two orders and the Hénon–Heiles engines, which only these tests and test_ld load.
+pytestmark = pytest.mark.compiles
+
 ENERGY = 0.2  # Hénon–Heiles, above the escape energy 1/6 (as ldds's tutorial map)
 TAU = 10.0
 # Near-touch points of a 50 x 50 scan of the section x = 0 (p_x > 0) at E = 1/5, tau = 10:

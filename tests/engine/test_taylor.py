@@ -18,7 +18,8 @@ A double root of a velocity component at a step's start has its test
 tolerance removes, so the quadrature takes it as a dip (a near-touch of width 0).
 
 Engines are compiled per (system, scheme, order, lanes), ~15 s each: this file uses order 14
-for the formula systems and 13 for the Barbanis system (the default at rtol 1e-12 for |v|^p).
+for the formula systems and 13 for the Barbanis system (the default at rtol 1e-12 for |v|^p),
+and 64 lanes for every integrand.
 """
 
 from __future__ import annotations
@@ -38,13 +39,22 @@ from support.barbanis import E_C, escaping_states
 from support.closed_forms import STATES, WX, WY, oscillator_ld
 from support.scipy_reference import m1_and_arclength
 
+# Taylor engines of its own orders and systems (see the module docstring).
+pytestmark = pytest.mark.compiles
+
 FORMULA_ORDER = 14  # the oscillator and the quartic system
 BARBANIS_ORDER = 13  # = LDSettings(scheme="taylor", rtol=1e-12, p=0.5).order
 RESULT_FIELDS = ("ld", "time", "energy_error", "steps")
 
 
+# One block size for both integrands (|v|^p's default; the arc length's is 32), so the file compiles
+# one engine per system and order, not two. Lanes are independent: the block size changes no
+# result bit (the arc-length LDs here are the same bits at 32 lanes). test_taylor_formulas.py runs 32.
+LANES = 64
+
+
 def taylor(order: int, tolerance: float, **settings) -> LDSettings:
-    return LDSettings(scheme="taylor", taylor_order=order, rtol=tolerance, atol=tolerance, **settings)
+    return LDSettings(scheme="taylor", taylor_order=order, rtol=tolerance, atol=tolerance, block=LANES, **settings)
 
 
 def relative(values, reference) -> np.ndarray:

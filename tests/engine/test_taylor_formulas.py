@@ -32,6 +32,9 @@ from ldpipe.systems import make_system
 from ldpipe.testing.reference_ld import reference_ld
 from support.scipy_reference import m1_and_arclength
 
+# Nine engines no other test loads (a Taylor module per system and integrand, and dop853 per system).
+pytestmark = pytest.mark.compiles
+
 TOLERANCE = 1e-12
 TAU = 10.0
 

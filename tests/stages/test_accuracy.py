@@ -297,3 +297,26 @@ def test_error_statistics_leave_out_the_reference_escapes(barbanis):
     assert np.allclose(data.ld_error_quantile.values[0], np.quantile(kept, accuracy.QUANTILES), rtol=0, atol=0)
     kept_check = data.reference_check_error.values[~escaped]
     assert np.allclose(data.reference_check_quantile.values, np.quantile(kept_check, accuracy.QUANTILES), rtol=0, atol=0)
+
+
+def test_ladder_engines_name_each_engine_module_of_the_ladder_once():
+    # Expected from config.yaml's ladder and the Taylor order rule (Taylor.order_for: Jorba & Zou's
+    # order less two for |v|^p, the maps' p = 1/2): every tolerance of dop853 and every step of a
+    # fixed-step scheme share one module, the Taylor scheme has one per order.
+    import yaml
+
+    from ldpipe.engine.codegen import engine_name
+    from ldpipe.engine.schemes.taylor import jorba_zou_order
+    from ldpipe.ld_grid import ld_map_settings
+    from support.workflow import ROOT
+
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    validate_config(config)
+    engines = accuracy_stage.ladder_engines(parameters_from_config(config, "accuracy")["ld"])
+    orders = [jorba_zou_order(tolerance) - 2 for tolerance in (1e-6, 1e-8, 1e-10, 1e-12)]
+    assert orders == [6, 9, 11, 13]
+    variants = ["dop853", "rk4", "sym4", "sym6", *(f"taylor{order}" for order in orders)]
+    assert sorted(engines) == sorted(f"engine_barbanis_2dof_{variant}_64" for variant in variants)
+    for name, entry in engines.items():  # each job's setting compiles the module it is named after
+        settings = accuracy.IntegratorStep.from_spec(entry["setting"]).apply(ld_map_settings(entry["map"]))
+        assert engine_name(entry["map"]["system_name"], settings.scheme, settings.lanes, settings.order) == name

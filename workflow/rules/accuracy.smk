@@ -9,6 +9,7 @@ rule accuracy_cost:
     """LD error, energy drift and orbit closure against wall time, for a ladder of numerical settings."""
     input:
         equilibria=accuracy_equilibria_files,
+        engines=accuracy_engine_files,
         code=library_code("ldpipe.stages.accuracy"),
     output:
         data=f"{RESULTS}/accuracy/accuracy_cost.nc",
@@ -57,3 +58,28 @@ rule accuracy_figure:
         runtime=10,
     script:
         "../scripts/accuracy_figure.py"
+
+
+rule accuracy_engine:
+    """Compile one engine module of the LD ladder before the measurement, a job per module so the cores share them."""
+    input:
+        equilibria=accuracy_equilibria_files,
+        code=library_code("ldpipe.stages.accuracy"),
+    output:
+        f"{RESULTS}/accuracy/engines/{{engine}}.txt",
+    params:
+        stage=accuracy_engine_params,
+    wildcard_constraints:
+        engine=_one_of(accuracy_engines()),
+    log:
+        f"{RESULTS}/logs/accuracy/engines/{{engine}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/accuracy/engines/{{engine}}.tsv"
+    conda:
+        "../envs/ldpipe.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/accuracy_engine.py"

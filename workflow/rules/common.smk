@@ -317,3 +317,20 @@ def accuracy_equilibria_files(wildcards):
     from ldpipe.stages.accuracy import accuracy_systems
 
     return [f"{RESULTS}/{system}/equilibria.nc" for system in accuracy_systems(config)]
+
+
+def accuracy_engines():
+    """The LD ladder's engine modules by name, each with the map and setting that compile it (none without a ladder)."""
+    if not config.get("accuracy_cost"):
+        return {}
+    from ldpipe.stages.accuracy import ladder_engines
+
+    return ladder_engines(parameters_from_config(config, "accuracy")["ld"])
+
+
+def accuracy_engine_params(wildcards):
+    return accuracy_engines()[wildcards.engine]
+
+
+def accuracy_engine_files(wildcards):
+    return [f"{RESULTS}/accuracy/engines/{name}.txt" for name in accuracy_engines()]

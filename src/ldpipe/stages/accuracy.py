@@ -22,13 +22,14 @@ import xarray as xr
 from ..accuracy import (
     QUANTILES, CorrectorStep, IntegratorStep, compute_orbit, corrector_ladder, integrator_ladder, ld_ladder_dataset,
     load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset, sample_indices,
-    same_number,
+    same_number, warm_up,
 )
+from ..engine.codegen import engine_name
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
 from ..critical_points import select_saddle
 from ..errors import ConfigError, StageFileError
-from ..ld_grid import ld_grid_dataset
+from ..ld_grid import ld_grid_dataset, ld_map_settings
 from ..logs import get_logger
 from ..nhim_points import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
 from ..lyapunov_orbits import CorrectionFailed, linearize_saddle
@@ -387,6 +388,46 @@ def accuracy_table(data: xr.Dataset) -> str:
     if "nhim_grid" in data.dims:
         lines += _nhim_tables(data)
     return "\n".join(lines)
+
+
+def ladder_engines(ld: dict) -> dict[str, dict]:
+    """The engine modules the LD ladder runs, by name (:func:`ldpipe.engine.codegen.engine_name`), each with
+    the first map and ladder setting that needs it: ``{"map": parameters, "setting": spec}``.
+
+    Several settings share a module (the tolerances of dop853, the steps of a fixed-step scheme);
+    the Taylor scheme has one per order. Compiling them in jobs of their own
+    (:func:`run_accuracy_engine`) lets the cores share the compiles the ladder would do one by one.
+    """
+    steps = [IntegratorStep.from_spec(ld["reference"]), IntegratorStep.from_spec(ld["reference_check"]),
+             *integrator_ladder(ld["ladder"])]
+    engines = {}
+    for parameters in ld["maps"].values():
+        base = ld_map_settings(parameters)
+        for step in steps:
+            settings = step.apply(base)
+            name = engine_name(parameters["system_name"], settings.scheme, settings.lanes, settings.order)
+            spec = {"scheme": step.scheme, **{key: getattr(step, key) for key in step.record.parameters}}
+            engines.setdefault(name, {"map": parameters, "setting": spec})
+    return engines
+
+
+def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map: dict, setting: dict) -> Path:
+    """Compile (or load from the cache) the engine of ``setting`` on the LD map ``map``, and write its name to ``output``.
+
+    The LD ladder then loads it from numba's cache; the measurement is unchanged (it times after a warm-up).
+    """
+    found = _equilibria_by_system([equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
+    data = _equilibria_for(found, map["system_name"], f"accuracy_cost.ld.maps ({map['map_name']})")
+    system, section, settings, info = resolve_map(map, data)
+    settings = IntegratorStep.from_spec(setting).apply(settings)
+    states, _, _ = section_states(system, section, info["energy"])
+    warm_up(system, states, settings)
+    name = engine_name(system.name, settings.scheme, settings.lanes, settings.order)
+    log.info("engine %s ready (%s on map %s)", name, IntegratorStep.from_spec(setting).label, map["map_name"])
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    output.write_text(f"{name}: {IntegratorStep.from_spec(setting).label} on map {map['map_name']}\n")
+    return output
 
 
 def run_accuracy_cost(

@@ -151,8 +151,14 @@ def engine_source(system, scheme: str, lanes: int, order: int | None = None, ent
     return assemble(system, title, KERNELS, constants, bodies)
 
 
-def load_engine(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> types.ModuleType:
-    """Import the generated engine module (compiled lazily, on first call, or loaded from disk)."""
+def engine_name(system_name: str, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> str:
+    """What an engine module is compiled for, e.g. ``engine_barbanis_2dof_taylor13_64``: its file name's start."""
     variant = scheme if order is None else f"{scheme}{order}"
     kind = "engine" if entry == "process" else "flow"
-    return load_generated_module(engine_source(system, scheme, lanes, order, entry), f"{kind}_{system.name}_{variant}_{lanes}")
+    return f"{kind}_{system_name}_{variant}_{lanes}"
+
+
+def load_engine(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> types.ModuleType:
+    """Import the generated engine module (compiled lazily, on first call, or loaded from disk)."""
+    return load_generated_module(engine_source(system, scheme, lanes, order, entry),
+                                 engine_name(system.name, scheme, lanes, order, entry))
