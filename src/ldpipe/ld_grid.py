@@ -24,6 +24,8 @@ from .systems import System, make_system
 log = get_logger(__name__)
 # Points per engine call: small enough for steady progress, large enough to keep every core busy.
 CHUNK = 1 << 15
+#: The per-direction result fields an LD map holds (``fields`` of :func:`ld_map_dataset`: NAME_forward, NAME_backward).
+MAP_FIELDS = ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")
 
 
 def tile_rows(rows: int, tile: int, tiles: int) -> slice:
@@ -93,8 +95,10 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
     return system, section, settings, info
 
 
-def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None,
-               t0: float = 0.0):
+def integrate_points(system: System, states: np.ndarray, direction: int, settings: LDSettings,
+                     progress: tqdm | None = None, t0: float = 0.0):
+    """:func:`ldpipe.engine.compute_ld` of ``states`` in calls of at most :data:`CHUNK` points (each
+    trajectory on its own, so the result does not depend on the chunks), updating ``progress``."""
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
@@ -127,7 +131,6 @@ def ld_grid_dataset(
     the start time ``t0``, and the file has no energy error and no solved coordinate.
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
-    first = section.axis_values()[0][rows]
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
     fields: dict[str, np.ndarray] = {}
@@ -136,12 +139,20 @@ def ld_grid_dataset(
                     mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
         for direction, label in ((1, "forward"), (-1, "backward")):
-            result = _integrate(system, states, direction, settings, progress, t0)
-            for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed"):
+            result = integrate_points(system, states, direction, settings, progress, t0)
+            for name in MAP_FIELDS:
                 values = getattr(result, name)
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
+    return ld_map_dataset(system, section, fields, allowed, solved, rows)
+
+
+def ld_map_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,
+                   solved: np.ndarray | None, rows: slice) -> xr.Dataset:
+    """The LD map's Dataset from its per-direction fields on the grid (the band ``rows`` of it):
+    ``fields`` maps NAME_forward, NAME_backward (NAME in :data:`MAP_FIELDS`) to arrays of the band's shape."""
+    first = section.axis_values()[0][rows]
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
     variables = {

@@ -19,6 +19,7 @@ from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters,
 from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
 from ..equilibria import select_saddle
+from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
 from ..ld_grid import gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
 from .parameters import parameters_from_config
@@ -121,8 +122,13 @@ def compute_ld_map(
         parameters["map_name"], tile + 1, tiles, rows.start, rows.stop, section.shape[0], system.name,
         where, settings.tau, parameters["time"], settings.scheme,
     )
-    dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                              t0=info["t0"])
+    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.ld_adaptive)
+        refine = RefineSettings.from_config(parameters["refine"])
+        dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
+                                      show_progress=show_progress, t0=info["t0"])
+    else:
+        dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
+                                  t0=info["t0"])
     dataset.attrs.update(_attributes(parameters, settings, info))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
@@ -177,6 +183,8 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
+    if "refine_trajectories" in joined.attrs:  # an adaptive map: every tile's trajectories
+        joined.attrs["refine_trajectories"] = sum(int(d.attrs["refine_trajectories"]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})

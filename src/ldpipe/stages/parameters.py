@@ -90,6 +90,14 @@ def _equilibria(config: dict, system_name: str, entry: dict) -> dict:
     }
 
 
+def _base_map(config: dict, name: str) -> dict:
+    """A map's parameters as another stage uses them: its section, energy and settings, without how
+    its own grid is sampled (``refine``), so that making a map adaptive reruns only the map."""
+    parameters = parameters_from_config(config, "ld", name)
+    parameters.pop("refine", None)
+    return parameters
+
+
 def _refinement(config: dict) -> dict:
     """``nhim.refinement`` without ``zoom`` (the NHIM study's alone), for the other stages that refine NHIM points."""
     return {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"}
@@ -100,7 +108,7 @@ def _nhim_study(config: dict, study: str, entry: dict) -> dict:
                   "references": entry.get("reference", [])}
     if "derived" in entry:
         derived = entry["derived"]
-        base = parameters_from_config(config, "ld", derived["base_map"])
+        base = _base_map(config, derived["base_map"])
         points = _capped(derived["points"], config)
         slices = []
         for coordinate, values in derived["fixed"].items():
@@ -127,12 +135,12 @@ def _odd(points: int) -> int:
 def _nhim_orbits(config: dict, study: str, entry: dict) -> dict:
     base = entry.pop("base_map")
     points = _odd(_capped(entry["points"], config)) if config.get("max_grid_points") else entry["points"]
-    return {"study": study, "base_map": parameters_from_config(config, "ld", base), "refinement": _refinement(config),
+    return {"study": study, "base_map": _base_map(config, base), "refinement": _refinement(config),
             **entry, "points": points}
 
 
 def _nhim_sampling(config: dict, study: str, entry: dict) -> dict:
-    base_map = parameters_from_config(config, "ld", entry["base_map"])
+    base_map = _base_map(config, entry["base_map"])
     # The map's own grid is never computed here; the whole window is searched on seed_points^2, so
     # that stands in for it (and the map's resolution, or a quick run's cap, does not rerun the study).
     for axis in base_map["section"]["axes"]:
@@ -165,14 +173,14 @@ def _accuracy(config: dict, _: None, entry: dict) -> dict:
     """Each sampled map's full parameters (as the ld stage gets them, grid cap applied) and the
     orbit family's are included, so that changing any of them reruns the measurement."""
     ld, orbit, nhim = entry["ld"], entry["upo"], entry["nhim"]
-    maps = {name: parameters_from_config(config, "ld", name) for name in ld.pop("maps")}
+    maps = {name: _base_map(config, name) for name in ld.pop("maps")}
     family = orbit.pop("family")
     nhim_map = nhim.pop("map")
     return {
         "ld": {**ld, "maps": maps},
         "upo": {**orbit, "family": parameters_from_config(config, "upo", family) if family else None},
         "nhim": {
-            **nhim, "map": parameters_from_config(config, "ld", nhim_map) if nhim_map else None,
+            **nhim, "map": _base_map(config, nhim_map) if nhim_map else None,
             "refinement": _refinement(config),
         },
     }
