@@ -2,7 +2,7 @@
 
 An LD map is smooth almost everywhere; its information sits on curves (the singular features
 along the stable and unstable manifolds, the boundaries between fates). The refinement works on
-the map's own pixel grid, so every value it integrates is exactly the full map's value there:
+the map's own pixel grid, so every value it integrates is the full map's trajectory at that pixel:
 
 1. *Coarse lattice*: every ``coarse_spacing``-th row and column of the grid (and the last
    ones). Its cells are the rectangles between neighbouring lattice lines.
@@ -11,17 +11,23 @@ the map's own pixel grid, so every value it integrates is exactly the full map's
 3. *Criterion*: a cell is subdivided (into those four children, one level down) where its
    corners and test points differ in *fate* (energetically forbidden; escaped; failed; the face
    of the saddle region the trajectory left by, or none: ran to tau; each direction), or where
-   a test point's ``ld_forward`` or ``ld_backward`` differs from the bilinear interpolant of the
-   corners by more than ``tolerance`` times that field's *value range* (max - min over the
-   allowed pixels of the whole map's coarse lattice, so every tile of a map uses the same
-   bound). A cell that is all forbidden corners and test points but holds an allowed pixel is
-   subdivided too (the allowed region is known at every pixel without integrating).
-   A cell is never accepted on an interpolated value: its test points are trajectories.
-4. An accepted cell's four children are filled by bilinear interpolation of their corners
+   a test point's ``ld_forward`` or ``ld_backward`` differs from the cell's interpolant by more
+   than ``tolerance`` times that field's *value range* (max - min over the allowed pixels of
+   the whole map's coarse lattice, so every tile of a map uses the same bound). A cell whose
+   sampled points are all forbidden but which holds an allowed pixel is subdivided too (the
+   allowed region is known at every pixel without integrating). A cell is never accepted on an
+   interpolated value: its test points are trajectories.
+4. The interpolant is bilinear in the corners plus a slope times the *solved coordinate's*
+   departure from its own bilinear interpolant (the slope fitted to the five test points by
+   least squares, the residuals then checked against the tolerance). The solved momentum is a
+   square root of the energy left, so near the boundary of the allowed region the LD, a smooth
+   function of the full initial state, goes as the root too; the slope term carries that part,
+   known at every pixel without integrating, and bilinear carries the smooth rest.
+5. An accepted cell's four children are filled with that interpolant from their corners
    (computed pixels keep their values; smaller cells are filled after larger ones, so a shared
-   edge takes the finer interpolant). Subdivision goes down to cells whose pixels are all
-   computed, or to ``max_level`` halvings, below which a failing cell is integrated pixel by
-   pixel: the map is never coarser than the criterion asks.
+   edge takes the finer one). Subdivision goes down to cells whose pixels are all computed, or
+   to ``max_level`` halvings, below which a failing cell is integrated pixel by pixel: the map
+   is never coarser than the criterion asks.
 
 All the new points of one level are integrated together (one batch of engine calls per
 direction, as a full map's tile is), so the engine's lanes stay full and every thread busy.
@@ -32,11 +38,15 @@ a fate region that contains a square of that side in pixels (e.g. a band at leas
 ``coarse_spacing / 2`` pixels wide along a grid axis) always holds a sample of its own fate, and
 its cell is subdivided; a narrower one is found when it crosses a sample or moves a test point's
 LD by more than the tolerance (the LD's cusp along a manifold is wide in value even where the
-fate switch is thin). ``tests/stages/test_ld_adaptive.py`` measures the bound on a band of each
-width; choose ``coarse_spacing`` at most twice the narrowest fate feature, in pixels.
+fate switch is thin). ``tests/stages/test_ld_adaptive.py`` checks the bound on bands of every
+offset, and that it is sharp; choose ``coarse_spacing`` at most twice the narrowest fate
+feature, in pixels.
 
 Cells are global (the lattice of the whole map), so a tile (a band of rows) refines the cells
-that reach into its rows, whole, and gives the same bits as the untiled map; a rerun, the same.
+that reach into its rows, whole, and a rerun gives the same bits. The engine's LD of a
+trajectory can depend on the other trajectories of its batch in the last bit or two (measured:
+3 of 200,000 Barbanis trajectories when the batch is permuted); a computed pixel then differs
+from the full map's by that much, and a tiled map from the untiled one likewise.
 """
 
 from __future__ import annotations
@@ -279,25 +289,31 @@ def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarr
         cell, pi, pj = np.nonzero(allowed[rows, cols] & ~computed[rows, cols])
         if not cell.size:
             continue
-        rows, cols = rows[cell, pi, pj], cols[cell, pi, pj]
+        width = allowed.shape[1]
+        target = rows[cell, pi, pj] * width + cols[cell, pi, pj]
         a, b = pi / max(h, 1), pj / max(w, 1)
+        # The bilinear weights, formed as bilinear() forms them, so the values are the same bits.
+        weights = ((1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b)
         cell = chosen[cell]
-        ends = ((i0[cell], j0[cell]), (i1[cell], j0[cell]), (i0[cell], j1[cell]), (i1[cell], j1[cell]))
+        ends = [i0[cell] * width + j0[cell], i1[cell] * width + j0[cell], i0[cell] * width + j1[cell],
+                i1[cell] * width + j1[cell]]
 
-        def corners(field):
-            return (field[r, c] for r, c in ends)
+        def interpolate(flat):
+            c = [flat[e] for e in ends]
+            return weights[0] * c[0] + weights[1] * c[1] + weights[2] * c[2] + weights[3] * c[3]
 
-        departure = regressor[rows, cols] - bilinear(a, b, *corners(regressor))
+        departure = regressor.ravel()[target] - interpolate(regressor.ravel())
         for name, field in fields.items():
+            flat = field.reshape(-1)
             if field.dtype == np.bool_:
-                values = next(corners(field))
-            else:
-                values = bilinear(a, b, *corners(field))
-                if name in slope_of:
-                    values = values + slope_of[name][cell] * departure
-                if np.issubdtype(field.dtype, np.integer):
-                    values = np.rint(values)
-            field[rows, cols] = values.astype(field.dtype)
+                flat[target] = flat[ends[0]]
+                continue
+            values = interpolate(flat)
+            if name in slope_of:
+                values = values + slope_of[name][cell] * departure
+            if np.issubdtype(field.dtype, np.integer):
+                values = np.rint(values)
+            flat[target] = values.astype(field.dtype)
 
 
 def fate_codes(result) -> np.ndarray:

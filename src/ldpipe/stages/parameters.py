@@ -74,9 +74,12 @@ def _capped(points: int, config: dict) -> int:
     return min(points, cap) if cap else points
 
 
-def _cap_map_grid(config: dict, entry: dict) -> None:
+def _map_entry(config: dict, entry: dict) -> None:
+    """An ld_maps entry as the stage takes it: the grid under the cap, a null refine block dropped."""
     for axis in entry["section"]["axes"]:
         axis["points"] = _capped(axis["points"], config)
+    if entry.get("refine", False) is None:  # a full map, as if the block were left out
+        del entry["refine"]
 
 
 def _equilibria(config: dict, system_name: str, entry: dict) -> dict:
@@ -189,7 +192,7 @@ def _accuracy(config: dict, _: None, entry: dict) -> dict:
 #: How each stage's parameters come from the configuration, by stage module (``ldpipe.stages.NAME``).
 STAGES: dict[str, StageEntries] = {
     "equilibria": StageEntries(("systems",), "system_name", build=_equilibria),
-    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles",), adjust=_cap_map_grid),
+    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles",), adjust=_map_entry),
     "upo": StageEntries(("periodic_orbits",), "family"),
     "manifolds": StageEntries(("manifolds",), "name", system_via="orbits"),
     "poincare": StageEntries(("poincare_sections",), "name"),
