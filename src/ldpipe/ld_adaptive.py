@@ -54,6 +54,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
+import functools
 import sys
 
 import numpy as np
@@ -61,6 +62,7 @@ import xarray as xr
 from tqdm import tqdm
 
 from .engine import LDSettings
+from .jitcache import njit_functions
 from .ld_grid import MAP_FIELDS, integrate_points, ld_map_dataset
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
@@ -276,44 +278,16 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
 
 def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarray, regressor: np.ndarray,
           i0, i1, j0, j1, *slopes) -> None:
-    """Fill the allowed, not computed pixels of each cell by bilinear interpolation of its corners,
-    the VALUE_FIELDS with their parent's slope on the regressor's departure from bilinear (flags,
-    uniform over an accepted cell's fate, from a corner; step counts rounded)."""
+    """Fill the allowed, not computed pixels of each cell, in order, with the interpolant of its
+    corners: bilinear, plus for the VALUE_FIELDS their parent's slope times the regressor's
+    departure from bilinear (flags, uniform over an accepted cell's fate, from a corner; step
+    counts rounded)."""
     slope_of = dict(zip(VALUE_FIELDS, slopes))
-    sizes = np.stack([i1 - i0, j1 - j0], axis=1)
-    for h, w in np.unique(sizes, axis=0):
-        chosen = np.flatnonzero((sizes[:, 0] == h) & (sizes[:, 1] == w))
-        di, dj = np.mgrid[0 : h + 1, 0 : w + 1]
-        rows = i0[chosen][:, None, None] + di
-        cols = j0[chosen][:, None, None] + dj
-        cell, pi, pj = np.nonzero(allowed[rows, cols] & ~computed[rows, cols])
-        if not cell.size:
-            continue
-        width = allowed.shape[1]
-        target = rows[cell, pi, pj] * width + cols[cell, pi, pj]
-        a, b = pi / max(h, 1), pj / max(w, 1)
-        # The bilinear weights, formed as bilinear() forms them, so the values are the same bits.
-        weights = ((1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b)
-        cell = chosen[cell]
-        ends = [i0[cell] * width + j0[cell], i1[cell] * width + j0[cell], i0[cell] * width + j1[cell],
-                i1[cell] * width + j1[cell]]
-
-        def interpolate(flat):
-            c = [flat[e] for e in ends]
-            return weights[0] * c[0] + weights[1] * c[1] + weights[2] * c[2] + weights[3] * c[3]
-
-        departure = regressor.ravel()[target] - interpolate(regressor.ravel())
-        for name, field in fields.items():
-            flat = field.reshape(-1)
-            if field.dtype == np.bool_:
-                flat[target] = flat[ends[0]]
-                continue
-            values = interpolate(flat)
-            if name in slope_of:
-                values = values + slope_of[name][cell] * departure
-            if np.issubdtype(field.dtype, np.integer):
-                values = np.rint(values)
-            flat[target] = values.astype(field.dtype)
+    no_slope = np.zeros(len(i0))
+    kernel = _fill_kernel()
+    for name, field in fields.items():
+        mode = 2 if field.dtype == np.bool_ else 1 if np.issubdtype(field.dtype, np.integer) else 0
+        kernel(field, allowed, computed, regressor, i0, i1, j0, j1, slope_of.get(name, no_slope), mode)
 
 
 def fate_codes(result) -> np.ndarray:
@@ -378,3 +352,39 @@ def adaptive_ld_dataset(
     dataset.attrs.update(refine.attributes())
     dataset.attrs["refine_trajectories"] = count[0]
     return dataset
+
+
+#: The fill, compiled once (numba's disk cache): per pixel of each cell, the weighted corners (the
+#: weights and sums in the order :func:`bilinear` forms them) plus slope times departure; rounded
+#: for a count (mode 1), a corner's flag (mode 2).
+_FILL_SOURCE = """
+import numpy as np
+
+
+def fill_cells(field, allowed, computed, regressor, i0, i1, j0, j1, slope, mode):
+    for c in range(i0.shape[0]):
+        a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
+        h, w = max(a1 - a0, 1), max(b1 - b0, 1)
+        f00, f10, f01, f11 = field[a0, b0], field[a1, b0], field[a0, b1], field[a1, b1]
+        q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
+        for i in range(a0, a1 + 1):
+            for j in range(b0, b1 + 1):
+                if computed[i, j] or not allowed[i, j]:
+                    continue
+                if mode == 2:
+                    field[i, j] = f00
+                    continue
+                a = (i - a0) / h
+                b = (j - b0) / w
+                w00, w10, w01, w11 = (1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b
+                value = w00 * f00 + w10 * f10 + w01 * f01 + w11 * f11
+                departure = regressor[i, j] - (w00 * q00 + w10 * q10 + w01 * q01 + w11 * q11)
+                value = value + slope[c] * departure
+                if mode == 1:
+                    value = np.rint(value)
+                field[i, j] = value
+"""
+
+@functools.cache
+def _fill_kernel():
+    return njit_functions(_FILL_SOURCE, ("fill_cells",), "ld_adaptive_fill")[0]
