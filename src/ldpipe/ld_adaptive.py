@@ -251,6 +251,10 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         q_corners = (regressor[i0, j0], regressor[i1, j0], regressor[i0, j1], regressor[i1, j1])
         q = np.stack([regressor[ti, tj] - bilinear(a, b, *q_corners) for (ti, tj), (a, b) in zip(tests, fractions)])
         qq = np.sum(q * q, axis=0)
+        # The slope only where the test points saw the regressor's largest departure in the cell (to a
+        # factor 2): never extrapolated to pixels where it bends more sharply (the energy boundary).
+        seen = _kernels()[1](regressor, allowed, i0, i1, j0, j1) <= 2 * np.max(np.abs(q), axis=0)
+        qq = np.where(seen, qq, 0.0)
         slopes = {}
         for name in VALUE_FIELDS:
             field = fields[name]
@@ -284,7 +288,7 @@ def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarr
     counts rounded)."""
     slope_of = dict(zip(VALUE_FIELDS, slopes))
     no_slope = np.zeros(len(i0))
-    kernel = _fill_kernel()
+    kernel = _kernels()[0]
     for name, field in fields.items():
         mode = 2 if field.dtype == np.bool_ else 1 if np.issubdtype(field.dtype, np.integer) else 0
         kernel(field, allowed, computed, regressor, i0, i1, j0, j1, slope_of.get(name, no_slope), mode)
@@ -354,10 +358,12 @@ def adaptive_ld_dataset(
     return dataset
 
 
-#: The fill, compiled once (numba's disk cache): per pixel of each cell, the weighted corners (the
-#: weights and sums in the order :func:`bilinear` forms them) plus slope times departure; rounded
-#: for a count (mode 1), a corner's flag (mode 2).
-_FILL_SOURCE = """
+#: The loops over every pixel of many cells, compiled once (numba's disk cache). ``fill_cells``: per
+#: pixel, the weighted corners (the weights and sums in the order :func:`bilinear` forms them) plus
+#: slope times departure; rounded for a count (mode 1), a corner's flag (mode 2).
+#: ``largest_departure``: per cell, the largest |regressor - its bilinear interpolant| over its
+#: allowed pixels.
+_CELL_LOOPS = """
 import numpy as np
 
 
@@ -383,8 +389,24 @@ def fill_cells(field, allowed, computed, regressor, i0, i1, j0, j1, slope, mode)
                 if mode == 1:
                     value = np.rint(value)
                 field[i, j] = value
+
+
+def largest_departure(regressor, allowed, i0, i1, j0, j1):
+    out = np.zeros(i0.shape[0])
+    for c in range(i0.shape[0]):
+        a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
+        h, w = max(a1 - a0, 1), max(b1 - b0, 1)
+        q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
+        for i in range(a0, a1 + 1):
+            for j in range(b0, b1 + 1):
+                if allowed[i, j]:
+                    a = (i - a0) / h
+                    b = (j - b0) / w
+                    guess = (1 - a) * (1 - b) * q00 + a * (1 - b) * q10 + (1 - a) * b * q01 + a * b * q11
+                    out[c] = max(out[c], abs(regressor[i, j] - guess))
+    return out
 """
 
 @functools.cache
-def _fill_kernel():
-    return njit_functions(_FILL_SOURCE, ("fill_cells",), "ld_adaptive_fill")[0]
+def _kernels():
+    return njit_functions(_CELL_LOOPS, ("fill_cells", "largest_departure"), "ld_adaptive")
