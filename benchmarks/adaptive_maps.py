@@ -13,6 +13,7 @@ timed (wall and process CPU, after a small warm-up map so that compiling is excl
   the full field's max - min), forward and backward, and the worst pixel; the figure's colour
   level (total LD, the figure's percentile limits [5, 99.9] of each map, viridis' 256 levels):
   the fraction of pixels within one level of the full map's figure;
+* the NHIM stage's detection (variable-time maps): the grid point it picks on each map;
 * whole-map throughput, allowed pixels per CPU-second, adaptive and full, and (2 DoF Barbanis
   only) the flattened solve_ivp approach (benchmarks/alternatives.py, RK45 at the map's rtol,
   fixed time tau: it cannot stop a trajectory at the region's exit) on a sample of the panel's
@@ -144,6 +145,14 @@ def measure(config: dict, name: str, args, equilibria) -> dict:
     record["wall_ratio"] = wall["full"] / wall["adaptive"]
     record["wall_ratios_each_run"] = [f / a for f, a in zip(record["wall_s"]["full"], record["wall_s"]["adaptive"])]
     record["pixels_per_cpu_s"] = {k: allowed / cpu[k] for k in cpu}
+    if parameters["time"] == "variable":  # the NHIM stage's detection, on both maps
+        from ldpipe.nhim import detect_nhim_cell
+
+        axes = tuple(full[a].values for a in full.ld_forward.dims)
+        found = [detect_nhim_cell(d.ld_forward.values, d.ld_backward.values, d.allowed.values.astype(bool), axes)
+                 for d in (full, adaptive)]
+        record["nhim_detection"] = {"full": list(found[0].index), "adaptive": list(found[1].index),
+                                    "equal": found[0].index == found[1].index}
     if args.flattened and parameters["system_name"] == "barbanis_2dof":
         record["flattened"] = flattened_throughput(parameters, full, args.flattened)
         record["throughput_vs_flattened"] = record["pixels_per_cpu_s"]["adaptive"] / record["flattened"]["pixels_per_cpu_s"]

@@ -138,6 +138,12 @@ def test_a_fate_band_half_a_coarse_cell_wide_is_always_found(spacing):
         assert band.computed[:, edges].all(), first
     missed = refine_band(allowed, 0, shape, _band_map(shape, 1, half - 1), refine)
     assert not missed.computed[:, 1:half].any()
+    # With max_level 0 the coarse cells the band crosses are integrated at every pixel, the others
+    # only at their corners and test points (the band of columns 3..3+s/2-1 crosses the first
+    # column of cells, [0, s]).
+    capped = refine_band(allowed, 0, shape, _band_map(shape, 3, half), RefineSettings(1e-3, spacing, max_level=0))
+    assert capped.computed[:, : spacing + 1].all()
+    assert capped.computed[:, spacing + 1 :].mean() < 0.25
     # An allowed region narrower than a cell (all sampled points forbidden) is found too: it is
     # known at every pixel without integrating.
     narrow = np.zeros(shape, dtype=bool)
