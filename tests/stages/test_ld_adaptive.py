@@ -218,7 +218,7 @@ def test_nhim_detection_on_the_adaptive_map_is_the_full_maps(panel):
 
 
 def test_reruns_and_tiles_give_the_same_bits(tmp_path, equilibria):
-    parameters = parameters_from_config(small_config(points=65), "ld", "m")
+    parameters = parameters_from_config(small_config(points=129), "ld", "m")
     whole = compute_ld_map(parameters, equilibria, show_progress=False)
     again = compute_ld_map(parameters, equilibria, show_progress=False)
     paths = []
