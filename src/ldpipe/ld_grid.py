@@ -3,7 +3,9 @@
 A grid of ``shape`` points is split into ``tiles`` bands of rows along the
 first axis; each tile is computed on its own (a separate Snakemake job) and
 :func:`gather_tiles` joins them. Every trajectory is integrated independently
-of the others, so the gathered grid equals the untiled one exactly.
+of the others, so the gathered grid equals the untiled one (but for the last bit
+or two of a rare LD, which can depend on the other trajectories of its engine
+batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
 """
 
 from __future__ import annotations
