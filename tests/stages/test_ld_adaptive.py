@@ -191,7 +191,7 @@ def test_the_adaptive_map_is_the_full_map_within_its_tolerance(panel):
     assert all(adaptive[name].shape == full[name].shape for name in full.data_vars)
     assert adaptive.attrs["refine_tolerance"] == tolerance and adaptive.attrs["refine_coarse_spacing"] == 16
     assert adaptive.attrs["refine_trajectories"] >= 2 * adaptive.computed.values.sum()
-    # The bound: at least 99.9 % of the pixels within the tolerance of the full map; and no
+    # The required bound: at least 99.9 % of the pixels within the tolerance of the full map; and no
     # pixel far off (measured: the worst at half the tolerance).
     for name in ("ld_forward", "ld_backward"):
         assert within_tolerance(adaptive, full, name, tolerance).mean() >= 0.999, name
