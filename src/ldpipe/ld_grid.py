@@ -3,7 +3,9 @@
 A grid of ``shape`` points is split into ``tiles`` bands of rows along the
 first axis; each tile is computed on its own (a separate Snakemake job) and
 :func:`gather_tiles` joins them. Every trajectory is integrated independently
-of the others, so the gathered grid equals the untiled one exactly.
+of the others, so the gathered grid equals the untiled one (but for the last bit
+or two of a rare LD, which can depend on the other trajectories of its engine
+batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ CHUNK = 1 << 15
 #: ``stop_flags``: land, the data's edge), with what they say.
 STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
               "left_data": "stopped at the edge of the data (or of its window)"}
+#: The per-direction result fields an LD map holds (``fields`` of :func:`ld_map_dataset`: NAME_forward, NAME_backward).
+MAP_FIELDS = ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")
 
 
 def tile_rows(rows: int, tile: int, tiles: int) -> slice:
@@ -109,8 +113,10 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
     return system, section, settings, info
 
 
-def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None,
-               t0: float = 0.0):
+def integrate_points(system: System, states: np.ndarray, direction: int, settings: LDSettings,
+                     progress: tqdm | None = None, t0: float = 0.0):
+    """:func:`ldpipe.engine.compute_ld` of ``states`` in calls of at most :data:`CHUNK` points (each
+    trajectory on its own, so the result does not depend on the chunks), updating ``progress``."""
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
@@ -146,7 +152,6 @@ def ld_grid_dataset(
     the flow map :func:`add_ftle` differentiates).
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
-    first = section.axis_values()[0][rows]
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
     fields: dict[str, np.ndarray] = {}
@@ -156,8 +161,8 @@ def ld_grid_dataset(
                     mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
         for direction, label in ((1, "forward"), (-1, "backward")):
-            result = _integrate(system, states, direction, settings, progress, t0)
-            for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed"):
+            result = integrate_points(system, states, direction, settings, progress, t0)
+            for name in MAP_FIELDS:
                 values = getattr(result, name)
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
@@ -172,6 +177,16 @@ def ld_grid_dataset(
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
                 ends[label] = end
+    return ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+
+
+def ld_map_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,
+                   solved: np.ndarray | None, rows: slice, ends: dict[str, np.ndarray] | None = None) -> xr.Dataset:
+    """The LD map's Dataset from its per-direction fields on the grid (the band ``rows`` of it):
+    ``fields`` maps NAME_forward, NAME_backward (NAME in :data:`MAP_FIELDS`, and the stop flags of
+    :data:`STOP_FLAGS` where the system has them) to arrays of the band's shape; ``ends`` the flow
+    map's end states by direction, where kept."""
+    first = section.axis_values()[0][rows]
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
     variables = {
@@ -203,7 +218,7 @@ def ld_grid_dataset(
         for label in ("forward", "backward"):
             if f"{flag}_{label}" in fields:
                 variables[f"{flag}_{label}"] = (dims, fields[f"{flag}_{label}"], {"long_name": f"trajectory {text} ({label})"})
-    for label, end in ends.items():
+    for label, end in (ends or {}).items():
         for i, coordinate in enumerate(system.phase_coordinates):
             variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = (
                 dims, end[..., i], {"long_name": f"{_long_name(coordinate, system)} where the {label} trajectory stopped",

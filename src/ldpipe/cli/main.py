@@ -32,6 +32,7 @@ examples:
   ldpipe ld --system barbanis_2dof --axis x=4.8:6.0:300 --axis px=-0.6:0.6:300 \\
       --fixed y=-7.0 --solve py --excess-energy 0.125 --tau 50 --p 0.5 \\
       --time variable --region x=4.5:6.5 --region y=-8.5:-5.5 --saddle-near 5.5,-7 -o slice.nc
+  ldpipe ld --config config.yaml --map fig4_k-7.0 --refine-tolerance 0.002 --coarse-spacing 16 -o fig4a.nc
 """
 
 
@@ -187,6 +188,13 @@ def _run_ld(args: argparse.Namespace) -> None:
         config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field)
         config = validate_config(config)
         args.map = "cli"
+    if args.refine_tolerance is not None or args.coarse_spacing is not None:
+        config = copy.deepcopy(config)
+        refine = config["ld_maps"][args.map].setdefault("refine", {})
+        for key, value in (("tolerance", args.refine_tolerance), ("coarse_spacing", args.coarse_spacing)):
+            if value is not None:
+                refine[key] = value
+        config = validate_config(config)
     parameters = parameters_from_config(config, "ld", args.map)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
         if is_vector_field(config["systems"][parameters["system_name"]]):
@@ -293,6 +301,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {short_number(INTEGRATOR.escape_radius)})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")
+    ld.add_argument("--refine-tolerance", type=float, metavar="TOL",
+                    help="an adaptive map: integrate where the map is not resolved to TOL (a fraction of each LD "
+                         "field's value range), interpolate elsewhere (see docs/guide/adaptive_maps.md)")
+    ld.add_argument("--coarse-spacing", type=int, metavar="PIXELS",
+                    help="an adaptive map's coarse lattice spacing in pixels (with --refine-tolerance, or alone)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")
     ld.add_argument("--quiet", action="store_true", help="no progress bar")
     ld.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.nc", help="netCDF file to write")

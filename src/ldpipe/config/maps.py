@@ -53,6 +53,9 @@ def check_ld_maps(config: dict) -> None:
         axes = [axis["name"] for axis in spec["section"]["axes"]]
         for index, axis in enumerate(spec["section"]["axes"]):
             check_interval(axis["range"], f"{key}.section.axes.{index}.range")
+        if "velocity_data" in system and spec.get("refine") is not None:
+            raise ConfigError(f"config key '{key}.refine': an adaptive map refines on the fates of region exits and "
+                              "escapes, not on land or the data's edge; give refine: null for a velocity-data map")
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -84,6 +87,9 @@ def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:
     if spec.get("ftle") and spec["time"] == "variable":
         raise ConfigError(f"config key '{key}.ftle': the FTLE is of a fixed-time map (a flow map over the time tau); "
                           "give time: fixed")
+    if spec.get("ftle") and spec.get("refine") is not None:
+        raise ConfigError(f"config key '{key}.ftle': the FTLE differences end states of neighbouring pixels, which an "
+                          "adaptive map interpolates; give refine: null for an FTLE map")
     if region:
         if sorted(region) != sorted(coordinates):
             raise ConfigError(f"config key '{key}.region': expected an interval for each of {list(coordinates)}, got {sorted(region)}")

@@ -20,6 +20,7 @@ from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters,
 from ..engine import LDSettings
 from ..engine.integrands import descriptor_attribute
 from ..critical_points import select_saddle
+from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
 from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
@@ -124,8 +125,13 @@ def compute_ld_map(
         where, settings.tau, parameters["time"], settings.scheme,
     )
     ftle = parameters.get("ftle", False)
-    dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                              t0=info["t0"], flow_map=ftle)
+    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.ld_adaptive); never an FTLE map
+        refine = RefineSettings.from_config(parameters["refine"])
+        dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
+                                      show_progress=show_progress, t0=info["t0"])
+    else:
+        dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
+                                  t0=info["t0"], flow_map=ftle)
     if ftle and tiles == 1:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info))
@@ -206,6 +212,8 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     if common.get("ftle", False) and len(tiles) > 1:  # one tile has its FTLE already
         add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]),
                  on_sphere(common["system_spec"]))
+    if "refine_trajectories" in joined.attrs:  # an adaptive map: every tile's trajectories
+        joined.attrs["refine_trajectories"] = sum(int(d.attrs["refine_trajectories"]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})

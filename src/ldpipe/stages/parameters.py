@@ -74,9 +74,12 @@ def _capped(points: int, config: dict) -> int:
     return min(points, cap) if cap else points
 
 
-def _cap_map_grid(config: dict, entry: dict) -> None:
+def _map_entry(config: dict, entry: dict) -> None:
+    """An ld_maps entry as the stage takes it: the grid under the cap, a null refine block dropped."""
     for axis in entry["section"]["axes"]:
         axis["points"] = _capped(axis["points"], config)
+    if entry.get("refine", False) is None:  # a full map, as if the block were left out
+        del entry["refine"]
 
 
 def _equilibria(config: dict, system_name: str, entry: dict) -> dict:
@@ -90,6 +93,14 @@ def _equilibria(config: dict, system_name: str, entry: dict) -> dict:
     }
 
 
+def _base_map(config: dict, name: str) -> dict:
+    """A map's parameters as another stage uses them: its section, energy and settings, without how
+    its own grid is sampled (``refine``), so that making a map adaptive reruns only the map."""
+    parameters = parameters_from_config(config, "ld", name)
+    parameters.pop("refine", None)
+    return parameters
+
+
 def _refinement(config: dict) -> dict:
     """``nhim.refinement`` without ``zoom`` (the NHIM study's alone), for the other stages that refine NHIM points."""
     return {k: v for k, v in config["nhim"]["refinement"].items() if k != "zoom"}
@@ -100,7 +111,7 @@ def _nhim_study(config: dict, study: str, entry: dict) -> dict:
                   "references": entry.get("reference", [])}
     if "derived" in entry:
         derived = entry["derived"]
-        base = parameters_from_config(config, "ld", derived["base_map"])
+        base = _base_map(config, derived["base_map"])
         points = _capped(derived["points"], config)
         slices = []
         for coordinate, values in derived["fixed"].items():
@@ -127,12 +138,12 @@ def _odd(points: int) -> int:
 def _nhim_orbits(config: dict, study: str, entry: dict) -> dict:
     base = entry.pop("base_map")
     points = _odd(_capped(entry["points"], config)) if config.get("max_grid_points") else entry["points"]
-    return {"study": study, "base_map": parameters_from_config(config, "ld", base), "refinement": _refinement(config),
+    return {"study": study, "base_map": _base_map(config, base), "refinement": _refinement(config),
             **entry, "points": points}
 
 
 def _nhim_sampling(config: dict, study: str, entry: dict) -> dict:
-    base_map = parameters_from_config(config, "ld", entry["base_map"])
+    base_map = _base_map(config, entry["base_map"])
     # The map's own grid is never computed here; the whole window is searched on seed_points^2, so
     # that stands in for it (and the map's resolution, or a quick run's cap, does not rerun the study).
     for axis in base_map["section"]["axes"]:
@@ -165,14 +176,14 @@ def _accuracy(config: dict, _: None, entry: dict) -> dict:
     """Each sampled map's full parameters (as the ld stage gets them, grid cap applied) and the
     orbit family's are included, so that changing any of them reruns the measurement."""
     ld, orbit, nhim = entry["ld"], entry["upo"], entry["nhim"]
-    maps = {name: parameters_from_config(config, "ld", name) for name in ld.pop("maps")}
+    maps = {name: _base_map(config, name) for name in ld.pop("maps")}
     family = orbit.pop("family")
     nhim_map = nhim.pop("map")
     return {
         "ld": {**ld, "maps": maps},
         "upo": {**orbit, "family": parameters_from_config(config, "upo", family) if family else None},
         "nhim": {
-            **nhim, "map": parameters_from_config(config, "ld", nhim_map) if nhim_map else None,
+            **nhim, "map": _base_map(config, nhim_map) if nhim_map else None,
             "refinement": _refinement(config),
         },
     }
@@ -181,7 +192,7 @@ def _accuracy(config: dict, _: None, entry: dict) -> dict:
 #: How each stage's parameters come from the configuration, by stage module (``ldpipe.stages.NAME``).
 STAGES: dict[str, StageEntries] = {
     "equilibria": StageEntries(("systems",), "system_name", build=_equilibria),
-    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles",), adjust=_cap_map_grid),
+    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles",), adjust=_map_entry),
     "upo": StageEntries(("periodic_orbits",), "family"),
     "manifolds": StageEntries(("manifolds",), "name", system_via="orbits"),
     "poincare": StageEntries(("poincare_sections",), "name"),
