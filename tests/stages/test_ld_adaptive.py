@@ -10,7 +10,7 @@ from ldpipe import nhim
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings
-from ldpipe.equilibria import equilibria_dataset
+from ldpipe.critical_points import equilibria_dataset
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.ld_adaptive import RefineSettings, adaptive_ld_dataset, refine_band
 from ldpipe.ld_grid import ld_grid_dataset
