@@ -69,6 +69,15 @@ def test_ftle_needs_a_fixed_time_map():
         config("m", spec)
 
 
+def test_ftle_map_is_never_adaptive():
+    # an adaptive map interpolates the pixels it does not integrate, and the FTLE differences the end
+    # states of neighbouring pixels: the two together would difference interpolated states
+    spec = {**SADDLE_MAP, "refine": {"tolerance": 0.01, "coarse_spacing": 2}}
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': .*refine: null"):
+        config("m", spec)
+    config("m", {**SADDLE_MAP, "refine": None})
+
+
 def _scipy_ftle(x, y, hx, hy, t0, tau, direction):
     """Central differences of scipy's flow map over the four neighbours, then eigvalsh of C."""
     def end(a, b):

@@ -213,6 +213,11 @@ def test_ld_ftle_figure_draws_ld_and_both_ftle(tmp_path):
     settings = parameters_from_config(config, "figures", "f")["settings"]
     figure = draw_figure("ld_ftle", settings, {"ld_maps": [str(written)]})
     assert len(figure.axes) == 6  # three panels, three colour bars
+    # the adaptive refinement knows the fates of region exits and escapes, not land or the data's edge
+    with pytest.raises(ConfigError, match=r"ld_maps\.s\.refine': .*velocity-data map"):
+        validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}},
+                         "ld_maps": {"s": {**{k: v for k, v in spec.items() if k != "ftle"},
+                                           "refine": {"tolerance": 0.01, "coarse_spacing": 2}}}})
     with pytest.raises(ConfigError, match=r"ld_maps\.s\.ftle"):
         validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}},
                          "ld_maps": {"s": {k: v for k, v in spec.items() if k != "ftle"}},
