@@ -17,6 +17,8 @@ from tqdm import tqdm
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
 from .errors import ConfigError
+from . import flow
+from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, sphere_metric
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
@@ -101,16 +103,32 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
 
 
 def _integrate(system: System, states: np.ndarray, direction: int, settings: LDSettings, progress: tqdm | None,
-               t0: float = 0.0):
+               t0: float = 0.0, descriptor: bool = True):
+    """compute_ld (or, without the ``descriptor``, :func:`ldpipe.flow.flow_map`) chunk by chunk."""
+    if descriptor:
+        def compute(chunk):
+            return compute_ld(system, chunk, direction=direction, settings=settings, t0=t0)
+    else:
+        flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol, escape_radius=settings.escape_radius,
+                                     max_steps=settings.max_steps)
+
+        def compute(chunk):
+            return flow.flow_map(system, chunk, direction * settings.tau, flow_settings, t0=t0)
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
-        results.append(compute_ld(system, chunk, direction=direction, settings=settings, t0=t0))
+        results.append(compute(chunk))
         if progress is not None:
             progress.update(len(chunk))
     if not results:
-        return compute_ld(system, states, direction=direction, settings=settings, t0=t0)
+        return compute(states)
     return type(results[0])(*(np.concatenate(parts) for parts in zip(*results)))
+
+
+def _flow_map_fields(result: FlowMap) -> dict[str, np.ndarray]:
+    """The per-trajectory fields of a map without its LD, named as compute_ld's."""
+    return {"time": np.abs(result.final_time), "escaped": result.status == ESCAPED,
+            "failed": result.status == STEP_UNDERFLOW, "steps": result.steps}
 
 
 def _long_name(name: str, system=None) -> str:
@@ -128,13 +146,16 @@ def ld_grid_dataset(
     show_progress: bool = False,
     t0: float = 0.0,
     flow_map: bool = False,
+    descriptor: bool = True,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
 
     For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
     the start time ``t0``, and the file has no energy error and no solved coordinate. With
     ``flow_map`` the end state of every trajectory is kept too (``end_<coordinate>_<direction>``,
-    the flow map :func:`add_ftle` differentiates).
+    the flow map :func:`add_ftle` differentiates). Without the ``descriptor`` (a vector field's
+    fixed-time map, ``flow_map`` implied) only the flow map is integrated (:func:`ldpipe.flow.flow_map`):
+    the file has no ``ld_*``, ``left_region_*`` (no region) variables.
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
     first = section.axis_values()[0][rows]
@@ -147,9 +168,13 @@ def ld_grid_dataset(
                     mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
         for direction, label in ((1, "forward"), (-1, "backward")):
-            result = _integrate(system, states, direction, settings, progress, t0)
-            for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed"):
-                values = getattr(result, name)
+            result = _integrate(system, states, direction, settings, progress, t0, descriptor)
+            if descriptor:
+                results = {name: getattr(result, name)
+                           for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")}
+            else:
+                results = _flow_map_fields(result)
+            for name, values in results.items():
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
@@ -159,10 +184,14 @@ def ld_grid_dataset(
                     full = np.zeros(shape, dtype=bool)
                     full[allowed] = values
                     fields[f"{flag}_{label}"] = full
-            if flow_map:
+            if flow_map or not descriptor:
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
                 ends[label] = end
+    if not descriptor:  # placeholders, dropped below with their variables
+        for name in ("ld", "left_region", "energy_error"):
+            for label in ("forward", "backward"):
+                fields[f"{name}_{label}"] = np.zeros(shape)
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
     variables = {
@@ -190,6 +219,9 @@ def ld_grid_dataset(
     else:  # a vector field: no energy, every point integrated
         del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
+    if not descriptor:
+        for name in ("ld_forward", "ld_backward", "left_region_forward", "left_region_backward"):
+            del variables[name]
     for flag, text in STOP_FLAGS.items():
         for label in ("forward", "backward"):
             if f"{flag}_{label}" in fields:
@@ -215,18 +247,17 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
     ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.ftle.sphere_metric`).
     """
-    axes = tuple(dataset[d].values for d in dataset.ld_forward.dims)
+    dims = dataset.allowed.dims
+    axes = tuple(dataset[d].values for d in dims)
     for label in ("forward", "backward"):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
-                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"left_region_{label}"].values
-                    & ~dataset[f"failed_{label}"].values)
-        for flag in STOP_FLAGS:
+                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"failed_{label}"].values)
+        for flag in ("left_region", *STOP_FLAGS):  # a map without its LD has no region
             if f"{flag}_{label}" in dataset:
                 complete &= ~dataset[f"{flag}_{label}"].values
-        metric = sphere_metric(ends, axes, dataset.ld_forward.dims, coordinates) if sphere else None
+        metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
         values, defined = ftle(ends, axes, tau, complete, metric)
-        dims = dataset.ld_forward.dims
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",
             "units": "1/time",

@@ -47,6 +47,9 @@ def check_figures(config: dict) -> None:
             check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
         if kind == "ld_ftle":
             for map_name in spec["ld_maps"]:
+                if not config["ld_maps"][map_name].get("ld", True):
+                    raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has no LD to draw beside its "
+                                      f"FTLE (config key ld_maps.{map_name}.ld is false)")
                 if not config["ld_maps"][map_name].get("ftle"):
                     raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has no FTLE to draw; give it "
                                       f"ftle: true (config key ld_maps.{map_name}.ftle)")

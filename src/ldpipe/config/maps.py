@@ -53,6 +53,7 @@ def check_ld_maps(config: dict) -> None:
         axes = [axis["name"] for axis in spec["section"]["axes"]]
         for index, axis in enumerate(spec["section"]["axes"]):
             check_interval(axis["range"], f"{key}.section.axes.{index}.range")
+        check_flow_map_only(spec, key, is_vector_field(system))
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -75,6 +76,18 @@ def check_ld_maps(config: dict) -> None:
                 "use at most one tile per row of the first axis"
             )
         check_region(spec, key, coordinates)
+
+
+def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
+    """A map without its LD (``ld: false``) is a fixed-time map of a vector field with its FTLE."""
+    if spec.get("ld", True):
+        return
+    if not spec.get("ftle"):
+        raise ConfigError(f"config key '{key}.ld': a map without its LD holds only the flow map and its FTLE; "
+                          "give ftle: true (or leave ld out)")
+    if not vector_field:
+        raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
+                          f"{spec['system']!r} is a Hamiltonian (leave ld out)")
 
 
 def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:

@@ -15,9 +15,10 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..io.contracts import EQUILIBRIA, LD_GRID, LD_TILE
+from ..io.contracts import EQUILIBRIA, FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
+from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute
 from ..critical_points import select_saddle
 from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
@@ -47,13 +48,15 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
     return resolve_ld_map(parameters, saddle, critical_energy)
 
 
-def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
+def _attributes(parameters: dict, settings: LDSettings, info: dict, escape_radius: float) -> dict:
     """Scalar settings as attributes, so a reader sees them without parsing JSON (a vector field's
-    map has no energies; it has its start time ``t0``)."""
+    map has no energies; it has its start time ``t0``). ``escape_radius`` is the one the engine
+    used (raised for velocity data, :func:`ldpipe.engine.settings.engine_escape_radius`)."""
+    common = {**_common_attributes(parameters, settings, info), "escape_radius": escape_radius}
     if info["energy"] is None:
-        return {**_common_attributes(parameters, settings, info), "t0": info["t0"]}
+        return {**common, "t0": info["t0"]}
     return {
-        **_common_attributes(parameters, settings, info),
+        **common,
         "energy": info["energy"],
         "excess_energy": info["excess_energy"],
         "critical_energy": info["critical_energy"],
@@ -66,7 +69,8 @@ def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> di
         "system": parameters["system_name"],
         "saddle_position": np.asarray(info["saddle"]),
         "tau": settings.tau,
-        "descriptor": descriptor_attribute(settings.p),
+        # a map without its LD (ld: false) holds the flow map and its FTLE only
+        "descriptor": descriptor_attribute(settings.p) if parameters.get("ld", True) else "none",
         "time_mode": parameters["time"],
         "region_lower": np.asarray(settings.region_lower if settings.region_lower else []),
         "region_upper": np.asarray(settings.region_upper if settings.region_upper else []),
@@ -76,7 +80,6 @@ def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> di
         "dt": settings.dt,
         # the Taylor scheme's order in use (0: another scheme), default resolved from the tolerance
         "taylor_order": settings.order or 0,
-        "escape_radius": settings.escape_radius,
         # the LD quadrature's settings in use (defaults resolved from scheme and rtol)
         "quadrature_window": settings.quadrature_window,
         "quad_nodes": settings.nodes,
@@ -125,20 +128,27 @@ def compute_ld_map(
     )
     ftle = parameters.get("ftle", False)
     dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                              t0=info["t0"], flow_map=ftle)
+                              t0=info["t0"], flow_map=ftle, descriptor=parameters.get("ld", True))
     if ftle and tiles == 1:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
-    dataset.attrs.update(_attributes(parameters, settings, info))
+    dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
 
 
+def map_contract(parameters: dict, *, tile_file: bool):
+    """The contract of a map's tile or whole file: an LD map's, or (``ld: false``) a flow map's."""
+    if parameters.get("ld", True):
+        return LD_TILE if tile_file else LD_GRID
+    return FLOW_MAP_TILE if tile_file else FLOW_MAP
+
+
 def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, tile_file: bool) -> Path:
     """Write a whole map, or (``tile_file``) one tile of it for :func:`run_ld_gather`."""
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
-    stage = LD_TILE if tile_file else LD_GRID
+    stage = map_contract(parameters, tile_file=tile_file)
     title = f"Lagrangian descriptor map {parameters['map_name']}" + (f", tile {tile + 1} of {tiles}" if tile_file else "")
     resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy", "t0") if k in dataset.attrs}
     recorded = {**parameters, "tile": tile, "tiles": tiles, "resolved": resolved}
@@ -189,8 +199,9 @@ def run_ld_map(
 
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tiles of one map into the map's file."""
-    datasets = [open_stage_file(path, stage=LD_TILE) for path in tiles]
+    datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
     parameters = [stage_parameters(d) for d in datasets]
+    datasets = [open_stage_file(d, stage=map_contract(p, tile_file=True)) for d, p in zip(datasets, parameters)]
     counts = {p["tiles"] for p in parameters}
     if counts != {len(tiles)} or sorted(p["tile"] for p in parameters) != list(range(len(tiles))):
         raise ValueError(f"{output}: expected tiles 0..{len(tiles) - 1} of one map, got {[str(t) for t in tiles]}")
@@ -208,5 +219,5 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
                  on_sphere(common["system_spec"]))
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
-    return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})
+    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(tiles)})
 
