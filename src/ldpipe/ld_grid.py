@@ -42,6 +42,27 @@ def tile_rows(rows: int, tile: int, tiles: int) -> slice:
     return slice(rows * tile // tiles, rows * (tile + 1) // tiles)
 
 
+def map_start_times(parameters: dict) -> list[float] | None:
+    """The start times of a map whose ``t0`` is a list or a range ``{first, last, count}`` (its
+    file has a ``t0`` dimension); None for one start time (a number, or left out)."""
+    t0 = parameters.get("t0", 0.0)
+    if isinstance(t0, dict):
+        return [float(v) for v in np.linspace(t0["first"], t0["last"], t0["count"])]
+    if isinstance(t0, (list, tuple)):
+        return [float(v) for v in t0]
+    return None
+
+
+def start_time_band(starts: list[float], tile: int, tiles: int) -> tuple[int, int, int]:
+    """(start index, band, bands) of tile ``tile`` of ``tiles`` of a map with several start
+    times: the tiles run over the start times, each split into the same number of bands of rows."""
+    if tiles % len(starts):
+        raise ValueError(f"tiles: {tiles} tiles do not split {len(starts)} start times evenly")
+    bands = tiles // len(starts)
+    index, band = divmod(tile, bands)
+    return index, band, bands
+
+
 def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy: float | None) -> tuple:
     """What an LD map's recorded parameters describe: ``(system, section, settings, info)``.
 

@@ -21,7 +21,8 @@ from ..engine import LDSettings
 from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute
 from ..critical_points import select_saddle
-from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
+from ..ld_grid import (add_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map, start_time_band,
+                       tile_rows)
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
@@ -30,10 +31,12 @@ log = get_logger(__name__)
 
 
 def ld_map_tiles(config: dict, map_name: str) -> int:
-    """How many tiles the map is split into (never more than its rows)."""
+    """How many tiles the map is split into: bands of rows (never more than its rows), for each
+    start time of a map with several (:func:`ldpipe.ld_grid.map_start_times`)."""
     spec = config["ld_maps"][map_name]
-    rows = parameters_from_config(config, "ld", map_name)["section"]["axes"][0]["points"]
-    return min(spec["tiles"], rows)
+    parameters = parameters_from_config(config, "ld", map_name)
+    rows = parameters["section"]["axes"][0]["points"]
+    return min(spec["tiles"], rows) * len(map_start_times(parameters) or [None])
 
 
 def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
@@ -117,6 +120,15 @@ def compute_ld_map(
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
     if threads:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    starts = map_start_times(parameters)
+    if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
+        index, band, bands = start_time_band(starts, tile, tiles)
+        dataset = compute_ld_map({**parameters, "t0": starts[index]}, equilibria, tile=band, tiles=bands,
+                                 show_progress=show_progress)
+        dataset = dataset.expand_dims(t0=[starts[index]])
+        dataset.attrs.pop("t0")
+        dataset.attrs.update({"tile": tile, "tiles": tiles})
+        return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
@@ -197,6 +209,16 @@ def run_ld_map(
         return run_ld_gather(tiles=paths, output=output)
 
 
+def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.Dataset:
+    """The bands of rows of one start time joined along ``axis``, with the FTLE of the whole grid
+    if the map asks for it (a single band has its FTLE already)."""
+    joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
+    if parameters.get("ftle", False) and len(datasets) > 1:
+        add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
+                 on_sphere(parameters["system_spec"]))
+    return joined
+
+
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tiles of one map into the map's file."""
     datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
@@ -206,17 +228,21 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     if counts != {len(tiles)} or sorted(p["tile"] for p in parameters) != list(range(len(tiles))):
         raise ValueError(f"{output}: expected tiles 0..{len(tiles) - 1} of one map, got {[str(t) for t in tiles]}")
     datasets = [datasets[i] for i in np.argsort([p["tile"] for p in parameters])]
-    axis = list(datasets[0].dims)[0]
+    axis = datasets[0].allowed.dims[-2]
     common = {k: v for k, v in parameters[0].items() if k not in ("tile", "tiles")}
     for path, p in zip(tiles, parameters):
         if {k: v for k, v in p.items() if k not in ("tile", "tiles")} != common:
             raise ValueError(f"{path}: computed with other parameters than {tiles[0]}; recompute the tiles")
-    joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
+    starts = map_start_times(common)
+    if starts is None:
+        joined = gather_bands(datasets, axis, common)
+    else:  # the bands of each start time, then the start times stacked
+        bands = start_time_band(starts, 0, len(tiles))[2]
+        joined = xr.concat([gather_bands([d.isel(t0=0, drop=True) for d in datasets[k * bands:(k + 1) * bands]],
+                                         axis, common).expand_dims(t0=[start]) for k, start in enumerate(starts)],
+                           dim="t0", data_vars="all", coords="minimal", compat="identical", join="exact")
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
-    if common.get("ftle", False) and len(tiles) > 1:  # one tile has its FTLE already
-        add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]),
-                 on_sphere(common["system_spec"]))
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(tiles)})
