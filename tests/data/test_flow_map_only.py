@@ -78,3 +78,13 @@ def test_shear_ftle_without_ld_and_the_recorded_escape_radius(tmp_path):
     with pytest.raises(ConfigError, match=r"has no LD to draw"):
         validate_config({"systems": systems, "ld_maps": {"s": spec},
                          "figures": {"f": {"kind": "ld_ftle", "ld_maps": ["s"]}}})
+
+
+def test_a_hamiltonian_map_keeps_its_ld():
+    # the flow map alone is a vector field's (a Hamiltonian section's end states come from another driver)
+    spec = {"system": "b", "section": {"axes": [{"name": "x", "range": [-1.0, 1.0], "points": 5},
+                                                {"name": "px", "range": [-1.0, 1.0], "points": 5}],
+                                       "fixed": {"y": 0.0}, "solve": "py"},
+            "energy": {"excess": 0.1}, "tau": 1.0, "p": 0.5, "ftle": True, "ld": False}
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ld': a map without its LD is of a vector-field system"):
+        validate_config({"systems": {"b": {"builtin": "barbanis_2dof"}}, "ld_maps": {"m": spec}})
