@@ -16,6 +16,7 @@ from tqdm import tqdm
 
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
+from .engine.settings import engine_escape_radius
 from .errors import ConfigError
 from . import flow
 from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
@@ -152,6 +153,32 @@ def _flow_map_fields(result: FlowMap) -> dict[str, np.ndarray]:
             "failed": result.status == STEP_UNDERFLOW, "steps": result.steps}
 
 
+#: Crossings kept per trajectory while locating a stop (the last one before it is the stop).
+STOP_CROSSINGS = 256
+
+
+def locate_stops(system, states: np.ndarray, end_states: np.ndarray, direction: int, settings: LDSettings,
+                 t0: float) -> np.ndarray:
+    """|t - t0| at which each trajectory of ``states`` stopped on land or at the data's edge
+    (``end_states``, where it rests): its last crossing of the grid line it rests just past
+    (:meth:`ldpipe.systems.velocity_data.VelocityDataSystem.stop_lines`), located on the flow
+    driver's dense output, in forward time the way it crossed. NaN where no crossing was found."""
+    axis, value, side = system.stop_lines(end_states, t0, t0 + direction * settings.tau)
+    flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol,
+                                 escape_radius=engine_escape_radius(system, settings.escape_radius),
+                                 max_steps=settings.max_steps)
+    times = np.full(len(states), np.nan)
+    for key in sorted(set(zip(axis.tolist(), value.tolist(), side.tolist()))):
+        group = np.flatnonzero((axis == key[0]) & (value == key[1]) & (side == key[2]))
+        run = flow.integrate(system, states[group], direction * settings.tau, flow_settings, t0=t0,
+                             section=(system.phase_coordinates[key[0]], key[1], direction * key[2]),
+                             max_crossings=STOP_CROSSINGS)
+        found = (run.crossing_count > 0) & (run.crossing_count < STOP_CROSSINGS)
+        last = run.crossing_times[np.arange(len(group)), np.maximum(run.crossing_count - 1, 0)]
+        times[group[found]] = np.abs(last[found])
+    return times
+
+
 def _long_name(name: str, system=None) -> str:
     if system is not None and not getattr(system, "hamiltonian", True):
         return f"state variable {name}"
@@ -195,12 +222,20 @@ def ld_grid_dataset(
                            for name in ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")}
             else:
                 results = _flow_map_fields(result)
+            flags = {}
+            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
+                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+                stopped = np.flatnonzero(flags["on_land"] | flags["left_data"])
+                if len(stopped):  # the time each stopped, where its crossing was found
+                    times = locate_stops(system, states[stopped], result.end_state[stopped], direction, settings, t0)
+                    results["time"] = results["time"].copy()
+                    found = np.isfinite(times)
+                    results["time"][stopped[found]] = times[found]
             for name, values in results.items():
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
-            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
-                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+            if flags:
                 for flag, values in flags.items():
                     full = np.zeros(shape, dtype=bool)
                     full[allowed] = values
