@@ -244,40 +244,42 @@ def ld_grid_dataset(
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
                 ends[label] = end
-    if not descriptor:  # placeholders, dropped below with their variables
-        for name in ("ld", "left_region", "energy_error"):
-            for label in ("forward", "backward"):
-                fields[f"{name}_{label}"] = np.zeros(shape)
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
-    variables = {
-        "ld_forward": (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time", "comment": mask_note}),
-        "ld_backward": (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time", "comment": mask_note}),
+    variables = {}
+    if descriptor:
+        variables["ld_forward"] = (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time",
+                                                                "comment": mask_note})
+        variables["ld_backward"] = (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time",
+                                                                  "comment": mask_note})
+    variables.update({
         "exit_time_forward": (dims, fields["time_forward"],
                               {"long_name": "forward integration time reached: tau, or the exit or escape time"}),
         "exit_time_backward": (dims, fields["time_backward"],
                                {"long_name": "backward integration time reached (|t|): tau, or the exit or escape time"}),
         "escaped_forward": (dims, fields["escaped_forward"], {"long_name": "trajectory escaped (forward)"}),
         "escaped_backward": (dims, fields["escaped_backward"], {"long_name": "trajectory escaped (backward)"}),
-        "left_region_forward": (dims, fields["left_region_forward"], {"long_name": "trajectory left the saddle region (forward)"}),
-        "left_region_backward": (dims, fields["left_region_backward"], {"long_name": "trajectory left the saddle region (backward)"}),
+    })
+    if descriptor:  # a map without its LD has no region
+        variables["left_region_forward"] = (dims, fields["left_region_forward"],
+                                            {"long_name": "trajectory left the saddle region (forward)"})
+        variables["left_region_backward"] = (dims, fields["left_region_backward"],
+                                             {"long_name": "trajectory left the saddle region (backward)"})
+    variables.update({
         "failed_forward": (dims, fields["failed_forward"], {"long_name": "integration stopped by a safety limit (forward)"}),
         "failed_backward": (dims, fields["failed_backward"], {"long_name": "integration stopped by a safety limit (backward)"}),
         "steps_forward": (dims, fields["steps_forward"], {"long_name": "integrator step attempts (forward)"}),
         "steps_backward": (dims, fields["steps_backward"], {"long_name": "integrator step attempts (backward)"}),
-        "energy_error": (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
-                         {"long_name": "largest |H(end) - H(start)| of the two directions"}),
-        "allowed": (dims, allowed, {"long_name": "point lies in the energetically allowed region"}),
-    }
+    })
+    if section.solve is not None:  # a Hamiltonian's section (a map with its LD)
+        variables["energy_error"] = (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
+                                     {"long_name": "largest |H(end) - H(start)| of the two directions"})
+    variables["allowed"] = (dims, allowed, {"long_name": "point lies in the energetically allowed region"})
     if section.solve is not None:
         variables[section.solve] = (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
                                                    "comment": mask_note})
     else:  # a vector field: no energy, every point integrated
-        del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
-    if not descriptor:
-        for name in ("ld_forward", "ld_backward", "left_region_forward", "left_region_backward"):
-            del variables[name]
     for flag, text in STOP_FLAGS.items():
         for label in ("forward", "backward"):
             if f"{flag}_{label}" in fields:
