@@ -8,9 +8,11 @@ exactly (an invariant of the tiling, no tolerance); the animated figure has one 
 import copy
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from ldpipe.config import validate_config
+from ldpipe.errors import ConfigError
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.figures import run_figure
 from ldpipe.stages.ld import compute_ld_map, ld_map_tiles, run_ld_map
@@ -67,3 +69,8 @@ def test_snakemake_runs_a_job_per_start_time_and_band(workdir):
     result = run_snakemake(workdir, "anim", "-n", "--quiet", "rules", "--configfile", "starts.yaml", timeout=300)
     assert result.returncode == 0, result.stderr
     assert job_counts(result.stdout) == {"ld_tile": 6, "ld_gather": 1, "anim": 1}
+
+
+def test_figures_of_one_start_time_refuse_a_stacked_map(tmp_path):
+    with pytest.raises(ConfigError, match=r"map 'm' has several start times .*kind 'ld_animation' draws them all"):
+        gyre_config(tmp_path / "gyre.nc", [2.0, 2.5], {"f": {"kind": "ld_ftle", "ld_maps": ["m"]}})

@@ -46,6 +46,12 @@ def check_figures(config: dict) -> None:
                 check_interval(interval, f"{key}.plane.{coordinate}")
         if kind in ("section_maps", "ld_slices", "ld_ftle", "ld_animation"):
             check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+        if kind in ("section_maps", "ld_slices", "ld_ftle"):
+            for map_name in spec["ld_maps"]:
+                if isinstance(config["ld_maps"][map_name].get("t0"), (list, dict)):
+                    raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has several start times "
+                                      f"(config key ld_maps.{map_name}.t0); a figure of kind {kind!r} draws one, "
+                                      "kind 'ld_animation' draws them all")
         if kind == "ld_animation":
             if len(spec["ld_maps"]) != 1:
                 raise ConfigError(f"config key '{key}.ld_maps': an animation is of one map (its start times), "
