@@ -10,9 +10,12 @@ maps from t0 = 2 over tau = 5 forward on a ``--nx`` x ``--nx/2`` grid of [0, 2] 
   the LD as an extra state; scipy on ``--scipy-points`` of the points, its time per trajectory
   scaled to the grid. Accuracy: both against the formula system's LD (ldpipe at rtol 1e-12,
   validated against scipy in tests/data).
-- FTLE (forward): ldpipe (the same map with ``ftle``: its LD is computed too) against numbacs
-  (cubic splines of the ``interpolation`` package, numbalsoda's DOP853, its ftle_grid_2D), the
-  same grid and tolerance. Accuracy: both against the formula flow map's FTLE on that grid.
+- FTLE (forward): ldpipe, with its LD (``ftle: true``) and alone (``ld: false``: the flow map
+  by ``ldpipe.flow.flow_map``, no quadrature, no dense output), against numbacs (cubic splines of
+  the ``interpolation`` package, numbalsoda's DOP853, its ftle_grid_2D), the same grid and
+  tolerance (``--ftle-rtols``: several, to compare at matched accuracy). Accuracy: all against
+  the formula flow map's FTLE on that grid. The FTLE runs are repeated ``--repeat`` times,
+  interleaved, and reported as their minimum and median.
 
 Everything runs on one thread (numba.set_num_threads(1); numbacs' prange loops too). First
 calls (compilation, or loading numba's cache) are timed apart and excluded.
@@ -40,6 +43,7 @@ from support.double_gyre import DOUBLE_GYRE, double_gyre_velocity  # noqa: E402
 from support.gridded import write_velocity_file  # noqa: E402
 
 from ldpipe.engine import LDSettings, compute_ld  # noqa: E402
+from ldpipe.flow import FlowSettings, flow_map  # noqa: E402
 from ldpipe.ftle import ftle  # noqa: E402
 from ldpipe.systems import make_system  # noqa: E402
 
@@ -86,6 +90,9 @@ def main() -> None:
     parser.add_argument("--rtol", type=float, default=1e-8)
     parser.add_argument("--scipy-points", type=int, default=40)
     parser.add_argument("--cubic", type=int, default=0, help="points for RegularGridInterpolator(method='cubic')")
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs of each FTLE method")
+    parser.add_argument("--ftle-rtols", type=float, nargs="+", default=[1e-8],
+                        help="tolerances (rtol = atol) of the FTLE comparison, each for every method")
     args = parser.parse_args()
     numba.set_num_threads(1)
     nx, ny = args.nx, args.nx // 2
@@ -129,21 +136,43 @@ def main() -> None:
     complete = np.ones((nx, ny), dtype=bool)
     axes = (np.linspace(0, 2, nx), np.linspace(0, 1, ny))
     exact, _ = ftle(reference.end_state.reshape(nx, ny, 2), axes, TAU, complete)
-    ftle_time, result = timed(lambda: ftle(compute_ld(data, states, 1, settings, t0=T0).end_state.reshape(nx, ny, 2),
-                                           axes, TAU, complete)[0])
-    inner = (slice(1, -1), slice(1, -1))  # numbacs leaves the grid's edge at 0
-    ours_ftle_error = np.max(np.abs(result - exact)[inner])
-    print(f"FTLE ldpipe (with its LD): {ftle_time:.3f} s, max error {ours_ftle_error:.2e} (FTLE up to {exact.max():.3f})")
+    flow_map(data, states[:2], TAU, FlowSettings(rtol=args.rtol, atol=args.rtol), t0=T0)  # first call apart
+
+    def with_ld(rtol):
+        result = compute_ld(data, states, 1, LDSettings(tau=TAU, p=P, rtol=rtol, atol=rtol), t0=T0)
+        return ftle(result.end_state.reshape(nx, ny, 2), axes, TAU, complete)[0]
+
+    def alone(rtol):
+        result = flow_map(data, states, TAU, FlowSettings(rtol=rtol, atol=rtol), t0=T0)
+        return ftle(result.end_state.reshape(nx, ny, 2), axes, TAU, complete)[0]
+
+    methods = {"ldpipe with its LD": with_ld, "ldpipe alone (ld: false)": alone}
     try:
         import numbacs  # noqa: F401
     except ImportError:
         print("numbacs not installed (pip install -e '.[bench]'): its row is skipped")
-        return
-    first, _ = timed(numbacs_ftle, t, x, y, u, v, 8, 4, args.rtol, args.rtol)
-    numbacs_time, theirs = timed(numbacs_ftle, t, x, y, u, v, nx, ny, args.rtol, args.rtol)
-    theirs_error = np.max(np.abs(theirs - exact)[inner])
-    print(f"FTLE numbacs: {numbacs_time:.3f} s (first call {first:.1f} s), max error {theirs_error:.2e}; "
-          f"ldpipe is {numbacs_time / ftle_time:.2f}x as fast")
+    else:
+        first, _ = timed(numbacs_ftle, t, x, y, u, v, 8, 4, args.rtol, args.rtol)
+        print(f"numbacs first call (its JIT) {first:.1f} s")
+        methods["numbacs"] = lambda rtol: numbacs_ftle(t, x, y, u, v, nx, ny, rtol, rtol)
+    inner = (slice(1, -1), slice(1, -1))  # numbacs leaves the grid's edge at 0
+    for rtol in args.ftle_rtols:
+        times = {name: [] for name in methods}
+        fields = {}
+        for _ in range(args.repeat):  # interleaved, so a change in the machine's load hits every method
+            for name, method in methods.items():
+                elapsed, fields[name] = timed(method, rtol)
+                times[name].append(elapsed)
+        for name, values in times.items():
+            error = np.max(np.abs(fields[name] - exact)[inner])
+            print(f"FTLE rtol = atol = {rtol:g}, {name}: min {min(values):.3f} s, median {np.median(values):.3f} s "
+                  f"over {len(values)} runs ({', '.join(f'{v:.2f}' for v in values)}), max error {error:.2e} "
+                  f"(FTLE up to {exact.max():.3f})")
+        if "numbacs" in times:
+            for name in list(methods)[:2]:
+                ratios = np.array(times["numbacs"]) / np.array(times[name])
+                print(f"  {name}: {np.median(ratios):.2f}x numbacs' speed at this rtol (median of the paired runs; "
+                      f"from {ratios.min():.2f} to {ratios.max():.2f})")
 
 
 if __name__ == "__main__":

@@ -19,13 +19,14 @@ The compiled code is assembled by :mod:`ldpipe.engine.codegen` per system and ca
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 from .engine.integrator import get_runner, run_units
 from .engine.kinetic import to_engine_states, to_momenta
-from .engine.settings import DEFAULT_ESCAPE_RADIUS
+from .engine.settings import DEFAULT_ESCAPE_RADIUS, engine_escape_radius
 from .engine.templates import flow_status
 from .systems import System
 
@@ -197,3 +198,41 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
             run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
     return Trajectories(np.zeros(0), np.zeros((count, 0, m)), np.zeros(count, dtype=np.int64), crossings,
                         crossing_times, n_cross, status, final_time, steps)
+
+
+class FlowMap(NamedTuple):
+    """What :func:`flow_map` returns for ``k`` trajectories: ``end_state`` (k, n) where each is
+    after the duration (or stopped), ``status`` (k; ``STATUS_MEANINGS``), ``final_time`` (k,
+    signed: the duration, or where it stopped) and ``steps`` (k, step attempts)."""
+
+    end_state: np.ndarray
+    status: np.ndarray
+    final_time: np.ndarray
+    steps: np.ndarray
+
+
+def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings, *, t0: float = 0.0,
+             threads: int | None = None) -> FlowMap:
+    """Where each row of ``states`` is after ``duration`` (negative: backward) from ``t0``, of a
+    vector-field system, by the LD engine's steps without its LD (``vector_field_endpoints``):
+    the end states equal :func:`ldpipe.engine.compute_ld`'s bit for bit at the same tolerances.
+    The escape radius is raised as the LD engine raises it (:func:`engine_escape_radius`)."""
+    from .engine.vector_field import ENDPOINTS, get_vector_field_runner
+
+    if getattr(system, "hamiltonian", True):
+        raise ValueError(f"system {system.name!r}: the flow map alone is of vector-field systems; a Hamiltonian's "
+                         "end states are integrate()'s samples at the duration")
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    count, m = states.shape
+    if m != system.n_state:
+        raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
+    outputs = (np.zeros((count, m)), np.zeros(count, dtype=np.int64), np.zeros(count), np.zeros(count, dtype=np.int64))
+    if count:
+        threads = _thread_count(threads)
+        runner = get_vector_field_runner(system, ENDPOINTS)
+        args = (float(t0), 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
+                engine_escape_radius(system, settings.escape_radius), settings.max_steps)
+        with system.time_window(t0, t0 + float(duration)):
+            run_units(runner, states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+    end, status, elapsed, steps = outputs
+    return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)

@@ -18,7 +18,10 @@ from tqdm import tqdm
 
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
+from .engine.settings import engine_escape_radius
 from .errors import ConfigError
+from . import flow
+from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, sphere_metric
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
@@ -58,6 +61,27 @@ def ld_map_settings(parameters: dict, lower=None, upper=None) -> LDSettings:
         )
     except ValueError as error:
         raise ConfigError(f"config key 'ld_maps.{parameters['map_name']}': {error}") from None
+
+
+def map_start_times(parameters: dict) -> list[float] | None:
+    """The start times of a map whose ``t0`` is a list or a range ``{first, last, count}`` (its
+    file has a ``t0`` dimension); None for one start time (a number, or left out)."""
+    t0 = parameters.get("t0", 0.0)
+    if isinstance(t0, dict):
+        return [float(v) for v in np.linspace(t0["first"], t0["last"], t0["count"])]
+    if isinstance(t0, (list, tuple)):
+        return [float(v) for v in t0]
+    return None
+
+
+def start_time_band(starts: list[float], tile: int, tiles: int) -> tuple[int, int, int]:
+    """(start index, band, bands) of tile ``tile`` of ``tiles`` of a map with several start
+    times: the tiles run over the start times, each split into the same number of bands of rows."""
+    if tiles % len(starts):
+        raise ValueError(f"tiles: {tiles} tiles do not split {len(starts)} start times evenly")
+    bands = tiles // len(starts)
+    index, band = divmod(tile, bands)
+    return index, band, bands
 
 
 def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy: float | None) -> tuple:
@@ -114,18 +138,60 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
 
 
 def integrate_points(system: System, states: np.ndarray, direction: int, settings: LDSettings,
-                     progress: tqdm | None = None, t0: float = 0.0):
-    """:func:`ldpipe.engine.compute_ld` of ``states`` in calls of at most :data:`CHUNK` points (each
-    trajectory on its own, so the result does not depend on the chunks), updating ``progress``."""
+                     progress: tqdm | None = None, t0: float = 0.0, descriptor: bool = True):
+    """:func:`ldpipe.engine.compute_ld` of ``states`` (without the ``descriptor``, :func:`ldpipe.flow.flow_map`)
+    in calls of at most :data:`CHUNK` points (each trajectory on its own, so the result does not
+    depend on the chunks), updating ``progress``."""
+    if descriptor:
+        def compute(chunk):
+            return compute_ld(system, chunk, direction=direction, settings=settings, t0=t0)
+    else:
+        flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol, escape_radius=settings.escape_radius,
+                                     max_steps=settings.max_steps)
+
+        def compute(chunk):
+            return flow.flow_map(system, chunk, direction * settings.tau, flow_settings, t0=t0)
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
-        results.append(compute_ld(system, chunk, direction=direction, settings=settings, t0=t0))
+        results.append(compute(chunk))
         if progress is not None:
             progress.update(len(chunk))
     if not results:
-        return compute_ld(system, states, direction=direction, settings=settings, t0=t0)
+        return compute(states)
     return type(results[0])(*(np.concatenate(parts) for parts in zip(*results)))
+
+
+def _flow_map_fields(result: FlowMap) -> dict[str, np.ndarray]:
+    """The per-trajectory fields of a map without its LD, named as compute_ld's."""
+    return {"time": np.abs(result.final_time), "escaped": result.status == ESCAPED,
+            "failed": result.status == STEP_UNDERFLOW, "steps": result.steps}
+
+
+#: Crossings kept per trajectory while locating a stop (the last one before it is the stop).
+STOP_CROSSINGS = 256
+
+
+def locate_stops(system, states: np.ndarray, end_states: np.ndarray, direction: int, settings: LDSettings,
+                 t0: float) -> np.ndarray:
+    """|t - t0| at which each trajectory of ``states`` stopped on land or at the data's edge
+    (``end_states``, where it rests): its last crossing of the grid line it rests just past
+    (:meth:`ldpipe.systems.velocity_data.VelocityDataSystem.stop_lines`), located on the flow
+    driver's dense output, in forward time the way it crossed. NaN where no crossing was found."""
+    axis, value, side = system.stop_lines(end_states, t0, t0 + direction * settings.tau)
+    flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol,
+                                 escape_radius=engine_escape_radius(system, settings.escape_radius),
+                                 max_steps=settings.max_steps)
+    times = np.full(len(states), np.nan)
+    for key in sorted(set(zip(axis.tolist(), value.tolist(), side.tolist()))):
+        group = np.flatnonzero((axis == key[0]) & (value == key[1]) & (side == key[2]))
+        run = flow.integrate(system, states[group], direction * settings.tau, flow_settings, t0=t0,
+                             section=(system.phase_coordinates[key[0]], key[1], direction * key[2]),
+                             max_crossings=STOP_CROSSINGS)
+        found = (run.crossing_count > 0) & (run.crossing_count < STOP_CROSSINGS)
+        last = run.crossing_times[np.arange(len(group)), np.maximum(run.crossing_count - 1, 0)]
+        times[group[found]] = np.abs(last[found])
+    return times
 
 
 def _long_name(name: str, system=None) -> str:
@@ -143,13 +209,16 @@ def ld_grid_dataset(
     show_progress: bool = False,
     t0: float = 0.0,
     flow_map: bool = False,
+    descriptor: bool = True,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
 
     For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
     the start time ``t0``, and the file has no energy error and no solved coordinate. With
     ``flow_map`` the end state of every trajectory is kept too (``end_<coordinate>_<direction>``,
-    the flow map :func:`add_ftle` differentiates).
+    the flow map :func:`add_ftle` differentiates). Without the ``descriptor`` (a vector field's
+    fixed-time map, ``flow_map`` implied) only the flow map is integrated (:func:`ldpipe.flow.flow_map`):
+    the file has no ``ld_*``, ``left_region_*`` (no region) variables.
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
     states, allowed, solved = section_states(system, section, energy, rows)
@@ -161,19 +230,30 @@ def ld_grid_dataset(
                     mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
         for direction, label in ((1, "forward"), (-1, "backward")):
-            result = integrate_points(system, states, direction, settings, progress, t0)
-            for name in MAP_FIELDS:
-                values = getattr(result, name)
+            result = integrate_points(system, states, direction, settings, progress, t0, descriptor)
+            if descriptor:
+                results = {name: getattr(result, name) for name in MAP_FIELDS}
+            else:
+                results = _flow_map_fields(result)
+            flags = {}
+            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
+                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+                stopped = np.flatnonzero(flags["on_land"] | flags["left_data"])
+                if len(stopped):  # the time each stopped, where its crossing was found
+                    times = locate_stops(system, states[stopped], result.end_state[stopped], direction, settings, t0)
+                    results["time"] = results["time"].copy()
+                    found = np.isfinite(times)
+                    results["time"][stopped[found]] = times[found]
+            for name, values in results.items():
                 full = np.zeros(shape, dtype=values.dtype)
                 full[allowed] = values
                 fields[f"{name}_{label}"] = full
-            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
-                flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
+            if flags:
                 for flag, values in flags.items():
                     full = np.zeros(shape, dtype=bool)
                     full[allowed] = values
                     fields[f"{flag}_{label}"] = full
-            if flow_map:
+            if flow_map or not descriptor:
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
                 ends[label] = end
@@ -187,32 +267,42 @@ def ld_map_dataset(system: System, section: Section, fields: dict[str, np.ndarra
     :data:`STOP_FLAGS` where the system has them) to arrays of the band's shape; ``ends`` the flow
     map's end states by direction, where kept."""
     first = section.axis_values()[0][rows]
+    descriptor = "ld_forward" in fields  # a vector field's map without its LD holds the flow map alone
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
-    variables = {
-        "ld_forward": (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time", "comment": mask_note}),
-        "ld_backward": (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time", "comment": mask_note}),
+    variables = {}
+    if descriptor:
+        variables["ld_forward"] = (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time",
+                                                                "comment": mask_note})
+        variables["ld_backward"] = (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time",
+                                                                  "comment": mask_note})
+    variables.update({
         "exit_time_forward": (dims, fields["time_forward"],
                               {"long_name": "forward integration time reached: tau, or the exit or escape time"}),
         "exit_time_backward": (dims, fields["time_backward"],
                                {"long_name": "backward integration time reached (|t|): tau, or the exit or escape time"}),
         "escaped_forward": (dims, fields["escaped_forward"], {"long_name": "trajectory escaped (forward)"}),
         "escaped_backward": (dims, fields["escaped_backward"], {"long_name": "trajectory escaped (backward)"}),
-        "left_region_forward": (dims, fields["left_region_forward"], {"long_name": "trajectory left the saddle region (forward)"}),
-        "left_region_backward": (dims, fields["left_region_backward"], {"long_name": "trajectory left the saddle region (backward)"}),
+    })
+    if descriptor:  # a map without its LD has no region
+        variables["left_region_forward"] = (dims, fields["left_region_forward"],
+                                            {"long_name": "trajectory left the saddle region (forward)"})
+        variables["left_region_backward"] = (dims, fields["left_region_backward"],
+                                             {"long_name": "trajectory left the saddle region (backward)"})
+    variables.update({
         "failed_forward": (dims, fields["failed_forward"], {"long_name": "integration stopped by a safety limit (forward)"}),
         "failed_backward": (dims, fields["failed_backward"], {"long_name": "integration stopped by a safety limit (backward)"}),
         "steps_forward": (dims, fields["steps_forward"], {"long_name": "integrator step attempts (forward)"}),
         "steps_backward": (dims, fields["steps_backward"], {"long_name": "integrator step attempts (backward)"}),
-        "energy_error": (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
-                         {"long_name": "largest |H(end) - H(start)| of the two directions"}),
-        "allowed": (dims, allowed, {"long_name": "point lies in the energetically allowed region"}),
-    }
+    })
+    if section.solve is not None:  # a Hamiltonian's section (a map with its LD)
+        variables["energy_error"] = (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
+                                     {"long_name": "largest |H(end) - H(start)| of the two directions"})
+    variables["allowed"] = (dims, allowed, {"long_name": "point lies in the energetically allowed region"})
     if section.solve is not None:
         variables[section.solve] = (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
                                                    "comment": mask_note})
     else:  # a vector field: no energy, every point integrated
-        del variables["energy_error"]
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
     for flag, text in STOP_FLAGS.items():
         for label in ("forward", "backward"):
@@ -239,18 +329,17 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
     ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.ftle.sphere_metric`).
     """
-    axes = tuple(dataset[d].values for d in dataset.ld_forward.dims)
+    dims = dataset.allowed.dims
+    axes = tuple(dataset[d].values for d in dims)
     for label in ("forward", "backward"):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
-                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"left_region_{label}"].values
-                    & ~dataset[f"failed_{label}"].values)
-        for flag in STOP_FLAGS:
+                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"failed_{label}"].values)
+        for flag in ("left_region", *STOP_FLAGS):  # a map without its LD has no region
             if f"{flag}_{label}" in dataset:
                 complete &= ~dataset[f"{flag}_{label}"].values
-        metric = sphere_metric(ends, axes, dataset.ld_forward.dims, coordinates) if sphere else None
+        metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
         values, defined = ftle(ends, axes, tau, complete, metric)
-        dims = dataset.ld_forward.dims
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",
             "units": "1/time",

@@ -13,7 +13,7 @@ def names(module):
 def test_equilibrium_stage_depends_on_what_it_imports_only():
     sources = names("ldpipe.stages.equilibria")
     # What it imports, directly or through other modules, and the packages' __init__ files.
-    for expected in ("equilibria.py", "io/datafile.py", "systems/builtin.py", "systems/formula.py",
+    for expected in ("critical_points.py", "io/datafile.py", "systems/builtin.py", "systems/formula.py",
                      "systems/base.py", "jitcache.py", "stages/__init__.py", "__init__.py"):
         assert expected in sources, expected
     # Not the engine or the LD grid: editing those must not rerun the equilibria.
@@ -26,7 +26,7 @@ def test_equilibrium_stage_depends_on_what_it_imports_only():
 
 def test_ld_stage_depends_on_the_engine_the_saddle_selection_and_the_contracts():
     sources = names("ldpipe.stages.ld")
-    assert {"ld_grid.py", "sections.py", "equilibria.py", "io/contracts.py", "engine/__init__.py", "engine/api.py"} <= sources
+    assert {"ld_grid.py", "sections.py", "critical_points.py", "io/contracts.py", "engine/__init__.py", "engine/api.py"} <= sources
     # It reads the equilibria file through the file's contract, not through the stage that wrote it.
     assert "stages/equilibria.py" not in sources
     assert not any(name.startswith("cli/") for name in sources)

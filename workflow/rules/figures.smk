@@ -1,7 +1,7 @@
 # Figures: one rule per entry under `figures:` in the configuration, named after it, so that
 # `snakemake fig3` builds that figure and only the stages it draws. The helpers are library
 # functions (ldpipe.stages.figures), tested there.
-from ldpipe.stages.figures import figure_input_files, figure_memory_mb, figure_outputs
+from ldpipe.stages.figures import figure_animation_output, figure_input_files, figure_memory_mb, figure_outputs
 from ldpipe.stages.parameters import parameters_from_config
 
 
@@ -30,6 +30,7 @@ for _figure in FIGURES:
                 labels={"figure": _figure, "kind": config["figures"][_figure]["kind"]},
             ),
             pdf=figure_outputs(_figure, RESULTS)["pdf"],
+            **figure_animation_output(config, _figure, RESULTS),
         params:
             figure=parameters_from_config(config, "figures", _figure),
         log:

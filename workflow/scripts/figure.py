@@ -11,4 +11,5 @@ with log_to(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
         inputs=inputs,
         png=snakemake.output.png,  # noqa: F821
         pdf=snakemake.output.pdf,  # noqa: F821
+        gif=getattr(snakemake.output, "gif", None),  # noqa: F821 (animated kinds only)
     )

@@ -18,6 +18,7 @@ FIGURE_REQUIRED = {
     "orbit_family": ("family",),
     "nhim_sample": ("sampling",),
     "ld_ftle": ("ld_maps",),
+    "ld_animation": ("ld_maps",),
 }
 
 
@@ -43,10 +44,26 @@ def check_figures(config: dict) -> None:
                 )
             for coordinate, interval in spec["plane"].items():
                 check_interval(interval, f"{key}.plane.{coordinate}")
-        if kind in ("section_maps", "ld_slices", "ld_ftle"):
+        if kind in ("section_maps", "ld_slices", "ld_ftle", "ld_animation"):
             check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+        if kind in ("section_maps", "ld_slices", "ld_ftle"):
+            for map_name in spec["ld_maps"]:
+                if isinstance(config["ld_maps"][map_name].get("t0"), (list, dict)):
+                    raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has several start times "
+                                      f"(config key ld_maps.{map_name}.t0); a figure of kind {kind!r} draws one, "
+                                      "kind 'ld_animation' draws them all")
+        if kind == "ld_animation":
+            if len(spec["ld_maps"]) != 1:
+                raise ConfigError(f"config key '{key}.ld_maps': an animation is of one map (its start times), "
+                                  f"got {len(spec['ld_maps'])}")
+            if not config["ld_maps"][spec["ld_maps"][0]].get("ld", True):
+                raise ConfigError(f"config key '{key}.ld_maps': map {spec['ld_maps'][0]!r} has no LD to animate "
+                                  f"(config key ld_maps.{spec['ld_maps'][0]}.ld is false)")
         if kind == "ld_ftle":
             for map_name in spec["ld_maps"]:
+                if not config["ld_maps"][map_name].get("ld", True):
+                    raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has no LD to draw beside its "
+                                      f"FTLE (config key ld_maps.{map_name}.ld is false)")
                 if not config["ld_maps"][map_name].get("ftle"):
                     raise ConfigError(f"config key '{key}.ld_maps': map {map_name!r} has no FTLE to draw; give it "
                                       f"ftle: true (config key ld_maps.{map_name}.ftle)")

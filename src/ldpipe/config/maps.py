@@ -56,6 +56,7 @@ def check_ld_maps(config: dict) -> None:
         if "velocity_data" in system and spec.get("refine") is not None:
             raise ConfigError(f"config key '{key}.refine': an adaptive map refines on the fates of region exits and "
                               "escapes, not on land or the data's edge; give refine: null for a velocity-data map")
+        check_flow_map_only(spec, key, is_vector_field(system))
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -78,6 +79,18 @@ def check_ld_maps(config: dict) -> None:
                 "use at most one tile per row of the first axis"
             )
         check_region(spec, key, coordinates)
+
+
+def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
+    """A map without its LD (``ld: false``) is a fixed-time map of a vector field with its FTLE."""
+    if spec.get("ld", True):
+        return
+    if not spec.get("ftle"):
+        raise ConfigError(f"config key '{key}.ld': a map without its LD holds only the flow map and its FTLE; "
+                          "give ftle: true (or leave ld out)")
+    if not vector_field:
+        raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
+                          f"{spec['system']!r} is a Hamiltonian (leave ld out)")
 
 
 def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:

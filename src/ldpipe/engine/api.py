@@ -11,7 +11,7 @@ from .integrator import get_runner, run_units
 from .integrands import integrand_for
 from .kinetic import to_engine_states, to_momenta
 from .quadrature import folded_jacobi_rule, legendre_rule
-from .settings import LDSettings
+from .settings import LDSettings, engine_escape_radius
 
 
 class LDResult(NamedTuple):
@@ -217,9 +217,7 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
                np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, n)), np.zeros(N, dtype=np.int64))
     if N:
         runner = get_vector_field_runner(system)
-        # velocity data bound their trajectories themselves (land, the data's edge): the escape
-        # radius never stops one inside the data (coordinates in metres or longitudes beyond 100)
-        radius = max(settings.escape_radius, getattr(system, "coordinate_bound", 0.0))
+        radius = engine_escape_radius(system, settings.escape_radius)
         args = (t0, float(direction), settings.tau, settings.rtol, settings.atol, kind, p_exp, lo, hi,
                 settings.variable_time, radius, settings.max_steps, glx, glw, gjx, gjf,
                 settings.quadrature_window)

@@ -33,6 +33,13 @@ from .schemes.taylor import MAX_ORDER, MIN_ORDER
 DEFAULT_ESCAPE_RADIUS = 100.0
 
 
+def engine_escape_radius(system, radius: float) -> float:
+    """The escape radius the engine uses for ``system``: ``radius``, raised to the system's
+    ``coordinate_bound`` if it has one. Velocity data bound their trajectories themselves (land,
+    the data's edge), so coordinates in metres or longitudes beyond 100 are never an escape."""
+    return max(radius, getattr(system, "coordinate_bound", 0.0))
+
+
 def _number(name: str, value, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"{name}: expected a number, got {value!r}")

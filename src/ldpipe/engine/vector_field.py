@@ -7,6 +7,9 @@ arrays, the state dimension, the integrand kinds) and the templates ``quadrature
 ``vector_field_driver`` (first-order DOP853, one trajectory at a time, see its docstring),
 assembled by :func:`ldpipe.engine.codegen.assemble` as the Hamiltonian engine is.
 Only schemes whose record says ``general_flow`` take this path (today: dop853).
+
+The flow map alone (``vector_field_endpoints``: end states, no LD) is a second module, the same
+text with that template appended, so adding it left the LD module's text and cache as they were.
 """
 
 from __future__ import annotations
@@ -23,11 +26,14 @@ TEMPLATES = ("quadrature", "events", "step_control", "flow_status", "vector_fiel
 NC = 8  # coefficients of the dense output (degree 7) and of its derivative
 #: The driver functions of the generated module: LDs, and section crossings (ldpipe.flow).
 ENTRIES = ("vector_field_process", "vector_field_crossings")
+#: The flow map's driver (ldpipe.flow.flow_map), in the module with its template appended.
+ENDPOINTS = "vector_field_endpoints"
 KERNELS = ("rhs",)
 
 
-def vector_field_source(system) -> str:
-    """The full text of the generated module for ``system`` (see the module docstring)."""
+def vector_field_source(system, extra: tuple[str, ...] = ()) -> str:
+    """The full text of the generated module for ``system`` (see the module docstring), with the
+    templates ``extra`` appended."""
     constants = {
         "N": system.n_state,
         "NC": NC,
@@ -40,16 +46,19 @@ def vector_field_source(system) -> str:
         "G": np.atleast_2d(tableaux.DOP853_DENSE),
     }
     title = f"ldpipe.engine.vector_field: dop853, {system.n_state} state variables"
-    return assemble(system, title, KERNELS, constants, [(name, template(name)) for name in TEMPLATES])
+    return assemble(system, title, KERNELS, constants, [(name, template(name)) for name in TEMPLATES + extra])
 
 
 def get_vector_field_runner(system, entry: str = "vector_field_process"):
-    """The driver ``entry`` (one of :data:`ENTRIES`) for ``system``, kept per live system
-    (compiled lazily, or loaded from disk)."""
-    if entry not in ENTRIES:
-        raise ValueError(f"entry: expected one of {ENTRIES}, got {entry!r}")
+    """The driver ``entry`` (one of :data:`ENTRIES`, or :data:`ENDPOINTS`) for ``system``, kept
+    per live system (compiled lazily, or loaded from disk)."""
+    if entry not in ENTRIES + (ENDPOINTS,):
+        raise ValueError(f"entry: expected one of {ENTRIES + (ENDPOINTS,)}, got {entry!r}")
 
     def build():
+        if entry == ENDPOINTS:
+            source = vector_field_source(system, (ENDPOINTS,))
+            return getattr(load_generated_module(source, f"vfield_endpoints_{system.engine_name}"), entry)
         return getattr(load_generated_module(vector_field_source(system), f"vfield_engine_{system.engine_name}"), entry)
 
     return kept_runner(system, ("vector_field", entry), build)

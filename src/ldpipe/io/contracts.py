@@ -41,6 +41,9 @@ FLOW_EQUILIBRIA = StageFile("flow_equilibria", (
 #: One tile of an LD map, gathered into the map's file.
 LD_TILE = StageFile("ld_tile", ("ld_forward", "ld_backward"))
 LD_GRID = StageFile("ld_grid", ("ld_forward", "ld_backward", "allowed"))
+#: A map without its LD (``ld: false``): a file of the same stages holding the flow map and its FTLE.
+FLOW_MAP_TILE = StageFile("ld_tile", ("allowed",))
+FLOW_MAP = StageFile("ld_grid", ("ftle_forward", "ftle_backward", "allowed"))
 UPO = StageFile("upo", (
     "period", "energy", "excess_energy", "initial_state", "floquet_real", "floquet_imag", "closure_error",
     "trajectory", "monodromy",

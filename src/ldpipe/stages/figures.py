@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
+from ..ld_grid import map_start_times
 from ..logs import get_logger
 from .parameters import parameters_from_config
 
@@ -33,7 +34,10 @@ KIND_SETTINGS = {
                      "trajectories_per_branch", "view"),
     "nhim_sample": ("sampling", "orbits", "projections", "view"),
     "ld_ftle": ("ld_maps", "descriptor", "color_percentiles"),
+    "ld_animation": ("ld_maps", "descriptor", "color_percentiles", "fps"),
 }
+#: Kinds that also write an animated GIF beside the PNG and PDF.
+ANIMATED = ("ld_animation",)
 FORMATS = ("png", "pdf")
 
 
@@ -57,7 +61,7 @@ def figure_input_files(config: dict, name: str, results: str = "results") -> dic
     files: dict[str, list[str]] = {}
     if kind == "potential":
         files["equilibria"] = [f"{results}/{spec['system']}/equilibria.nc"]
-    if kind in ("section_maps", "ld_slices", "ld_ftle"):
+    if kind in ("section_maps", "ld_slices", "ld_ftle", "ld_animation"):
         files["ld_maps"] = [f"{results}/ld/{m}.nc" for m in spec["ld_maps"]]
     if kind == "section_maps":
         if spec.get("poincare"):
@@ -80,6 +84,11 @@ def figure_input_files(config: dict, name: str, results: str = "results") -> dic
 
 def figure_outputs(name: str, results: str = "results") -> dict[str, str]:
     return {fmt: f"{results}/figures/{name}.{fmt}" for fmt in FORMATS}
+
+
+def figure_animation_output(config: dict, name: str, results: str = "results") -> dict[str, str]:
+    """The GIF of an animated figure kind (:data:`ANIMATED`), by role ``gif``; none for the others."""
+    return {"gif": f"{results}/figures/{name}.gif"} if config["figures"][name]["kind"] in ANIMATED else {}
 
 
 # ----------------------------------------------------------------------------- captions
@@ -124,7 +133,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
     text = (
         f"{map_name}: system {parameters['system_name']}, section {_section_text(parameters['section'])}, "
         + (f"{_energy_text(parameters['energy'])}" if "energy" in parameters
-           else f"vector field (no energy), start time t0 = {_number(parameters.get('t0', 0.0))}")
+           else f"vector field (no energy), {_start_text(parameters)}")
         + f", τ = {_number(parameters['tau'])}, {p}, {parameters['time']} time"
     )
     if parameters["time"] == "variable":
@@ -137,6 +146,14 @@ def ld_map_caption(config: dict, map_name: str) -> str:
     text += (f", {axes[0]['points']} × {axes[1]['points']} grid over {axes[0]['name']} ∈ {_interval(axes[0]['range'])}, "
              f"{axes[1]['name']} ∈ {_interval(axes[1]['range'])}, {integrator['scheme']} ({tolerance})")
     return text
+
+
+def _start_text(parameters: dict) -> str:
+    """A map's start time, or its start times (a list or a range)."""
+    starts = map_start_times(parameters)
+    if starts is None:
+        return f"start time t0 = {_number(parameters.get('t0', 0.0))}"
+    return f"{len(starts)} start times t0 = " + ", ".join(_number(v) for v in starts)
 
 
 def _poincare_caption(config: dict, name: str) -> str:
@@ -234,6 +251,11 @@ def figure_caption(config: dict, name: str) -> dict:
         lines.append(f"LD shown: {spec['descriptor']}; FTLE forward and backward over each map's τ, colour scales "
                      f"from the {_number(spec['color_percentiles'][0])}th to the "
                      f"{_number(spec['color_percentiles'][1])}th percentile; grey where not defined")
+    if kind == "ld_animation":
+        lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        lines.append(f"LD shown: {spec['descriptor']}; one frame per start time, {_number(spec['fps'])} a second; "
+                     f"one colour scale for every frame, from the {_number(spec['color_percentiles'][0])}th to the "
+                     f"{_number(spec['color_percentiles'][1])}th percentile")
     if kind == "nhim_sample":
         lines.append("NHIM sampling " + _sampling_caption(config, spec["sampling"]))
         lines += ["Lyapunov orbit at the study's energy of family " + _family_caption(config, f) for f in spec["orbits"]]
@@ -287,6 +309,10 @@ def draw_figure(kind: str, settings: dict, inputs: dict):
         from ..figures.ld_ftle import draw_ld_ftle
 
         return draw_ld_ftle(settings, ld_maps=inputs["ld_maps"])
+    if kind == "ld_animation":
+        from ..figures.ld_animation import draw_ld_animation
+
+        return draw_ld_animation(settings, ld_maps=inputs["ld_maps"])
     raise ConfigError(f"figure kind {kind!r}: expected one of {sorted(KIND_SETTINGS)}")
 
 
@@ -307,7 +333,7 @@ def refuse_empty_maps(figure_name: str, ld_maps) -> None:
 
 
 def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | None = None, inputs: dict,
-               png: str | Path, pdf: str | Path | None = None) -> list[Path]:
+               png: str | Path, pdf: str | Path | None = None, gif: str | Path | None = None) -> list[Path]:
     """Draw figure ``figure_name`` from its input files and write it as PNG (and PDF).
 
     Parameters
@@ -319,6 +345,8 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
         :func:`figure_input_files` lists them; other roles are ignored.
     png, pdf : path
         Output files.
+    gif : path, optional
+        The animation of an animated kind (:data:`ANIMATED`).
     """
     from ..figures import style
 
@@ -327,6 +355,12 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     with style.figure_style():
         figure = draw_figure(kind, settings, inputs)
         written = style.save_figure(figure, png, pdf)
+        if gif is not None and kind in ANIMATED:
+            from ..figures.ld_animation import write_ld_animation
+
+            frames = write_ld_animation(settings, _as_list(inputs["ld_maps"])[0], gif)
+            log.info("%s: %d frames", gif, frames)
+            written.append(Path(gif))
     for path in written:
         log.info("wrote %s (%d kB)", path, path.stat().st_size // 1024)
     return written

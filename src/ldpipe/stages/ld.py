@@ -15,13 +15,15 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..io.contracts import EQUILIBRIA, LD_GRID, LD_TILE
+from ..io.contracts import EQUILIBRIA, FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
+from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute
 from ..critical_points import select_saddle
 from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
-from ..ld_grid import add_ftle, gather_tiles, ld_grid_dataset, resolve_ld_map, tile_rows
+from ..ld_grid import (add_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map, start_time_band,
+                       tile_rows)
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
@@ -30,10 +32,12 @@ log = get_logger(__name__)
 
 
 def ld_map_tiles(config: dict, map_name: str) -> int:
-    """How many tiles the map is split into (never more than its rows)."""
+    """How many tiles the map is split into: bands of rows (never more than its rows), for each
+    start time of a map with several (:func:`ldpipe.ld_grid.map_start_times`)."""
     spec = config["ld_maps"][map_name]
-    rows = parameters_from_config(config, "ld", map_name)["section"]["axes"][0]["points"]
-    return min(spec["tiles"], rows)
+    parameters = parameters_from_config(config, "ld", map_name)
+    rows = parameters["section"]["axes"][0]["points"]
+    return min(spec["tiles"], rows) * len(map_start_times(parameters) or [None])
 
 
 def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
@@ -48,13 +52,15 @@ def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
     return resolve_ld_map(parameters, saddle, critical_energy)
 
 
-def _attributes(parameters: dict, settings: LDSettings, info: dict) -> dict:
+def _attributes(parameters: dict, settings: LDSettings, info: dict, escape_radius: float) -> dict:
     """Scalar settings as attributes, so a reader sees them without parsing JSON (a vector field's
-    map has no energies; it has its start time ``t0``)."""
+    map has no energies; it has its start time ``t0``). ``escape_radius`` is the one the engine
+    used (raised for velocity data, :func:`ldpipe.engine.settings.engine_escape_radius`)."""
+    common = {**_common_attributes(parameters, settings, info), "escape_radius": escape_radius}
     if info["energy"] is None:
-        return {**_common_attributes(parameters, settings, info), "t0": info["t0"]}
+        return {**common, "t0": info["t0"]}
     return {
-        **_common_attributes(parameters, settings, info),
+        **common,
         "energy": info["energy"],
         "excess_energy": info["excess_energy"],
         "critical_energy": info["critical_energy"],
@@ -67,7 +73,8 @@ def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> di
         "system": parameters["system_name"],
         "saddle_position": np.asarray(info["saddle"]),
         "tau": settings.tau,
-        "descriptor": descriptor_attribute(settings.p),
+        # a map without its LD (ld: false) holds the flow map and its FTLE only
+        "descriptor": descriptor_attribute(settings.p) if parameters.get("ld", True) else "none",
         "time_mode": parameters["time"],
         "region_lower": np.asarray(settings.region_lower if settings.region_lower else []),
         "region_upper": np.asarray(settings.region_upper if settings.region_upper else []),
@@ -77,7 +84,6 @@ def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> di
         "dt": settings.dt,
         # the Taylor scheme's order in use (0: another scheme), default resolved from the tolerance
         "taylor_order": settings.order or 0,
-        "escape_radius": settings.escape_radius,
         # the LD quadrature's settings in use (defaults resolved from scheme and rtol)
         "quadrature_window": settings.quadrature_window,
         "quad_nodes": settings.nodes,
@@ -115,6 +121,15 @@ def compute_ld_map(
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
     if threads:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    starts = map_start_times(parameters)
+    if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
+        index, band, bands = start_time_band(starts, tile, tiles)
+        dataset = compute_ld_map({**parameters, "t0": starts[index]}, equilibria, tile=band, tiles=bands,
+                                 show_progress=show_progress)
+        dataset = dataset.expand_dims(t0=[starts[index]])
+        dataset.attrs.pop("t0")
+        dataset.attrs.update({"tile": tile, "tiles": tiles})
+        return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
@@ -131,20 +146,27 @@ def compute_ld_map(
                                       show_progress=show_progress, t0=info["t0"])
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                                  t0=info["t0"], flow_map=ftle)
+                                  t0=info["t0"], flow_map=ftle, descriptor=parameters.get("ld", True))
     if ftle and tiles == 1:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
-    dataset.attrs.update(_attributes(parameters, settings, info))
+    dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
 
 
+def map_contract(parameters: dict, *, tile_file: bool):
+    """The contract of a map's tile or whole file: an LD map's, or (``ld: false``) a flow map's."""
+    if parameters.get("ld", True):
+        return LD_TILE if tile_file else LD_GRID
+    return FLOW_MAP_TILE if tile_file else FLOW_MAP
+
+
 def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, tile_file: bool) -> Path:
     """Write a whole map, or (``tile_file``) one tile of it for :func:`run_ld_gather`."""
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
-    stage = LD_TILE if tile_file else LD_GRID
+    stage = map_contract(parameters, tile_file=tile_file)
     title = f"Lagrangian descriptor map {parameters['map_name']}" + (f", tile {tile + 1} of {tiles}" if tile_file else "")
     resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy", "t0") if k in dataset.attrs}
     recorded = {**parameters, "tile": tile, "tiles": tiles, "resolved": resolved}
@@ -193,28 +215,43 @@ def run_ld_map(
         return run_ld_gather(tiles=paths, output=output)
 
 
+def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.Dataset:
+    """The bands of rows of one start time joined along ``axis``, with the FTLE of the whole grid
+    if the map asks for it (a single band has its FTLE already)."""
+    joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
+    if parameters.get("ftle", False) and len(datasets) > 1:
+        add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
+                 on_sphere(parameters["system_spec"]))
+    return joined
+
+
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tiles of one map into the map's file."""
-    datasets = [open_stage_file(path, stage=LD_TILE) for path in tiles]
+    datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
     parameters = [stage_parameters(d) for d in datasets]
+    datasets = [open_stage_file(d, stage=map_contract(p, tile_file=True)) for d, p in zip(datasets, parameters)]
     counts = {p["tiles"] for p in parameters}
     if counts != {len(tiles)} or sorted(p["tile"] for p in parameters) != list(range(len(tiles))):
         raise ValueError(f"{output}: expected tiles 0..{len(tiles) - 1} of one map, got {[str(t) for t in tiles]}")
     datasets = [datasets[i] for i in np.argsort([p["tile"] for p in parameters])]
-    axis = list(datasets[0].dims)[0]
+    axis = datasets[0].allowed.dims[-2]
     common = {k: v for k, v in parameters[0].items() if k not in ("tile", "tiles")}
     for path, p in zip(tiles, parameters):
         if {k: v for k, v in p.items() if k not in ("tile", "tiles")} != common:
             raise ValueError(f"{path}: computed with other parameters than {tiles[0]}; recompute the tiles")
-    joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
+    starts = map_start_times(common)
+    if starts is None:
+        joined = gather_bands(datasets, axis, common)
+    else:  # the bands of each start time, then the start times stacked
+        bands = start_time_band(starts, 0, len(tiles))[2]
+        joined = xr.concat([gather_bands([d.isel(t0=0, drop=True) for d in datasets[k * bands:(k + 1) * bands]],
+                                         axis, common).expand_dims(t0=[start]) for k, start in enumerate(starts)],
+                           dim="t0", data_vars="all", coords="minimal", compat="identical", join="exact")
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
-    if common.get("ftle", False) and len(tiles) > 1:  # one tile has its FTLE already
-        add_ftle(joined, system_phase_coordinates(common["system_spec"]), float(joined.attrs["tau"]),
-                 on_sphere(common["system_spec"]))
     if "refine_trajectories" in joined.attrs:  # an adaptive map: every tile's trajectories
         joined.attrs["refine_trajectories"] = sum(int(d.attrs["refine_trajectories"]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
-    return write_stage_file(joined, output, stage=LD_GRID, title=title, parameters={**common, "tiles": len(tiles)})
+    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(tiles)})
 

@@ -366,6 +366,33 @@ class VelocityDataSystem:
         return {"on_land": in_land_cell & ~outside, "left_data": outside}
 
 
+    def stop_lines(self, end_states: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The grid line each stopped trajectory (``end_states``: where it stopped, on land or past
+        the edge) crossed last: (state index 0 or 1, the line's value in the state's own numbers,
+        the side it came from: +1 from below, -1 from above). The kernel stops a trajectory
+        as it crosses into a land cell or out of the grid, so it rests just past that line."""
+        window = self.data_window(start, end)
+        grids = (window.x_grid, window.y_grid)
+        offsets = [end_states[:, 0] - window.x_grid[0], end_states[:, 1] - window.y_grid[0]]
+        if self.source.sphere:
+            offsets[0] = np.mod(offsets[0], 360.0)
+        units = np.column_stack([offsets[a] / grids[a][1] for a in (0, 1)])  # grid units from the window's first node
+        counts = np.array([grids[0][2], grids[1][2]])
+        # outside the grid: the edge passed; inside (a land cell): the nearest of the cell's four sides
+        below = units < 0.0
+        above = units > counts - 1
+        lines = np.where(below, 0.0, np.where(above, counts - 1.0, np.round(units)))
+        distance = np.where(below | above, np.inf, np.abs(units - lines))
+        outside = below | above
+        axis = np.where(outside.any(axis=1), np.argmax(outside, axis=1), np.argmin(distance, axis=1))
+        rows = np.arange(len(end_states))
+        line = lines[rows, axis]
+        gap = units[rows, axis] - line  # past the line, in grid units
+        sign = np.where(gap >= 0.0, 1, -1)
+        steps = np.array([grids[0][1], grids[1][1]])[axis]
+        return axis, end_states[rows, axis] - gap * steps, sign
+
+
 def velocity_data_coordinates(entry: dict) -> tuple[str, str]:
     """The state variables' names of a ``velocity_data`` entry (its x and y coordinates), file unread."""
     axes = SPHERE_AXES if entry.get("coordinates", DEFAULTS["coordinates"]) == "sphere" else PLANE_AXES
