@@ -1,0 +1,170 @@
+"""Polynomials in the 2n canonical variables (q_1..q_n, p_1..p_n) as dense arrays, degree by degree.
+
+A polynomial truncated at degree N is a list ``f`` of N + 1 complex arrays, ``f[d]`` holding the
+coefficients of the homogeneous part of degree d over the monomials of :class:`MonomialBasis`
+(``basis.exponents[d][i]`` is the exponent tuple of coefficient ``f[d][i]``). All arithmetic is
+numpy on these arrays: no symbolic algebra in the loops. A monomial is found from its exponents
+by its key, the exponents read as digits in base N + 1, looked up by binary search in the degree's
+sorted keys; the Poisson bracket of two homogeneous parts is then one outer product of their
+nonzero coefficients and a scatter-add per degree of freedom.
+
+The Poisson bracket is {f, g} = Σ_k ∂f/∂q_k ∂g/∂p_k − ∂f/∂p_k ∂g/∂q_k, so q̇ = {q, H} = ∂H/∂p.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+
+class MonomialBasis:
+    """The monomials of degree 0..``max_degree`` in ``2 n_dof`` variables, ordered by key per degree."""
+
+    def __init__(self, n_dof: int, max_degree: int):
+        self.n_dof = int(n_dof)
+        self.max_degree = int(max_degree)
+        self.n_variables = 2 * self.n_dof
+        self.radix = self.max_degree + 1
+        self.place = self.radix ** np.arange(self.n_variables, dtype=np.int64)
+        self.exponents: list[np.ndarray] = []
+        self.keys: list[np.ndarray] = []
+        for degree in range(self.max_degree + 1):
+            exponents = np.zeros((math.comb(degree + self.n_variables - 1, degree), self.n_variables), dtype=np.int64)
+            for row, combination in enumerate(itertools.combinations_with_replacement(range(self.n_variables), degree)):
+                for variable in combination:
+                    exponents[row, variable] += 1
+            keys = exponents @ self.place
+            order = np.argsort(keys)
+            self.exponents.append(exponents[order])
+            self.keys.append(keys[order])
+
+    def size(self, degree: int) -> int:
+        return len(self.keys[degree])
+
+    def index(self, degree: int, exponents) -> np.ndarray:
+        """Positions in degree ``degree`` of exponent rows (shape ``(..., 2n)``)."""
+        return np.searchsorted(self.keys[degree], np.asarray(exponents, dtype=np.int64) @ self.place)
+
+    def zero(self, degree: int) -> np.ndarray:
+        return np.zeros(self.size(degree), dtype=np.complex128)
+
+    def zeros(self, max_degree: int | None = None) -> list[np.ndarray]:
+        top = self.max_degree if max_degree is None else max_degree
+        return [self.zero(d) for d in range(top + 1)]
+
+    def variable(self, k: int, max_degree: int | None = None) -> list[np.ndarray]:
+        """The coordinate function of variable k (q_k for k < n, p_(k-n) else) as a polynomial."""
+        f = self.zeros(max_degree)
+        unit = np.zeros(self.n_variables, dtype=np.int64)
+        unit[k] = 1
+        f[1][self.index(1, unit)] = 1.0
+        return f
+
+    def bracket(self, f: np.ndarray, a: int, g: np.ndarray, b: int) -> np.ndarray:
+        """{f, g} for f homogeneous of degree a and g of degree b: the coefficients of degree a + b − 2."""
+        c = a + b - 2
+        out = self.zero(c) if c >= 0 else np.zeros(0, dtype=np.complex128)
+        if a == 0 or b == 0 or c > self.max_degree:
+            return out
+        fi = np.flatnonzero(f)
+        gi = np.flatnonzero(g)
+        if len(fi) == 0 or len(gi) == 0:
+            return out
+        ef, eg = self.exponents[a][fi], self.exponents[b][gi]
+        products = f[fi][:, None] * g[gi][None, :]
+        base = self.keys[a][fi][:, None] + self.keys[b][gi][None, :]
+        n = self.n_dof
+        targets, values = [], []
+        for k in range(n):
+            weight = ef[:, k, None] * eg[None, :, n + k] - ef[:, n + k, None] * eg[None, :, k]
+            mask = weight != 0
+            if not mask.any():
+                continue
+            targets.append(base[mask] - (self.place[k] + self.place[n + k]))
+            values.append(products[mask] * weight[mask])
+        if targets:
+            positions = np.searchsorted(self.keys[c], np.concatenate(targets))
+            values = np.concatenate(values)
+            size = self.size(c)
+            out += np.bincount(positions, weights=values.real, minlength=size)
+            out += 1j * np.bincount(positions, weights=values.imag, minlength=size)
+        return out
+
+    def multiply(self, f: np.ndarray, a: int, g: np.ndarray, b: int) -> np.ndarray:
+        """f g for f homogeneous of degree a and g of degree b (degree a + b ≤ max_degree)."""
+        c = a + b
+        out = self.zero(c)
+        fi, gi = np.flatnonzero(f), np.flatnonzero(g)
+        if len(fi) == 0 or len(gi) == 0:
+            return out
+        positions = np.searchsorted(self.keys[c], (self.keys[a][fi][:, None] + self.keys[b][gi][None, :]).ravel())
+        values = (f[fi][:, None] * g[gi][None, :]).ravel()
+        out += np.bincount(positions, weights=values.real, minlength=len(out))
+        out += 1j * np.bincount(positions, weights=values.imag, minlength=len(out))
+        return out
+
+    def substitute_linear(self, f: list[np.ndarray], matrix: np.ndarray, max_degree: int | None = None) -> list[np.ndarray]:
+        """f(L y) as a polynomial in y, for the linear map x = L y given by ``matrix`` (2n × 2n).
+
+        Each monomial x^e becomes the product of powers of the linear forms Σ_j L_kj y_j, the
+        powers built once; the degrees are preserved.
+        """
+        top = (len(f) - 1) if max_degree is None else max_degree
+        forms = []
+        for k in range(self.n_variables):
+            form = self.zero(1)
+            form[:] = matrix[k][np.argmax(self.exponents[1], axis=1)]
+            powers = [np.ones(1, dtype=np.complex128), form]
+            for e in range(2, top + 1):
+                powers.append(self.multiply(powers[-1], e - 1, form, 1))
+            forms.append(powers)
+        out = self.zeros(top)
+        for degree in range(min(top, len(f) - 1) + 1):
+            for i in np.flatnonzero(f[degree]):
+                term = np.array([f[degree][i]], dtype=np.complex128)
+                term_degree = 0
+                for k, e in enumerate(self.exponents[degree][i]):
+                    if e:
+                        term = self.multiply(term, term_degree, forms[k][e], int(e))
+                        term_degree += int(e)
+                out[degree] += term
+        return out
+
+    def evaluate(self, f: list[np.ndarray], points: np.ndarray, *, chunk: int = 512) -> np.ndarray:
+        """f at ``points`` (shape ``(m, 2n)``, real or complex), from a table of powers of each variable."""
+        points = np.asarray(points)
+        dtype = np.result_type(points, np.complex128)
+        total = np.zeros(points.shape[0], dtype=dtype)
+        top = len(f) - 1
+        terms = [(d, np.flatnonzero(f[d])) for d in range(top + 1)]
+        terms = [(d, nz) for d, nz in terms if len(nz)]
+        for start in range(0, points.shape[0], chunk):
+            block = points[start:start + chunk]
+            powers = np.ones((top + 1,) + block.shape, dtype=dtype)
+            for e in range(1, top + 1):
+                powers[e] = powers[e - 1] * block
+            for degree, nonzero in terms:
+                exponents = self.exponents[degree][nonzero]
+                monomials = powers[exponents[:, 0], :, 0]
+                for k in range(1, self.n_variables):
+                    monomials = monomials * powers[exponents[:, k], :, k]
+                total[start:start + chunk] += f[degree][nonzero] @ monomials
+        return total
+
+    def gradient(self, f: list[np.ndarray]) -> list[list[np.ndarray]]:
+        """∂f/∂x_k for every variable k, each a polynomial one degree lower."""
+        out = []
+        for k in range(self.n_variables):
+            derivative = self.zeros(max(len(f) - 2, 0))
+            for degree in range(1, len(f)):
+                nonzero = np.flatnonzero(f[degree])
+                exponents = self.exponents[degree][nonzero].copy()
+                powers = exponents[:, k]
+                keep = powers > 0
+                exponents = exponents[keep]
+                exponents[:, k] -= 1
+                np.add.at(derivative[degree - 1], self.index(degree - 1, exponents), f[degree][nonzero][keep] * powers[keep])
+            out.append(derivative)
+        return out
