@@ -24,14 +24,32 @@ import numpy as np
 from .saddle import EquilibriumNormalForm
 
 
-def _newton(function, derivative, x0: np.ndarray, *, iterations: int = 60, tolerance: float = 1e-15) -> np.ndarray:
-    x = np.array(x0, dtype=np.float64)
+def increasing_root(function, derivative, guess: np.ndarray, *, iterations: int = 200, tolerance: float = 4e-16) -> np.ndarray:
+    """Roots x ≥ 0 of f(x) = 0 for f(0) < 0 increasing through its first root: Newton's steps, kept
+    inside a bracket [lo, hi] (grown from ``guess`` by doubling) and bisected when they leave it."""
+    guess = np.maximum(np.asarray(guess, dtype=np.float64), 1e-300)
+    lo = np.zeros_like(guess)
+    hi = guess.copy()
+    for _ in range(200):
+        low = function(hi) < 0
+        if not low.any():
+            break
+        lo = np.where(low, hi, lo)
+        hi = np.where(low, 2 * hi, hi)
+    else:
+        raise ArithmeticError("no energy level above the root's guess: is ΔE within the normal form's reach?")
+    x = 0.5 * (lo + hi)
     for _ in range(iterations):
-        step = function(x) / derivative(x)
-        x = x - step
-        if np.all(np.abs(step) <= tolerance * np.maximum(np.abs(x), 1e-300)):
-            return x
-    raise ArithmeticError("Newton's method did not converge for the energy level: is ΔE within the normal form's reach?")
+        value = function(x)
+        lo = np.where(value < 0, x, lo)
+        hi = np.where(value > 0, x, hi)
+        newton = x - value / derivative(x)
+        inside = (newton > lo) & (newton < hi)
+        following = np.where(inside, newton, 0.5 * (lo + hi))
+        if np.all(np.abs(following - x) <= tolerance * np.abs(following)) or np.all(hi - lo <= tolerance * hi):
+            return following
+        x = following
+    raise ArithmeticError("the energy level's root did not converge")
 
 
 def centre_action_at(nf: EquilibriumNormalForm, excess: float, *, order: int | None = None) -> float:
@@ -41,9 +59,9 @@ def centre_action_at(nf: EquilibriumNormalForm, excess: float, *, order: int | N
     exponents, values = nf.action_terms(order)
     pure = exponents[:, 0] == 0
     powers, coefficients = exponents[pure, 1], values[pure]
-    k = lambda j: np.sum(coefficients * j ** powers) - excess  # noqa: E731
-    dk = lambda j: np.sum(coefficients * powers * j ** np.maximum(powers - 1, 0))  # noqa: E731
-    return float(_newton(k, dk, np.array(excess / nf.modes.frequencies[0]))) 
+    k = lambda j: j[:, None] ** powers @ coefficients - excess  # noqa: E731
+    dk = lambda j: (powers * j[:, None] ** np.maximum(powers - 1, 0)) @ coefficients  # noqa: E731
+    return float(increasing_root(k, dk, np.array([excess / nf.modes.frequencies[0]]))[0])
 
 
 def _centre_area(nf: EquilibriumNormalForm, excess: float, order: int | None, nodes: int) -> float:
@@ -59,11 +77,13 @@ def _centre_area(nf: EquilibriumNormalForm, excess: float, order: int | None, no
         return (j2[:, None] ** e2 * e3 * j3[:, None] ** np.maximum(e3 - 1, 0)) @ c
 
     omega = nf.modes.frequencies
-    top = float(_newton(lambda j: k(j, np.zeros(1)), lambda j: (e2 * j[:, None] ** np.maximum(e2 - 1, 0)) @ c,
-                        np.array([excess / omega[0]]))[0])
+    axis = e3 == 0
+    top = float(increasing_root(lambda j: j[:, None] ** e2[axis] @ c[axis] - excess,
+                                lambda j: (e2[axis] * j[:, None] ** np.maximum(e2[axis] - 1, 0)) @ c[axis],
+                                np.array([excess / omega[0]]))[0])
     x, w = np.polynomial.legendre.leggauss(nodes)
     j2 = 0.5 * top * (x + 1)
-    j3 = _newton(lambda j: k(j2, j), lambda j: dk3(j2, j), np.maximum((excess - omega[0] * j2) / omega[1], 0.0))
+    j3 = increasing_root(lambda j: k(j2, j), lambda j: dk3(j2, j), np.maximum((excess - omega[0] * j2) / omega[1], 1e-3 * top))
     return float(0.5 * top * np.sum(w * j3))
 
 
@@ -106,7 +126,7 @@ def ray_radii(nf: EquilibriumNormalForm, excess: float, directions: np.ndarray, 
     degrees = np.arange(top + 1)
     k = lambda r: np.sum(parts * r[:, None] ** degrees, axis=1) - excess  # noqa: E731
     dk = lambda r: np.sum(parts[:, 1:] * degrees[1:] * r[:, None] ** (degrees[1:] - 1), axis=1)  # noqa: E731
-    return _newton(k, dk, np.sqrt(excess / parts[:, 2]))
+    return increasing_root(k, dk, np.sqrt(excess / parts[:, 2]))
 
 
 def flux(nf: EquilibriumNormalForm, excess: float, *, method: str = "actions", order: int | None = None,
@@ -148,6 +168,6 @@ def dividing_surface_points(nf: EquilibriumNormalForm, excess: float, centre_poi
         return (energy(t + h) - energy(t - h)) / (2 * h)
 
     guess = np.sqrt(np.maximum(-energy(np.zeros(len(points))), 0.0) / nf.modes.saddle_rate)  # K ≈ K(0, z) + λ t²
-    t = _newton(energy, slope, np.maximum(guess, 1e-8), tolerance=1e-12)
+    t = increasing_root(energy, slope, np.maximum(guess, 1e-8), tolerance=1e-13)
     points[:, 0] = points[:, n] = t
     return nf.original_states(points)

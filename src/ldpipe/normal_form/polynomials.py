@@ -17,6 +17,10 @@ import itertools
 import math
 
 import numpy as np
+import scipy.linalg
+
+
+LOOKUP_LIMIT = 30_000_000
 
 
 class MonomialBasis:
@@ -39,13 +43,26 @@ class MonomialBasis:
             order = np.argsort(keys)
             self.exponents.append(exponents[order])
             self.keys.append(keys[order])
+        # A dense table from key to position is faster than binary search, where it fits (13⁶ entries
+        # for 3 DoF at degree 12).
+        self.table = None
+        if self.radix**self.n_variables <= LOOKUP_LIMIT:
+            self.table = np.zeros(self.radix**self.n_variables, dtype=np.int32)
+            for keys in self.keys:
+                self.table[keys] = np.arange(len(keys), dtype=np.int32)
+
+    def position(self, degree: int, keys: np.ndarray) -> np.ndarray:
+        """Positions in degree ``degree`` of monomials given by their keys."""
+        if self.table is not None:
+            return self.table[keys]
+        return np.searchsorted(self.keys[degree], keys)
 
     def size(self, degree: int) -> int:
         return len(self.keys[degree])
 
     def index(self, degree: int, exponents) -> np.ndarray:
         """Positions in degree ``degree`` of exponent rows (shape ``(..., 2n)``)."""
-        return np.searchsorted(self.keys[degree], np.asarray(exponents, dtype=np.int64) @ self.place)
+        return self.position(degree, np.asarray(exponents, dtype=np.int64) @ self.place)
 
     def zero(self, degree: int) -> np.ndarray:
         return np.zeros(self.size(degree), dtype=np.complex128)
@@ -85,7 +102,7 @@ class MonomialBasis:
             targets.append(base[mask] - (self.place[k] + self.place[n + k]))
             values.append(products[mask] * weight[mask])
         if targets:
-            positions = np.searchsorted(self.keys[c], np.concatenate(targets))
+            positions = self.position(c, np.concatenate(targets))
             values = np.concatenate(values)
             size = self.size(c)
             out += np.bincount(positions, weights=values.real, minlength=size)
@@ -99,7 +116,7 @@ class MonomialBasis:
         fi, gi = np.flatnonzero(f), np.flatnonzero(g)
         if len(fi) == 0 or len(gi) == 0:
             return out
-        positions = np.searchsorted(self.keys[c], (self.keys[a][fi][:, None] + self.keys[b][gi][None, :]).ravel())
+        positions = self.position(c, (self.keys[a][fi][:, None] + self.keys[b][gi][None, :]).ravel())
         values = (f[fi][:, None] * g[gi][None, :]).ravel()
         out += np.bincount(positions, weights=values.real, minlength=len(out))
         out += 1j * np.bincount(positions, weights=values.imag, minlength=len(out))
@@ -108,28 +125,59 @@ class MonomialBasis:
     def substitute_linear(self, f: list[np.ndarray], matrix: np.ndarray, max_degree: int | None = None) -> list[np.ndarray]:
         """f(L y) as a polynomial in y, for the linear map x = L y given by ``matrix`` (2n × 2n).
 
-        Each monomial x^e becomes the product of powers of the linear forms Σ_j L_kj y_j, the
-        powers built once; the degrees are preserved.
+        L = P L₁ U (scipy's LU) is applied as elementary substitutions, each cheap on dense arrays:
+        the permutation, the unit lower factor as single shears x_i = y_i + c y_j column by column
+        (L₁ = Π_j (I + l_j e_jᵀ), j increasing), the diagonal, the unit upper factor (j
+        decreasing). A shear sends x_i^a to Σ_k C(a, k) c^k y_i^(a−k) y_j^k. Degrees are preserved.
         """
         top = (len(f) - 1) if max_degree is None else max_degree
-        forms = []
-        for k in range(self.n_variables):
-            form = self.zero(1)
-            form[:] = matrix[k][np.argmax(self.exponents[1], axis=1)]
-            powers = [np.ones(1, dtype=np.complex128), form]
-            for e in range(2, top + 1):
-                powers.append(self.multiply(powers[-1], e - 1, form, 1))
-            forms.append(powers)
-        out = self.zeros(top)
-        for degree in range(min(top, len(f) - 1) + 1):
-            for i in np.flatnonzero(f[degree]):
-                term = np.array([f[degree][i]], dtype=np.complex128)
-                term_degree = 0
-                for k, e in enumerate(self.exponents[degree][i]):
-                    if e:
-                        term = self.multiply(term, term_degree, forms[k][e], int(e))
-                        term_degree += int(e)
-                out[degree] += term
+        permutation, lower, upper = scipy.linalg.lu(np.asarray(matrix, dtype=np.complex128))
+        diagonal = np.diag(upper).copy()
+        unit_upper = upper / diagonal[:, None]
+        m = self.n_variables
+        out = []
+        for degree in range(top + 1):
+            if degree >= len(f):
+                out.append(self.zero(degree))
+                continue
+            g = self._permute(np.asarray(f[degree], dtype=np.complex128), degree, permutation)
+            for j in range(m):
+                for i in range(j + 1, m):
+                    if lower[i, j] != 0:
+                        g = self._shear(g, degree, i, j, lower[i, j])
+            g = g * np.prod(diagonal[None, :] ** self.exponents[degree], axis=1)
+            for j in range(m - 1, -1, -1):
+                for i in range(j):
+                    if unit_upper[i, j] != 0:
+                        g = self._shear(g, degree, i, j, unit_upper[i, j])
+            out.append(g)
+        return out
+
+    def _permute(self, g: np.ndarray, degree: int, permutation: np.ndarray) -> np.ndarray:
+        """g(P y) for a permutation matrix P (x_i = y_σ(i), P[i, σ(i)] = 1)."""
+        sigma = np.argmax(permutation, axis=1)
+        exponents = np.zeros_like(self.exponents[degree])
+        exponents[:, sigma] = self.exponents[degree]
+        out = self.zero(degree)
+        out[self.index(degree, exponents)] = g
+        return out
+
+    def _shear(self, g: np.ndarray, degree: int, i: int, j: int, c: complex) -> np.ndarray:
+        """g after x_i = y_i + c y_j (other variables unchanged)."""
+        out = self.zero(degree)
+        nonzero = np.flatnonzero(g)
+        if len(nonzero) == 0:
+            return out
+        keys = self.keys[degree][nonzero]
+        power = self.exponents[degree][nonzero, i]
+        values = g[nonzero]
+        for k in range(int(power.max()) + 1):
+            mask = power >= k
+            weight = np.array([math.comb(int(a), k) for a in power[mask]], dtype=np.float64) * c**k
+            target = self.position(degree, keys[mask] + k * (self.place[j] - self.place[i]))
+            contribution = values[mask] * weight
+            out += np.bincount(target, weights=contribution.real, minlength=len(out))
+            out += 1j * np.bincount(target, weights=contribution.imag, minlength=len(out))
         return out
 
     def evaluate(self, f: list[np.ndarray], points: np.ndarray, *, chunk: int = 512) -> np.ndarray:
