@@ -1,8 +1,8 @@
 """The Hamiltonian H = pᵀM⁻¹p/2 + V(q) about an equilibrium, and the symplectic change to its normal modes.
 
-The Taylor coefficients of V come from sympy, once, before any normal-form arithmetic: a polynomial
-potential is expanded exactly; any other one (exp, log, sin, cos, powers) by a series in t of
-V(q_s + t d), all variables scaled together.
+The Taylor coefficients of V are computed once, before any normal-form arithmetic: a polynomial
+potential is expanded exactly by sympy; any other one (exp, log, sin, cos, powers) by truncated
+power-series arithmetic (:mod:`ldpipe.normal_form.taylor`).
 
 The linear change is built from the generalized eigenproblem Hess V u = h M u (u M-orthonormal),
 which needs no symplectic Gram–Schmidt even for equal frequencies:
@@ -27,6 +27,7 @@ import scipy.linalg
 import sympy
 
 from .polynomials import MonomialBasis
+from .taylor import potential_coefficients
 
 
 @dataclass(frozen=True)
@@ -104,20 +105,19 @@ def symplectic_defect(matrix: np.ndarray) -> float:
 
 
 def potential_taylor(expression: sympy.Expr, symbols, point, max_degree: int) -> dict[tuple[int, ...], float]:
-    """Taylor coefficients of V(point + d) up to ``max_degree`` as {exponents of d: coefficient}."""
+    """Taylor coefficients of V(point + d) up to ``max_degree`` as {exponents of d: coefficient}.
+
+    A polynomial V is expanded exactly by sympy; any other by truncated series arithmetic
+    (:mod:`ldpipe.normal_form.taylor`).
+    """
     d = sympy.symbols(f"d0:{len(symbols)}", real=True)
-    shifted = expression.subs({s: sympy.Float(float(x), 17) + di for s, x, di in zip(symbols, point, d)}, simultaneous=True)
-    try:
+    if all(expression.is_polynomial(s) for s in symbols):
+        shifted = expression.subs({s: sympy.Float(float(x), 17) + di for s, x, di in zip(symbols, point, d)},
+                                  simultaneous=True)
         polynomial = sympy.Poly(sympy.expand(shifted), *d)
-    except sympy.PolynomialError:
-        polynomial = None
-    if polynomial is None or not polynomial.free_symbols <= set(d) or any(
-            not c.is_number for c in polynomial.coeffs()):
-        t = sympy.Symbol("t", positive=True)
-        series = sympy.series(shifted.subs({di: t * di for di in d}, simultaneous=True), t, 0, max_degree + 1).removeO()
-        polynomial = sympy.Poly(sympy.expand(series.subs(t, 1)), *d)
-    return {tuple(int(e) for e in exps): float(sympy.N(c, 17))
-            for exps, c in polynomial.terms() if sum(exps) <= max_degree}
+        return {tuple(int(e) for e in exps): float(sympy.N(c, 17))
+                for exps, c in polynomial.terms() if sum(exps) <= max_degree}
+    return potential_coefficients(expression, symbols, point, max_degree)
 
 
 def hamiltonian_taylor(basis: MonomialBasis, potential: dict[tuple[int, ...], float],

@@ -168,6 +168,6 @@ def dividing_surface_points(nf: EquilibriumNormalForm, excess: float, centre_poi
         return (energy(t + h) - energy(t - h)) / (2 * h)
 
     guess = np.sqrt(np.maximum(-energy(np.zeros(len(points))), 0.0) / nf.modes.saddle_rate)  # K ≈ K(0, z) + λ t²
-    t = increasing_root(energy, slope, np.maximum(guess, 1e-8), tolerance=1e-13)
+    t = increasing_root(energy, slope, np.maximum(guess, 1e-8))
     points[:, 0] = points[:, n] = t
     return nf.original_states(points)
