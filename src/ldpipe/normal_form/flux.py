@@ -153,6 +153,18 @@ def nhim_points(nf: EquilibriumNormalForm, excess: float, *, angles: int = 64, n
     return nf.original_states(_normal_points(nf.n_dof, directions * radii[:, None]))
 
 
+def lyapunov_orbit_points(nf: EquilibriumNormalForm, excess: float, mode: int, *, angles: int = 64) -> np.ndarray:
+    """Phase-space points of the Lyapunov orbit of centre ``mode`` (0 the lowest frequency) at ΔE:
+    the NHIM's circle where every other centre action is zero (invariant in the full form)."""
+    centres = nf.n_dof - 1
+    theta = 2 * np.pi * np.arange(angles) / angles
+    directions = np.zeros((angles, 2 * centres))
+    directions[:, mode] = np.sqrt(2) * np.cos(theta)
+    directions[:, centres + mode] = -np.sqrt(2) * np.sin(theta)
+    radii = ray_radii(nf, excess, directions)
+    return nf.original_states(_normal_points(nf.n_dof, directions * radii[:, None]))
+
+
 def dividing_surface_points(nf: EquilibriumNormalForm, excess: float, centre_points: np.ndarray) -> np.ndarray:
     """Phase-space points of the dividing surface Q₁ = P₁ = t > 0 (the forward half) at ΔE above
     the given centre points (Q₂.., P₂..), which must lie inside the NHIM's region K(0, z) < ΔE."""
