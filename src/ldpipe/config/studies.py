@@ -273,3 +273,23 @@ def check_transport_masses(config: dict) -> None:
                 f"config key '{key}': the {key.split('.')[0].replace('_', '-')} stage is for unit masses; system "
                 f"{system!r} has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
             )
+
+
+def check_normal_form(config: dict) -> None:
+    """Normal-form studies: a 2 or 3 DoF Hamiltonian system, and compared studies of that system."""
+    for name, spec in (config.get("normal_form") or {}).items():
+        key = f"normal_form.{name}"
+        coordinates = check_system_reference(config, spec["system"], f"{key}.system")
+        if len(coordinates) not in (2, 3):
+            raise ConfigError(f"config key '{key}.system': the normal-form stage is for 2 and 3 DoF systems; "
+                              f"{spec['system']!r} has {len(coordinates)}")
+        check_saddle_near(spec, coordinates, key)
+        for section in ("transport", "saddle_flux"):
+            if section in spec:
+                check_names([spec[section]], section, f"{key}.{section}", config, f"{section} study")
+                other = config[section][spec[section]]
+                system = (config["periodic_orbits"][other["orbits"]]["system"] if section == "transport"
+                          else other["system"])
+                if system != spec["system"]:
+                    raise ConfigError(f"config key '{key}.{section}': study {spec[section]!r} is of system "
+                                      f"{system!r}, not {spec['system']!r}")

@@ -181,24 +181,36 @@ class MonomialBasis:
         return out
 
     def evaluate(self, f: list[np.ndarray], points: np.ndarray, *, chunk: int = 512) -> np.ndarray:
-        """f at ``points`` (shape ``(m, 2n)``, real or complex), from a table of powers of each variable."""
+        """f at ``points`` (shape ``(m, 2n)``, real or complex)."""
+        return self.evaluate_all([f], points, chunk=chunk)[0]
+
+    def evaluate_all(self, functions: list[list[np.ndarray]], points: np.ndarray, *, chunk: int = 512) -> np.ndarray:
+        """Every polynomial of ``functions`` at ``points``, shape ``(len(functions), m)``.
+
+        The monomials are built once per block of points from a table of powers of each variable
+        and shared by all the polynomials; real coefficients at real points stay real.
+        """
         points = np.asarray(points)
-        dtype = np.result_type(points, np.complex128)
-        total = np.zeros(points.shape[0], dtype=dtype)
-        top = len(f) - 1
-        terms = [(d, np.flatnonzero(f[d])) for d in range(top + 1)]
-        terms = [(d, nz) for d, nz in terms if len(nz)]
-        for start in range(0, points.shape[0], chunk):
-            block = points[start:start + chunk]
-            powers = np.ones((top + 1,) + block.shape, dtype=dtype)
-            for e in range(1, top + 1):
-                powers[e] = powers[e - 1] * block
-            for degree, nonzero in terms:
-                exponents = self.exponents[degree][nonzero]
+        dtype = np.result_type(points, *[c for f in functions for c in f])
+        top = max(len(f) for f in functions) - 1
+        total = np.zeros((len(functions), points.shape[0]), dtype=dtype)
+        for degree in range(top + 1):
+            rows = [f[degree] if degree < len(f) and len(f[degree]) else np.zeros(self.size(degree), dtype=dtype)
+                    for f in functions]
+            coefficients = np.stack(rows)
+            nonzero = np.flatnonzero(np.any(coefficients != 0, axis=0))
+            if len(nonzero) == 0:
+                continue
+            exponents = self.exponents[degree][nonzero]
+            for start in range(0, points.shape[0], chunk):
+                block = points[start:start + chunk]
+                powers = np.ones((degree + 1,) + block.shape, dtype=dtype)
+                for e in range(1, degree + 1):
+                    powers[e] = powers[e - 1] * block
                 monomials = powers[exponents[:, 0], :, 0]
                 for k in range(1, self.n_variables):
                     monomials = monomials * powers[exponents[:, k], :, k]
-                total[start:start + chunk] += f[degree][nonzero] @ monomials
+                total[:, start:start + chunk] += coefficients[:, nonzero] @ monomials
         return total
 
     def gradient(self, f: list[np.ndarray]) -> list[list[np.ndarray]]:

@@ -10,7 +10,7 @@ is Q₁ = P₁ = 0 and the dividing surface Q₁ = P₁ (x = (Q₁ − P₁)/√
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import sympy
@@ -30,8 +30,35 @@ class EquilibriumNormalForm:
     normalization: Normalization
     hamiltonian_real: list[np.ndarray]
     imaginary_residual: float = 0.0
-    to_original: list[list[np.ndarray]] | None = None
-    from_original: list[list[np.ndarray]] | None = None
+    changes: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def to_original(self) -> list[list[np.ndarray]]:
+        """δx_i(X): the original coordinates' displacements as real polynomials of degree ≤ order − 1
+        in the real normal-form coordinates (computed on first use)."""
+        if "to" not in self.changes:
+            self.changes["to"] = self._change(inverse=False)
+        return self.changes["to"]
+
+    @property
+    def from_original(self) -> list[list[np.ndarray]]:
+        """X_i(δx): the inverse change (computed on first use)."""
+        if "from" not in self.changes:
+            self.changes["from"] = self._change(inverse=True)
+        return self.changes["from"]
+
+    def _change(self, *, inverse: bool) -> list[list[np.ndarray]]:
+        basis, modes, top = self.basis, self.modes, self.order - 1
+        functions = self.normalization.coordinates(inverse=inverse)  # y(Y), or Y(y)
+        if inverse:
+            functions = [basis.substitute_linear(f, np.linalg.inv(modes.complex_matrix), top) for f in functions]
+            functions = combine(basis, modes.to_complex, functions)  # X(δx)
+        else:
+            functions = [basis.substitute_linear(f, np.linalg.inv(modes.to_complex), top) for f in functions]
+            functions = combine(basis, modes.complex_matrix, functions)  # δx(X)
+        functions, residual = real_parts(functions)
+        self.imaginary_residual = max(self.imaginary_residual, residual)
+        return functions
 
     @property
     def basis(self) -> MonomialBasis:
@@ -74,14 +101,14 @@ class EquilibriumNormalForm:
     def original_states(self, normal: np.ndarray) -> np.ndarray:
         """Phase-space states x = x_s + δx(X) for real normal-form points X (shape (m, 2n))."""
         normal = np.atleast_2d(normal)
-        displacement = np.stack([self.basis.evaluate(f, normal).real for f in self.to_original], axis=1)
+        displacement = self.basis.evaluate_all(self.to_original, normal).real.T
         return np.concatenate([self.position, np.zeros(self.n_dof)]) + displacement
 
     def normal_states(self, states: np.ndarray) -> np.ndarray:
         """Real normal-form points X(δx) of phase-space states (shape (m, 2n))."""
         states = np.atleast_2d(states)
         displacement = states - np.concatenate([self.position, np.zeros(self.n_dof)])
-        return np.stack([self.basis.evaluate(f, displacement).real for f in self.from_original], axis=1)
+        return self.basis.evaluate_all(self.from_original, displacement).real.T
 
 
 def combine(basis: MonomialBasis, matrix: np.ndarray, functions: list[list[np.ndarray]]) -> list[list[np.ndarray]]:
@@ -99,13 +126,16 @@ def combine(basis: MonomialBasis, matrix: np.ndarray, functions: list[list[np.nd
 def real_parts(functions: list[list[np.ndarray]]) -> tuple[list[list[np.ndarray]], float]:
     """The real polynomials, and the largest imaginary part dropped (rounding when all is well)."""
     largest = max(float(np.max(np.abs(c.imag), initial=0.0)) for f in functions for c in f)
-    return [[c.real.astype(np.complex128) for c in f] for f in functions], largest
+    return [[np.ascontiguousarray(c.real) for c in f] for f in functions], largest
 
 
 def equilibrium_normal_form(expression: sympy.Expr, symbols, position, order: int, *, form: str = "full",
                             inverse_mass: np.ndarray | None = None, transforms: bool = True,
                             resonance_tolerance: float = 1e-9) -> EquilibriumNormalForm:
-    """Normal form to degree ``order`` of H = pᵀM⁻¹p/2 + V at the equilibrium ``position`` of V = ``expression``."""
+    """Normal form to degree ``order`` of H = pᵀM⁻¹p/2 + V at the equilibrium ``position`` of V = ``expression``.
+
+    ``transforms``: compute both coordinate changes now (else each on its first use).
+    """
     n = len(symbols)
     basis = MonomialBasis(n, order)
     potential = potential_taylor(expression, symbols, position, order)
@@ -119,16 +149,9 @@ def equilibrium_normal_form(expression: sympy.Expr, symbols, position, order: in
     result = EquilibriumNormalForm(position=np.asarray(position, dtype=np.float64), energy=float(energy), modes=modes,
                                    normalization=normalization, hamiltonian_real=hamiltonian_real,
                                    imaginary_residual=imaginary)
-    if transforms:
-        top = order - 1
-        old = normalization.coordinates(inverse=False)            # y(Y)
-        old = [basis.substitute_linear(f, to_complex_inverse, top) for f in old]   # y(X)
-        result.to_original, residual = real_parts(combine(basis, modes.complex_matrix, old))
-        result.imaginary_residual = max(result.imaginary_residual, residual)
-        new = normalization.coordinates(inverse=True)             # Y(y)
-        new = [basis.substitute_linear(f, np.linalg.inv(modes.complex_matrix), top) for f in new]  # Y(δx)
-        result.from_original, residual = real_parts(combine(basis, modes.to_complex, new))
-        result.imaginary_residual = max(result.imaginary_residual, residual)
+    if transforms:  # now, rather than on first use
+        for change in ("to_original", "from_original"):
+            getattr(result, change)
     return result
 
 
