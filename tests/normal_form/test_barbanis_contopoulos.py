@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from ldpipe.flow import FlowSettings
-from ldpipe.normal_form import flux, lyapunov_orbit_points, system_normal_form
+from ldpipe.normal_form import flux, lyapunov_orbit_points, nhim_points, system_normal_form
 from ldpipe.periodic_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.systems import make_system
 from ldpipe.transport import DividingPlane, reactive_flux_monte_carlo
@@ -69,6 +69,12 @@ def test_lyapunov_orbits_lie_in_the_nhim(barbanis_contopoulos, saddle):
         # measured 7e-8 and 8e-6 at order 4; 5e-11 and 3e-11 at order 8
         assert distances[1] < 1e-9
         assert distances[0] > 10 * distances[1]
+    # the sampled 3-sphere is on the energy surface, and spans both centre planes
+    sphere = nhim_points(high, excess, angles=6)
+    energies = np.array([system.energy(s) for s in sphere]) - linear.critical_energy
+    assert np.max(np.abs(energies - excess)) < 1e-10  # measured 5e-12
+    actions = high.normal_states(sphere)
+    assert np.max(np.abs(actions[:, [0, 3]])) < 1e-10  # Q₁ = P₁ = 0 (round trip); measured 8e-12
 
 
 def test_flux_within_the_monte_carlo_error(barbanis_contopoulos, saddle):
