@@ -26,6 +26,7 @@ import pytest
 import sympy
 
 from ldpipe.normal_form import MonomialBasis, equilibrium_normal_form, flux
+from ldpipe.normal_form.expansion import symplectic_defect
 
 X, Y = sympy.symbols("x y", real=True)
 
@@ -135,6 +136,9 @@ def test_quadratic_hamiltonian_is_its_own_normal_form():
     for f in nf.to_original + nf.from_original:
         assert all(np.max(np.abs(c), initial=0) < 1e-14 for d, c in enumerate(f) if d != 1)
     assert flux(nf, 0.3) == pytest.approx(2 * math.pi * 0.3 / math.sqrt(values[1]), rel=1e-14)
+    # both linear changes are symplectic (the complex one too: dQ∧dP = dq∧dp)
+    assert symplectic_defect(nf.modes.real_matrix) < 1e-14
+    assert symplectic_defect(nf.modes.to_complex) < 1e-15
 
 
 def test_henon_heiles_resonant_normal_form():

@@ -56,8 +56,7 @@ class Normalization:
     """The normalized Hamiltonian K (complex coordinates, degrees 0..order), its generators and divisors.
 
     ``smallest_divisor[s]`` is the smallest |⟨η, a − b⟩| divided by at degree s (inf if none);
-    ``resonant_terms[s]`` counts the monomials kept as resonant at degree s; ``removed_residual``
-    the largest coefficient left where a term was removed (rounding).
+    ``resonant_terms[s]`` counts the monomials kept as resonant at degree s.
     """
 
     basis: MonomialBasis

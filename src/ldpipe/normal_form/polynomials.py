@@ -212,19 +212,3 @@ class MonomialBasis:
                     monomials = monomials * powers[exponents[:, k], :, k]
                 total[:, start:start + chunk] += coefficients[:, nonzero] @ monomials
         return total
-
-    def gradient(self, f: list[np.ndarray]) -> list[list[np.ndarray]]:
-        """∂f/∂x_k for every variable k, each a polynomial one degree lower."""
-        out = []
-        for k in range(self.n_variables):
-            derivative = self.zeros(max(len(f) - 2, 0))
-            for degree in range(1, len(f)):
-                nonzero = np.flatnonzero(f[degree])
-                exponents = self.exponents[degree][nonzero].copy()
-                powers = exponents[:, k]
-                keep = powers > 0
-                exponents = exponents[keep]
-                exponents[:, k] -= 1
-                np.add.at(derivative[degree - 1], self.index(degree - 1, exponents), f[degree][nonzero][keep] * powers[keep])
-            out.append(derivative)
-        return out
