@@ -43,6 +43,17 @@ class MonomialBasis:
             order = np.argsort(keys)
             self.exponents.append(exponents[order])
             self.keys.append(keys[order])
+        # Each monomial of degree d ≥ 1 is its parent of degree d − 1 times one variable (its first):
+        # evaluation builds every degree from the one below with one product per monomial.
+        self.parent: list[np.ndarray] = [np.zeros(0, dtype=np.int64)]
+        self.factor: list[np.ndarray] = [np.zeros(0, dtype=np.int64)]
+        for degree in range(1, self.max_degree + 1):
+            exponents = self.exponents[degree]
+            first = np.argmax(exponents > 0, axis=1)
+            parents = exponents.copy()
+            parents[np.arange(len(parents)), first] -= 1
+            self.factor.append(first)
+            self.parent.append(np.searchsorted(self.keys[degree - 1], parents @ self.place))
         # A dense table from key to position is faster than binary search, where it fits (13⁶ entries
         # for 3 DoF at degree 12).
         self.table = None
@@ -184,31 +195,28 @@ class MonomialBasis:
         """f at ``points`` (shape ``(m, 2n)``, real or complex)."""
         return self.evaluate_all([f], points, chunk=chunk)[0]
 
-    def evaluate_all(self, functions: list[list[np.ndarray]], points: np.ndarray, *, chunk: int = 512) -> np.ndarray:
+    def evaluate_all(self, functions: list[list[np.ndarray]], points: np.ndarray, *, chunk: int = 256) -> np.ndarray:
         """Every polynomial of ``functions`` at ``points``, shape ``(len(functions), m)``.
 
-        The monomials are built once per block of points from a table of powers of each variable
-        and shared by all the polynomials; real coefficients at real points stay real.
+        The monomials are built degree by degree, each from its parent (one product apiece), once
+        per block of points, and shared by all the polynomials; real coefficients at real points
+        stay real.
         """
         points = np.asarray(points)
         dtype = np.result_type(points, *[c for f in functions for c in f])
         top = max(len(f) for f in functions) - 1
+        coefficients = [np.stack([f[d] if d < len(f) and len(f[d]) else np.zeros(self.size(d)) for f in functions])
+                        for d in range(top + 1)]
+        live = [bool(np.any(c)) for c in coefficients]
         total = np.zeros((len(functions), points.shape[0]), dtype=dtype)
-        for degree in range(top + 1):
-            rows = [f[degree] if degree < len(f) and len(f[degree]) else np.zeros(self.size(degree), dtype=dtype)
-                    for f in functions]
-            coefficients = np.stack(rows)
-            nonzero = np.flatnonzero(np.any(coefficients != 0, axis=0))
-            if len(nonzero) == 0:
-                continue
-            exponents = self.exponents[degree][nonzero]
-            for start in range(0, points.shape[0], chunk):
-                block = points[start:start + chunk]
-                powers = np.ones((degree + 1,) + block.shape, dtype=dtype)
-                for e in range(1, degree + 1):
-                    powers[e] = powers[e - 1] * block
-                monomials = powers[exponents[:, 0], :, 0]
-                for k in range(1, self.n_variables):
-                    monomials = monomials * powers[exponents[:, k], :, k]
-                total[:, start:start + chunk] += coefficients[:, nonzero] @ monomials
+        for start in range(0, points.shape[0], chunk):
+            block = points[start:start + chunk].T
+            monomials = np.ones((1, block.shape[1]), dtype=dtype)
+            part = total[:, start:start + chunk]
+            if live[0]:
+                part += coefficients[0] @ monomials
+            for degree in range(1, top + 1):
+                monomials = monomials[self.parent[degree]] * block[self.factor[degree]]
+                if live[degree]:
+                    part += coefficients[degree] @ monomials
         return total
