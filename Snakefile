@@ -25,4 +25,5 @@ include: "workflow/rules/accuracy.smk"
 include: "workflow/rules/transport.smk"
 include: "workflow/rules/saddle_flux.smk"
 include: "workflow/rules/velocity_data.smk"
+include: "workflow/rules/normal_form.smk"
 include: "workflow/rules/figures.smk"  # last: it checks figure names against every rule

@@ -56,7 +56,8 @@ def test_every_layer_is_populated_as_the_architecture_says():
     # A layer map that sent a whole package to the wrong layer would make the import rule vacuous.
     expected = {"ldpipe.io.datafile": 0, "ldpipe.jitcache": 0, "ldpipe.systems.formula": 1,
                 "ldpipe.engine.codegen": 2, "ldpipe.critical_points": 3, "ldpipe.config.loading": 3,
-                "ldpipe.nhim_points.refinement": 3, "ldpipe.testing.reference_ld": 3, "ldpipe.figures.nhim": 4,
+                "ldpipe.nhim_points.refinement": 3, "ldpipe.testing.reference_ld": 3,
+                "ldpipe.normal_form.lie": 3, "ldpipe.figures.nhim": 4,
                 "ldpipe.stages.transport": 5, "ldpipe.cli.main": 5, "ldpipe.api": 5, "ldpipe.accessor": 0}
     assert {module: layer(module) for module in expected} == expected
     assert {layer(m) for m in package_modules()} == set(range(len(LAYERS)))

@@ -128,7 +128,7 @@ def test_a_contract_names_the_stage_and_the_variables_checked(tmp_path):
 def test_contracts_are_indexed_by_their_stage():
     assert all(stage == contract.stage for stage, contract in CONTRACTS.items())
     assert {"equilibria", "flow_equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim",
-            "nhim_orbits", "nhim_sampling", "transport", "saddle_flux", "accuracy_cost"} == set(CONTRACTS)
+            "nhim_orbits", "nhim_sampling", "transport", "saddle_flux", "normal_form", "accuracy_cost"} == set(CONTRACTS)
 
 
 def test_parameters_attribute_is_json(tmp_path):

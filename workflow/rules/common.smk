@@ -34,6 +34,7 @@ NHIM_ORBIT_STUDIES = list(config["nhim"]["orbit_validation"])
 NHIM_SAMPLING_STUDIES = list(config.get("nhim_sampling", {}))
 TRANSPORT_STUDIES = list(config.get("transport", {}))
 SADDLE_FLUX_STUDIES = list(config.get("saddle_flux", {}))
+NORMAL_FORM_STUDIES = list(config.get("normal_form", {}))
 RESULTS = "results"
 
 
@@ -68,6 +69,7 @@ def all_targets():
         *expand(f"{RESULTS}/nhim_sampling/{{study}}.nc", study=NHIM_SAMPLING_STUDIES),
         *transport_targets(),
         *saddle_flux_targets(),
+        *normal_form_targets(),
         *([f"{RESULTS}/accuracy/accuracy_cost.nc", f"{RESULTS}/figures/accuracy_cost.png"]
           if config.get("accuracy_cost") else []),
     ]
@@ -334,3 +336,27 @@ def accuracy_engine_params(wildcards):
 
 def accuracy_engine_files(wildcards):
     return [f"{RESULTS}/accuracy/engines/{name}.txt" for name in accuracy_engines()]
+
+
+def normal_form_targets():
+    """Every normal-form study's file and figure (workflow/rules/normal_form.smk)."""
+    return [
+        path
+        for study in NORMAL_FORM_STUDIES
+        for path in (f"{RESULTS}/normal_form/{study}.nc", f"{RESULTS}/figures/normal_form_{study}.png",
+                     f"{RESULTS}/figures/normal_form_{study}.pdf")
+    ]
+
+
+def normal_form_inputs(wildcards):
+    """The study's equilibria file and the files of the studies it compares with."""
+    spec = config["normal_form"][wildcards.study]
+    inputs = {"equilibria": f"{RESULTS}/{spec['system']}/equilibria.nc"}
+    for section in ("transport", "saddle_flux"):
+        if section in spec:
+            inputs[section] = f"{RESULTS}/{section}/{spec[section]}.nc"
+    return inputs
+
+
+def normal_form_params(wildcards):
+    return parameters_from_config(config, "normal_form", wildcards.study)

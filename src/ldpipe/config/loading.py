@@ -26,6 +26,7 @@ from .studies import (
     check_accuracy_cost,
     check_nhim,
     check_nhim_sampling,
+    check_normal_form,
     check_orbits,
     check_transport_masses,
 )
@@ -194,6 +195,7 @@ def validate_config(config: dict) -> dict:
     check_nhim(config)
     check_accuracy_cost(config)
     check_transport_masses(config)
+    check_normal_form(config)
     return config
 
 

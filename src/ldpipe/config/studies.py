@@ -27,6 +27,15 @@ def check_saddle_near(spec: dict, coordinates: tuple[str, ...], key: str) -> Non
         raise ConfigError(f"config key '{key}.saddle_near': expected {len(coordinates)} numbers ({list(coordinates)}), got {near}")
 
 
+def check_saddle_study(config: dict, spec: dict, key: str, stage: str) -> None:
+    """A study of a saddle of a 2 or 3 DoF Hamiltonian system (``spec["system"]``, ``saddle_near``)."""
+    coordinates = check_system_reference(config, spec["system"], f"{key}.system")
+    if len(coordinates) not in (2, 3):
+        raise ConfigError(f"config key '{key}.system': the {stage} stage is for 2 and 3 DoF systems; "
+                          f"{spec['system']!r} has {len(coordinates)}")
+    check_saddle_near(spec, coordinates, key)
+
+
 def check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system: dict, system_key: str) -> None:
     phase = coordinates + tuple("p" + c for c in coordinates)
     if surface["coordinate"] not in phase:
@@ -100,12 +109,7 @@ def check_orbits(config: dict) -> None:
                 f"must name each of {list(phase)} exactly once, the solved one a momentum; got {named}"
             )
     for name, spec in config["saddle_flux"].items():
-        key = f"saddle_flux.{name}"
-        coordinates = check_system_reference(config, spec["system"], f"{key}.system")
-        if len(coordinates) not in (2, 3):
-            raise ConfigError(f"config key '{key}.system': the saddle-flux stage is for 2 and 3 DoF systems; "
-                              f"{spec['system']!r} has {len(coordinates)}")
-        check_saddle_near(spec, coordinates, key)
+        check_saddle_study(config, spec, f"saddle_flux.{name}", "saddle-flux")
 
 
 def check_nhim_sampling(config: dict) -> None:
@@ -273,3 +277,19 @@ def check_transport_masses(config: dict) -> None:
                 f"config key '{key}': the {key.split('.')[0].replace('_', '-')} stage is for unit masses; system "
                 f"{system!r} has a kinetic matrix (systems.{system}.masses or .mass_matrix)"
             )
+
+
+def check_normal_form(config: dict) -> None:
+    """Normal-form studies: a 2 or 3 DoF Hamiltonian system, and compared studies of that system."""
+    for name, spec in (config.get("normal_form") or {}).items():
+        key = f"normal_form.{name}"
+        check_saddle_study(config, spec, key, "normal-form")
+        for section in ("transport", "saddle_flux"):
+            if section in spec:
+                check_names([spec[section]], section, f"{key}.{section}", config, f"{section} study")
+                other = config[section][spec[section]]
+                system = (config["periodic_orbits"][other["orbits"]]["system"] if section == "transport"
+                          else other["system"])
+                if system != spec["system"]:
+                    raise ConfigError(f"config key '{key}.{section}': study {spec[section]!r} is of system "
+                                      f"{system!r}, not {spec['system']!r}")

@@ -68,6 +68,12 @@ TRANSPORT = StageFile("transport", (
 SADDLE_FLUX = StageFile("saddle_flux", (
     "excess_energy", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_dividing_surface", "flux_harmonic",
 ))
+#: The normal form's flux by energy and by order, its divisors and the NHIM points; the compared
+#: studies' values (orbit_*, monte_carlo_*) are there only when the study names them.
+NORMAL_FORM = StageFile("normal_form", (
+    "excess_energy", "flux", "flux_truncation_error", "flux_by_order", "flux_harmonic", "smallest_divisor",
+    "nhim_state",
+))
 #: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
 ACCURACY_COST = StageFile(
     "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
@@ -76,5 +82,5 @@ ACCURACY_COST = StageFile(
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
     EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
-    TRANSPORT, SADDLE_FLUX, ACCURACY_COST,
+    TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST,
 )}

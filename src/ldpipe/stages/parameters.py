@@ -200,6 +200,7 @@ STAGES: dict[str, StageEntries] = {
     "nhim_orbits": StageEntries(("nhim", "orbit_validation"), "study", build=_nhim_orbits),
     "nhim_sampling": StageEntries(("nhim_sampling",), "study", build=_nhim_sampling),
     "saddle_flux": StageEntries(("saddle_flux",), "name"),
+    "normal_form": StageEntries(("normal_form",), "name"),
     "transport": StageEntries(("transport",), "name", system_via="orbits", from_family=("saddle_near",)),
     "figures": StageEntries(("figures",), "figure_name", build=_figure),
     "accuracy": StageEntries(("accuracy_cost",), None, build=_accuracy),
