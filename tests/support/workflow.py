@@ -18,6 +18,17 @@ LDPIPE = str(BIN / "ldpipe")
 # cluster jobs with, so its multi-threaded stages must really run on more than one thread.
 CORES = 2
 
+BUILT = {"_build", "gallery", "generated"}  # what building the docs writes into docs/
+
+
+def _documentation() -> dict[str, str]:
+    """What a user reads, by path from the root: the README and every Markdown page of docs/."""
+    pages = [p for p in sorted((ROOT / "docs").rglob("*.md")) if not BUILT & set(p.relative_to(ROOT).parts)]
+    return {str(p.relative_to(ROOT)): p.read_text() for p in [ROOT / "README.md", *pages]}
+
+
+DOCUMENTATION = _documentation()
+
 
 def copy_workflow(folder: Path) -> Path:
     """What a clone holds for the workflow, copied to ``folder`` (code comes from the installed ldpipe)."""
@@ -44,8 +55,9 @@ def job_counts(output: str) -> dict[str, int]:
     return {m.group(1): int(m.group(2)) for m in rows if m.group(1) != "total"}
 
 
-def readme_yaml(marker: str) -> str:
-    """The README's one ```yaml block that contains ``marker``."""
-    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if marker in b]
-    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md"
+def documented_yaml(marker: str) -> str:
+    """The one ```yaml block of the README and the documentation pages that contains ``marker``."""
+    blocks = [b for text in DOCUMENTATION.values()
+              for b in re.findall(r"^```yaml\n(.*?)^```", text, flags=re.S | re.M) if marker in b]
+    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md and docs/"
     return blocks[0]
