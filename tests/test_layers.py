@@ -1,11 +1,12 @@
 """The layers of docs/architecture.md, read from the import statements of every ldpipe module.
 
 From the bottom: the foundations (errors, logs, text, the numba cache of generated source, the
-stage-file plumbing in ``ldpipe.io``), the systems, the engine, the science (everything else:
-equilibria, orbits, sections, NHIM, transport, accuracy, configuration, the independent
-references in ``ldpipe.testing``), the figures, and on top the stages and the command line. A
-module imports only from its own layer or those below. A figure reads a stage's file through
-:mod:`ldpipe.io.contracts`, never through the stage that wrote it.
+stage-file plumbing in ``ldpipe.io``, the Dataset accessor), the systems, the engine, the science
+(everything else: equilibria, orbits, sections, NHIM, transport, accuracy, configuration, the
+independent references in ``ldpipe.testing``), the figures, and on top the stages, the command
+line and the Python API (``ldpipe.api``). A module imports only from its own layer or those below.
+A figure reads a stage's file through :mod:`ldpipe.io.contracts`, never through the stage that
+wrote it.
 """
 
 import ast
@@ -14,7 +15,8 @@ import pytest
 
 from ldpipe.io.provenance import PACKAGE_ROOT, imported_modules
 
-FOUNDATIONS = {"ldpipe", "ldpipe.errors", "ldpipe.logs", "ldpipe.text", "ldpipe.jitcache", "ldpipe.io"}
+FOUNDATIONS = {"ldpipe", "ldpipe.errors", "ldpipe.logs", "ldpipe.text", "ldpipe.jitcache", "ldpipe.io",
+               "ldpipe.accessor"}
 LAYERS = ("foundations", "systems", "engine", "science", "figures", "stages and command line")
 
 
@@ -38,7 +40,7 @@ def layer(module: str) -> int:
     if module in FOUNDATIONS or top in FOUNDATIONS - {"ldpipe"}:
         return 0
     return {"ldpipe.systems": 1, "ldpipe.engine": 2, "ldpipe.figures": 4, "ldpipe.stages": 5,
-            "ldpipe.cli": 5}.get(top, 3)
+            "ldpipe.cli": 5, "ldpipe.api": 5}.get(top, 3)
 
 
 def test_the_walk_sees_the_package_and_its_imports():
@@ -55,7 +57,7 @@ def test_every_layer_is_populated_as_the_architecture_says():
     expected = {"ldpipe.io.datafile": 0, "ldpipe.jitcache": 0, "ldpipe.systems.formula": 1,
                 "ldpipe.engine.codegen": 2, "ldpipe.equilibria": 3, "ldpipe.config.loading": 3,
                 "ldpipe.nhim.refinement": 3, "ldpipe.testing.reference_ld": 3, "ldpipe.figures.nhim": 4,
-                "ldpipe.stages.transport": 5, "ldpipe.cli.main": 5}
+                "ldpipe.stages.transport": 5, "ldpipe.cli.main": 5, "ldpipe.api": 5, "ldpipe.accessor": 0}
     assert {module: layer(module) for module in expected} == expected
     assert {layer(m) for m in package_modules()} == set(range(len(LAYERS)))
 

@@ -8,6 +8,8 @@ import logging
 import sys
 from pathlib import Path
 
+from .errors import LdpipeError
+
 LOGGER_NAME = "ldpipe"
 FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 
@@ -32,6 +34,12 @@ def log_to(path: str | Path | None = None, level: int = logging.INFO):
     logger.setLevel(level)
     try:
         yield logger
+    except LdpipeError as error:
+        # A message meant for the user (a bad configuration key, a foreign input file): the
+        # command line prints it alone, and a log file gets it alone, without a traceback.
+        if path is not None:
+            logger.error("stage failed: %s", error)
+        raise
     except Exception:
         logger.exception("stage failed")
         raise
@@ -55,7 +63,8 @@ class LogStream(io.TextIOBase):
 
 
 def progress_output(logger: logging.Logger) -> tuple[io.TextIOBase, float]:
-    """Where a progress bar goes, and how often: the terminal when there is one, else the log."""
-    if sys.stderr.isatty():
+    """Where a progress bar goes, and how often: the terminal (or a notebook's output) when there
+    is one, else the log."""
+    if sys.stderr.isatty() or "ipykernel" in sys.modules:
         return sys.stderr, 1.0
     return LogStream(logger), 30.0

@@ -11,12 +11,12 @@ the side of sign(A) and backward on the side of sign(B).
 from __future__ import annotations
 
 import dataclasses
+import importlib
 
 import numpy as np
 import pytest
 
 from ldpipe.io import contracts
-from ldpipe import nhim
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
@@ -29,6 +29,8 @@ from ldpipe.stages.ld import compute_ld_map, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
+
+nhim = importlib.import_module("ldpipe.nhim")  # the package; ldpipe.nhim is the API's stage function
 
 LAM, OMEGA = 1.5, 1.0
 ENERGY = 0.5  # above E_c = 0: the y oscillator's amplitude is sqrt(2 E) / w = 1

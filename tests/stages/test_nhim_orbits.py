@@ -8,10 +8,11 @@ through an orbit point has a NHIM point exactly at that point.
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
-from ldpipe import nhim
 from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
@@ -26,6 +27,8 @@ from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 from ldpipe.variational import propagate
 from support.lindstedt import barbanis_contopoulos_saddle
+
+nhim = importlib.import_module("ldpipe.nhim")  # the package; ldpipe.nhim is the API's stage function
 
 LAM, OMEGA = 1.5, 1.0
 SETTINGS = nhim.RefinementSettings(tolerance=1e-8, bisection_precision=5e-10, max_time=40.0)

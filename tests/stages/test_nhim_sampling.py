@@ -12,13 +12,13 @@ arccos((lam^2 - 1) / (lam^2 + 1)) between the lines.
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from ldpipe import nhim
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
@@ -34,6 +34,8 @@ from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system
+
+nhim = importlib.import_module("ldpipe.nhim")  # the package; ldpipe.nhim is the API's stage function
 
 LAM, W1, W2 = 1.5, 1.0, 1.3
 ENERGY = 0.5

@@ -21,6 +21,7 @@ from ..logs import log_to
 from ..systems import BUILTINS, is_vector_field
 from ..text import short_number
 from . import nhim, orbits
+from .options import finite_float, number
 
 EPILOG = """\
 examples:
@@ -45,13 +46,6 @@ def _key_value(text: str) -> tuple[str, str]:
     return name.strip(), value.strip()
 
 
-def _number(text: str, what: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise ConfigError(f"{what}: expected a number, got {text!r}") from None
-
-
 def _system_config(args: argparse.Namespace) -> dict:
     """A validated config holding the requested system, with command-line overrides applied."""
     if args.config is not None:
@@ -69,13 +63,13 @@ def _system_config(args: argparse.Namespace) -> dict:
         )
     spec = config["systems"][args.system]
     for name, value in args.parameter:
-        spec.setdefault("parameters", {})[name] = _number(value, f"--parameter {name}")
+        spec.setdefault("parameters", {})[name] = number(value, f"--parameter {name}")
     for coordinate, interval in getattr(args, "box", []):
         low, sep, high = interval.partition(":")
         if not sep:
             raise ConfigError(f"--box {coordinate}: expected LOW:HIGH, got {interval!r}")
         spec.setdefault("equilibria", {}).setdefault("box", {})[coordinate] = [
-            _number(low, f"--box {coordinate}"), _number(high, f"--box {coordinate}")
+            number(low, f"--box {coordinate}"), number(high, f"--box {coordinate}")
         ]
     return validate_config(config)
 
@@ -99,19 +93,19 @@ def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> d
         parts = text.split(":")
         if len(parts) != 3:
             raise ConfigError(f"--axis {name}: expected LOW:HIGH:POINTS, got {text!r}")
-        points = _number(parts[2], f"--axis {name} points")
+        points = number(parts[2], f"--axis {name} points")
         if points != int(points):
             raise ConfigError(f"--axis {name}: POINTS must be a whole number, got {parts[2]!r}")
-        axes.append({"name": name, "range": [_number(parts[0], f"--axis {name}"), _number(parts[1], f"--axis {name}")],
+        axes.append({"name": name, "range": [number(parts[0], f"--axis {name}"), number(parts[1], f"--axis {name}")],
                      "points": int(points)})
     spec = {
         "system": args.system,
         "section": {
             "axes": axes,
-            "fixed": {name: value if value == "saddle" else _number(value, f"--fixed {name}") for name, value in args.fixed},
+            "fixed": {name: value if value == "saddle" else number(value, f"--fixed {name}") for name, value in args.fixed},
         },
         "tau": args.tau,
-        "p": ARCLENGTH if args.p == ARCLENGTH else _number(args.p, "--p"),
+        "p": ARCLENGTH if args.p == ARCLENGTH else number(args.p, "--p"),
         "time": args.time,
         **({"quad_nodes": args.quad_nodes} if args.quad_nodes is not None else {}),
         "integrator": {"scheme": args.scheme, "rtol": args.rtol, "atol": args.atol, "dt": args.dt,
@@ -123,9 +117,9 @@ def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> d
             low, sep, high = interval.partition(":")
             if not sep:
                 raise ConfigError(f"--region {coordinate}: expected LOW:HIGH, got {interval!r}")
-            spec["region"][coordinate] = [_number(low, f"--region {coordinate}"), _number(high, f"--region {coordinate}")]
+            spec["region"][coordinate] = [number(low, f"--region {coordinate}"), number(high, f"--region {coordinate}")]
     if args.saddle_near:
-        spec["saddle_near"] = [_number(v, "--saddle-near") for v in args.saddle_near.split(",")]
+        spec["saddle_near"] = [number(v, "--saddle-near") for v in args.saddle_near.split(",")]
     if vector_field:  # no energy, nothing solved; a start time
         given = [option for option, value in (("--solve", args.solve), ("--energy", args.energy),
                                               ("--excess-energy", args.excess_energy), ("--root", args.root),
@@ -157,7 +151,7 @@ def _solve_options(args: argparse.Namespace) -> dict:
     if args.root is not None:
         rule, sep, value = args.root.partition(":")
         if rule == "nearest" and sep:
-            options["root"] = {"nearest": _number(value, "--root nearest")}
+            options["root"] = {"nearest": number(value, "--root nearest")}
         elif rule in ("largest", "smallest") and not sep:
             options["root"] = rule
         else:
@@ -166,15 +160,13 @@ def _solve_options(args: argparse.Namespace) -> dict:
         low, sep, high = args.search.partition(":")
         if not sep:
             raise ConfigError(f"--search: expected LOW:HIGH, got {args.search!r}")
-        options["search"] = [_number(low, "--search"), _number(high, "--search")]
+        options["search"] = [number(low, "--search"), number(high, "--search")]
     return options
 
 
 def _run_ld(args: argparse.Namespace) -> None:
-    from ..io.contracts import EQUILIBRIA
-    from ..io.datafile import open_stage_file
     from ..stages import equilibria as equilibria_stage
-    from ..stages.ld import compute_ld_map, write_ld_map
+    from ..stages.ld import ld_map_tiles, run_ld_map
     from ..stages.parameters import parameters_from_config
 
     if args.map is not None:
@@ -200,10 +192,9 @@ def _run_ld(args: argparse.Namespace) -> None:
         if is_vector_field(config["systems"][parameters["system_name"]]):
             equilibria = None  # a vector field's map has no energy and no saddle
         else:
-            path = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
-            equilibria = open_stage_file(path, stage=EQUILIBRIA)
-        dataset = compute_ld_map(parameters, equilibria, threads=args.threads, show_progress=not args.quiet)
-        write_ld_map(dataset, parameters, args.output, tile_file=False)
+            equilibria = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+        run_ld_map(**parameters, equilibria=equilibria, tiles=ld_map_tiles(config, args.map), threads=args.threads,
+                   show_progress=not args.quiet, output=args.output)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -274,12 +265,12 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--search", metavar="LOW:HIGH",
                     help="interval a solved position's roots are sought in, for a V not quadratic in it "
                          "(with a negative LOW write --search=-3:3)")
-    ld.add_argument("--energy", type=float, metavar="E", help="total energy")
-    ld.add_argument("--excess-energy", type=float, metavar="DE", help="energy above the saddle's critical energy")
+    ld.add_argument("--energy", type=finite_float, metavar="E", help="total energy")
+    ld.add_argument("--excess-energy", type=finite_float, metavar="DE", help="energy above the saddle's critical energy")
     ld.add_argument("--saddle-near", metavar="Q1,Q2,...", help="use the index-1 saddle nearest this point")
-    ld.add_argument("--t0", type=float, metavar="T0",
+    ld.add_argument("--t0", type=finite_float, metavar="T0",
                     help="start time (a vector-field system declared in --config; default 0)")
-    ld.add_argument("--tau", type=float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
+    ld.add_argument("--tau", type=finite_float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
     ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
                     help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")
     ld.add_argument("--quad-nodes", type=int, metavar="N",
@@ -290,15 +281,15 @@ def build_parser() -> argparse.ArgumentParser:
     schemes = ", ".join(f"{name} (default)" if name == INTEGRATOR.scheme else name for name in SCHEMES)
     adaptive = " and ".join(name for name, record in SCHEMES.items() if record.adaptive)
     ld.add_argument("--scheme", default=INTEGRATOR.scheme, help=f"integrator: {schemes}")
-    ld.add_argument("--rtol", type=float, default=INTEGRATOR.rtol,
+    ld.add_argument("--rtol", type=finite_float, default=INTEGRATOR.rtol,
                     help=f"relative tolerance of {adaptive} (default {short_number(INTEGRATOR.rtol)})")
-    ld.add_argument("--atol", type=float, default=INTEGRATOR.atol,
+    ld.add_argument("--atol", type=finite_float, default=INTEGRATOR.atol,
                     help=f"absolute tolerance of {adaptive} (default {short_number(INTEGRATOR.atol)})")
     ld.add_argument("--taylor-order", type=int, metavar="M", default=INTEGRATOR.taylor_order,
                     help="order of the taylor scheme (default: from the tolerance)")
-    ld.add_argument("--dt", type=float, default=INTEGRATOR.dt,
+    ld.add_argument("--dt", type=finite_float, default=INTEGRATOR.dt,
                     help=f"step of the fixed-step schemes (default {short_number(INTEGRATOR.dt)})")
-    ld.add_argument("--escape-radius", type=float, default=INTEGRATOR.escape_radius, metavar="R",
+    ld.add_argument("--escape-radius", type=finite_float, default=INTEGRATOR.escape_radius, metavar="R",
                     help=f"a trajectory stops, flagged escaped, when max |q_i| exceeds R (default {short_number(INTEGRATOR.escape_radius)})")
     ld.add_argument("--equilibria", type=Path, metavar="FILE",
                     help="the system's equilibria file from `ldpipe equilibria` (default: computed now)")

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..config import load_config
 from ..logs import log_to
+from .options import finite_float
 
 EXAMPLES = """\
   ldpipe nhim results/ld/fig4_k-7.0.nc -o k70.nc --upo results/upo/barbanis_2dof_bottom.nc --validate 1e-7
@@ -78,16 +79,16 @@ def register(commands, epilog: str) -> None:
     nhim.add_argument("--config", type=Path, metavar="FILE", help="take the refinement settings from its nhim: section")
     nhim.add_argument("--upo", type=Path, metavar="FILE",
                       help="a UPO family file (`ldpipe upo`) with an orbit at the maps' energy: the reference")
-    nhim.add_argument("--validate", type=float, metavar="TOL",
+    nhim.add_argument("--validate", type=finite_float, metavar="TOL",
                       help="fail (exit status 2) if a refined point is farther than TOL from the orbit's crossing")
-    nhim.add_argument("--residence-ratio", type=float, default=2.0, metavar="R",
+    nhim.add_argument("--residence-ratio", type=finite_float, default=2.0, metavar="R",
                       help="with --validate: a refined point must stay R times longer than its neighbours (default 2)")
     nhim.add_argument("--csv", type=Path, metavar="FILE", help="also write the table as CSV (and Markdown beside it)")
     nhim.add_argument("--study", default="cli", help="name recorded in the file (default 'cli')")
-    nhim.add_argument("--tolerance", type=float, help="target accuracy of refined points (default 1e-8)")
-    nhim.add_argument("--rtol", type=float, help="DOP853 rtol of the refinement (default 1e-12)")
-    nhim.add_argument("--atol", type=float, help="DOP853 atol of the refinement (default 1e-12)")
-    nhim.add_argument("--max-time", type=float, help="longest refinement trajectory (default 100)")
+    nhim.add_argument("--tolerance", type=finite_float, help="target accuracy of refined points (default 1e-8)")
+    nhim.add_argument("--rtol", type=finite_float, help="DOP853 rtol of the refinement (default 1e-12)")
+    nhim.add_argument("--atol", type=finite_float, help="DOP853 atol of the refinement (default 1e-12)")
+    nhim.add_argument("--max-time", type=finite_float, help="longest refinement trajectory (default 100)")
     nhim.add_argument("--no-zoom", action="store_true", help="skip the zoomed-LD cross-check")
     nhim.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")
     nhim.set_defaults(handler=_run_nhim)

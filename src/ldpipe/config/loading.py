@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 import re
 from importlib import resources
 from pathlib import Path
@@ -151,6 +152,25 @@ def _schema_errors(config: dict, validator) -> list:
             parent[path[-1]] = float(parent[path[-1]])
 
 
+def non_finite_values(value, path: tuple = ()) -> list[tuple[str, float]]:
+    """Each key (a dotted path) of ``value`` that holds a NaN or an infinity, at any depth, with its
+    value: JSON schema takes them for numbers, and a computation would then run on them (an energy
+    of nan solves no point of a section, an inf reaches the file writer)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return [(_key(path), value)]
+    if isinstance(value, dict):
+        return [found for name, item in value.items() for found in non_finite_values(item, (*path, name))]
+    if isinstance(value, (list, tuple)):
+        return [found for index, item in enumerate(value) for found in non_finite_values(item, (*path, index))]
+    return []
+
+
+def check_finite(config: dict) -> None:
+    """A ConfigError naming the first key that holds a non-finite number (nan, inf)."""
+    for key, value in non_finite_values(config):
+        raise ConfigError(f"config key {key!r}: expected a finite number, got {value!r}")
+
+
 def validate_config(config: dict) -> dict:
     """Validate ``config`` in place against the schema, fill defaults, and return it.
 
@@ -162,6 +182,7 @@ def validate_config(config: dict) -> dict:
     validator = _schema_validator()
     # The deepest error names the key most precisely: list those first.
     errors = sorted(_schema_errors(config, validator), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
+    check_finite(config)  # after _schema_errors, which reads '1e999' as the float it means
     if errors:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))

@@ -12,6 +12,7 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
 from ..io.datafile import open_stage_file, stage_parameters
@@ -64,7 +65,7 @@ class LDMap:
         return make_system(self.parameters["system_name"], self.parameters["system_spec"])
 
 
-def load_ld_map(path: str | Path, descriptor: str = "total") -> LDMap:
+def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDMap:
     """An LD map from a file of the ``ld_grid`` stage (``descriptor`` one of :data:`DESCRIPTORS`)."""
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
@@ -76,7 +77,7 @@ def load_ld_map(path: str | Path, descriptor: str = "total") -> LDMap:
         values = dataset[f"ld_{descriptor}"].values
     allowed = dataset.allowed.values.astype(bool)
     return LDMap(
-        name=str(dataset.attrs.get("map", Path(path).stem)),
+        name=str(dataset.attrs["map"]) if "map" in dataset.attrs else Path(path).stem,
         axes=(str(axes[0]), str(axes[1])),
         first=dataset[axes[0]].values.copy(),
         second=dataset[axes[1]].values.copy(),
@@ -125,7 +126,7 @@ def _energy_index(dataset, energy: dict, path) -> int:
     return int(matches[0])
 
 
-def load_orbits(path: str | Path, energies: list[dict] | None = None) -> list[Orbit]:
+def load_orbits(path: str | Path | xr.Dataset, energies: list[dict] | None = None) -> list[Orbit]:
     """Orbits of a ``upo`` family file, at the given energies (each {'excess': v} or {'total': v};
     default every orbit of the file), in that order."""
     dataset = open_stage_file(path, stage=UPO, variables=("trajectory", "energy", "excess_energy", "period"))
@@ -220,7 +221,7 @@ def _split_curve(points: np.ndarray, valid: np.ndarray, jump_factor: float = 10.
     return pieces
 
 
-def load_manifold_curves(path: str | Path, *, trajectories: bool = False) -> ManifoldCurves:
+def load_manifold_curves(path: str | Path | xr.Dataset, *, trajectories: bool = False) -> ManifoldCurves:
     """Section curves (and optionally trajectories) of a ``manifolds`` stage file."""
     dataset = open_stage_file(path, stage=MANIFOLDS, variables=("section_state", "section_valid"))
     phase = tuple(str(p) for p in dataset.phase.values)

@@ -12,9 +12,10 @@ import dataclasses
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import xarray as xr
 
 from ..io.contracts import POINCARE
-from ..io.datafile import open_stage_file, stage_parameters
+from ..io.datafile import input_name, open_stage_file, stage_parameters
 from ..logs import get_logger
 from ..sections import Section
 from ..systems import make_system
@@ -31,7 +32,7 @@ def energy_title(excess: float, energy: float) -> str:
     return rf"$\Delta E = {excess:.3f}$ ($E = {energy:.4g}$)"
 
 
-def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
+def draw_poincare(ax, path: str | Path | xr.Dataset, *, point_size: float) -> None:
     """One Poincaré section: every located crossing, and the section's energy boundary in green."""
     dataset = open_stage_file(path, stage=POINCARE, variables=("crossing_state", "crossing_valid"))
     parameters = stage_parameters(dataset)
@@ -46,12 +47,12 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     if "energy" not in dataset.attrs:  # a vector field's: no energy boundary
         style.label_axes(ax, *axes)
         ax.set_title(rf"$t_0 = {float(dataset.attrs.get('t0', 0.0)):g}$", loc="right")
-        log.info("Poincaré section %s: %d crossings", path, len(states))
+        log.info("Poincaré section %s: %d crossings", input_name(path), len(states))
         return
     # The energy boundary: where the solved momentum of the section vanishes.
     energy = float(dataset.attrs["energy"])
-    section = Section.from_spec(start, system, key=f"poincare_sections.{parameters.get('name', Path(path).stem)}"
-                                ".initial_conditions")
+    name = parameters["name"] if "name" in parameters else Path(path).stem
+    section = Section.from_spec(start, system, key=f"poincare_sections.{name}.initial_conditions")
     section = dataclasses.replace(section, shape=(BOUNDARY_POINTS, BOUNDARY_POINTS))
     first, second, allowed = allowed_mask(system, section, energy)
     ax.contour(first, second, allowed.T.astype(float), levels=[0.5], colors=style.BOUNDARY_COLOR, linewidths=1.0)
@@ -59,10 +60,10 @@ def draw_poincare(ax, path: str | Path, *, point_size: float) -> None:
     ax.set_ylim(section.ranges[1])
     style.label_axes(ax, *axes)
     ax.set_title(energy_title(float(dataset.attrs["excess_energy"]), energy), loc="right")
-    log.info("Poincaré section %s: %d crossings", path, len(states))
+    log.info("Poincaré section %s: %d crossings", input_name(path), len(states))
 
 
-def draw_manifold_curves(ax, paths: list[str | Path], axes: tuple[str, str]) -> None:
+def draw_manifold_curves(ax, paths: list[str | Path | xr.Dataset], axes: tuple[str, str]) -> None:
     """The curves where manifolds cut the section, projected on the map's axes."""
     for path in paths:
         curves = load_manifold_curves(path)
@@ -72,7 +73,8 @@ def draw_manifold_curves(ax, paths: list[str | Path], axes: tuple[str, str]) -> 
                         color=color, linewidth=0.9)
 
 
-def draw_ld_panel(ax, path: str | Path, settings: dict, manifolds: list[str | Path] = ()) -> None:
+def draw_ld_panel(ax, path: str | Path | xr.Dataset, settings: dict,
+                  manifolds: list[str | Path | xr.Dataset] = ()) -> None:
     """One LD map with its colour bar, the forbidden region grey, optional manifold curves."""
     ld_map = load_ld_map(path, settings["descriptor"])
     limits = settings.get("color_limits") or style.color_limits(ld_map.values, settings["color_percentiles"])
@@ -88,7 +90,7 @@ def draw_ld_panel(ax, path: str | Path, settings: dict, manifolds: list[str | Pa
              if "energy" in ld_map.attrs else rf"$t_0 = {float(ld_map.attrs.get('t0', 0.0)):g}$")  # a vector field's
     ax.set_title(where + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
                  loc="right")
-    log.info("LD map %s: colour range %s", path, limits)
+    log.info("LD map %s: colour range %s", input_name(path), limits)
 
 
 def draw_section_maps(settings: dict, *, poincare: list[str | Path] = (), ld_maps: list[str | Path] = (),

@@ -13,9 +13,14 @@ import contextlib
 from pathlib import Path
 from typing import Iterator
 
+import sys
+
 import matplotlib
 
-matplotlib.use("Agg")  # figures are files; never open a window (Snakemake jobs have no display)
+if "matplotlib.pyplot" not in sys.modules:
+    # Figures are files; never open a window (Snakemake jobs have no display). A session that
+    # already draws (a notebook, through ds.ldpipe.plot) keeps its backend and its figures.
+    matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402

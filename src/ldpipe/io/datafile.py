@@ -118,12 +118,15 @@ def write_stage_file(
 
 
 def open_stage_file(
-    path: str | os.PathLike, *, stage: str | StageFile, variables: tuple[str, ...] | None = None
+    path: str | os.PathLike | xr.Dataset, *, stage: str | StageFile, variables: tuple[str, ...] | None = None
 ) -> xr.Dataset:
     """Load a stage file fully into memory, checking it is what ``stage`` wrote.
 
     Parameters
     ----------
+    path : path or xarray.Dataset
+        The file; or a stage file already in memory (as :func:`open_stage_file` or the Python API
+        returned it), checked the same way and returned as it is.
     stage : StageFile or str
         The stage's contract (:mod:`ldpipe.io.contracts`), or a bare stage name.
     variables : tuple of str, optional
@@ -138,15 +141,19 @@ def open_stage_file(
     ValueError
         if ``variables`` names one the stage's contract does not.
     """
-    path = Path(path)
     if isinstance(stage, StageFile):
         if variables is None:
             variables = stage.variables
         unnamed = [name for name in variables if name not in stage.variables]
         if unnamed:
-            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract (ldpipe.io.contracts)")
+            raise ValueError(f"variables {unnamed} are not in the {stage.stage!r} stage's contract "
+                             "(ldpipe.io.contracts)")
         stage = stage.stage
     variables = variables or ()
+    if isinstance(path, xr.Dataset):
+        _check_stage(path, "the dataset given", stage, variables)
+        return path
+    path = Path(path)
     if not path.is_file():
         raise StageFileError(f"{path}: no such file; expected the output of the {stage!r} stage")
     try:
@@ -156,21 +163,34 @@ def open_stage_file(
             f"{path}: not a readable netCDF file ({type(error).__name__}: {error}); "
             f"expected the output of the {stage!r} stage; delete it and rerun that stage"
         ) from None
-    found = dataset.attrs.get(STAGE_ATTRIBUTE)
-    if found is None:
-        raise StageFileError(
-            f"{path}: not written by ldpipe (no {STAGE_ATTRIBUTE!r} attribute); "
-            f"expected the output of the {stage!r} stage"
-        )
-    if found != stage:
-        raise StageFileError(f"{path}: written by the {found!r} stage; expected the {stage!r} stage")
-    missing = [name for name in variables if name not in dataset.variables]
-    if missing:
-        raise StageFileError(f"{path}: lacks variables {missing} that the {stage!r} stage writes")
+    _check_stage(dataset, path, stage, variables)
     for name, variable in dataset.data_vars.items():
         if variable.attrs.get("flag_meanings") == "false true":
             dataset[name] = variable.astype(bool)
     return dataset
+
+
+def _check_stage(dataset: xr.Dataset, where, stage: str, variables: tuple[str, ...]) -> None:
+    """A StageFileError naming ``where`` unless ``dataset`` was written by ``stage`` and holds ``variables``."""
+    found = dataset.attrs.get(STAGE_ATTRIBUTE)
+    if found is None:
+        raise StageFileError(
+            f"{where}: not written by ldpipe (no {STAGE_ATTRIBUTE!r} attribute); "
+            f"expected the output of the {stage!r} stage"
+        )
+    if found != stage:
+        raise StageFileError(f"{where}: written by the {found!r} stage; expected the {stage!r} stage")
+    missing = [name for name in variables if name not in dataset.variables]
+    if missing:
+        raise StageFileError(f"{where}: lacks variables {missing} that the {stage!r} stage writes")
+
+
+def input_name(source: str | os.PathLike | xr.Dataset) -> str:
+    """How a stage's file records one of its inputs: the input file's path, or the title of a
+    stage file given in memory (by the Python API), which has no path."""
+    if isinstance(source, xr.Dataset):
+        return f"(in memory) {source.attrs.get('title', 'untitled')}"
+    return str(source)
 
 
 def stage_parameters(dataset: xr.Dataset) -> dict:

@@ -8,6 +8,7 @@ from the system's equilibria file.
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numba
@@ -145,7 +146,7 @@ def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, t
 def run_ld_tile(
     *,
     output: str | Path,
-    equilibria: str | Path | None,
+    equilibria: str | Path | xr.Dataset | None,
     tile: int = 0,
     tiles: int = 1,
     threads: int | None = None,
@@ -154,11 +155,32 @@ def run_ld_tile(
 ) -> Path:
     """Compute one tile of an LD map from the system's equilibria file (None for a vector field,
     which has no energy), and write it as a tile file."""
-    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria else None
+    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria is not None else None
     dataset = compute_ld_map(
         parameters, equilibria_data, tile=tile, tiles=tiles, threads=threads, show_progress=show_progress
     )
     return write_ld_map(dataset, parameters, output, tile_file=True)
+
+
+def run_ld_map(
+    *,
+    output: str | Path,
+    equilibria: str | Path | xr.Dataset | None,
+    tiles: int = 1,
+    threads: int | None = None,
+    show_progress: bool = True,
+    **parameters,
+) -> Path:
+    """Compute a whole map as the workflow does, tile by tile (:func:`run_ld_tile`) then joined
+    (:func:`run_ld_gather`), in one process: the file is the workflow's, bit for bit (the command
+    line and the Python API write maps this way)."""
+    with tempfile.TemporaryDirectory() as scratch:
+        paths = [
+            run_ld_tile(**parameters, output=Path(scratch) / f"tile-{tile}-of-{tiles}.nc", equilibria=equilibria,
+                        tile=tile, tiles=tiles, threads=threads, show_progress=show_progress)
+            for tile in range(tiles)
+        ]
+        return run_ld_gather(tiles=paths, output=output)
 
 
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:

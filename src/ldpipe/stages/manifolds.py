@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.contracts import MANIFOLDS, UPO
-from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
 from ..flow import FlowSettings
 from ..logs import get_logger
@@ -30,7 +30,7 @@ def select_orbit(orbits, energy: dict, key: str, path) -> int:
     index = int(np.argmin(np.abs(available - value)))
     if abs(available[index] - value) > 1e-8 * max(1.0, abs(value)):
         raise ConfigError(
-            f"config key '{key}.energy': no orbit at {kind} energy {value!r} in {path} (it has {available.tolist()}); "
+            f"config key '{key}.energy': no orbit at {kind} energy {value!r} in {input_name(path)} (it has {available.tolist()}); "
             f"add it to the family's energies"
         )
     return index
@@ -41,7 +41,7 @@ def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = 
     key = f"manifolds.{parameters['name']}"
     data = open_stage_file(upo, stage=UPO)
     if stage_parameters(data)["system_name"] != parameters["system_name"]:
-        raise StageFileError(f"{upo}: orbits of system {data.attrs['system']!r}, expected {parameters['system_name']!r}")
+        raise StageFileError(f"{input_name(upo)}: orbits of system {data.attrs['system']!r}, expected {parameters['system_name']!r}")
     index = select_orbit(data, parameters["energy"], key, upo)
     system = make_system(parameters["system_name"], parameters["system_spec"])
     require_hamiltonian(system, "the manifolds of a periodic orbit", key=f"{key}.orbits")

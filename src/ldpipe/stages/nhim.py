@@ -24,7 +24,7 @@ import numpy as np
 import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
-from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map
 from ..logs import get_logger
@@ -170,8 +170,8 @@ def run_nhim_study(
     dataset.attrs.update(problem.system.kinetic_attributes())
     dataset.attrs.update({f"refinement_{k}": (int(v) if isinstance(v, bool) else v) for k, v in refinement.items()})
     dataset.attrs["study"] = study
-    recorded = {"study": study, "refinement": refinement, "maps": [str(m) for m in maps], "derived": derived or [],
-                "references": references}
+    recorded = {"study": study, "refinement": refinement, "maps": [input_name(m) for m in maps],
+                "derived": derived or [], "references": {family: input_name(f) for family, f in references.items()}}
     path = write_stage_file(dataset, output, stage=NHIM, title=f"NHIM points of study {study}", parameters=recorded)
     log.info("wrote %s (%d slices)", path, len(records))
     return path

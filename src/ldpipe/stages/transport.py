@@ -44,7 +44,7 @@ import numpy as np
 import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, TRANSPORT, UPO
-from ..io.datafile import open_stage_file, stage_parameters, write_stage_file
+from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..equilibria import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..logs import get_logger
@@ -115,7 +115,7 @@ def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path
     key = f"transport.{parameters['name']}"
     orbits = open_stage_file(upo, stage=UPO)
     if stage_parameters(orbits)["system_name"] != parameters["system_name"]:
-        raise StageFileError(f"{upo}: orbits of system {orbits.attrs['system']!r}, "
+        raise StageFileError(f"{input_name(upo)}: orbits of system {orbits.attrs['system']!r}, "
                              f"expected {parameters['system_name']!r}")
     eq = open_stage_file(equilibria, stage=EQUILIBRIA)
     system = make_system(parameters["system_name"], parameters["system_spec"])

@@ -1,0 +1,32 @@
+"""Numbers from the command line: finite ones only, each refused by the option that gave it.
+
+``float("nan")`` and ``float("inf")`` parse, and would then run a whole stage on them (an energy
+of nan solves no point of a section; an inf dies in the file writer): they are refused here,
+before any work starts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..errors import ConfigError
+
+
+def number(text: str, what: str) -> float:
+    """The finite number ``text`` means, or a ConfigError naming ``what`` (the option)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise ConfigError(f"{what}: expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"{what}: expected a finite number, got {text!r}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    """An argparse ``type``: a finite number (argparse names the option in its error)."""
+    try:
+        return number(text, "value")
+    except ConfigError:
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}") from None
