@@ -341,7 +341,7 @@ def test_orbit_validation_config_errors_name_the_key():
     assert nhim_orbit_inputs(config, "s") == {"orbits": ["mode0"], "systems": ["barbanis_contopoulos_3dof"]}
 
 
-def test_the_readme_example_is_the_configured_study():
+def test_the_documented_example_is_the_configured_study():
     # The documented example block is config.yaml's 3 DoF study, and valid against the schema.
     import yaml
     from support.workflow import ROOT, documented_yaml

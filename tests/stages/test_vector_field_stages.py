@@ -133,7 +133,7 @@ def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
         run_equilibria(**parameters_from_config(cfg, "equilibria", "duffing"), output=tmp_path / "eq.nc")
 
 
-def test_the_readme_example_is_a_valid_configuration():
+def test_the_documented_example_is_a_valid_configuration():
     # The documented vector_field example validates as written, and its map resolves.
     cfg = validate_config(yaml.safe_load(documented_yaml("vector_field:")))
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5

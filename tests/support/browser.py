@@ -17,12 +17,14 @@ def chromium() -> str | None:
 
 def browse(browser: str, url: str, profile: Path, *, screenshot: Path | None = None,
            window: tuple[int, int] = (1400, 1800)) -> str:
-    """Open ``url`` in headless Chromium: its DOM after the scripts ran, or a screenshot. A browser
-    that will not start fails the calling test (it does not skip)."""
-    action = [f"--screenshot={screenshot}", f"--window-size={window[0]},{window[1]}"] if screenshot else ["--dump-dom"]
+    """Open ``url`` in headless Chromium in a ``window`` (width, height) of CSS pixels: its DOM after
+    the scripts ran, or a screenshot. A browser that will not start fails the calling test (it
+    does not skip)."""
+    action = [f"--screenshot={screenshot}"] if screenshot else ["--dump-dom"]
     result = subprocess.run(
         [browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
-         "--virtual-time-budget=10000", *action, url],
+         "--virtual-time-budget=10000", "--force-device-scale-factor=1", f"--window-size={window[0]},{window[1]}",
+         *action, url],
         capture_output=True, text=True, timeout=180,
     )
     assert result.returncode == 0, result.stderr[-2000:]

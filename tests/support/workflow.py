@@ -19,6 +19,7 @@ LDPIPE = str(BIN / "ldpipe")
 CORES = 2
 
 BUILT = {"_build", "gallery", "generated"}  # what building the docs writes into docs/
+BUILD_DOCS = ".venv/bin/sphinx-build -W docs docs/_build/html"  # the development page's command
 
 
 def _documentation() -> dict[str, str]:

@@ -37,7 +37,7 @@ import pytest
 
 from ldpipe.io.datafile import open_stage_file
 
-from support.workflow import BIN, DOCUMENTATION, ROOT, copy_workflow, documented_yaml, run_snakemake
+from support.workflow import BIN, BUILD_DOCS, DOCUMENTATION, ROOT, copy_workflow, documented_yaml, run_snakemake
 
 
 def bash_commands(text: str) -> list[str]:
@@ -54,7 +54,6 @@ def bash_commands(text: str) -> list[str]:
 INSTALL_AND_SNAKEMAKE = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/snakemake"
 INSTALL_AND_TEST = "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/pytest"
 INSTALL_DOCS = ".venv/bin/pip install -e '.[docs]'"
-BUILD_DOCS = ".venv/bin/sphinx-build -W docs docs/_build/html"
 
 
 def plan(command: str) -> tuple[str, str, str]:
