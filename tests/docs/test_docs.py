@@ -164,10 +164,15 @@ def test_the_readme_and_getting_started_show_the_same_ten_line_example():
 
 
 @pytest.mark.parametrize("block", PYTHON_BLOCKS, ids=[b.splitlines()[-1][:40] for b in PYTHON_BLOCKS])
-def test_every_python_block_runs_as_written(block, tmp_path, monkeypatch):
+def test_every_python_block_runs_as_written(block, tmp_path, monkeypatch, capsys):
+    """In a folder with the clone's ``src`` (a block may read the sources, as engine.md's does),
+    so that what a block writes stays out of the repository."""
+    (tmp_path / "src").symlink_to(ROOT / "src")
     monkeypatch.chdir(tmp_path)
     exec(compile(block, "<documentation>", "exec"), {"__name__": "__main__"})
     plt.close("all")
+    if "print(" in block:
+        assert capsys.readouterr().out.strip(), "the block printed nothing"
     for saved in tmp_path.glob("*.png"):
         assert _drawn(saved) > 0.002, f"{saved.name}: nothing drawn in it"
     if saved := next(tmp_path.glob("henon_heiles_ld.png"), None):
