@@ -2,7 +2,7 @@
 
 The directive ``schema-reference`` walks ``src/ldpipe/schemas/config.schema.yaml``, the file the
 workflow validates every configuration against, and writes one section per top-level key with a
-table of every key below it (dotted path, type, default, allowed values, description). The schema
+definition list of every key below it (dotted path; type, default, allowed values; description). The schema
 stays the one home of each key's meaning: the page cannot fall behind it.
 """
 
@@ -123,15 +123,11 @@ def schema_reference_lines(schema: dict) -> list[str]:
         if "default" in node:
             facts.append(f"Default: {_literal(node['default'])}.")
         lines += [" ".join(facts), ""]
-        rows = list(_rows(schema, node, key))
-        if rows:
-            lines += [".. list-table::", "   :header-rows: 1", "   :widths: 25 12 12 15 36", "",
-                      "   * - key", "     - type", "     - default", "     - allowed", "     - meaning"]
-            for row in rows:
-                first, *rest = row
-                lines.append(f"   * - ``{first}``")
-                lines += [f"     - {cell}" for cell in rest]
-            lines.append("")
+        for name, kind, default, allowed, meaning in _rows(schema, node, key):
+            facts = [f"*{kind}*"] + ([f"default {default}"] if default else []) + ([f"allowed {allowed}"] if allowed else [])
+            lines += [f"``{name}``", "   " + "; ".join(facts), ""]
+            if meaning:
+                lines += ["   " + meaning, ""]
     return lines
 
 

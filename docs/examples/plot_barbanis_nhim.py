@@ -18,17 +18,19 @@ POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))  # grid points per 
 
 barbanis = ldpipe.system(builtin="barbanis_2dof")
 equilibria = ldpipe.equilibria(barbanis)
-ld = ldpipe.ld_map(barbanis, name="fig4_k-7.0", equilibria=equilibria, saddle_near=[5.5, -7.0],
-                   section=ldpipe.section(x=(4.8, 6.0, POINTS), px=(-0.6, 0.6, POINTS), fixed={"y": -7.0},
-                                          solve="py", sign=1),
+section = ldpipe.section(x=(4.8, 6.0, POINTS), px=(-0.6, 0.6, POINTS),
+                         fixed={"y": -7.0}, solve="py", sign=1)
+ld = ldpipe.ld_map(barbanis, name="fig4_k-7.0", equilibria=equilibria,
+                   saddle_near=[5.5, -7.0], section=section,
                    energy={"excess": 0.125}, tau=50, p=0.5, time="variable",
                    region={"x": [4.5, 6.5], "y": [-8.5, -5.5]})
 
 # %%
 # The Lyapunov orbit of the bottom saddle at the map's energy, the reference.
 
-orbits = ldpipe.periodic_orbits(barbanis, name="barbanis_2dof_bottom", equilibria=equilibria,
-                                saddle_near=[5.5, -7.0711], center_mode=0, energies={"excess": [0.125]})
+orbits = ldpipe.periodic_orbits(barbanis, name="barbanis_2dof_bottom",
+                                equilibria=equilibria, saddle_near=[5.5, -7.0711],
+                                center_mode=0, energies={"excess": [0.125]})
 
 # %%
 # Detection on the map, then refinement by bisection on the fates of trajectories (which side of
@@ -37,7 +39,8 @@ orbits = ldpipe.periodic_orbits(barbanis, name="barbanis_2dof_bottom", equilibri
 points = ldpipe.nhim([ld], references=[orbits], tolerance=1e-8)
 refined = points.refined_point.isel(slice=0).values
 print("detected on the grid:", points.detected_point.isel(slice=0).values)
-print("refined:             ", refined, f"(uncertainty {float(points.refined_uncertainty[0]):.1e})")
+uncertainty = float(points.refined_uncertainty[0])
+print("refined:             ", refined, f"(uncertainty {uncertainty:.1e})")
 print("the orbit's crossing:", points.reference_point.isel(slice=0).values)
 print(f"distance to it: {float(points.distance_refined[0]):.1e} after refinement, "
       f"{float(points.distance_detected[0]):.1e} on the grid")
@@ -48,6 +51,7 @@ print(f"distance to it: {float(points.distance_refined[0]):.1e} after refinement
 fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, descriptor in zip(axes, ("forward", "backward")):
     ld.ldpipe.plot(ax=ax, descriptor=descriptor)
-    ax.plot(*refined, "r+", markersize=14, markeredgewidth=2, label="refined NHIM point")
+    ax.plot(*refined, "r+", markersize=14, markeredgewidth=2,
+            label="refined NHIM point")
     ax.legend(loc="lower right")
 plt.show()

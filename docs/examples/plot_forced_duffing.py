@@ -17,9 +17,10 @@ import ldpipe
 
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))  # grid points per axis
 
-duffing = ldpipe.system(name="forced_duffing",
-                        vector_field={"x": "y", "y": "x - x**3 - delta*y + F*cos(omega*t)"},
-                        coordinates=["x", "y"], parameters={"delta": 0.25, "F": 0.3, "omega": 1.2})
+duffing = ldpipe.system(
+    name="forced_duffing",
+    vector_field={"x": "y", "y": "x - x**3 - delta*y + F*cos(omega*t)"},
+    coordinates=["x", "y"], parameters={"delta": 0.25, "F": 0.3, "omega": 1.2})
 
 # %%
 # A vector field's map has no energy: two state variables on the grid, nothing solved, and a

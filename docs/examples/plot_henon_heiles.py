@@ -16,10 +16,11 @@ import ldpipe
 
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))  # grid points per axis
 
-henon_heiles = ldpipe.system(name="henon_heiles", formula="(x**2 + y**2)/2 + x**2*y - y**3/3",
+henon_heiles = ldpipe.system(name="henon_heiles",
+                             formula="(x**2 + y**2)/2 + x**2*y - y**3/3",
                              coordinates=["x", "y"])
-section = ldpipe.section(y=(-0.45, 0.8, POINTS), py=(-0.5, 0.5, POINTS), fixed={"px": 0.0},
-                         solve="x", root="largest")
+section = ldpipe.section(y=(-0.45, 0.8, POINTS), py=(-0.5, 0.5, POINTS),
+                         fixed={"px": 0.0}, solve="x", root="largest")
 ld = ldpipe.ld_map(henon_heiles, section=section, energy=0.16, tau=15, p=0.5)
 
 # %%
@@ -37,4 +38,5 @@ plt.show()
 # record the system, the section, the energy and every integrator setting.
 
 print(ld.attrs["title"])
-print(f"{int(ld.allowed.sum())} allowed points; largest energy error {float(ld.energy_error.max()):.1e}")
+print(f"{int(ld.allowed.sum())} allowed points;",
+      f"largest energy error {float(ld.energy_error.max()):.1e}")

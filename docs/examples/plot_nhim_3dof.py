@@ -25,9 +25,11 @@ slices = np.linspace(2.45, 2.85, 3)  # values of z, around the saddle's z = 2.64
 
 def slice_map(z):
     """The variable-time LD map of the x–p_x slice at this z (y at the saddle's, p_y = 0)."""
-    return ldpipe.ld_map(system, name=f"z{z:.2f}", equilibria=equilibria, saddle_near=[10.29, 5.29, 2.65],
-                         section=ldpipe.section(x=(9.0, 12.0, POINTS), px=(-0.6, 0.6, POINTS),
-                                                fixed={"y": "saddle", "z": float(z), "py": 0.0}, solve="pz"),
+    section = ldpipe.section(x=(9.0, 12.0, POINTS), px=(-0.6, 0.6, POINTS),
+                             fixed={"y": "saddle", "z": float(z), "py": 0.0},
+                             solve="pz")
+    return ldpipe.ld_map(system, name=f"z{z:.2f}", equilibria=equilibria,
+                         saddle_near=[10.29, 5.29, 2.65], section=section,
                          energy=24.0, tau=50, p=0.5, time="variable",
                          region={"x": [9.0, 12.0], "y": [2.5, 7.5], "z": [1.0, 4.0]})
 
@@ -47,7 +49,8 @@ for z, state, bound in zip(slices, states, points.refined_uncertainty.values):
 # The maps with their points, and the points in (x, z): as the slice moves, its NHIM point
 # moves along the 3-sphere.
 
-fig, axes = plt.subplots(1, len(maps) + 1, figsize=(4 * len(maps) + 4, 3.6), layout="constrained")
+fig, axes = plt.subplots(1, len(maps) + 1, figsize=(4 * len(maps) + 4, 3.6),
+                         layout="constrained")
 for ax, ld, state, z in zip(axes, maps, states, slices):
     ld.ldpipe.plot(ax=ax)
     ax.set_title(f"z = {z:.2f}", loc="left")
