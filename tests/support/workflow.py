@@ -10,7 +10,6 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository
-README = (ROOT / "README.md").read_text()
 BIN = Path(sys.executable).parent  # the venv's commands, beside its python
 SNAKEMAKE = str(BIN / "snakemake")
 LDPIPE = str(BIN / "ldpipe")
@@ -29,6 +28,7 @@ def _documentation() -> dict[str, str]:
 
 
 DOCUMENTATION = _documentation()
+README = DOCUMENTATION["README.md"]
 
 
 def copy_workflow(folder: Path) -> Path:
