@@ -31,6 +31,5 @@ fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, t0 in zip(axes, (0.0, 1.5)):
     section = ldpipe.section(x=(-1.6, 1.6, POINTS), y=(-1.2, 1.2, POINTS))
     ld = ldpipe.ld_map(duffing, section=section, t0=t0, tau=10, p=0.5)
-    ld.ldpipe.plot(ax=ax)
-    ax.set_title(f"t0 = {t0}")
+    ld.ldpipe.plot(ax=ax)  # its title names t0
 plt.show()

@@ -30,7 +30,8 @@ ld = ldpipe.ld_map(henon_heiles, section=section, energy=0.16, tau=15, p=0.5)
 fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), layout="constrained")
 for ax, descriptor in zip(axes, ("forward", "backward", "total")):
     ld.ldpipe.plot(ax=ax, descriptor=descriptor)
-    ax.set_title(descriptor)
+    ax.text(0.03, 0.95, descriptor, transform=ax.transAxes, va="top",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
 plt.show()
 
 # %%

@@ -53,7 +53,8 @@ fig, axes = plt.subplots(1, len(maps) + 1, figsize=(4 * len(maps) + 4, 3.6),
                          layout="constrained")
 for ax, ld, state, z in zip(axes, maps, states, slices):
     ld.ldpipe.plot(ax=ax)
-    ax.set_title(f"z = {z:.2f}", loc="left")
+    ax.text(0.03, 0.95, f"z = {z:.2f}", transform=ax.transAxes, va="top",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
     ax.plot(state[0], state[3], "r+", markersize=14, markeredgewidth=2)
 axes[-1].plot(states[:, 0], states[:, 2], "o-")
 axes[-1].set(xlabel="x", ylabel="z", title="the refined points")
