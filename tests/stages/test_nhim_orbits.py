@@ -338,12 +338,12 @@ def test_orbit_validation_config_errors_name_the_key():
     assert nhim_orbit_inputs(config, "s") == {"orbits": ["mode0"], "systems": ["barbanis_contopoulos_3dof"]}
 
 
-def test_the_readme_example_is_the_configured_study():
-    # The README's example block is config.yaml's 3 DoF study, and valid against the schema.
+def test_the_documented_example_is_the_configured_study():
+    # The documented example block is config.yaml's 3 DoF study, and valid against the schema.
     import yaml
-    from support.workflow import ROOT, readme_yaml
+    from support.workflow import ROOT, documented_yaml
 
-    example = yaml.safe_load(readme_yaml("orbit_validation"))["nhim"]["orbit_validation"]
+    example = yaml.safe_load(documented_yaml("orbit_validation"))["nhim"]["orbit_validation"]
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     assert example["barbanis_contopoulos_3dof"] == config["nhim"]["orbit_validation"]["barbanis_contopoulos_3dof"]
     config["nhim"]["orbit_validation"] = example

@@ -20,7 +20,7 @@ from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.systems import make_system
 from support.closed_forms import linear_saddle_ld
-from support.workflow import readme_yaml
+from support.workflow import documented_yaml
 
 LAM, MU = 0.8, 0.5
 SYSTEMS = {
@@ -133,9 +133,9 @@ def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
         run_equilibria(**parameters_from_config(cfg, "equilibria", "duffing"), output=tmp_path / "eq.nc")
 
 
-def test_the_readme_example_is_a_valid_configuration():
-    # The README's vector_field example validates as written, and its map resolves.
-    cfg = validate_config(yaml.safe_load(readme_yaml("vector_field:")))
+def test_the_documented_example_is_a_valid_configuration():
+    # The documented vector_field example validates as written, and its map resolves.
+    cfg = validate_config(yaml.safe_load(documented_yaml("vector_field:")))
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
     system, section, settings, info = resolve_ld_map(parameters_from_config(cfg, "ld", "forced_duffing_t0"), None, None)
     assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5

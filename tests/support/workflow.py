@@ -10,13 +10,25 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository
-README = (ROOT / "README.md").read_text()
 BIN = Path(sys.executable).parent  # the venv's commands, beside its python
 SNAKEMAKE = str(BIN / "snakemake")
 LDPIPE = str(BIN / "ldpipe")
 # Two cores on any machine: the quick run is the reference the SLURM test compares its one-thread
 # cluster jobs with, so its multi-threaded stages must really run on more than one thread.
 CORES = 2
+
+BUILT = {"_build", "gallery", "generated"}  # what building the docs writes into docs/
+BUILD_DOCS = ".venv/bin/sphinx-build -W docs docs/_build/html"  # the development page's command
+
+
+def _documentation() -> dict[str, str]:
+    """What a user reads, by path from the root: the README and every Markdown page of docs/."""
+    pages = [p for p in sorted((ROOT / "docs").rglob("*.md")) if not BUILT & set(p.relative_to(ROOT).parts)]
+    return {str(p.relative_to(ROOT)): p.read_text() for p in [ROOT / "README.md", *pages]}
+
+
+DOCUMENTATION = _documentation()
+README = DOCUMENTATION["README.md"]
 
 
 def copy_workflow(folder: Path) -> Path:
@@ -44,8 +56,9 @@ def job_counts(output: str) -> dict[str, int]:
     return {m.group(1): int(m.group(2)) for m in rows if m.group(1) != "total"}
 
 
-def readme_yaml(marker: str) -> str:
-    """The README's one ```yaml block that contains ``marker``."""
-    blocks = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if marker in b]
-    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md"
+def documented_yaml(marker: str) -> str:
+    """The one ```yaml block of the README and the documentation pages that contains ``marker``."""
+    blocks = [b for text in DOCUMENTATION.values()
+              for b in re.findall(r"^```yaml\n(.*?)^```", text, flags=re.S | re.M) if marker in b]
+    assert len(blocks) == 1, f"expected one yaml block with {marker!r} in README.md and docs/"
     return blocks[0]

@@ -27,7 +27,7 @@ from ldpipe.errors import ConfigError
 from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.sections import Section, section_states
 from ldpipe.systems import make_system
-from support.workflow import readme_yaml
+from support.workflow import documented_yaml
 
 # V = -a x^2 / 2 + b y^2 / 2 + c x y, a saddle at the origin (det K < 0), and a coupled M.
 A, B, C = 1.0, 2.0, 0.3
@@ -173,25 +173,25 @@ def test_solved_momentum_with_a_coupled_kinetic_matrix(quadratic):
     np.testing.assert_array_equal(allowed, potential + px**2 / (2 * MASS[0, 0]) <= energy)
 
 
-def readme_config(marker: str) -> dict:
-    """The README's ```yaml block that contains ``marker``, parsed."""
+def documented_config(marker: str) -> dict:
+    """The documented ```yaml block that contains ``marker``, parsed."""
     import yaml
 
-    return yaml.safe_load(readme_yaml(marker))
+    return yaml.safe_load(documented_yaml(marker))
 
 
 @pytest.mark.parametrize("marker,name", [("masses:", "deleon_berne"), ("mass_matrix:", "barbanis_coupled")])
-def test_readme_examples_are_valid(marker, name):
-    config = validate_config(readme_config(marker))
+def test_documented_examples_are_valid(marker, name):
+    config = validate_config(documented_config(marker))
     system = make_system(name, {k: v for k, v in config["systems"][name].items() if k != "equilibria"})
     assert system.mass_matrix is not None
 
 
 def test_deleon_berne_linearization():
-    # UPOsHam's De Leon–Berne system (README example, m = 8): at the saddle (0, 0), V = eps_s = 1 and
+    # UPOsHam's De Leon–Berne system (documented example, m = 8): at the saddle (0, 0), V = eps_s = 1 and
     # Hess V = diag(2 d_x lam^2, -8) (derivatives by hand), so the saddle rate is sqrt(8 / 8) = 1 and
     # the centre frequency sqrt(2 d_x lam^2 / 8) = lam sqrt(2.5).
-    spec = readme_config("masses:")["systems"]["deleon_berne"]
+    spec = documented_config("masses:")["systems"]["deleon_berne"]
     system = make_system("deleon_berne", spec)
     saddle = linearize_saddle(system, np.zeros(2))
     assert saddle.critical_energy == 1.0

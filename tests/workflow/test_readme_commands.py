@@ -1,19 +1,26 @@
-"""Every shell command of README.md's ```bash blocks works as written.
+"""Every shell command of the ```bash blocks of README.md and of the documentation pages (docs/)
+works as written.
 
-The commands are read from the README itself, so a newly documented command is picked up, and each
-is classified by :func:`plan`:
+The commands are read from the pages themselves, so a newly documented command is picked up, and
+each is classified by :func:`plan`:
 
-- run verbatim, in a fresh copy of the workflow (``ldpipe equilibria ...``, ``snakemake ... -n``);
+- run verbatim, in a fresh copy of the workflow (``ldpipe equilibria ...``, ``snakemake ... -n``,
+  ``python -m ldpipe.engine.codegen --dump ...``); the quick run is the session's one quick run
+  (conftest's ``quick_run``, the same command), which must have succeeded;
 - run with less work, saying how: the Fig. 4 map commands at 48 × 48 instead of 1500 × 1500 (the
   map from ``--config`` through the configuration's own cap ``max_grid_points: 48``, the map from
   options with its ``:1500`` point counts replaced), and the workflow runs (``snakemake``,
   ``snakemake fig4``, the parameter study at full resolution) as dry runs with ``-n``; the quick
-  parameter study really runs, in a copy of the quick run's results;
+  parameter study really runs, in a copy of the quick run's results; the benchmark comparison on a
+  12 × 12 grid, a few reference points and one round instead of 300 × 300 and three;
 - covered by another test or by CI: the install-and-test command is what ``.ci/run`` runs (checked
-  here, verbatim), the report command is built and opened in a browser by tests/workflow/test_report.py, and
-  the SLURM command is run on a real local cluster by tests/workflow/test_slurm.py.
+  here, verbatim), and so is the docs extra's install (the test extra includes it, checked here);
+  the docs build is run verbatim by tests/docs/test_docs.py (in a copy of docs/); the fast subset of
+  the tests is a part of CI's run; the report command is built and opened in a browser by
+  tests/workflow/test_report.py, and the SLURM command is run on a real local cluster by
+  tests/workflow/test_slurm.py.
 
-A command that matches none of these fails, so a new command in the README gets handled here.
+A command that matches none of these fails, so a new documented command gets handled here.
 """
 
 from __future__ import annotations
@@ -23,13 +30,14 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
 from ldpipe.io.datafile import open_stage_file
 
-from support.workflow import BIN, README, ROOT, copy_workflow, readme_yaml, run_snakemake
+from support.workflow import BIN, BUILD_DOCS, DOCUMENTATION, ROOT, copy_workflow, documented_yaml, run_snakemake
 
 
 def bash_commands(text: str) -> list[str]:
@@ -45,12 +53,27 @@ def bash_commands(text: str) -> list[str]:
 
 INSTALL_AND_SNAKEMAKE = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/snakemake"
 INSTALL_AND_TEST = "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/pytest"
+INSTALL_DOCS = ".venv/bin/pip install -e '.[docs]'"
 
 
 def plan(command: str) -> tuple[str, str, str]:
-    """``(how, shell command to run or '', why)`` for one README command; ``how`` is 'run' or 'covered'."""
+    """``(how, shell command to run or '', why)`` for one documented command; ``how`` is 'run',
+    'quick run' (the session's quick run) or 'covered'."""
     if command == INSTALL_AND_TEST:
         return "covered", "", "CI's command: .ci/run runs it verbatim (checked below)"
+    if command == INSTALL_DOCS:
+        return "covered", "", "CI's install of the test extra includes the docs extra (checked below)"
+    if command == BUILD_DOCS:
+        return "covered", "", "tests/docs/test_docs.py runs it verbatim in a copy of docs/"
+    if command == 'pytest -m "not slow"':
+        return "covered", "", "the fast subset of CI's pytest run"
+    if command == "snakemake --configfile config.quick.yaml":
+        return "quick run", "", "conftest's quick_run runs this command once per session"
+    if re.fullmatch(r"python -m ldpipe\.engine\.codegen --dump \w+ \w+", command):
+        return "run", command, "verbatim"
+    if re.fullmatch(r"\.venv/bin/python benchmarks/compare\.py --n 300 --repeat 3 .*", command):
+        smaller = command.replace("--n 300 --repeat 3", "--n 12 --n-per-traj 2 --n-ref 3 --n-ref-accuracy 1 --repeat 1")
+        return "run", smaller + " --out results/compare", "12 × 12 grid, 3 reference points, one round"
     if command == INSTALL_AND_SNAKEMAKE:
         # The install is CI's (the test extras include the main install); the run is planned.
         return "run", ".venv/bin/snakemake -n", "install as CI; the full run as a dry run (-n)"
@@ -73,22 +96,32 @@ def plan(command: str) -> tuple[str, str, str]:
     return "unknown", "", "no rule for this command: classify it in tests/workflow/test_readme_commands.py"
 
 
-COMMANDS = bash_commands(README)
+# each command once, with the first page that shows it
+COMMANDS = {command: page for page, text in reversed(DOCUMENTATION.items()) for command in bash_commands(text)}
+# the `snakemake ...` spans of the pages' running text
+INLINE = sorted({span for text in DOCUMENTATION.values() for span in re.findall(r"`(snakemake [^`]*)`", text.replace("\n", " "))})
 
 
-def test_the_readme_documents_commands():
+def test_the_documentation_shows_commands():
     # The blocks this test was written against; a command that is no longer there is simply not run.
     assert len(COMMANDS) >= 10
-    assert INSTALL_AND_SNAKEMAKE in COMMANDS and INSTALL_AND_TEST in COMMANDS
+    readme = bash_commands(DOCUMENTATION["README.md"])
+    assert INSTALL_AND_SNAKEMAKE in readme and INSTALL_AND_TEST in readme
 
 
 def test_ci_runs_the_readme_test_command_verbatim():
     assert INSTALL_AND_TEST in (ROOT / ".ci/run").read_text()
 
 
+def test_ci_installs_what_the_docs_build_needs():
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert "ldpipe[docs]" in extras["test"]
+    assert {"sphinx", "myst-parser", "furo", "sphinx-gallery"} <= {re.split(r"[<>=\[]", d)[0] for d in extras["docs"]}
+
+
 def test_inline_snakemake_commands_put_targets_before_configfile():
     """Snakemake 9's --configfile takes every following word: a target after it is read as a file."""
-    for span in re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")):
+    for span in INLINE:
         words = span.split()
         if "--configfile" in words:
             files = []
@@ -102,10 +135,12 @@ def test_inline_snakemake_commands_put_targets_before_configfile():
 @pytest.fixture(scope="module")
 def readme_workdir(tmp_path_factory):
     """A copy of the workflow as a clone has it, ``.venv`` the running environment, ``study.yaml``
-    the README's, and a config.yaml capped at 48 × 48 grids for the map commands."""
+    the documented one, the benchmarks, and a config.yaml capped at 48 × 48 grids for the map
+    commands."""
     workdir = copy_workflow(tmp_path_factory.mktemp("readme"))
     (workdir / ".venv").symlink_to(Path(sys.prefix))
-    (workdir / "study.yaml").write_text(readme_yaml("study_dE0.125"))
+    shutil.copytree(ROOT / "benchmarks", workdir / "benchmarks", ignore=shutil.ignore_patterns("results"))
+    (workdir / "study.yaml").write_text(documented_yaml("study_dE0.125"))
     return workdir
 
 
@@ -115,11 +150,15 @@ def _environment() -> dict:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("command", COMMANDS)
-def test_readme_command(command, readme_workdir, request):
+def test_documented_command(command, readme_workdir, request):
     how, shell, why = plan(command)
-    assert how != "unknown", f"README command {command!r}: {why}"
+    assert how != "unknown", f"{COMMANDS[command]}: command {command!r}: {why}"
     if how == "covered":
         pytest.skip(f"covered elsewhere: {why}")
+    if how == "quick run":
+        _, result = request.getfixturevalue("quick_run")
+        assert result.returncode == 0, result.stderr[-3000:]
+        return
     workdir = readme_workdir
     if shell.startswith("ldpipe ld --config"):
         workdir = readme_workdir / "capped"
@@ -135,7 +174,7 @@ def test_readme_command(command, readme_workdir, request):
         workdir = request.getfixturevalue("tmp_path_factory").mktemp("readme_study")
         assert workdir.parent == quick_dir.parent
         shutil.copytree(quick_dir, workdir, symlinks=True, dirs_exist_ok=True)
-        (workdir / "study.yaml").write_text(readme_yaml("study_dE0.125"))
+        (workdir / "study.yaml").write_text(documented_yaml("study_dE0.125"))
     result = subprocess.run(["bash", "-c", shell], cwd=workdir, env=_environment(), capture_output=True, text=True,
                             timeout=1200)
     assert result.returncode == 0, f"{command!r} ({why}) failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
@@ -153,14 +192,17 @@ def test_readme_command(command, readme_workdir, request):
         rules = {a or b for a, b in ran}
         # "nothing else": the family and the saddle come from the existing stage files
         assert rules <= {"ld_tile", "ld_gather", "study"}, rules
+    if "benchmarks/compare.py" in shell:  # its tables, with the rows asked for
+        report = next((workdir / "results/compare").glob("compare_*.md")).read_text()
+        assert "dop853" in report and "taylor" in report and "flattened" in report
 
 
 @pytest.mark.slow
 def test_inline_snakemake_targets_are_planned_and_the_lint_is_clean(readme_workdir, lint):
-    """Commands the README's text names in passing: `snakemake fig3`, `snakemake accuracy_figure`, ...
-    (dry runs, one plan for all), and `snakemake --lint`, which the README says is clean (the
-    session's one lint run, conftest's ``lint``)."""
-    spans = set(re.findall(r"`(snakemake [^`]*)`", README.replace("\n", " ")))
+    """Commands the pages' text names in passing: `snakemake fig3`, `snakemake accuracy_figure`, ...
+    (dry runs, one plan for all), and `snakemake --lint`, which the workflow page says is clean
+    (the session's one lint run, conftest's ``lint``)."""
+    spans = set(INLINE)
     targets = sorted(span.split()[1] for span in spans if re.fullmatch(r"snakemake [\w/.]+", span))
     assert "fig3" in targets and "accuracy_figure" in targets
     planned = run_snakemake(readme_workdir, *targets, "-n")

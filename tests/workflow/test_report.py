@@ -7,8 +7,6 @@ import base64
 import io
 import json
 import re
-import shutil
-import subprocess
 from importlib import metadata
 from pathlib import Path
 
@@ -18,6 +16,7 @@ from docutils.core import publish_parts
 from matplotlib import image
 from packaging.requirements import Requirement
 
+from support.browser import browse, chromium, ink
 from support.workflow import ROOT, run_snakemake
 
 # docutils' system messages as it prints them, e.g. "(ERROR/3) Undefined substitution referenced"
@@ -83,27 +82,11 @@ window.addEventListener("load", ldpipeShow);
 """
 
 
-def _chromium() -> str | None:
-    return next((shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None)
-
-
 def _browse(browser: str, page: Path, fragment: str, profile: Path, *, screenshot: Path | None = None) -> str:
-    """Open ``page#fragment`` in headless Chromium: its DOM after the scripts ran, or a screenshot
-    of the view without the navigation bar."""
-    action = [f"--screenshot={screenshot}", "--window-size=1400,1800"] if screenshot else ["--dump-dom"]
+    """Open ``page#fragment``: its DOM after the scripts ran, or a screenshot of the view without
+    the navigation bar."""
     url = page.as_uri() + ("?bare" if screenshot else "") + "#" + fragment
-    result = subprocess.run(
-        [browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
-         "--virtual-time-budget=10000", *action, url],
-        capture_output=True, text=True, timeout=180,
-    )
-    assert result.returncode == 0, result.stderr[-2000:]
-    return result.stdout
-
-
-def _ink(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """Where an RGB image differs from ``background`` (same shape, or one colour) by more than 2 %."""
-    return np.any(np.abs(pixels[..., :3] - background[..., :3]) > 0.02, axis=-1)
+    return browse(browser, url, profile, screenshot=screenshot)
 
 
 @pytest.mark.slow
@@ -126,7 +109,7 @@ def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, 
         uri = results[path]["data_uri"]
         assert uri.startswith("data:image/png") and base64.b64decode(uri.split(",", 1)[1]) == (workdir / path).read_bytes()
 
-    browser = _chromium()
+    browser = chromium()
     if browser is None:
         pytest.skip("no chromium on this machine (.ci/run installs Debian's chromium where it runs as root)")
     page = tmp_path / "view.html"
@@ -146,14 +129,14 @@ def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, 
         assert results[path]["caption"][:40] in dom  # the caption is shown beside it
         shot = tmp_path / (Path(path).stem + ".png")
         _browse(browser, page, path, profile, screenshot=shot)
-        ink = _ink(image.imread(shot), blank)
-        ink[:60, :60] = False  # the navigation bar's "show" button, drawn once the bar is hidden
-        assert ink.any(), f"{path}: the view is blank"
-        rows, columns = np.nonzero(ink.any(axis=1))[0], np.nonzero(ink.any(axis=0))[0]
-        box = ink[rows[0]:rows[-1] + 1, columns[0]:columns[-1] + 1]
+        inked = ink(image.imread(shot), blank)
+        inked[:60, :60] = False  # the navigation bar's "show" button, drawn once the bar is hidden
+        assert inked.any(), f"{path}: the view is blank"
+        rows, columns = np.nonzero(inked.any(axis=1))[0], np.nonzero(inked.any(axis=0))[0]
+        box = inked[rows[0]:rows[-1] + 1, columns[0]:columns[-1] + 1]
         figure = image.imread(workdir / path)
         assert box.shape[1] >= 300, f"{path}: drawn only {box.shape[1]} px wide"
         np.testing.assert_allclose(box.shape[1] / box.shape[0], figure.shape[1] / figure.shape[0], rtol=0.1,
                                    err_msg=f"{path}: the drawn box has not the figure's aspect ratio")
-        density, expected = box.mean(), _ink(figure, np.ones(3)).mean()
+        density, expected = box.mean(), ink(figure, np.ones(3)).mean()
         assert 0.5 < density / expected < 2, f"{path}: {density:.1%} of the box inked, the figure has {expected:.1%}"

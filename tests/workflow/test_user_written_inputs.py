@@ -16,7 +16,7 @@ from ldpipe.engine.settings import DEFAULT_ESCAPE_RADIUS
 from ldpipe.errors import ConfigError
 from ldpipe.stages.figures import run_figure
 
-from support.workflow import LDPIPE, README, ROOT, run_snakemake
+from support.workflow import DOCUMENTATION, LDPIPE, ROOT, run_snakemake
 
 # A small fixed-time map on Fig. 3's section U_xpx (y = 0, p_y > 0) of the Barbanis 2 DoF system.
 # There V = x^2/2, so the allowed region at total energy E is the disc x^2 + p_x^2 <= 2E (closed form).
@@ -141,7 +141,7 @@ def test_the_slurm_plugin_is_an_extra_of_its_own():
     assert "ldpipe[slurm]" in extras["test"]
     assert not any(d.startswith("snakemake-executor-plugin-slurm") for d in extras["test"])
     assert any(d.startswith("pygments>=") for d in project["dependencies"])  # snakemake --report needs it
-    cluster = README.split("## Running on a SLURM cluster")[1].split("\n## ")[0]
+    cluster = DOCUMENTATION["docs/guide/slurm.md"]
     assert "pip install -e '.[slurm]'" in cluster and ".[test]" not in cluster
 
 

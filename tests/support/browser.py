@@ -1,0 +1,36 @@
+"""Headless Chromium for the tests that look at a page as a reader would: the Snakemake report
+(tests/workflow/test_report.py) and the documentation site (tests/docs/test_docs.py)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+
+def chromium() -> str | None:
+    """The Chromium on PATH, or None where there is none (a machine that has one must run it)."""
+    return next((shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None)
+
+
+def browse(browser: str, url: str, profile: Path, *, screenshot: Path | None = None,
+           window: tuple[int, int] = (1400, 1800)) -> str:
+    """Open ``url`` in headless Chromium in a ``window`` (width, height) of CSS pixels: its DOM after
+    the scripts ran, or a screenshot. A browser that will not start fails the calling test (it
+    does not skip)."""
+    action = [f"--screenshot={screenshot}"] if screenshot else ["--dump-dom"]
+    result = subprocess.run(
+        [browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
+         "--virtual-time-budget=10000", "--force-device-scale-factor=1", f"--window-size={window[0]},{window[1]}",
+         *action, url],
+        capture_output=True, text=True, timeout=180,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    return result.stdout
+
+
+def ink(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """Where an RGB image differs from ``background`` (same shape, or one colour) by more than 2 %."""
+    return np.any(np.abs(pixels[..., :3] - background[..., :3]) > 0.02, axis=-1)
