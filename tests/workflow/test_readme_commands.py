@@ -65,8 +65,13 @@ def plan(command: str) -> tuple[str, str, str]:
         return "covered", "", "CI's install of the test extra includes the docs extra (checked below)"
     if command == BUILD_DOCS:
         return "covered", "", "tests/docs/test_docs.py runs it verbatim in a copy of docs/"
-    if command == 'pytest -m "not slow"':
-        return "covered", "", "the fast subset of CI's pytest run"
+    if command in ('pytest -m "not slow"', '.venv/bin/pytest -m "not slow"', ".venv/bin/pytest"):
+        return "covered", "", "CI's pytest run, or the part of it without the end-to-end runs"
+    if re.fullmatch(r'\.venv/bin/pytest -m "not slow and not compiles"( tests\S*)+', command):
+        # what the fast subset runs is CI's too; collecting it checks the marker expression and the folders
+        return "run", command + " --collect-only -q", "collected (its tests run in CI's pytest)"
+    if re.fullmatch(r"python -m ldpipe\.data\.example \S+\.nc", command):
+        return "run", command, "verbatim"
     if command == "snakemake --configfile config.quick.yaml":
         return "quick run", "", "conftest's quick_run runs this command once per session"
     if re.fullmatch(r"python -m ldpipe\.engine\.codegen --dump \w+ \w+", command):
@@ -89,7 +94,7 @@ def plan(command: str) -> tuple[str, str, str]:
         return "covered", "", "tests/workflow/test_report.py builds the report of the quick run and opens it in Chromium"
     if re.fullmatch(r"snakemake study --configfile config\.quick\.yaml study\.yaml", command):
         return "run", command, "verbatim, in a copy of the quick run (its family and saddle exist)"
-    if re.fullmatch(r"snakemake [\w-]+( --configfile [\w.]+)?", command):
+    if re.fullmatch(r"snakemake( -c\d+)? [\w-]+( --configfile [\w.]+)?", command):
         return "run", command + " -n", "as a dry run (-n): it computes at the paper's resolution"
     if re.fullmatch(r"(\.venv/bin/)?snakemake --workflow-profile profiles/slurm .*", command):
         return "covered", "", "tests/workflow/test_slurm.py runs this profile on a real local SLURM cluster"
@@ -160,6 +165,8 @@ def test_documented_command(command, readme_workdir, request):
         assert result.returncode == 0, result.stderr[-3000:]
         return
     workdir = readme_workdir
+    if shell.startswith(".venv/bin/pytest"):  # the suite's own selection, collected where the tests are
+        workdir = ROOT
     if shell.startswith("ldpipe ld --config"):
         workdir = readme_workdir / "capped"
         if not workdir.exists():
