@@ -152,7 +152,8 @@ def test_longitudes_across_the_dateline(tmp_path):
 def test_land_and_edge_stop_trajectories(tmp_path):
     # u = 1 m/s eastward everywhere, land for x >= 6 (a north-south coast): the cell [5, 6] has a land
     # node, so a trajectory from x0 stops at x = 5 after 5 - x0 seconds; with v = 1 northward instead it
-    # reaches the top edge y = 4 after 4 - y0 seconds (closed forms). M_0.5 = time * (1 m/s)^0.5.
+    # reaches the top edge y = 4 after 4 - y0 seconds (closed forms). M_0.5 = time * (1 m/s)^0.5, and
+    # the exit time is the time it stopped, with the LD and without it (ld: false).
     x, y, t = np.arange(0.0, 10.01, 1.0), np.arange(0.0, 4.01, 1.0), np.arange(0.0, 20.01, 1.0)
     coast = write_velocity_file(tmp_path / "coast.nc", lambda X, Y, T: (1.0 + 0 * X, 0 * Y), x, y, t,
                                 land=lambda X, Y: X >= 6)
@@ -162,11 +163,16 @@ def test_land_and_edge_stop_trajectories(tmp_path):
             "t0": 8.0, "tau": 8.0, "p": 0.5, "integrator": {"rtol": 1e-10, "atol": 1e-10}}
     config = validate_config({"systems": {"coast": {"velocity_data": {"path": str(coast)}},
                                           "north": {"velocity_data": {"path": str(north)}}},
-                              "ld_maps": {"c": {**base, "system": "coast"}, "n": {**base, "system": "north"}}})
+                              "ld_maps": {"c": {**base, "system": "coast"}, "n": {**base, "system": "north"},
+                                          "f": {**base, "system": "north", "ftle": True, "ld": False}}})
     coast_map = compute_ld_map(parameters_from_config(config, "ld", "c"), None, show_progress=False)
     x0 = coast_map.x.values[:, None] + 0 * coast_map.y.values
     assert coast_map.on_land_forward.values.all() and not coast_map.left_data_forward.values.any()
     np.testing.assert_allclose(coast_map.ld_forward.values, 5.0 - x0, rtol=5e-7)  # measured 7e-8 (the step across the coast)
+    # the exit time is where the trajectory stopped: measured 3.4e-8 at the coast, 9e-9 at the edges;
+    # backward the flow comes from the west edge x = 0, reached after x0 seconds
+    np.testing.assert_allclose(coast_map.exit_time_forward.values, 5.0 - x0, rtol=2e-7)
+    np.testing.assert_allclose(coast_map.exit_time_backward.values, x0, rtol=2e-7)
     north_map = compute_ld_map(parameters_from_config(config, "ld", "n"), None, show_progress=False)
     y0 = 0 * north_map.x.values[:, None] + north_map.y.values
     assert north_map.left_data_forward.values.all() and not north_map.on_land_forward.values.any()
@@ -174,6 +180,11 @@ def test_land_and_edge_stop_trajectories(tmp_path):
     # backward: from y0 down to the edge y = 0 after y0 seconds
     np.testing.assert_allclose(north_map.ld_backward.values, y0, rtol=5e-7)
     assert not north_map.failed_forward.values.any()
+    flow_map = compute_ld_map(parameters_from_config(config, "ld", "f"), None, show_progress=False)  # without the LD
+    for stopped in (north_map, flow_map):
+        assert stopped.left_data_forward.values.all() and stopped.left_data_backward.values.all()
+        np.testing.assert_allclose(stopped.exit_time_forward.values, 4.0 - y0, rtol=2e-7)
+        np.testing.assert_allclose(stopped.exit_time_backward.values, y0, rtol=2e-7)
     # the same coast as a land-sea mask variable (0 on land) over finite velocities: the same stops
     import xarray as xr
     with xr.open_dataset(north) as dataset:
