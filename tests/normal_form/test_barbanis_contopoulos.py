@@ -7,6 +7,9 @@
   (K's first correction is quadratic in the actions).
 * The two Lyapunov orbits lie in the NHIM: in the normal form they are its circles with the other
   centre action zero; against ldpipe's corrected orbits as the order grows.
+* The NHIM points the LD sampling refines on a family of slices (independent: where the forward and
+  backward fates both switch, ldpipe.nhim_points) have Q₁ = P₁ = 0 in the normal form, down to
+  the refinement's stated uncertainty as the order grows.
 * The Monte Carlo reactive flux through the dividing plane (ldpipe.saddle_transport), within its error.
 """
 
@@ -17,9 +20,13 @@ import pytest
 
 from ldpipe.flow import FlowSettings
 from ldpipe.normal_form import flux, lyapunov_orbit_points, nhim_points, system_normal_form
+from ldpipe.nhim_points import RefinementSettings
+from ldpipe.nhim_points.sampling import SamplingSettings, sample_family, slice_problem
+from ldpipe.nhim_points.slices import section_point_states
 from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.systems import make_system
 from ldpipe.saddle_transport import DividingPlane, reactive_flux_monte_carlo
+from support.barbanis import BC_SADDLE, fig5_slice_problem
 from support.decoupled_flux import decoupled_reactive_flux
 
 
@@ -75,6 +82,42 @@ def test_lyapunov_orbits_lie_in_the_nhim(barbanis_contopoulos, saddle):
     assert np.max(np.abs(energies - excess)) < 1e-10  # measured 5e-12
     actions = high.normal_states(sphere)
     assert np.max(np.abs(actions[:, [0, 3]])) < 1e-10  # Q₁ = P₁ = 0 (round trip); measured 8e-12
+
+
+@pytest.fixture(scope="module")
+def ld_refined_nhim_points(barbanis_contopoulos):
+    """NHIM points refined by the LD sampling on 18 slices through the saddle region, both signs of
+    p_z: the fixtures and settings of tests/stages/test_nhim_sampling.py (the config's fig5_xpx map
+    at E = 24, ΔE = 0.176 above the saddle; the refinement's defaults, tolerance 1e-8)."""
+    base = fig5_slice_problem(barbanis_contopoulos)
+    grid = {"y": BC_SADDLE[1] + np.array([-0.2, 0.0, 0.2]), "z": BC_SADDLE[2] + np.array([-0.1, 0.0, 0.1]),
+            "py": [0.0, 0.2]}
+    samples = sample_family(base, grid, (1, -1), SamplingSettings(), RefinementSettings())
+    assert [s.status for s in samples] == ["ok"] * 36
+    return base, samples
+
+
+def test_ld_refined_nhim_points_lie_in_the_nhim(barbanis_contopoulos, saddle, ld_refined_nhim_points):
+    """The NHIM is Q₁ = P₁ = 0 in the normal form. A refined point is within ``uncertainty`` (in the
+    slice's (x, p_x)) of the slice's true NHIM point, so its |Q₁|, |P₁| are at most the truncation
+    error of the order plus uncertainty × |∇Q₁|, |∇P₁| along the slice (Cauchy–Schwarz; the gradients
+    by finite differences of the coordinate change)."""
+    base, samples = ld_refined_nhim_points
+    states = np.array([s.state for s in samples])
+    forms = {order: system_normal_form(barbanis_contopoulos, saddle, order, transforms=False) for order in (2, 4, 6, 8)}
+    errors = {order: np.max(np.abs(nf.normal_states(states)[:, [0, 3]])) for order, nf in forms.items()}
+    # measured 2.1e-3, 2.8e-7, 2.6e-10, 2.0e-10: geometric, then the floor the refinement sets (order 8
+    # differs from order 12 by 8e-14 at these points, so its truncation is negligible in the bound below)
+    assert errors[4] < errors[2] / 1000 and errors[6] < errors[4] / 100
+    assert errors[8] < 1e-9 and errors[8] < errors[4] / 300  # measured 1400 times below order 4
+    step = 1e-6
+    for sample in samples:
+        problem = slice_problem(base, sample.fixed, sample.sign, sample.point, np.array([0.1, 0.1]), 11)
+        nearby = section_point_states(problem, sample.point + np.array([[0.0, 0.0], [step, 0.0], [0.0, step]]))[0]
+        reactive = forms[8].normal_states(nearby)[:, [0, 3]]
+        gradient = np.linalg.norm((reactive[1:] - reactive[0]) / step, axis=0)
+        # measured at most 0.43 of the bound (the gradients are about 0.85)
+        assert np.all(np.abs(reactive[0]) <= sample.uncertainty * gradient)
 
 
 def test_flux_within_the_monte_carlo_error(barbanis_contopoulos, saddle):

@@ -34,6 +34,7 @@ from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system
+from support.barbanis import BC_ENERGY, BC_SADDLE, fig5_slice_problem
 
 LAM, W1, W2 = 1.5, 1.0, 1.3
 ENERGY = 0.5
@@ -41,9 +42,6 @@ ENERGY = 0.5
 REFINEMENT = nhim.RefinementSettings(tolerance=1e-8, bisection_precision=5e-10, max_time=40.0)
 #: Windows in the linear saddle's units (its NHIM point moves by nothing between slices).
 SAMPLING = SamplingSettings(window_points=11, window_half_width=(0.05, 0.05), seed_points=21)
-#: The Barbanis-Contopoulos saddle (closed form, as tests/stages/test_upo.py) and the paper's energy.
-BC_SADDLE = np.array([10.289915108550531, 5.294117647058823, 2.6470588235294117])
-BC_ENERGY = 24.0
 #: The configured refinement (nhim.refinement defaults) for the Barbanis-Contopoulos system.
 REFINEMENT_BC = nhim.RefinementSettings()
 
@@ -63,14 +61,7 @@ def linear_base():
 
 @pytest.fixture(scope="module")
 def bc_base(barbanis_contopoulos):
-    saddle = BC_SADDLE
-    section = Section(axes=("x", "px"), ranges=((9.0, 12.0), (-0.6, 0.6)), shape=(1000, 1000),
-                      fixed={"y": saddle[1], "z": saddle[2], "py": 0.0}, solve="pz", sign=1)
-    # The config's fig5_xpx map: the paper's saddle region q_s, tau = 50, p = 1/2, DOP853 at 1e-8.
-    settings = LDSettings(rtol=1e-8, atol=1e-8, p=0.5, tau=50.0, region_lower=(9.0, 2.5, 1.0),
-                          region_upper=(12.0, 7.5, 4.0))
-    return nhim.make_slice_problem("fig5_xpx", barbanis_contopoulos, section, BC_ENERGY,
-                                   barbanis_contopoulos.potential(saddle), saddle, settings)
+    return fig5_slice_problem(barbanis_contopoulos)
 
 
 def test_walk_order_visits_every_node_once_after_a_neighbour():
