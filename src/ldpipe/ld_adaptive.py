@@ -321,13 +321,19 @@ def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarr
     """Fill the allowed, not computed pixels of each cell, in order, with the interpolant of its
     corners: bilinear, plus for the VALUE_FIELDS their parent's slope times the regressor's
     departure from bilinear (flags, uniform over an accepted cell's fate, from a corner; step
-    counts rounded)."""
+    counts rounded). The fields of one kind are filled together (one pass over the pixels)."""
     slope_of = dict(zip(VALUE_FIELDS, slopes))
     no_slope = np.zeros(len(i0))
     kernel = _kernels()[0]
+    kinds: dict[int, list[str]] = {}
     for name, field in fields.items():
         mode = 2 if field.dtype == np.bool_ else 1 if np.issubdtype(field.dtype, np.integer) else 0
-        kernel(field, allowed, computed, regressor, i0, i1, j0, j1, slope_of.get(name, no_slope), mode)
+        kinds.setdefault(mode, []).append(name)
+    for mode, names in kinds.items():
+        for dtype in sorted({fields[name].dtype.str for name in names}):  # one tuple type per call
+            group = [name for name in names if fields[name].dtype.str == dtype]
+            kernel(tuple(fields[name] for name in group), tuple(slope_of.get(name, no_slope) for name in group),
+                   allowed, computed, regressor, i0, i1, j0, j1, mode)
 
 
 def fate_codes(result) -> np.ndarray:
@@ -395,36 +401,39 @@ def adaptive_ld_dataset(
 
 
 #: The loops over every pixel of many cells, compiled once (numba's disk cache). ``fill_cells``: per
-#: pixel, the weighted corners (the weights and sums in the order :func:`bilinear` forms them) plus
-#: slope times departure; rounded for a count (mode 1), a corner's flag (mode 2).
+#: pixel, for each field of a tuple (one dtype), the weighted corners (the weights and sums in the
+#: order :func:`bilinear` forms them) plus slope times departure; rounded for a count (mode 1), a
+#: corner's flag (mode 2).
 #: ``largest_departure``: per cell, the largest |regressor - its bilinear interpolant| over its
 #: allowed pixels.
 _CELL_LOOPS = """
 import numpy as np
 
 
-def fill_cells(field, allowed, computed, regressor, i0, i1, j0, j1, slope, mode):
+def fill_cells(fields, slopes, allowed, computed, regressor, i0, i1, j0, j1, mode):
     for c in range(i0.shape[0]):
         a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
         h, w = max(a1 - a0, 1), max(b1 - b0, 1)
-        f00, f10, f01, f11 = field[a0, b0], field[a1, b0], field[a0, b1], field[a1, b1]
         q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
         for i in range(a0, a1 + 1):
             for j in range(b0, b1 + 1):
                 if computed[i, j] or not allowed[i, j]:
                     continue
                 if mode == 2:
-                    field[i, j] = f00
+                    for field in fields:
+                        field[i, j] = field[a0, b0]
                     continue
                 a = (i - a0) / h
                 b = (j - b0) / w
                 w00, w10, w01, w11 = (1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b
-                value = w00 * f00 + w10 * f10 + w01 * f01 + w11 * f11
                 departure = regressor[i, j] - (w00 * q00 + w10 * q10 + w01 * q01 + w11 * q11)
-                value = value + slope[c] * departure
-                if mode == 1:
-                    value = np.rint(value)
-                field[i, j] = value
+                for k in range(len(fields)):
+                    field = fields[k]
+                    value = w00 * field[a0, b0] + w10 * field[a1, b0] + w01 * field[a0, b1] + w11 * field[a1, b1]
+                    value = value + slopes[k][c] * departure
+                    if mode == 1:
+                        value = np.rint(value)
+                    field[i, j] = value
 
 
 def largest_departure(regressor, allowed, i0, i1, j0, j1):
