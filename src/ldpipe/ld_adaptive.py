@@ -28,6 +28,12 @@ the map's own pixel grid, so every value it integrates is the full map's traject
    edge takes the finer one). Subdivision goes down to cells whose pixels are all computed, or
    to ``max_level`` halvings, below which a failing cell is integrated pixel by pixel: the map
    is never coarser than the criterion asks.
+6. *Centre test*: a cell at most ``CENTRE_TEST_SIDE`` pixels a side whose four corners share a
+   fate (most such cells flank a fate switch their parent saw, their corners already on its
+   side) integrates its centre first; if the centre has the corners' fate and every
+   VALUE_FIELD within the tolerance of their bilinear interpolant, the cell is accepted on that
+   trajectory (bilinear fill), else it is tested as in 2-3. At the last level this skips most
+   edge midpoints of the cells beside a switch, whose values and fates there are known smooth.
 
 All the new points of one level are integrated together (one batch of engine calls per
 direction, as a full map's tile is), so the engine's lanes stay full and every thread busy.
@@ -74,6 +80,9 @@ log = get_logger(__name__)
 VALUE_FIELDS = ("ld_forward", "ld_backward")
 #: The fate of an energetically forbidden pixel (never integrated).
 FORBIDDEN = -1
+#: Cells at most this many pixels a side, with one fate at their corners, are tested at their centre
+#: alone first (see the module docstring).
+CENTRE_TEST_SIDE = 2
 
 
 @dataclass(frozen=True)
@@ -236,6 +245,18 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         # Cells with every pixel computed (a pixel wide) or none allowed need nothing more.
         open_cells = ((i1 - i0 >= 2) | (j1 - j0 >= 2)) & (_cells_sum(prefix, i0, i1, j0, j1) > 0)
         i0, i1, j0, j1 = (a[open_cells] for a in cells)
+        # Small cells whose corners share a fate are tested at their centre first; those it accepts
+        # need none of their edge midpoints (most such cells flank a fate switch their parent saw).
+        small = (i1 - i0 <= CENTRE_TEST_SIDE) & (j1 - j0 <= CENTRE_TEST_SIDE) & (fate[i0, j0] != FORBIDDEN)
+        for corner in (fate[i1, j0], fate[i0, j1], fate[i1, j1]):
+            small &= corner == fate[i0, j0]
+        if small.any():
+            centre_cells = tuple(a[small] for a in (i0, i1, j0, j1))
+            passed = _centre_test(centre_cells, fate, fields, tolerances, integrate, levels)
+            fills.append((*(a[passed] for a in centre_cells), *(np.zeros(int(passed.sum())),) * len(VALUE_FIELDS)))
+            rest = ~small
+            rest[np.flatnonzero(small)[~passed]] = True
+            i0, i1, j0, j1 = (a[rest] for a in (i0, i1, j0, j1))
         im, jm = (i0 + i1) // 2, (j0 + j1) // 2
         tests = ((im, j0), (im, j1), (i0, jm), (i1, jm), (im, jm))
         levels.append((len(i0), integrate(np.concatenate([t[0] for t in tests]), np.concatenate([t[1] for t in tests]))))
@@ -280,18 +301,39 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
     return RefinedBand(fields, computed, levels)
 
 
+def _centre_test(cells, fate, fields, tolerances, integrate, levels) -> np.ndarray:
+    """Integrate each cell's centre; True where it has the corners' fate and every VALUE_FIELD
+    within the tolerance of the corners' bilinear interpolant (the cell is then accepted)."""
+    i0, i1, j0, j1 = cells
+    ci, cj = (i0 + i1) // 2, (j0 + j1) // 2
+    levels.append((len(i0), integrate(ci, cj)))
+    passed = fate[ci, cj] == fate[i0, j0]
+    a, b = (ci - i0) / np.maximum(i1 - i0, 1), (cj - j0) / np.maximum(j1 - j0, 1)
+    for name in VALUE_FIELDS:
+        field = fields[name]
+        guess = bilinear(a, b, field[i0, j0], field[i1, j0], field[i0, j1], field[i1, j1])
+        passed &= np.abs(field[ci, cj] - guess) <= tolerances[name]
+    return passed
+
+
 def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarray, regressor: np.ndarray,
           i0, i1, j0, j1, *slopes) -> None:
     """Fill the allowed, not computed pixels of each cell, in order, with the interpolant of its
     corners: bilinear, plus for the VALUE_FIELDS their parent's slope times the regressor's
     departure from bilinear (flags, uniform over an accepted cell's fate, from a corner; step
-    counts rounded)."""
+    counts rounded). The fields of one kind are filled together (one pass over the pixels)."""
     slope_of = dict(zip(VALUE_FIELDS, slopes))
     no_slope = np.zeros(len(i0))
     kernel = _kernels()[0]
+    kinds: dict[int, list[str]] = {}
     for name, field in fields.items():
         mode = 2 if field.dtype == np.bool_ else 1 if np.issubdtype(field.dtype, np.integer) else 0
-        kernel(field, allowed, computed, regressor, i0, i1, j0, j1, slope_of.get(name, no_slope), mode)
+        kinds.setdefault(mode, []).append(name)
+    for mode, names in kinds.items():
+        for dtype in sorted({fields[name].dtype.str for name in names}):  # one tuple type per call
+            group = [name for name in names if fields[name].dtype.str == dtype]
+            kernel(tuple(fields[name] for name in group), tuple(slope_of.get(name, no_slope) for name in group),
+                   allowed, computed, regressor, i0, i1, j0, j1, mode)
 
 
 def fate_codes(result) -> np.ndarray:
@@ -359,36 +401,39 @@ def adaptive_ld_dataset(
 
 
 #: The loops over every pixel of many cells, compiled once (numba's disk cache). ``fill_cells``: per
-#: pixel, the weighted corners (the weights and sums in the order :func:`bilinear` forms them) plus
-#: slope times departure; rounded for a count (mode 1), a corner's flag (mode 2).
+#: pixel, for each field of a tuple (one dtype), the weighted corners (the weights and sums in the
+#: order :func:`bilinear` forms them) plus slope times departure; rounded for a count (mode 1), a
+#: corner's flag (mode 2).
 #: ``largest_departure``: per cell, the largest |regressor - its bilinear interpolant| over its
 #: allowed pixels.
 _CELL_LOOPS = """
 import numpy as np
 
 
-def fill_cells(field, allowed, computed, regressor, i0, i1, j0, j1, slope, mode):
+def fill_cells(fields, slopes, allowed, computed, regressor, i0, i1, j0, j1, mode):
     for c in range(i0.shape[0]):
         a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
         h, w = max(a1 - a0, 1), max(b1 - b0, 1)
-        f00, f10, f01, f11 = field[a0, b0], field[a1, b0], field[a0, b1], field[a1, b1]
         q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
         for i in range(a0, a1 + 1):
             for j in range(b0, b1 + 1):
                 if computed[i, j] or not allowed[i, j]:
                     continue
                 if mode == 2:
-                    field[i, j] = f00
+                    for field in fields:
+                        field[i, j] = field[a0, b0]
                     continue
                 a = (i - a0) / h
                 b = (j - b0) / w
                 w00, w10, w01, w11 = (1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b
-                value = w00 * f00 + w10 * f10 + w01 * f01 + w11 * f11
                 departure = regressor[i, j] - (w00 * q00 + w10 * q10 + w01 * q01 + w11 * q11)
-                value = value + slope[c] * departure
-                if mode == 1:
-                    value = np.rint(value)
-                field[i, j] = value
+                for k in range(len(fields)):
+                    field = fields[k]
+                    value = w00 * field[a0, b0] + w10 * field[a1, b0] + w01 * field[a0, b1] + w11 * field[a1, b1]
+                    value = value + slopes[k][c] * departure
+                    if mode == 1:
+                        value = np.rint(value)
+                    field[i, j] = value
 
 
 def largest_departure(regressor, allowed, i0, i1, j0, j1):

@@ -153,6 +153,38 @@ def test_a_fate_band_half_a_coarse_cell_wide_is_always_found(spacing):
     assert band.computed[:, 1].all()
 
 
+def test_small_cells_beside_a_fate_switch_are_accepted_on_their_centre():
+    # Closed form: the fate switches between columns 4 and 5 (a straight boundary) and the value
+    # i + 2 j is bilinear, so every interpolant is exact. Spacing 8: the coarse cell [0, 8] sees
+    # both fates, its child [4, 8] too; of that child's children (2 pixels a side), [4, 6] holds the
+    # switch and is integrated at every pixel, [6, 8] has one fate at its corners and is tested at
+    # its centre (odd rows of column 7) alone: its edge midpoints (even rows of column 7, odd rows
+    # of column 8) are filled, not integrated.
+    shape = (33, 33)
+    allowed = np.ones(shape, dtype=bool)
+
+    def evaluate(i, j, bump=0.0, speck=0):
+        value = i + 2.0 * j + bump * (j == 7) * (i % 2)
+        fate = (j >= 5) + speck * (j == 7) * (i % 2)
+        return {"ld_forward": value, "ld_backward": value, "flag": j >= 5, "fate": fate.astype(np.int64)}
+
+    band = refine_band(allowed, 0, shape, evaluate, RefineSettings(tolerance=1e-3, coarse_spacing=8))
+    i, j = np.indices(shape)
+    assert band.computed[:, 4:7].all()
+    assert band.computed[1::2, 7].all() and not band.computed[0::2, 7].any()
+    assert not band.computed[1::2, 8].any()
+    np.testing.assert_array_equal(band.fields["flag"], j >= 5)  # the fate, to the pixel
+    np.testing.assert_allclose(band.fields["ld_forward"], i + 2.0 * j, rtol=0, atol=1e-12)
+    # A centre off the corners' interpolant by more than the tolerance (a bump on the odd rows of
+    # column 7; the value range on the lattice is 96) sends the cell to the full test: every pixel
+    # of column 7 is integrated.
+    # So does a centre of another fate than its corners (a one-pixel speck on those rows).
+    for change in ({"bump": 1.0}, {"speck": 2}):
+        changed = refine_band(allowed, 0, shape, lambda a, b: evaluate(a, b, **change),
+                              RefineSettings(tolerance=1e-3, coarse_spacing=8))
+        assert changed.computed[:, 7].all(), change
+
+
 # --------------------------------------------------------------------------------------------
 # The paper's system: error bound, determinism, tiles, NHIM detection, the CLI.
 
