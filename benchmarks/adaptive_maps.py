@@ -7,7 +7,8 @@ For each map of config.yaml (its ``refine:`` block, or --tolerance/--coarse-spac
 resolution or --points per axis: the full map (every allowed pixel) and the adaptive one, each
 timed (wall and process CPU, after a small warm-up map so that compiling is excluded), and
 
-* trajectories integrated, full (2 per allowed pixel) over adaptive (``refine_trajectories``);
+* trajectories integrated, full (2 per allowed pixel) over adaptive (``refine_trajectories``; each
+  direction's too);
 * wall time, full over adaptive (--repeat runs each: min, median, max);
 * error: the fraction of allowed pixels within the tolerance of the full map (|difference| over
   the full field's max - min), forward and backward, and the worst pixel; the figure's colour
@@ -135,7 +136,9 @@ def measure(config: dict, name: str, args, equilibria) -> dict:
     record = {
         "map": name, "shape": list(full.ld_forward.shape), "allowed_pixels": allowed, "refine": refine,
         "trajectories": trajectories, "trajectory_ratio": trajectories["full"] / trajectories["adaptive"],
-        "computed_pixels": int(adaptive.computed.values.sum()),
+        "trajectories_per_direction": {label: int(adaptive.attrs[f"refine_trajectories_{label}"])
+                                       for label in ("forward", "backward")},
+        "computed_pixels": {label: int(adaptive[f"computed_{label}"].values.sum()) for label in ("forward", "backward")},
         "wall_s": {k: [w for w, _ in v] for k, v in runs.items()},
         "cpu_s": {k: [c for _, c in v] for k, v in runs.items()},
         "errors": errors(adaptive, full, refine["tolerance"]),

@@ -2,7 +2,11 @@
 
 An LD map is smooth almost everywhere; its information sits on curves (the singular features
 along the stable and unstable manifolds, the boundaries between fates). The refinement works on
-the map's own pixel grid, so every value it integrates is the full map's trajectory at that pixel:
+the map's own pixel grid, so every value it integrates is the full map's trajectory at that pixel.
+Each direction of time is refined on its own, on its own fate and LD (the forward map's structure
+lies along the stable manifolds, the backward map's along the unstable ones), so a pixel may be
+integrated in one direction and interpolated in the other (the masks ``computed_forward`` and
+``computed_backward``). For each direction:
 
 1. *Coarse lattice*: every ``coarse_spacing``-th row and column of the grid (and the last
    ones). Its cells are the rectangles between neighbouring lattice lines.
@@ -10,9 +14,9 @@ the map's own pixel grid, so every value it integrates is the full map's traject
    its four children), integrated as real trajectories.
 3. *Criterion*: a cell is subdivided (into those four children, one level down) where its
    corners and test points differ in *fate* (energetically forbidden; escaped; failed; the face
-   of the saddle region the trajectory left by, or none: ran to tau; each direction), or where
-   a test point's ``ld_forward`` or ``ld_backward`` differs from the cell's interpolant by more
-   than ``tolerance`` times that field's *value range* (max - min over the allowed pixels of
+   of the saddle region the trajectory left by, or none: ran to tau), or where a test point's
+   LD (``ld_forward`` or ``ld_backward``) differs from the cell's interpolant by more than
+   ``tolerance`` times that field's *value range* (max - min over the allowed pixels of
    the whole map's coarse lattice, so every tile of a map uses the same bound). A cell whose
    sampled points are all forbidden but which holds an allowed pixel is subdivided too (the
    allowed region is known at every pixel without integrating). A cell is never accepted on an
@@ -31,12 +35,12 @@ the map's own pixel grid, so every value it integrates is the full map's traject
 6. *Centre test*: a cell at most ``CENTRE_TEST_SIDE`` pixels a side whose four corners share a
    fate (most such cells flank a fate switch their parent saw, their corners already on its
    side) integrates its centre first; if the centre has the corners' fate and every
-   VALUE_FIELD within the tolerance of their bilinear interpolant, the cell is accepted on that
+   value field within the tolerance of their bilinear interpolant, the cell is accepted on that
    trajectory (bilinear fill), else it is tested as in 2-3. At the last level this skips most
    edge midpoints of the cells beside a switch, whose values and fates there are known smooth.
 
-All the new points of one level are integrated together (one batch of engine calls per
-direction, as a full map's tile is), so the engine's lanes stay full and every thread busy.
+All the new points of one level are integrated together (one batch of engine calls, as a full
+map's tile is), so the engine's lanes stay full and every thread busy.
 
 What a feature narrower than a coarse cell needs to be found: the points sampled before the
 first decision form a lattice of spacing ``coarse_spacing / 2`` (corners and test points), so
@@ -183,13 +187,14 @@ def _cells_sum(prefix: np.ndarray, i0, i1, j0, j1) -> np.ndarray:
 
 def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], evaluate: Evaluate,
                 settings: RefineSettings, outside_scale: Mapping[str, np.ndarray] | None = None,
-                regressor: np.ndarray | None = None) -> RefinedBand:
+                regressor: np.ndarray | None = None, value_fields: tuple[str, ...] = VALUE_FIELDS) -> RefinedBand:
     """Refine the band of rows ``first_row`` .. ``first_row + len(allowed) - 1`` of a map of ``shape``.
 
     The band must start and end on lattice rows (:func:`band_bounds`). ``outside_scale`` holds the
-    VALUE_FIELDS at the allowed lattice pixels of the map outside the band, for the value range.
+    value fields at the allowed lattice pixels of the map outside the band, for the value range.
     ``regressor`` (band shape; the section's solved coordinate, None: none) is known at every pixel
-    without integrating; see the module docstring.
+    without integrating; see the module docstring. ``value_fields``: the fields the criterion
+    compares with the interpolant (``evaluate`` returns them).
     """
     regressor = np.zeros(allowed.shape) if regressor is None else np.where(allowed, regressor, 0.0)
     rows, cols = allowed.shape
@@ -228,7 +233,7 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         probe.pop("fate")
         fields = {name: np.zeros(allowed.shape, dtype=array.dtype) for name, array in probe.items()}
     tolerances = {}
-    for name in VALUE_FIELDS:
+    for name in value_fields:
         on_lattice = fields[name][gi, gj][allowed[gi, gj]]
         samples = [on_lattice, *([np.asarray(outside_scale[name])] if outside_scale else [])]
         samples = np.concatenate(samples)
@@ -253,7 +258,7 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         if small.any():
             centre_cells = tuple(a[small] for a in (i0, i1, j0, j1))
             passed = _centre_test(centre_cells, fate, fields, tolerances, integrate, levels)
-            fills.append((*(a[passed] for a in centre_cells), *(np.zeros(int(passed.sum())),) * len(VALUE_FIELDS)))
+            fills.append((*(a[passed] for a in centre_cells), *(np.zeros(int(passed.sum())),) * len(value_fields)))
             rest = ~small
             rest[np.flatnonzero(small)[~passed]] = True
             i0, i1, j0, j1 = (a[rest] for a in (i0, i1, j0, j1))
@@ -277,7 +282,7 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         seen = _kernels()[1](regressor, allowed, i0, i1, j0, j1) <= 2 * np.max(np.abs(q), axis=0)
         qq = np.where(seen, qq, 0.0)
         slopes = {}
-        for name in VALUE_FIELDS:
+        for name in value_fields:
             field = fields[name]
             corners = (field[i0, j0], field[i1, j0], field[i0, j1], field[i1, j1])
             r = np.stack([field[ti, tj] - bilinear(a, b, *corners) for (ti, tj), (a, b) in zip(tests, fractions)])
@@ -285,7 +290,7 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
             split |= np.any(np.abs(r - slope * q) > tolerances[name], axis=0)
             slopes[name] = slope
         accepted = tuple(a[~split] for a in (i0, i1, j0, j1))
-        fills.append(_children(*accepted, extra=tuple(slopes[name][~split] for name in VALUE_FIELDS)))
+        fills.append(_children(*accepted, extra=tuple(slopes[name][~split] for name in value_fields)))
         failing = tuple(a[split] for a in (i0, i1, j0, j1))
         if level == settings.max_level:  # no more halvings: a failing cell is integrated at every pixel
             pixels = [np.mgrid[a:b + 1, c:d + 1].reshape(2, -1) for a, b, c, d in zip(*failing)]
@@ -295,21 +300,21 @@ def refine_band(allowed: np.ndarray, first_row: int, shape: tuple[int, int], eva
         cells = _children(*failing)
         level += 1
     for cell_set in fills:
-        _fill(fields, computed, allowed, regressor, *cell_set)
+        _fill(fields, computed, allowed, regressor, value_fields, *cell_set)
     log.info("adaptive band: %d of %d allowed pixels integrated; (cells, points) per level %s",
              int(computed.sum()), int(allowed.sum()), levels)
     return RefinedBand(fields, computed, levels)
 
 
 def _centre_test(cells, fate, fields, tolerances, integrate, levels) -> np.ndarray:
-    """Integrate each cell's centre; True where it has the corners' fate and every VALUE_FIELD
+    """Integrate each cell's centre; True where it has the corners' fate and every value field
     within the tolerance of the corners' bilinear interpolant (the cell is then accepted)."""
     i0, i1, j0, j1 = cells
     ci, cj = (i0 + i1) // 2, (j0 + j1) // 2
     levels.append((len(i0), integrate(ci, cj)))
     passed = fate[ci, cj] == fate[i0, j0]
     a, b = (ci - i0) / np.maximum(i1 - i0, 1), (cj - j0) / np.maximum(j1 - j0, 1)
-    for name in VALUE_FIELDS:
+    for name in tolerances:
         field = fields[name]
         guess = bilinear(a, b, field[i0, j0], field[i1, j0], field[i0, j1], field[i1, j1])
         passed &= np.abs(field[ci, cj] - guess) <= tolerances[name]
@@ -317,12 +322,12 @@ def _centre_test(cells, fate, fields, tolerances, integrate, levels) -> np.ndarr
 
 
 def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarray, regressor: np.ndarray,
-          i0, i1, j0, j1, *slopes) -> None:
+          value_fields: tuple[str, ...], i0, i1, j0, j1, *slopes) -> None:
     """Fill the allowed, not computed pixels of each cell, in order, with the interpolant of its
     corners: bilinear, plus for the VALUE_FIELDS their parent's slope times the regressor's
     departure from bilinear (flags, uniform over an accepted cell's fate, from a corner; step
     counts rounded). The fields of one kind are filled together (one pass over the pixels)."""
-    slope_of = dict(zip(VALUE_FIELDS, slopes))
+    slope_of = dict(zip(value_fields, slopes))
     no_slope = np.zeros(len(i0))
     kernel = _kernels()[0]
     kinds: dict[int, list[str]] = {}
@@ -353,8 +358,10 @@ def adaptive_ld_dataset(
     t0: float = 0.0,
 ) -> xr.Dataset:
     """:func:`ldpipe.ld_grid.ld_grid_dataset` refined adaptively: the same variables, integrated where
-    the criterion asks and interpolated elsewhere (see the module docstring), plus ``computed`` and
-    the attributes ``refine_*`` (``refine_trajectories``: trajectories integrated, both directions)."""
+    the criterion asks and interpolated elsewhere (see the module docstring), each direction refined
+    on its own; plus the masks ``computed_forward`` and ``computed_backward`` and the attributes
+    ``refine_*`` (``refine_trajectories``: trajectories integrated over both directions;
+    ``refine_trajectories_forward``, ``refine_trajectories_backward``: each direction's)."""
     shape = section.shape
     rows = rows if rows is not None else slice(0, shape[0])
     first, last = band_bounds(rows, shape[0], refine.coarse_spacing)
@@ -364,40 +371,50 @@ def adaptive_ld_dataset(
     stream, interval = progress_output(log)
     progress = tqdm(unit="traj", desc="LD (adaptive)", disable=not show_progress, file=stream,
                     mininterval=interval, ascii=stream is not sys.stderr)
-    count = [0]
+    count = {"forward": 0, "backward": 0}
+    directions = ((1, "forward"), (-1, "backward"))
 
-    def evaluate_states(chosen: np.ndarray) -> dict[str, np.ndarray]:
-        values = {}
-        fate = np.zeros(len(chosen), dtype=np.int64)
-        for direction, label, weight in ((1, "forward", 1), (-1, "backward", 256)):
-            result = integrate_points(system, chosen, direction, settings, progress, t0)
-            values.update({f"{name}_{label}": getattr(result, name) for name in MAP_FIELDS})
-            fate += weight * fate_codes(result)
-        count[0] += 2 * len(chosen)
-        return {**values, "fate": fate}
+    def evaluate_states(chosen: np.ndarray, direction: int, label: str) -> dict[str, np.ndarray]:
+        result = integrate_points(system, chosen, direction, settings, progress, t0)
+        count[label] += len(chosen)
+        return {**{f"{name}_{label}": getattr(result, name) for name in MAP_FIELDS}, "fate": fate_codes(result)}
 
     with progress:
         # The value range is the whole map's: the lattice pixels outside the band are integrated too.
         row_lines, col_lines = lattice(shape[0], refine.coarse_spacing), lattice(shape[1], refine.coarse_spacing)
         outside_rows = row_lines[(row_lines < first) | (row_lines > last)]
-        outside = None
+        outside = {label: None for _, label in directions}
         if outside_rows.size:
             o_states, o_allowed, _ = section_states(system, section, energy, outside_rows)
             o_index = np.full(o_allowed.shape, -1, dtype=np.int64)
             o_index[o_allowed] = np.arange(len(o_states))
             on_lattice = o_index[:, col_lines]
-            values = evaluate_states(o_states[on_lattice[on_lattice >= 0]])
-            outside = {name: values[name] for name in VALUE_FIELDS}
-        band = refine_band(allowed, first, shape, lambda i, j: evaluate_states(states[index[i, j]]), refine, outside,
-                           solved)
+            for direction, label in directions:
+                values = evaluate_states(o_states[on_lattice[on_lattice >= 0]], direction, label)
+                outside[label] = {f"ld_{label}": values[f"ld_{label}"]}
+        # Each direction is refined on its own fate and LD: the forward map's switches (W^s, exit
+        # faces forward) are not the backward map's, and each needs only its own trajectories.
+        bands = {label: refine_band(allowed, first, shape,
+                                    functools.partial(_evaluate_pixels, evaluate_states, states, index, direction, label),
+                                    refine, outside[label], solved, value_fields=(f"ld_{label}",))
+                 for direction, label in directions}
     inside = slice(rows.start - first, rows.stop - first)
-    fields = {name: band.fields[name][inside] for name in band.fields}
+    fields = {name: band.fields[name][inside] for band in bands.values() for name in band.fields}
     dataset = ld_map_dataset(system, section, fields, allowed[inside], None if solved is None else solved[inside], rows)
-    dataset["computed"] = (section.axes, band.computed[inside],
-                           {"long_name": "trajectory integrated here (elsewhere allowed points are interpolated)"})
+    for label, band in bands.items():
+        dataset[f"computed_{label}"] = (section.axes, band.computed[inside],
+                                        {"long_name": f"{label} trajectory integrated here (elsewhere allowed "
+                                                      f"points are interpolated)"})
     dataset.attrs.update(refine.attributes())
-    dataset.attrs["refine_trajectories"] = count[0]
+    dataset.attrs.update({f"refine_trajectories_{label}": count[label] for label in bands})
+    dataset.attrs["refine_trajectories"] = sum(count.values())
     return dataset
+
+
+def _evaluate_pixels(evaluate_states, states, index, direction: int, label: str, i, j) -> dict[str, np.ndarray]:
+    """One direction's fields and fate at band pixels (i, j) (an :data:`Evaluate`)."""
+    return evaluate_states(states[index[i, j]], direction, label)
+
 
 
 #: The loops over every pixel of many cells, compiled once (numba's disk cache). ``fill_cells``: per

@@ -46,7 +46,9 @@ def linear_saddle():
 def test_refinement_hugs_the_linear_saddles_manifold_lines(linear_saddle):
     # Closed form: u = x + p_x / lam grows as e^{lam t}, s = x - p_x / lam decays, so forward
     # trajectories leave the region box by the face of sign(u) (W^s is the line p_x = -lam x) and
-    # backward ones by sign(s) (W^u: p_x = lam x). Fates switch across these lines and nowhere else.
+    # backward ones by sign(s) (W^u: p_x = lam x). The forward fate switches across W^s and nowhere
+    # else, the backward fate across W^u and nowhere else; each direction is refined on its own, so
+    # each mask must hug its own line.
     n, spacing = 129, 16
     section = Section(axes=("x", "px"), ranges=((-0.3, 0.3), (-0.3, 0.3)), shape=(n, n), fixed={"y": 0.2},
                       solve="py")
@@ -54,26 +56,34 @@ def test_refinement_hugs_the_linear_saddles_manifold_lines(linear_saddle):
     refine = RefineSettings(tolerance=2e-3, coarse_spacing=spacing)
     full = ld_grid_dataset(linear_saddle, section, 0.5, settings)
     adaptive = adaptive_ld_dataset(linear_saddle, section, 0.5, settings, refine)
-    computed = adaptive.computed.values
     x, px = np.meshgrid(full.x.values, full.px.values, indexing="ij")
-    # Distance in pixels from the nearer manifold line (|p_x -+ lam x| / sqrt(1 + lam^2)).
-    distance = np.minimum(np.abs(px + LAM * x), np.abs(px - LAM * x)) / np.hypot(1.0, LAM) / (0.6 / (n - 1))
-    # The fate switch is resolved to the pixel: every pixel within two pixels of a line is integrated.
-    assert computed[distance < 2].all()
-    # Away from the lines the integrated pixels thin out: the LD's logarithmic cusp (the time to
-    # leave the box grows as -ln|u| / lam) asks for smaller cells the closer they are. Measured
-    # densities per band of distance (in pixels) 2-4: 1.0, 4-8: 0.66, 8-16: 0.20, 16-32: 0.065,
-    # beyond 2 s: 0.032, the first samples alone being 1/64 (spacing s/2).
-    bands = [(2, 4), (4, 8), (8, 16), (16, 2 * spacing), (2 * spacing, np.inf)]
-    density = [computed[(distance >= lo) & (distance < hi)].mean() for lo, hi in bands]
-    assert all(a >= b for a, b in zip(density, density[1:])), density
-    assert density[-1] < 1 / 16  # at most one level below the first samples, far from the lines
-    # Every pixel not integrated is within the tolerance of the full map (accepted cells), and the
-    # integrated ones are the full map's trajectories.
-    for name in ("ld_forward", "ld_backward"):
+    pixel = 0.6 / (n - 1)
+    # Distance in pixels from each direction's switch line (|p_x -+ lam x| / sqrt(1 + lam^2)):
+    # forward W^s (p_x = -lam x), backward W^u (p_x = lam x).
+    lines = {"forward": np.abs(px + LAM * x) / np.hypot(1.0, LAM) / pixel,
+             "backward": np.abs(px - LAM * x) / np.hypot(1.0, LAM) / pixel}
+    for label, distance in lines.items():
+        computed = adaptive[f"computed_{label}"].values
+        # The fate switch is resolved to the pixel: every pixel within two pixels of the line is integrated.
+        assert computed[distance < 2].all(), label
+        # Away from the line the integrated pixels thin out: the LD's logarithmic cusp (the time to
+        # leave the box grows as -ln|u| / lam) asks for smaller cells the closer they are. Measured
+        # densities per band of distance (in pixels) 2-4, 4-8, 8-16, 16-32, beyond 2 s: forward
+        # 0.997, 0.43, 0.19, 0.060, 0.021; backward 0.85, 0.37, 0.20, 0.058, 0.020; the first samples
+        # alone being 1/64 (spacing s/2).
+        bands = [(2, 4), (4, 8), (8, 16), (16, 2 * spacing), (2 * spacing, np.inf)]
+        density = [computed[(distance >= lo) & (distance < hi)].mean() for lo, hi in bands]
+        assert all(a >= b for a, b in zip(density, density[1:])), (label, density)
+        assert density[-1] < 1 / 16, label  # at most one level below the first samples, far from the line
+        # Every pixel not integrated is within the tolerance of the full map (accepted cells), and the
+        # integrated ones are the full map's trajectories.
+        name = f"ld_{label}"
         assert within_tolerance(adaptive, full, name, refine.tolerance).all(), name
         np.testing.assert_allclose(adaptive[name].values[computed], full[name].values[computed], rtol=1e-14)
-    assert adaptive.attrs["refine_trajectories"] < 2 * n * n / 2  # measured: 0.31 of the full map's
+        np.testing.assert_array_equal(adaptive[f"left_region_{label}"].values, full[f"left_region_{label}"].values)
+    trajectories = {label: adaptive.attrs[f"refine_trajectories_{label}"] for label in lines}
+    assert adaptive.attrs["refine_trajectories"] == sum(trajectories.values())
+    assert adaptive.attrs["refine_trajectories"] < 2 * n * n / 2  # measured: 0.16 of the full map's
 
 
 def test_a_smooth_map_needs_only_its_first_samples(oscillator):
@@ -101,7 +111,9 @@ def test_a_smooth_map_needs_only_its_first_samples(oscillator):
                     guess = (1 - a) * (1 - b) * c[0] + a * (1 - b) * c[1] + (1 - a) * b * c[2] + a * b * c[3]
                     exact = values[i0 + int(a * spacing), j0 + int(b * spacing)]
                     assert abs(exact - guess) < spread * refine.tolerance / 3
-    assert adaptive.computed.values.sum() == ((n - 1) // half + 1) ** 2
+    for label in ("forward", "backward"):
+        assert adaptive[f"computed_{label}"].values.sum() == ((n - 1) // half + 1) ** 2, label
+        assert adaptive.attrs[f"refine_trajectories_{label}"] == ((n - 1) // half + 1) ** 2, label
     assert adaptive.attrs["refine_trajectories"] == 2 * ((n - 1) // half + 1) ** 2
     # The interpolated map is the closed form to the tolerance (the engine's LD is the closed form
     # to ~1e-9 at rtol 1e-10).
@@ -218,11 +230,14 @@ def panel(equilibria):
 def test_the_adaptive_map_is_the_full_map_within_its_tolerance(panel):
     parameters, adaptive, full = panel
     tolerance = parameters["refine"]["tolerance"]
-    # The file: the full map's variables and shape, plus the mask and the settings.
-    assert set(adaptive.data_vars) == set(full.data_vars) | {"computed"}
+    # The file: the full map's variables and shape, plus each direction's mask and the settings.
+    assert set(adaptive.data_vars) == set(full.data_vars) | {"computed_forward", "computed_backward"}
     assert all(adaptive[name].shape == full[name].shape for name in full.data_vars)
     assert adaptive.attrs["refine_tolerance"] == tolerance and adaptive.attrs["refine_coarse_spacing"] == 16
-    assert adaptive.attrs["refine_trajectories"] >= 2 * adaptive.computed.values.sum()
+    for label in ("forward", "backward"):  # each direction's integrations include its computed pixels
+        assert adaptive.attrs[f"refine_trajectories_{label}"] >= adaptive[f"computed_{label}"].values.sum(), label
+    assert adaptive.attrs["refine_trajectories"] == (adaptive.attrs["refine_trajectories_forward"]
+                                                     + adaptive.attrs["refine_trajectories_backward"])
     # The required bound: at least 99.9 % of the pixels within the tolerance of the full map; and no
     # pixel far off (measured: the worst at half the tolerance).
     for name in ("ld_forward", "ld_backward"):
@@ -232,9 +247,10 @@ def test_the_adaptive_map_is_the_full_map_within_its_tolerance(panel):
     for name in ("escaped_forward", "escaped_backward", "left_region_forward", "left_region_backward",
                  "failed_forward", "failed_backward", "allowed"):
         np.testing.assert_array_equal(adaptive[name].values, full[name].values, err_msg=name)
-    computed = adaptive.computed.values
-    for name in ("steps_forward", "steps_backward", "exit_time_forward", "exit_time_backward"):
-        np.testing.assert_array_equal(adaptive[name].values[computed], full[name].values[computed], err_msg=name)
+    for label in ("forward", "backward"):  # each direction's integrated pixels are the full map's
+        computed = adaptive[f"computed_{label}"].values
+        for name in (f"steps_{label}", f"exit_time_{label}"):
+            np.testing.assert_array_equal(adaptive[name].values[computed], full[name].values[computed], err_msg=name)
 
 
 def test_nhim_detection_on_the_adaptive_map_is_the_full_maps(panel):
@@ -262,7 +278,8 @@ def test_reruns_and_tiles_give_the_same_bits(tmp_path, equilibria):
         np.testing.assert_array_equal(again[name].values, whole[name].values, err_msg=name)
         np.testing.assert_array_equal(gathered[name].values, whole[name].values, err_msg=name)
     # Each tile integrates the whole map's lattice for the value range, and the cells its band reaches.
-    assert gathered.attrs["refine_trajectories"] >= whole.attrs["refine_trajectories"]
+    for name in ("refine_trajectories", "refine_trajectories_forward", "refine_trajectories_backward"):
+        assert gathered.attrs[name] >= whole.attrs[name], name
 
 
 def test_the_cli_makes_an_adaptive_map(tmp_path):
@@ -273,4 +290,5 @@ def test_the_cli_makes_an_adaptive_map(tmp_path):
                  "--refine-tolerance", "0.004", "--coarse-spacing", "8", "--quiet", "-o", str(output)]) == 0
     data = open_stage_file(output, stage="ld_grid")
     assert data.attrs["refine_tolerance"] == 0.004 and data.attrs["refine_coarse_spacing"] == 8
-    assert 0 < data.computed.values.sum() < data.allowed.values.sum()
+    for label in ("forward", "backward"):
+        assert 0 < data[f"computed_{label}"].values.sum() < data.allowed.values.sum(), label

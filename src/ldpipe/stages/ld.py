@@ -249,8 +249,9 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
                            dim="t0", data_vars="all", coords="minimal", compat="identical", join="exact")
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
-    if "refine_trajectories" in joined.attrs:  # an adaptive map: every tile's trajectories
-        joined.attrs["refine_trajectories"] = sum(int(d.attrs["refine_trajectories"]) for d in datasets)
+    for name in ("refine_trajectories", "refine_trajectories_forward", "refine_trajectories_backward"):
+        if name in joined.attrs:  # an adaptive map: every tile's trajectories
+            joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
     return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(tiles)})
