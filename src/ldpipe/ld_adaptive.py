@@ -141,7 +141,7 @@ def band_bounds(rows: slice, points: int, spacing: int) -> tuple[int, int]:
     return first, last
 
 
-#: ``evaluate(i, j)``: the fields (VALUE_FIELDS among them) and ``fate`` of the allowed band pixels
+#: ``evaluate(i, j)``: the fields (the refinement's value fields among them) and ``fate`` of the allowed band pixels
 #: (i, j) (band rows, columns), each an array of their length.
 Evaluate = Callable[[np.ndarray, np.ndarray], dict[str, np.ndarray]]
 
@@ -324,7 +324,7 @@ def _centre_test(cells, fate, fields, tolerances, integrate, levels) -> np.ndarr
 def _fill(fields: dict[str, np.ndarray], computed: np.ndarray, allowed: np.ndarray, regressor: np.ndarray,
           value_fields: tuple[str, ...], i0, i1, j0, j1, *slopes) -> None:
     """Fill the allowed, not computed pixels of each cell, in order, with the interpolant of its
-    corners: bilinear, plus for the VALUE_FIELDS their parent's slope times the regressor's
+    corners: bilinear, plus for the value fields their parent's slope times the regressor's
     departure from bilinear (flags, uniform over an accepted cell's fate, from a corner; step
     counts rounded). The fields of one kind are filled together (one pass over the pixels)."""
     slope_of = dict(zip(value_fields, slopes))
