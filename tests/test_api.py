@@ -216,3 +216,23 @@ def test_accessor_draws_the_map_on_the_given_axes(hh_config, hh_map, tmp_path):
     hh_map.to_netcdf(path)
     with xr.open_dataset(path) as opened:
         assert opened.ldpipe.stage == "ld_grid"
+
+
+def test_a_flow_map_without_its_ld_is_returned_as_the_stage_computes_it(tmp_path):
+    # ld: false files hold the flow map and the FTLE under the flow_map contract; the API returns the
+    # file of the single-tile stage computation (compute_ld_map), its variables bit for bit
+    from ldpipe.stages.ld import compute_ld_map
+    from support.gridded import write_velocity_file
+
+    grid = np.linspace(0.0, 4.0, 5)
+    path = write_velocity_file(tmp_path / "shear.nc", lambda X, Y, T: (0.1 * Y + 0 * T, 0.05 + 0 * X), grid, grid, grid)
+    entry = {"t0": 2.0, "tau": 1.0, "p": 0.5, "ftle": True, "ld": False,
+             "section": {"axes": [{"name": "x", "range": [1.0, 3.0], "points": 5},
+                                  {"name": "y", "range": [1.0, 3.0], "points": 5}]}}
+    shear = ldpipe.system(name="shear", velocity_data={"path": str(path)})
+    flow_map = ldpipe.ld_map(shear, name="s", **entry)
+    assert "ld_forward" not in flow_map and "ftle_forward" in flow_map
+    config = validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}}, "ld_maps": {"s": {"system": "shear", **entry}}})
+    expected = compute_ld_map(parameters_from_config(config, "ld", "s"), None, show_progress=False)
+    for name, variable in expected.data_vars.items():
+        np.testing.assert_array_equal(flow_map[name].values, variable.values, err_msg=name)

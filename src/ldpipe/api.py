@@ -48,7 +48,7 @@ from .io.contracts import (
 )
 from .io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from .stages.equilibria import run_equilibria
-from .stages.ld import ld_map_tiles, run_ld_map
+from .stages.ld import ld_map_tiles, map_contract, run_ld_map
 from .stages.manifolds import run_manifolds
 from .stages.nhim import run_nhim_study
 from .stages.parameters import parameters_from_config
@@ -56,7 +56,7 @@ from .stages.poincare import run_poincare
 from .stages.saddle_flux import run_saddle_flux
 from .stages.transport import run_transport
 from .stages.upo import run_upo
-from .systems import System, VectorFieldSystem, make_system, system_spec
+from .systems import System, VectorFieldSystem, VelocityDataSystem, make_system, system_spec
 
 __all__ = [
     "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "periodic_orbits", "plot", "poincare",
@@ -66,7 +66,7 @@ __all__ = [
 #: The keys of a section block besides its axes (:func:`section`).
 SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
 
-AnySystem = System | VectorFieldSystem
+AnySystem = System | VectorFieldSystem | VelocityDataSystem
 
 #: Each stage's function (the one Snakemake's script and the command line call) and its file's contract.
 RUNS = {
@@ -106,7 +106,7 @@ def _energy_shorthand(spec: dict) -> dict:
 
 
 def _system_entry(system: AnySystem) -> dict:
-    if not isinstance(system, (System, VectorFieldSystem)):
+    if not isinstance(system, (System, VectorFieldSystem, VelocityDataSystem)):
         raise ConfigError(f"expected a system (from ldpipe.system), got {type(system).__name__}")
     return copy.deepcopy(system.spec)
 
@@ -127,6 +127,8 @@ def _run_stage(function: str, stage: str, section: str, name: str, entry: dict, 
     with _arguments_of(function, f"{section}.{name}"):
         config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
         parameters = parameters_from_config(config, stage, name)
+        if stage == "ld":  # an LD map's file, or a vector field's flow map without its LD (ld: false)
+            contract = map_contract(parameters, tile_file=False)
         with tempfile.TemporaryDirectory() as scratch:
             path = run(**parameters, **inputs(config), output=Path(scratch) / f"{stage}.nc")
             return open_stage_file(path, stage=contract)
@@ -150,12 +152,13 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
         The entry's name (recorded in every file); default the built-in's name, else ``"system"``.
     **spec
         The entry's keys: ``builtin`` (with ``parameters`` overriding the paper's values), or
-        ``formula`` (a potential V(q)) or ``vector_field`` (dx/dt = f(x, t)) with ``coordinates``;
+        ``formula`` (a potential V(q)) or ``vector_field`` (dx/dt = f(x, t)) with ``coordinates``,
+        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables);
         ``parameters``, ``masses`` or ``mass_matrix``, ``equilibria`` (the equilibrium search).
 
     Returns
     -------
-    System or VectorFieldSystem
+    System, VectorFieldSystem or VelocityDataSystem
         The compiled system; its ``spec`` is the validated entry, defaults filled in.
 
     Raises
@@ -276,7 +279,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     Returns
     -------
     xarray.Dataset
-        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...
+        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...;
+        with ``ld=False`` (a vector field's fixed-time map with ``ftle=True``) the flow map and
+        its FTLE alone (contract ``flow_map``).
 
     Raises
     ------
