@@ -175,7 +175,8 @@ def _thread_count(threads: int | None) -> int:
 
 
 def _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, t0) -> Trajectories:
-    """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring)."""
+    """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring), the
+    escape radius raised as the LD engine raises it (:func:`engine_escape_radius`)."""
     from .engine.vector_field import get_vector_field_runner
 
     count, m = states.shape
@@ -192,7 +193,8 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
         threads = _thread_count(threads)
         runner = get_vector_field_runner(system, "vector_field_crossings")
         args = (t0, 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
-                settings.escape_radius, settings.max_steps, index, float(value), float(direction))
+                engine_escape_radius(system, settings.escape_radius), settings.max_steps, index, float(value),
+                float(direction))
         outputs = (crossings, crossing_times, n_cross, status, final_time, steps)
         with system.time_window(t0, t0 + float(duration)):
             run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)

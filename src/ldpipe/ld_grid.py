@@ -18,7 +18,6 @@ from tqdm import tqdm
 
 from .engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from .engine.schemes import get_scheme
-from .engine.settings import engine_escape_radius
 from .errors import ConfigError
 from . import flow
 from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
@@ -137,20 +136,23 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
     return system, section, settings, info
 
 
+def flow_settings(settings: LDSettings) -> FlowSettings:
+    """The flow driver's settings at an LD map's tolerances, escape radius and step limit."""
+    return FlowSettings(rtol=settings.rtol, atol=settings.atol, escape_radius=settings.escape_radius,
+                        max_steps=settings.max_steps)
+
+
 def integrate_points(system: System, states: np.ndarray, direction: int, settings: LDSettings,
                      progress: tqdm | None = None, t0: float = 0.0, descriptor: bool = True):
     """:func:`ldpipe.engine.compute_ld` of ``states`` (without the ``descriptor``, :func:`ldpipe.flow.flow_map`)
-    in calls of at most :data:`CHUNK` points (each trajectory on its own, so the result does not
-    depend on the chunks), updating ``progress``."""
+    in calls of at most :data:`CHUNK` points, updating ``progress`` (each trajectory is integrated on
+    its own; see the module docstring for the last bits a batch can change)."""
     if descriptor:
         def compute(chunk):
             return compute_ld(system, chunk, direction=direction, settings=settings, t0=t0)
     else:
-        flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol, escape_radius=settings.escape_radius,
-                                     max_steps=settings.max_steps)
-
         def compute(chunk):
-            return flow.flow_map(system, chunk, direction * settings.tau, flow_settings, t0=t0)
+            return flow.flow_map(system, chunk, direction * settings.tau, flow_settings(settings), t0=t0)
     results = []
     for start in range(0, len(states), CHUNK):
         chunk = states[start : start + CHUNK]
@@ -179,13 +181,10 @@ def locate_stops(system, states: np.ndarray, end_states: np.ndarray, direction: 
     (:meth:`ldpipe.systems.velocity_data.VelocityDataSystem.stop_lines`), located on the flow
     driver's dense output, in forward time the way it crossed. NaN where no crossing was found."""
     axis, value, side = system.stop_lines(end_states, t0, t0 + direction * settings.tau)
-    flow_settings = FlowSettings(rtol=settings.rtol, atol=settings.atol,
-                                 escape_radius=engine_escape_radius(system, settings.escape_radius),
-                                 max_steps=settings.max_steps)
     times = np.full(len(states), np.nan)
     for key in sorted(set(zip(axis.tolist(), value.tolist(), side.tolist()))):
         group = np.flatnonzero((axis == key[0]) & (value == key[1]) & (side == key[2]))
-        run = flow.integrate(system, states[group], direction * settings.tau, flow_settings, t0=t0,
+        run = flow.integrate(system, states[group], direction * settings.tau, flow_settings(settings), t0=t0,
                              section=(system.phase_coordinates[key[0]], key[1], direction * key[2]),
                              max_crossings=STOP_CROSSINGS)
         found = (run.crossing_count > 0) & (run.crossing_count < STOP_CROSSINGS)
