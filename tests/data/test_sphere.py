@@ -164,3 +164,21 @@ def test_ambiguous_longitude_grids_are_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"window\.lon': expected an interval .* dateline of a regional grid"):
         sphere_system(sphere_file(tmp_path, "regional", polar_rotation, np.arange(150.0, 210.5, 1.0)), "regional",
                       window={"lon": [170.0, -170.0], "lat": [-10.0, 10.0]})
+
+
+def test_the_ring_buffer_wraps_round_the_seam(tmp_path):
+    # Periodicity, an identity: in the buffer of a global grid the padding west of the first node
+    # is the last node, and the closing column (first + 360) and the padding beyond it are the
+    # first two nodes, land-filled values included (a coast at the seam: land on 358..1 E, 0..10 N).
+    lon = np.arange(0.0, 359.5, 1.0)
+    path = write_velocity_file(tmp_path / "coast.nc", equatorial_rotation, lon, np.arange(-20.0, 20.01, 1.0),
+                               np.arange(0.0, 6.01, 1.0), names=("lon", "lat"), time_units="days since 2000-01-01",
+                               land=lambda X, Y: ((X >= 358) | (X <= 1)) & (Y >= 0) & (Y <= 10))
+    window = sphere_system(path, "coast").data_window(1.0, 2.0)
+    nt, ny, nx = (int(v) for v in window.buffer[:3])
+    assert nx == len(lon) + 1 and window.x_grid == (0.0, 1.0, len(lon) + 1)
+    u = window.buffer[16:16 + (nt + 2) * (ny + 2) * (nx + 2)].reshape(nt + 2, ny + 2, nx + 2)
+    np.testing.assert_array_equal(u[..., 0], u[..., nx - 1])  # node 359 west of node 0
+    np.testing.assert_array_equal(u[..., nx], u[..., 1])  # the closing column: node 0
+    np.testing.assert_array_equal(u[..., nx + 1], u[..., 2])  # node 1 beyond it
+    assert window.land[:, 0].any() and np.array_equal(window.land[:, -1], window.land[:, 0])

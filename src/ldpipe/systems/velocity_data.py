@@ -287,6 +287,15 @@ def column_runs(first: int, last: int, count: int) -> list[slice]:
     return [slice(int(run[0]), int(run[-1]) + 1) for run in np.split(indices, breaks)]
 
 
+def first_copies(columns: np.ndarray) -> np.ndarray:
+    """For each position of ``columns`` (node indices, the first and last the padding), the
+    position of the same node's first copy among the inner positions (itself if it has none)."""
+    inner = {}
+    for position in range(1, len(columns) - 1):
+        inner.setdefault(int(columns[position]), position)
+    return np.array([inner.get(int(node), position) for position, node in enumerate(columns)])
+
+
 def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
     """``values`` (time, y, x) with each land node given its nearest water node's value: the
     stencils of water cells by the coast then see the flow continued, not a wall of zeros (a
@@ -334,6 +343,9 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     land_all = ~(np.isfinite(u) & np.isfinite(v) & water)
     land_nodes = land_all.any(axis=0)
     u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
+    if source.x_global:  # a node read twice (round the seam) keeps one filled value: its first copy inside
+        copies = first_copies(np.arange(xa - 1, xb + 2) % counts[2])
+        u, v = u[..., copies], v[..., copies]
     padded = []
     for array in (u, v):
         for axis, (lo, hi, low_read, high_read) in enumerate(zip((ta, ya, xa), (tb, yb, xb), lows, highs)):
