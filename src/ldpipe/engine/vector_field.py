@@ -10,6 +10,12 @@ Only schemes whose record says ``general_flow`` take this path (today: dop853).
 
 The flow map alone (``vector_field_endpoints``: end states, no LD) is a second module, the same
 text with that template appended, so adding it left the LD module's text and cache as they were.
+
+A system whose LD is not taken in its state's units (velocity data on the sphere: kilometres
+and the data's velocity units, not degrees) gives the section that says how
+(``ld_metric_source``); it closes the LD module, rebinding what the LD reads. Every other system
+gives none, and its module's text is what it was without it; the flow map's module has no LD and
+takes none.
 """
 
 from __future__ import annotations
@@ -46,7 +52,10 @@ def vector_field_source(system, extra: tuple[str, ...] = ()) -> str:
         "G": np.atleast_2d(tableaux.DOP853_DENSE),
     }
     title = f"ldpipe.engine.vector_field: dop853, {system.n_state} state variables"
-    return assemble(system, title, KERNELS, constants, [(name, template(name)) for name in TEMPLATES + extra])
+    bodies = [(name, template(name)) for name in TEMPLATES + extra]
+    if system.ld_metric_source and ENDPOINTS not in extra:  # the flow map alone has no LD to take a metric
+        bodies.append(("the LD's metric (given by the system)", system.ld_metric_source))
+    return assemble(system, title, KERNELS, constants, bodies)
 
 
 def get_vector_field_runner(system, entry: str = "vector_field_process"):

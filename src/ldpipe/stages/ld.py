@@ -19,7 +19,7 @@ from ..io.contracts import EQUILIBRIA, FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters, write_stage_file
 from ..engine import LDSettings
 from ..engine.settings import engine_escape_radius
-from ..engine.integrands import descriptor_attribute
+from ..engine.integrands import descriptor_attribute, is_arclength
 from ..critical_points import select_saddle
 from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
 from ..ld_grid import (add_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map, start_time_band,
@@ -152,8 +152,19 @@ def compute_ld_map(
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
+    add_ld_units(dataset, system, settings.p)
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
+
+
+def add_ld_units(dataset: xr.Dataset, system, p) -> None:
+    """The LD variables' ``units``, where the system names them (velocity data on the sphere: km
+    for the arc length, the data's velocity units for M_p); other maps' LDs are in their state's units."""
+    units = system.ld_units(is_arclength(p), p) if hasattr(system, "ld_units") else None
+    if units:
+        for name in ("ld_forward", "ld_backward"):
+            if name in dataset:
+                dataset[name].attrs["units"] = units
 
 
 def map_contract(parameters: dict, *, tile_file: bool):

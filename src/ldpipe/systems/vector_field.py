@@ -78,6 +78,8 @@ class VectorFieldSystem:
 
     #: No Hamiltonian: energies, energy sections and orbit corrections do not apply.
     hamiltonian: ClassVar[bool] = False
+    #: The LD is taken in the state's own units: the flow engine adds no metric section.
+    ld_metric_source: ClassVar[str] = ""
 
     @property
     def n_state(self) -> int:

@@ -18,6 +18,12 @@ Only the window an engine call needs is read (xarray opens the file lazily): the
 whole grid). Land (missing values) and the grid's edge are boundaries: a trajectory stops on
 reaching a cell with a land node, or the edge, and :meth:`VelocityDataSystem.stop_flags` says
 which; a window that leaves the data's times is refused, naming both ranges.
+
+On the sphere a longitude grid all round it (:func:`seam_grid`) has no edge: the window read
+is the ring with its first column repeated at its end, padded with the real columns across the
+seam (the kernel's stencil then wraps, the kernel unchanged), and a spatial window may cross the
+seam. The LD is taken in km and the data's velocity units, by the engine section
+``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`).
 """
 
 from __future__ import annotations
@@ -54,10 +60,14 @@ def kernel_source() -> str:
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
 
 
+def velocity_units_match(units: str) -> re.Match | None:
+    """``units`` read as a length per time (``m/s``, ``m s-1``, ``m s^-1``): groups length, time (2 or 3)."""
+    return re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", units.strip().replace("**", "^"))
+
+
 def parse_velocity_units(units: str, key: str) -> tuple[float, float]:
     """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``, ``km/day``)."""
-    text = units.strip().replace("**", "^")
-    match = re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", text)
+    match = velocity_units_match(units)
     if not match or match.group(1) not in LENGTHS or (match.group(2) or match.group(3)) not in TIMES:
         raise ConfigError(f"config key '{key}': velocity units {units!r} not understood; expected a length per time, "
                           f"e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
@@ -114,6 +124,9 @@ class DataSource:
     sphere: bool
     radius: float
     mask: str | None = None  # a (y, x) variable, 0 on land (besides missing velocities)
+    velocity_units: str = ""  # as the file writes them (u's units)
+    time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
+    x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
 
     def open(self) -> xr.Dataset:
         if self.path.rstrip("/").endswith(".zarr"):
@@ -176,7 +189,17 @@ def open_source(spec: dict, key: str) -> DataSource:
             raise ConfigError(f"config key '{key}.mask': variable {source.mask!r} has dimensions "
                               f"{tuple(dataset[source.mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
-        data_seconds = time_unit_seconds(dataset[entry["time"]].attrs.get("units")) or seconds
+        time_coordinate_units = dataset[entry["time"]].attrs.get("units")
+        data_seconds = time_unit_seconds(time_coordinate_units) or seconds
+        velocity_units = str(dataset[entry["u"]].attrs["units"]).strip()
+        if time_unit_seconds(time_coordinate_units):
+            time_units = time_coordinate_units.strip().split()[0]
+        else:
+            match = velocity_units_match(velocity_units)
+            time_units = match.group(2) or match.group(3)
+        x_global = False
+        if sphere:
+            grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
@@ -187,7 +210,46 @@ def open_source(spec: dict, key: str) -> DataSource:
     return DataSource(path=source.path, u=source.u, v=source.v, x=source.x, y=source.y, time=source.time,
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere, radius=source.radius,
-                      mask=source.mask)
+                      mask=source.mask, velocity_units=velocity_units, time_units=time_units, x_global=x_global)
+
+
+#: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or
+#: none with the first column repeated) and still be taken as global: float32 coordinates at 1/12
+#: degree miss by ~4e-4 spacings.
+SEAM_TOLERANCE = 1e-3
+
+
+#: The escape radius of a global grid's trajectories (degrees): a longitude crossing the seam
+#: runs on past 360 (the kernel takes it modulo 360), as many turns as the flow makes.
+WINDING_BOUND = 1.0e9
+
+
+def seam_grid(grid: tuple[float, float, int], name: str, key: str) -> tuple[tuple[float, float, int], bool]:
+    """A longitude grid (first, spacing, count) and whether it goes all round the sphere.
+
+    Global: the gap from the last node round to the first (360 - (count - 1) spacing) is one
+    spacing, within :data:`SEAM_TOLERANCE` spacings; the spacing is then taken as 360 / count, so
+    the seam's cell is as wide as every other. A last column that repeats the first (gap 0) is
+    global too, without that column (never read). Refused (ConfigError naming the coordinate):
+    more than 360 degrees, and a gap shorter than a spacing (a spacing that does not divide 360:
+    neither an edge nor a cell). A gap longer than a spacing is a regional grid's edge.
+    """
+    first, step, count = grid
+    gap = 360.0 - step * (count - 1)
+    slack = SEAM_TOLERANCE * step
+    if abs(gap - step) <= slack:
+        return (first, 360.0 / count, count), True
+    if abs(gap) <= slack:
+        return (first, 360.0 / (count - 1), count - 1), True
+    if gap < 0.0:
+        raise ConfigError(f"config key '{key}': longitude coordinate {name!r} covers {360.0 - gap:.12g} degrees, "
+                          "more than the sphere's 360; give each longitude once (a repeated first column may close it)")
+    if gap < step:
+        raise ConfigError(f"config key '{key}': longitude coordinate {name!r} covers the sphere but for a gap of "
+                          f"{gap:.12g} degrees, less than its spacing {step:.12g}: its spacing does not divide 360, "
+                          "so the seam is neither a grid cell nor an edge; give a global grid with 360 / spacing "
+                          "columns, or a regional one with a gap of more than a spacing")
+    return grid, False
 
 
 def index_window(grid: tuple[float, float, int], low: float, high: float) -> tuple[int, int]:
@@ -201,6 +263,37 @@ def index_window(grid: tuple[float, float, int], low: float, high: float) -> tup
         else:
             a -= 1
     return a, b
+
+
+def ring_window(grid: tuple[float, float, int], low: float, high: float) -> tuple[int, int]:
+    """The node indices [a, b] of a global longitude grid whose cells cover the longitudes from
+    ``low`` eastward to ``high`` (either convention, across the seam too: b may pass the last
+    node, the indices taken modulo the count), at least 3 nodes; (0, count) for the whole ring,
+    its first node repeated at its end."""
+    first, step, count = grid
+    if high - low >= 360.0:
+        return 0, count
+    start = (low - first) % 360.0
+    a = int(math.floor(start / step + 1e-9))
+    b = int(math.ceil((start + (high - low) % 360.0) / step - 1e-9))
+    b = max(b, a + 2)
+    return (0, count) if b - a >= count else (a, b)
+
+
+def column_runs(first: int, last: int, count: int) -> list[slice]:
+    """Columns ``first`` .. ``last`` (inclusive, taken modulo ``count``) as contiguous slices, in order."""
+    indices = np.arange(first, last + 1) % count
+    breaks = np.flatnonzero(np.diff(indices) != 1) + 1
+    return [slice(int(run[0]), int(run[-1]) + 1) for run in np.split(indices, breaks)]
+
+
+def first_copies(columns: np.ndarray) -> np.ndarray:
+    """For each position of ``columns`` (node indices, the first and last the padding), the
+    position of the same node's first copy among the inner positions (itself if it has none)."""
+    inner = {}
+    for position in range(1, len(columns) - 1):
+        inner.setdefault(int(columns[position]), position)
+    return np.array([inner.get(int(node), position) for position, node in enumerate(columns)])
 
 
 def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
@@ -231,16 +324,28 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     counts = (source.t_grid[2], source.y_grid[2], source.x_grid[2])
     lows = [max(0, lo - 1) for lo in (ta, ya, xa)]
     highs = [min(n - 1, hi + 1) for hi, n in zip((tb, yb, xb), counts)]
+    if source.x_global:  # every column has real neighbours, across the seam (indices modulo the count)
+        lows[2], highs[2] = xa - 1, xb + 1
+        columns = column_runs(xa - 1, xb + 1, counts[2])
+    else:
+        columns = [slice(lows[2], highs[2] + 1)]
     with source.open() as dataset:
-        region = {source.time: slice(lows[0], highs[0] + 1), source.y: slice(lows[1], highs[1] + 1),
-                  source.x: slice(lows[2], highs[2] + 1)}
-        u = np.asarray(dataset[source.u].isel(region).values, dtype=float)
-        v = np.asarray(dataset[source.v].isel(region).values, dtype=float)
-        water = (np.asarray(dataset[source.mask].isel({k: region[k] for k in (source.y, source.x)}).values) != 0
-                 if source.mask else True)
+        region = {source.time: slice(lows[0], highs[0] + 1), source.y: slice(lows[1], highs[1] + 1)}
+
+        def read(name: str, dims: tuple[str, ...]) -> np.ndarray:
+            parts = [np.asarray(dataset[name].isel({**{k: region[k] for k in dims}, source.x: run}).values)
+                     for run in columns]
+            return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
+
+        u = np.asarray(read(source.u, (source.time, source.y)), dtype=float)
+        v = np.asarray(read(source.v, (source.time, source.y)), dtype=float)
+        water = read(source.mask, (source.y,)) != 0 if source.mask else True
     land_all = ~(np.isfinite(u) & np.isfinite(v) & water)
     land_nodes = land_all.any(axis=0)
     u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
+    if source.x_global:  # a node read twice (round the seam) keeps one filled value: its first copy inside
+        copies = first_copies(np.arange(xa - 1, xb + 2) % counts[2])
+        u, v = u[..., copies], v[..., copies]
     padded = []
     for array in (u, v):
         for axis, (lo, hi, low_read, high_read) in enumerate(zip((ta, ya, xa), (tb, yb, xb), lows, highs)):
@@ -282,8 +387,30 @@ class VelocityDataSystem:
 
     hamiltonian: ClassVar[bool] = False
     time_dependent: ClassVar[bool] = True
-    #: Every velocity-data system shares one compiled engine (its data are bound at run time).
-    engine_name: ClassVar[str] = "velocity_data"
+
+    @property
+    def engine_name(self) -> str:
+        """Every velocity-data system of a kind shares one compiled engine (its data are bound at run
+        time): one for the plane, one for the sphere (whose engine has the LD's metric)."""
+        return "velocity_data_sphere" if self.source.sphere else "velocity_data"
+
+    @property
+    def ld_metric_source(self) -> str:
+        """On the sphere, the flow engine's section that takes the LD in kilometres and the data's
+        velocity units (``kernels/sphere_ld_metric.py``); on the plane none (the state's units are the data's)."""
+        if not self.source.sphere:
+            return ""
+        return resources.files(kernels).joinpath("sphere_ld_metric.py").read_text()
+
+    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
+        """The ``units`` of a map's LD variables (the arc length, or M_p with this ``p``): on the
+        sphere the arc length in km, M_p in the data's velocity units to the p times the
+        integration's time unit; on the plane None (the state's units, which the data may not name)."""
+        if not self.source.sphere:
+            return None
+        if arclength:
+            return "km"
+        return f"({self.source.velocity_units})^{format(float(p), 'g')} {self.source.time_units}"
 
     @property
     def n_state(self) -> int:
@@ -304,7 +431,10 @@ class VelocityDataSystem:
     @property
     def coordinate_bound(self) -> float:
         """A bound on |x|, |y| of any trajectory that can move (twice the data's extent, and 720
-        degrees on the sphere, where longitudes wrap): the engine raises its escape radius to it."""
+        degrees on the sphere, where longitudes wrap; on a global grid, where a longitude may wind
+        round any number of times, :data:`WINDING_BOUND`): the engine raises its escape radius to it."""
+        if self.source.x_global:
+            return WINDING_BOUND
         extent = max(abs(v) for grid in (self.source.x_grid, self.source.y_grid)
                      for v in (grid[0], grid[0] + grid[1] * (grid[2] - 1)))
         return max(2.0 * extent, 720.0 if self.source.sphere else 0.0)
@@ -324,16 +454,30 @@ class VelocityDataSystem:
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if self.window:
-            xs = index_window(self.source.x_grid, *self.window[self.coordinates[0]])
+            xs = self.x_window(*self.window[self.coordinates[0]])
             ys = index_window(self.source.y_grid, *self.window[self.coordinates[1]])
         else:
-            xs = (0, self.source.x_grid[2] - 1)
+            xs = (0, self.source.x_grid[2]) if self.source.x_global else (0, self.source.x_grid[2] - 1)
             ys = (0, self.source.y_grid[2] - 1)
         key = (times, xs, ys)
         if key not in self._windows:
             self._windows.clear()
             self._windows[key] = read_window(self.source, times, xs, ys)
         return self._windows[key]
+
+    def x_window(self, low: float, high: float) -> tuple[int, int]:
+        """The node indices of the ``window``'s x interval: on a global longitude grid from ``low``
+        eastward to ``high`` across the seam too (:func:`ring_window`); on a regional sphere grid
+        moved by whole turns if that puts its start on the grid (a longitude in the other convention)."""
+        grid = self.source.x_grid
+        if self.source.x_global:
+            return ring_window(grid, low, high)
+        first, last = grid[0], grid[0] + grid[1] * (grid[2] - 1)
+        if self.source.sphere and not first <= low <= last:
+            turns = 360.0 * math.floor((low - first) / 360.0)
+            if low - turns <= last:
+                low, high = low - turns, high - turns
+        return index_window(grid, low, high)
 
     @contextmanager
     def time_window(self, start: float, end: float):
@@ -410,6 +554,14 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
         if sorted(window) != sorted(coordinates):
             raise ConfigError(f"config key '{key}.velocity_data.window': expected an interval for each of "
                               f"{list(coordinates)}, got {sorted(window)}")
+        for coordinate, (low, high) in window.items():
+            # a global grid's window may cross the seam, written either way round (east from low to high)
+            if not low < high and not (source.x_global and coordinate == coordinates[0]):
+                raise ConfigError(f"config key '{key}.velocity_data.window.{coordinate}': expected an interval "
+                                  f"[low, high] with low < high, got {[low, high]}" + (
+                                      " (a window across the dateline of a regional grid: write its longitudes "
+                                      "in the grid's convention, e.g. [170, 190])" if source.sphere
+                                      and coordinate == coordinates[0] else ""))
     text = kernel_source()
     (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
     return VelocityDataSystem(name=name, coordinates=coordinates, source=source, window=window, kernel_source=text,
