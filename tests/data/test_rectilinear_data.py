@@ -1,18 +1,36 @@
-"""Velocity data on rectilinear grids (unevenly spaced axes), against closed forms.
+"""Velocity data on rectilinear grids (unevenly spaced axes) and in 3-D, against closed forms.
 
 - A field of degree <= 2 in each variable, which the non-uniform cubic reproduces exactly (the
   slopes of parabolas through three nodes are exact for quadratics), sampled on random uneven
-  grids gives the formula system's LD and end states to the integrator's tolerance; a regular
-  grid keeps the uniform kernel.
+  grids gives the formula system's LD and end states (2-D) or scipy's trajectory and M_1 (3-D,
+  the independent reference of support.scipy_reference) to the integrator's tolerance.
 - The double gyre (support.double_gyre) on refined uneven grids: the velocity and LD errors
   against the formula system fall at the interpolant's third order.
+- The linear saddle with vertical stretching on uneven depth levels: its flow map is linear, so
+  the FTLE is exactly its largest stretching rate in the section's plane (closed form).
+- Solid-body rotation about the polar axis with a constant sinking on the sphere, on uneven
+  latitudes and depths: lon0 + omega t, lat0, z0 + w t (closed form).
+- The sea floor (missing values below a depth) and the surface stop a sinking or rising
+  trajectory after the closed-form time, flagged on_land and left_data.
 """
 
-import numpy as np
+import math
 
+import numpy as np
+import pytest
+import xarray as xr
+
+from ldpipe.config import validate_config
+from ldpipe.engine import LDSettings, compute_ld
+from ldpipe.errors import ConfigError
+from ldpipe.stages.ld import compute_ld_map
+from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import VelocityDataSystem, make_system
 from support.double_gyre import sampled_gyre_errors
-from support.gridded import assert_quadratic_field_ld, quadratic_field, write_velocity_file
+from support.gridded import assert_quadratic_field_ld, quadratic_field, write_velocity_file, write_velocity_file_3d
+from support.scipy_reference import flow_m1_and_arclength
+
+TIGHT = dict(rtol=1e-11, atol=1e-11)
 
 
 def data_system(path, name="data", **entry):
@@ -62,3 +80,140 @@ def test_double_gyre_on_uneven_grids_converges_at_third_order(tmp_path):
     # 2.1e-5), LD 2.95 (1.3e-2 .. 2.1e-4)
     assert 2.7 < _slope(spacings, velocity_errors) < 3.5, velocity_errors
     assert 2.5 < _slope(spacings, ld_errors) < 3.5, ld_errors
+
+
+def test_3d_quadratic_field_gives_scipys_trajectory(tmp_path):
+    # u, v, w of degree <= 2 in each of x, y, z, t on uneven axes (depth levels 0 .. 100 m, z positive
+    # down: dz/dt = -w): reproduced exactly, so the end states and M_1 are scipy's on the formulas
+    def field(x, y, z, t):
+        return (0.3 + 0.1 * y**2 - 0.05 * t * x + 0.002 * z, -0.2 * x + 0.02 * t**2 + 0.001 * y * z,
+                -2.0 - 0.5 * x * t + 0.01 * z * y)
+    rng = np.random.default_rng(3)
+    path = write_velocity_file_3d(tmp_path / "q3.nc", field, uneven(-4, 4, 9, rng), uneven(-3, 3, 7, rng),
+                                  uneven(0, 100, 8, rng), uneven(0, 6, 7, rng))
+    data = data_system(path, name="q3", w="w")
+    assert data.coordinates == ("x", "y", "z") and data.engine_name == "velocity_data_rectilinear3"
+
+    def formulas(t, s):
+        u, v, w = field(s[0], s[1], s[2], t)
+        return np.array([u, v, -w])
+    states = np.array([[0.0, 0.0, 40.0], [0.7, -1.1, 55.0], [-1.3, 0.9, 30.0]])
+    for direction, t0 in ((1, 1.0), (-1, 4.5)):
+        result = compute_ld(data, states, direction, LDSettings(tau=1.5, p=1.0, **TIGHT), t0=t0)
+        for state, ld, end in zip(states, result.ld, result.end_state):
+            m1, _, want = flow_m1_and_arclength(formulas, state, t0, t0 + 1.5 * direction)
+            # measured: end states 2e-11, M_1 4e-12 relative (ldpipe at 1e-11 against scipy at 1e-13)
+            np.testing.assert_allclose(end, want, rtol=1e-10, atol=1e-10)
+            np.testing.assert_allclose(ld, m1, rtol=1e-10)
+        assert not result.failed.any()
+
+
+def test_3d_rotation_and_sinking_on_the_sphere(tmp_path):
+    # rotation about the polar axis, u = omega R cos(lat) (m/s), v = 0, and w = -0.001 m/s (sinking),
+    # depth positive down in m, time in days, on uneven latitudes and depths: the closed form is
+    # (lon0 + omega t in degrees, lat0, z0 + 0.001 t in metres)
+    radius, omega = 6.371e6, 2 * math.pi / (20 * 86400.0)
+
+    def field(lon, lat, z, t):
+        return omega * radius * np.cos(np.radians(lat)) + 0 * z, 0 * lon, -0.001 + 0 * t
+    rng = np.random.default_rng(5)
+    path = write_velocity_file_3d(tmp_path / "rot3.nc", field, np.arange(-30.0, 120.01, 1.5), uneven(-50, 50, 61, rng),
+                                  uneven(0.0, 500.0, 9, rng), np.arange(0.0, 6.01, 1.0), names=("lon", "lat", "depth"),
+                                  time_units="days since 2000-01-01")
+    data = data_system(path, name="rot3", coordinates="sphere", w="w")
+    assert data.coordinates == ("lon", "lat", "depth")
+    starts = np.array([[10.0, 5.0, 100.0], [-20.0, 30.0, 200.0], [35.0, -15.0, 50.0]])
+    days = 3.0
+    result = compute_ld(data, starts, 1, LDSettings(tau=days, p=0.5, **TIGHT), t0=1.0)
+    expected = starts + [360.0 / 20 * days, 0.0, 0.001 * 86400 * days]
+    # measured: longitudes 7.8e-6 degrees off (the cos(lat) profile interpolated on the uneven ~1.7 degree
+    # latitudes, third order); latitudes exact and depths 5e-13 m (v = 0, w constant: exact)
+    np.testing.assert_allclose(result.end_state[:, 0], expected[:, 0], rtol=0, atol=3e-5)
+    np.testing.assert_allclose(result.end_state[:, 1:], expected[:, 1:], rtol=0, atol=1e-9)
+
+
+SADDLE_RATES = (0.2, 0.1, 0.3)  # x' = a x, y' = -b y, z' = c z (z a depth: the file's upward w = -c z)
+
+
+def test_3d_linear_saddle_ftle_on_uneven_depths(tmp_path):
+    # the flow map is linear, diag(e^(aT), e^(-bT), e^(cT)) (closed form), so the grid differences are
+    # exact: the FTLE is the largest rate of the section's two axes, forward max(a, c) = c on a vertical
+    # section (x, z) at fixed y and max(a, -b) = a on a horizontal one (x, y) at a fixed depth; backward
+    # (the inverse map) max(-a, -c) = -a and max(-a, b) = b
+    a, b, c = SADDLE_RATES
+    rng = np.random.default_rng(11)
+    path = write_velocity_file_3d(tmp_path / "saddle3.nc", lambda X, Y, Z, T: (a * X + 0 * T, -b * Y, -c * Z),
+                                  uneven(-4, 4, 9, rng), uneven(-2, 2, 7, rng), uneven(0.5, 80.0, 10, rng),
+                                  np.linspace(0, 4, 5))
+    base = {"system": "saddle", "t0": 2.0, "tau": 1.5, "p": 0.5, "ftle": True,
+            "integrator": {"rtol": 1e-12, "atol": 1e-12}}
+    config = validate_config({
+        "systems": {"saddle": {"velocity_data": {"path": str(path), "w": "w"}}},
+        "ld_maps": {"vertical": {**base, "section": {"axes": [{"name": "x", "range": [-1.0, 1.0], "points": 5},
+                                                              {"name": "z", "range": [10.0, 20.0], "points": 4}],
+                                                     "fixed": {"y": 0.5}}},
+                    "horizontal": {**base, "section": {"axes": [{"name": "x", "range": [-1.0, 1.0], "points": 5},
+                                                                {"name": "y", "range": [-0.5, 0.5], "points": 4}],
+                                                       "fixed": {"z": 15.0}}}}})
+    expected = {"vertical": (c, -a), "horizontal": (a, b)}
+    for name, (forward, backward) in expected.items():
+        dataset = compute_ld_map(parameters_from_config(config, "ld", name), None, show_progress=False)
+        for label, rate in (("forward", forward), ("backward", backward)):
+            assert dataset[f"ftle_defined_{label}"].values.all(), (name, label)
+            # measured: 6e-14 relative (the integrator's tolerance 1e-12)
+            np.testing.assert_allclose(dataset[f"ftle_{label}"].values, rate, rtol=1e-12, err_msg=f"{name} {label}")
+        assert not dataset.on_land_forward.values.any() and not dataset.left_data_forward.values.any()
+
+
+def test_sea_floor_and_surface_stop_trajectories(tmp_path):
+    # w = -0.5 m/s (sinking) everywhere, depth positive down on uneven levels, missing values at 140 m and
+    # deeper: the cell [100, 140] has land nodes, so a trajectory from z0 stops on the sea floor at 100 m
+    # after (100 - z0) / 0.5 s (forward, on_land); backward it rises to the top level 0 m after z0 / 0.5 s
+    # (left_data). Closed forms; M_0.5 = time * 0.5^0.5.
+    levels = np.array([0.0, 10.0, 25.0, 45.0, 70.0, 100.0, 140.0, 190.0])
+    path = write_velocity_file_3d(tmp_path / "floor.nc", lambda X, Y, Z, T: (0 * X, 0 * Y, -0.5 + 0 * T),
+                                  np.linspace(0, 4, 5), np.linspace(0, 4, 5), levels, np.linspace(0, 400, 5),
+                                  land=lambda X, Y, Z: Z >= 140)
+    config = validate_config({
+        "systems": {"floor": {"velocity_data": {"path": str(path), "w": "w"}}},
+        "ld_maps": {"f": {"system": "floor", "t0": 200.0, "tau": 190.0, "p": 0.5,
+                          "integrator": {"rtol": 1e-10, "atol": 1e-10},
+                          "section": {"axes": [{"name": "x", "range": [1.0, 3.0], "points": 3},
+                                              {"name": "y", "range": [1.0, 3.0], "points": 3}],
+                                      "fixed": {"z": 30.0}}}}})
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "f"), None, show_progress=False)
+    assert dataset.on_land_forward.values.all() and not dataset.left_data_forward.values.any()
+    assert dataset.left_data_backward.values.all() and not dataset.on_land_backward.values.any()
+    # measured: 1.6e-8 relative at the sea floor (the step across it), 5e-13 at the surface (the edge), located
+    # on the dense output; the LD 1.7e-8 relative
+    np.testing.assert_allclose(dataset.exit_time_forward.values, (100.0 - 30.0) / 0.5, rtol=1e-7)
+    np.testing.assert_allclose(dataset.exit_time_backward.values, 30.0 / 0.5, rtol=1e-11)
+    np.testing.assert_allclose(dataset.ld_forward.values, (100.0 - 30.0) / 0.5 * math.sqrt(0.5), rtol=1e-7)
+
+
+def test_bad_3d_data_errors_name_the_coordinate(tmp_path):
+    def field(X, Y, Z, T):
+        return X + 0 * T, Y, Z
+    x, y, t = np.arange(5.0), np.arange(4.0), np.arange(3.0)
+    unsigned = write_velocity_file_3d(tmp_path / "unsigned.nc", field, x, y, np.array([0.0, 5.0, 20.0]), t, positive=None)
+    with pytest.raises(ConfigError, match=r"velocity_data\.positive': the vertical coordinate 'z' says neither"):
+        data_system(unsigned, w="w")
+    assert data_system(unsigned, w="w", positive="up").source.vertical_scale == 1.0  # the entry's key decides
+    with xr.open_dataset(unsigned) as dataset:
+        loaded = dataset.load()
+    shuffled = loaded.assign_coords(z=[0.0, 20.0, 5.0])
+    shuffled.to_netcdf(tmp_path / "unsorted.nc")
+    with pytest.raises(ConfigError, match=r"velocity_data\.z': coordinate 'z' is not monotonic"):
+        data_system(tmp_path / "unsorted.nc", w="w")
+    without_depth = loaded.assign(w=loaded.w.isel(z=0, drop=True))
+    without_depth.to_netcdf(tmp_path / "flat_w.nc")
+    with pytest.raises(ConfigError, match=r"velocity_data\.w': variable 'w' has dimensions \('time', 'y', 'x'\); "
+                                          r"expected \('time', 'z', 'y', 'x'\)"):
+        data_system(tmp_path / "flat_w.nc", w="w")
+    # the FTLE of 3-D data on the sphere would mix degrees of arc with metres: refused, naming the key
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': the FTLE of 3-D data on the sphere"):
+        validate_config({"systems": {"s": {"velocity_data": {"path": str(unsigned), "w": "w", "coordinates": "sphere"}}},
+                         "ld_maps": {"m": {"system": "s", "tau": 1.0, "p": 0.5, "ftle": True,
+                                           "section": {"axes": [{"name": "lon", "range": [0.0, 1.0], "points": 3},
+                                                                {"name": "lat", "range": [0.0, 1.0], "points": 3}],
+                                                       "fixed": {"depth": 5.0}}}}})

@@ -25,6 +25,26 @@ def write_velocity_file(path, field, x, y, t, *, names=("x", "y"), units="m/s", 
     return path
 
 
+def write_velocity_file_3d(path, field, x, y, z, t, *, names=("x", "y", "z"), units="m/s", time_units="s",
+                           z_units="m", positive="down", land=None):
+    """Sample ``field(X, Y, Z, T) -> (u, v, w)`` (w upward) on the grid (x, y, z, t) and write u, v, w
+    on (time, z, y, x) to ``path``, the vertical coordinate with its ``units`` and CF ``positive``
+    attribute (None: left out). ``land(X, Y, Z)`` (optional) is True at land nodes (NaN there). Returns ``path``."""
+    T, Z, Y, X = np.meshgrid(t, z, y, x, indexing="ij")
+    u, v, w = (np.broadcast_to(c, T.shape).astype(float) for c in field(X, Y, Z, T))
+    if land is not None:
+        mask = np.broadcast_to(land(X[0], Y[0], Z[0]), T.shape)
+        u, v, w = (np.where(mask, np.nan, c) for c in (u, v, w))
+    attrs = {"units": units}
+    dims = ("time", names[2], names[1], names[0])
+    vertical = {k: value for k, value in (("units", z_units), ("positive", positive)) if value}
+    dataset = xr.Dataset({"u": (dims, u, attrs), "v": (dims, v, attrs), "w": (dims, w, attrs)},
+                         coords={names[0]: (names[0], x), names[1]: (names[1], y), names[2]: (names[2], z, vertical),
+                                 "time": ("time", t, {"units": time_units})})
+    dataset.to_netcdf(path)
+    return path
+
+
 def quadratic_field(x, y, t):
     """u = 0.3 + 0.1 y^2 - 0.05 t x, v = -0.2 x + 0.02 t^2: degree <= 2 in each variable, which the
     velocity-data interpolants reproduce exactly (on even and uneven grids)."""
