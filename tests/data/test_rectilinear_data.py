@@ -217,3 +217,28 @@ def test_bad_3d_data_errors_name_the_coordinate(tmp_path):
                                            "section": {"axes": [{"name": "lon", "range": [0.0, 1.0], "points": 3},
                                                                 {"name": "lat", "range": [0.0, 1.0], "points": 3}],
                                                        "fixed": {"depth": 5.0}}}}})
+
+
+def test_3d_example_currents_keep_their_depth_and_decay(tmp_path):
+    # the example's 3-D currents (ldpipe.data.example --depth): w = 0, so a trajectory keeps its depth
+    # (closed form), and u, v at a node are the jet's times exp(-depth / 300 m); nodes below the shelf's
+    # sea floor are missing (land)
+    from ldpipe.data.example import DECAY_DEPTH, example_dataset, jet_velocity, sea_floor
+
+    dataset = example_dataset(days=1.0, resolution=1.0, depths=4)
+    depth = dataset.depth.values
+    assert dataset.depth.attrs["positive"] == "down" and np.all(np.diff(np.diff(depth)) > 0)  # wider with depth
+    lon, lat = np.meshgrid(dataset.lon.values, dataset.lat.values)
+    below = depth[:, None, None] > sea_floor(lon, lat)
+    np.testing.assert_array_equal(np.isnan(dataset.u.values[0]) & below, below)
+    u, v = jet_velocity(-60.0, 37.0, 86400.0)
+    node = dataset.sel(lon=-60.0, lat=37.0, time=1.0)
+    # float32 storage: 6e-8 relative
+    np.testing.assert_allclose(node.u.values, u * np.exp(-depth / DECAY_DEPTH), rtol=1e-6)
+    np.testing.assert_allclose(node.v.values, v * np.exp(-depth / DECAY_DEPTH), rtol=1e-6, atol=1e-9)
+    dataset.to_netcdf(tmp_path / "example3d.nc")
+    data = data_system(tmp_path / "example3d.nc", name="example3d", coordinates="sphere", w="w")
+    starts = np.array([[-60.0, 37.0, 50.0], [-55.0, 40.0, 300.0]])
+    result = compute_ld(data, starts, 1, LDSettings(tau=0.5, p=0.5, **TIGHT), t0=0.25)
+    np.testing.assert_array_equal(result.end_state[:, 2], starts[:, 2])
+    assert not result.failed.any() and np.all(result.end_state[:, 0] != starts[:, 0])
