@@ -122,14 +122,23 @@ def test_3d_rotation_and_sinking_on_the_sphere(tmp_path):
                                   time_units="days since 2000-01-01")
     data = data_system(path, name="rot3", coordinates="sphere", w="w")
     assert data.coordinates == ("lon", "lat", "depth")
-    starts = np.array([[10.0, 5.0, 100.0], [-20.0, 30.0, 200.0], [35.0, -15.0, 50.0]])
+    # the last start is the first written as 370 degrees: the same point, its longitude kept in its own numbers
+    starts = np.array([[10.0, 5.0, 100.0], [-20.0, 30.0, 200.0], [35.0, -15.0, 50.0], [370.0, 5.0, 100.0]])
     days = 3.0
     result = compute_ld(data, starts, 1, LDSettings(tau=days, p=0.5, **TIGHT), t0=1.0)
     expected = starts + [360.0 / 20 * days, 0.0, 0.001 * 86400 * days]
     # measured: longitudes 7.8e-6 degrees off (the cos(lat) profile interpolated on the uneven ~1.7 degree
-    # latitudes, third order); latitudes exact and depths 5e-13 m (v = 0, w constant: exact)
+    # latitudes, third order); latitudes exact and depths 7e-13 m (v = 0, w constant: exact)
     np.testing.assert_allclose(result.end_state[:, 0], expected[:, 0], rtol=0, atol=3e-5)
     np.testing.assert_allclose(result.end_state[:, 1:], expected[:, 1:], rtol=0, atol=1e-9)
+    assert not data.stop_flags(result.end_state, 1.0, 1.0 + days)["left_data"].any()
+    # a spatial window (depth too) that holds the trajectories and their stencils reads the same nodes:
+    # the same bits
+    windowed = data_system(path, name="rot3_window", coordinates="sphere", w="w",
+                           window={"lon": [-25.0, 100.0], "lat": [-25.0, 40.0], "depth": [30.0, 480.0]})
+    again = compute_ld(windowed, starts, 1, LDSettings(tau=days, p=0.5, **TIGHT), t0=1.0)
+    np.testing.assert_array_equal(again.end_state, result.end_state)
+    np.testing.assert_array_equal(again.ld, result.ld)
 
 
 SADDLE_RATES = (0.2, 0.1, 0.3)  # x' = a x, y' = -b y, z' = c z (z a depth: the file's upward w = -c z)

@@ -172,9 +172,10 @@ class RectilinearVelocitySystem(VelocityDataSystem):
     def grid_positions(self, window: RectilinearWindow, end_states: np.ndarray) -> list[np.ndarray]:
         """Each state component in the grid's numbers (a longitude modulo 360 from the grid's first)."""
         positions = [end_states[:, d] for d in range(self.n_state)]
-        if self.source.sphere:
+        if self.source.sphere:  # as the kernel: unwrapped only where needed
             first = window.nodes[0][0]
-            positions[0] = first + np.mod(positions[0] - first, 360.0)
+            east = positions[0] - first
+            positions[0] = np.where((east < 0.0) | (east >= 360.0), first + np.mod(east, 360.0), positions[0])
         return positions
 
     def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:

@@ -101,7 +101,8 @@ def rhs(state, t, out):
     x = state[0]
     if head[4] > 0.0:  # on the sphere a longitude in either convention, across the dateline too
         east = x - data[xs + 1]
-        x = data[xs + 1] + (east - 360.0 * math.floor(east / 360.0))
+        if east < 0.0 or east >= 360.0:  # (unwrapped only when needed: the same bits in any window)
+            x = data[xs + 1] + (east - 360.0 * math.floor(east / 360.0))
     y = state[1]
     z = state[2] if GRID_DIMS == 3 else 0.0
     inside = x >= data[xs + 1] and x <= data[xs + nx] and y >= data[ys + 1] and y <= data[ys + ny]
