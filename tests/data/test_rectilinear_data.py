@@ -198,6 +198,15 @@ def test_sea_floor_and_surface_stop_trajectories(tmp_path):
     np.testing.assert_allclose(dataset.exit_time_forward.values, (100.0 - 30.0) / 0.5, rtol=1e-7)
     np.testing.assert_allclose(dataset.exit_time_backward.values, 30.0 / 0.5, rtol=1e-11)
     np.testing.assert_allclose(dataset.ld_forward.values, (100.0 - 30.0) / 0.5 * math.sqrt(0.5), rtol=1e-7)
+    # the same sea floor as a land-sea mask on (z, y, x), 0 at 140 m and deeper, over finite velocities: the same stops
+    with xr.open_dataset(path) as opened:
+        masked = opened.load().fillna(0.0)
+    masked["sea"] = (("z", "y", "x"), np.broadcast_to((levels < 140)[:, None, None], (8, 5, 5)).astype(float))
+    masked.to_netcdf(tmp_path / "masked.nc")
+    config["systems"]["floor"]["velocity_data"].update(path=str(tmp_path / "masked.nc"), mask="sea")
+    masked_map = compute_ld_map(parameters_from_config(config, "ld", "f"), None, show_progress=False)
+    assert masked_map.on_land_forward.values.all() and masked_map.left_data_backward.values.all()
+    np.testing.assert_array_equal(masked_map.exit_time_forward.values, dataset.exit_time_forward.values)
 
 
 def test_bad_3d_data_errors_name_the_coordinate(tmp_path):
