@@ -218,6 +218,11 @@ def test_bad_3d_data_errors_name_the_coordinate(tmp_path):
         data_system(unsigned, w="w")
     assert data_system(unsigned, w="w", positive="up").source.vertical_scale == 1.0  # the entry's key decides
     with xr.open_dataset(unsigned) as dataset:
+        shouting = dataset.load()
+    shouting.z.attrs["positive"] = "DOWN"  # CF's values in any case
+    shouting.to_netcdf(tmp_path / "shouting.nc")
+    assert data_system(tmp_path / "shouting.nc", w="w").source.vertical_scale == -1.0
+    with xr.open_dataset(unsigned) as dataset:
         loaded = dataset.load()
     shuffled = loaded.assign_coords(z=[0.0, 20.0, 5.0])
     shuffled.to_netcdf(tmp_path / "unsorted.nc")

@@ -169,6 +169,7 @@ def vertical_sign(entry: dict, dataset: xr.Dataset, key: str) -> float:
     """+1 if the vertical coordinate z grows upward, -1 if downward (a depth): the entry's
     ``positive``, else the coordinate's CF ``positive`` attribute; w is the upward velocity."""
     positive = entry.get("positive") or dataset[entry["z"]].attrs.get("positive")
+    positive = positive.lower() if isinstance(positive, str) else positive  # CF allows "Up", "DOWN"
     if positive not in ("up", "down"):
         raise ConfigError(f"config key '{key}.positive': the vertical coordinate {entry['z']!r} says neither "
                           f"positive: up nor positive: down (got {positive!r}); give positive: up (a height) or "
