@@ -24,8 +24,8 @@ from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
-from support.double_gyre import DOUBLE_GYRE, double_gyre_velocity
-from support.gridded import write_velocity_file
+from support.double_gyre import sampled_gyre_errors
+from support.gridded import assert_quadratic_field_ld, quadratic_field, write_velocity_file
 
 TIGHT = dict(rtol=1e-11, atol=1e-11)
 
@@ -35,23 +35,11 @@ def data_system(path, name="data", **entry):
 
 
 def test_quadratic_field_gives_the_formula_ld(tmp_path):
-    # u = 0.3 + 0.1 y^2 - 0.05 t x, v = -0.2 x + 0.02 t^2: degree <= 2 in each variable, so the
-    # interpolant is the field itself and the LD is the formula system's (to the integrator's tolerance)
-    def field(x, y, t):
-        return 0.3 + 0.1 * y**2 - 0.05 * t * x, -0.2 * x + 0.02 * t**2
-    path = write_velocity_file(tmp_path / "q.nc", field, np.linspace(-4, 4, 9), np.linspace(-3, 3, 7), np.linspace(0, 6, 7))
-    data = data_system(path)
-    formula = make_system("quadratic_field", {"vector_field": {"x": "0.3 + 0.1*y**2 - 0.05*t*x", "y": "-0.2*x + 0.02*t**2"},
-                                              "coordinates": ["x", "y"]})
-    states = np.array([[0.0, 0.0], [0.7, -1.1], [-1.3, 0.9], [1.6, 1.4]])
-    for direction, t0 in ((1, 1.0), (-1, 4.5)):
-        settings = LDSettings(tau=1.5, p=0.5, **TIGHT)
-        got = compute_ld(data, states, direction, settings, t0=t0)
-        want = compute_ld(formula, states, direction, settings, t0=t0)
-        # measured: LD relative differences 4e-14, end states 1e-13 absolute (rounding in the interpolation sums)
-        np.testing.assert_allclose(got.ld, want.ld, rtol=1e-12)
-        np.testing.assert_allclose(got.end_state, want.end_state, rtol=1e-12, atol=1e-12)
-        assert not got.failed.any()
+    # degree <= 2 in each variable, so the interpolant is the field itself and the LD is the formula
+    # system's (to the integrator's tolerance)
+    path = write_velocity_file(tmp_path / "q.nc", quadratic_field, np.linspace(-4, 4, 9), np.linspace(-3, 3, 7),
+                               np.linspace(0, 6, 7))
+    assert_quadratic_field_ld(data_system(path))
 
 
 def _slope(spacings, errors):
@@ -59,24 +47,12 @@ def _slope(spacings, errors):
 
 
 def test_double_gyre_converges_at_the_interpolants_order(tmp_path):
-    formula = make_system("double_gyre", DOUBLE_GYRE)
-    grid = np.meshgrid(np.linspace(0.15, 1.85, 6), np.linspace(0.1, 0.9, 5))
-    states = np.column_stack([grid[0].ravel(), grid[1].ravel()])
-    settings = LDSettings(tau=5.0, p=0.5, rtol=1e-12, atol=1e-12)
-    reference = compute_ld(formula, states, 1, settings, t0=2.0)
-    rng = np.random.default_rng(1)
-    probes = np.column_stack([rng.uniform(0, 2, 200), rng.uniform(0, 1, 200), rng.uniform(2, 7, 200)])
-    exact_u = np.array(double_gyre_velocity(probes[:, 0], probes[:, 1], probes[:, 2])).T
-    spacings, ld_errors, velocity_errors = [], [], []
-    for n in (8, 16, 32):
-        h = 1.0 / n  # space and time steps alike; times 1.5 .. 7.5 cover [t0, t0 + tau] and a stencil more
-        path = write_velocity_file(tmp_path / f"g{n}.nc", double_gyre_velocity, np.linspace(0, 2, 2 * n + 1),
-                                   np.linspace(0, 1, n + 1), 1.5 + h * np.arange(6 * n + 1))
-        data = data_system(path, name="double_gyre_data")
-        result = compute_ld(data, states, 1, settings, t0=2.0)
-        spacings.append(h)
-        ld_errors.append(np.max(np.abs(result.ld - reference.ld)))
-        velocity_errors.append(max(np.max(np.abs(data.vector_field(p[:2], p[2]) - u)) for p, u in zip(probes, exact_u)))
+    counts = (8, 16, 32)
+    # space and time steps alike, h = 1/n; times 1.5 .. 7.5 cover [t0, t0 + tau] and a stencil more
+    grids = [(np.linspace(0, 2, 2 * n + 1), np.linspace(0, 1, n + 1), 1.5 + (1.0 / n) * np.arange(6 * n + 1))
+             for n in counts]
+    ld_errors, velocity_errors = sampled_gyre_errors(tmp_path, grids, probes=200)
+    spacings = [1.0 / n for n in counts]
     # cubic convolution is third order; measured slopes: velocity 3.18 (errors 2.7e-3 .. 3.3e-5),
     # LD 2.89 (4.9e-3 .. 8.9e-5)
     assert 2.7 < _slope(spacings, velocity_errors) < 3.5, velocity_errors

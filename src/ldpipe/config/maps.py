@@ -56,6 +56,10 @@ def check_ld_maps(config: dict) -> None:
         if "velocity_data" in system and spec.get("refine") is not None:
             raise ConfigError(f"config key '{key}.refine': an adaptive map refines on the fates of region exits and "
                               "escapes, not on land or the data's edge; give refine: null for a velocity-data map")
+        data = system.get("velocity_data", {})
+        if spec.get("ftle") and "w" in data and data.get("coordinates") == "sphere":
+            raise ConfigError(f"config key '{key}.ftle': the FTLE of 3-D data on the sphere would mix degrees of arc "
+                              "with the vertical coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)

@@ -10,6 +10,11 @@ x = R cos(37.5 deg) (lon - lon_c), y = R (lat - 37.5 deg), is
 
 u = -d psi/dy, v = d psi/dx. Nothing here is fitted to observations: it looks like a western
 boundary current's extension and is known exactly.
+
+With ``--depth N`` the currents are 3-D, on N depth levels from 0 to 1000 m spaced wider with
+depth (as ocean models' are): u, v decay as exp(-depth / 300 m) and w = 0 (each level's flow is
+divergence-free, so continuity with w = 0 at the surface gives w = 0 everywhere), over a shelf
+whose sea floor (missing values below it) deepens from 50 m at the coast to 1000 m 4 degrees east.
 """
 
 from __future__ import annotations
@@ -45,29 +50,54 @@ def jet_velocity(lon, lat, t_seconds):
     return U * (s + 2 * s * th * waves_cos), U * L * s * waves_dx
 
 
-def example_dataset(days: float = 40.0, step_hours: float = 6.0, resolution: float = 0.25) -> xr.Dataset:
-    """The example as a Dataset (see the module docstring)."""
+DECAY_DEPTH, SHELF_WIDTH = 300.0, 4.0  # e-folding depth of the currents (m); shelf width (degrees)
+
+
+def depth_levels(count: int) -> np.ndarray:
+    """``count`` depth levels (m) from 0 to 1000, spaced wider with depth."""
+    return 1000.0 * np.linspace(0.0, 1.0, count) ** 1.5
+
+
+def sea_floor(lon, lat):
+    """The sea floor's depth (m): 50 m at the coast, 1000 m from SHELF_WIDTH degrees east of it."""
+    return 50.0 + 950.0 * np.clip((np.asarray(lon) - coast_longitude(lat)) / SHELF_WIDTH, 0.0, 1.0)
+
+
+def example_dataset(days: float = 40.0, step_hours: float = 6.0, resolution: float = 0.25, depths: int = 0) -> xr.Dataset:
+    """The example as a Dataset (see the module docstring); ``depths`` levels make it 3-D."""
     lon = np.arange(-80.0, -40.0 + resolution / 2, resolution)
     lat = np.arange(25.0, 50.0 + resolution / 2, resolution)
     time = np.arange(0.0, days + step_hours / 48, step_hours / 24)
     T, LAT, LON = np.meshgrid(time * 86400.0, lat, lon, indexing="ij")
     u, v = jet_velocity(LON, LAT, T)
     land = LON < coast_longitude(LAT)
+    dims = ("time", "lat", "lon")
+    coords = {"lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"}),
+              "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+              "time": ("time", time, {"units": "days since 2000-01-01", "standard_name": "time",
+                                      "calendar": "standard"})}
+    if depths:
+        depth = depth_levels(depths)
+        decay = np.exp(-depth / DECAY_DEPTH)[None, :, None, None]
+        u, v = u[:, None] * decay, v[:, None] * decay
+        land = land[:, None] | (depth[None, :, None, None] > sea_floor(LON, LAT)[:, None])
+        dims = ("time", "depth", "lat", "lon")
+        coords["depth"] = ("depth", depth, {"units": "m", "positive": "down", "standard_name": "depth"})
     u = np.where(land, np.nan, u).astype(np.float32)
     v = np.where(land, np.nan, v).astype(np.float32)
     encoding = {"_FillValue": np.float32(-999.0)}
+    variables = {"u": (dims, u, {"units": "m/s", "standard_name": "eastward_sea_water_velocity",
+                                 "long_name": "eastward velocity"}),
+                 "v": (dims, v, {"units": "m/s", "standard_name": "northward_sea_water_velocity",
+                                 "long_name": "northward velocity"})}
+    if depths:
+        variables["w"] = (dims, np.where(land, np.nan, 0.0).astype(np.float32),
+                          {"units": "m/s", "standard_name": "upward_sea_water_velocity", "long_name": "upward velocity"})
     dataset = xr.Dataset(
-        {"u": (("time", "lat", "lon"), u, {"units": "m/s", "standard_name": "eastward_sea_water_velocity",
-                                            "long_name": "eastward velocity"}),
-         "v": (("time", "lat", "lon"), v, {"units": "m/s", "standard_name": "northward_sea_water_velocity",
-                                            "long_name": "northward velocity"})},
-        coords={"lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"}),
-                "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
-                "time": ("time", time, {"units": "days since 2000-01-01", "standard_name": "time",
-                                        "calendar": "standard"})},
+        variables, coords=coords,
         attrs={"Conventions": "CF-1.8", "title": "ldpipe example: a meandering jet by a coast (analytic)",
                "source": "ldpipe.data.example (analytic perturbed Bickley jet; no observations)"})
-    for name in ("u", "v"):
+    for name in variables:
         dataset[name].encoding.update(encoding)
     return dataset
 
@@ -86,8 +116,12 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m ldpipe.data.example", description=__doc__.splitlines()[0])
     parser.add_argument("output", help="the netCDF file to write")
     parser.add_argument("--days", type=float, default=40.0)
+    parser.add_argument("--depth", type=int, default=0, metavar="N",
+                        help="write 3-D currents (u, v, w) on N depth levels (see the module docstring); default 2-D")
     args = parser.parse_args(argv)
-    print(write_example(args.output, days=args.days))
+    if args.depth and args.depth < 3:
+        parser.error(f"--depth {args.depth}: expected at least 3 levels")
+    print(write_example(args.output, days=args.days, depths=args.depth))
 
 
 if __name__ == "__main__":

@@ -2,8 +2,9 @@
 
 A ``systems:`` entry ``{"velocity_data": {"path": "currents.nc", "u": "u", "v": "v", "x": "x",
 "y": "y", "time": "time", "coordinates": "plane"}}`` names a CF dataset and its variables: the
-velocity components ``u``, ``v`` on (time, y, x), the coordinates on regular grids (uniform,
-increasing). ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
+velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing. A regular grid
+(every axis uniform) is this module's; an uneven axis, or 3-D data (``w`` on (time, z, y, x)),
+makes the system :mod:`ldpipe.systems.velocity_data_rectilinear`'s. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
 as eastward and northward velocities, with the Earth's radius ``earth_radius`` (metres).
 
 The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
@@ -48,6 +49,8 @@ from . import data_pointer, kernels
 DEFAULTS = {"u": "u", "v": "v", "time": "time", "coordinates": "plane", "earth_radius": 6371000.0}
 PLANE_AXES = ("x", "y")
 SPHERE_AXES = ("lon", "lat")
+#: The vertical coordinate's default name of 3-D data (given ``w``), on the plane and on the sphere.
+VERTICAL_AXIS = {False: "z", True: "depth"}
 HEADER = 16  # the kernel's DATA_HEADER
 LENGTHS = {"m": 1.0, "meter": 1.0, "metre": 1.0, "meters": 1.0, "metres": 1.0, "km": 1000.0, "cm": 0.01}
 TIMES = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "min": 60.0, "minute": 60.0, "minutes": 60.0,
@@ -82,8 +85,13 @@ def time_unit_seconds(units: str | None) -> float | None:
     return TIMES.get(word)
 
 
-def regular_axis(values: np.ndarray, name: str, key: str) -> tuple[float, float]:
-    """(first value, spacing) of a coordinate that must be increasing and uniform (a regular grid)."""
+#: Spacings within this fraction of their mean make an axis uniform (a regular grid, served by
+#: the uniform kernel); wider spread makes the grid rectilinear (``velocity_data_rectilinear``).
+UNIFORM_RTOL = 1e-6
+
+
+def increasing_axis(values: np.ndarray, name: str, key: str) -> np.ndarray:
+    """The values of a coordinate, which must be one-dimensional, increasing, with at least 3 values."""
     values = np.asarray(values, dtype=float)
     if values.ndim != 1 or len(values) < 3:
         raise ConfigError(f"config key '{key}': coordinate {name!r} must be one-dimensional with at least 3 values, "
@@ -92,10 +100,13 @@ def regular_axis(values: np.ndarray, name: str, key: str) -> tuple[float, float]
     if not np.all(steps > 0):
         raise ConfigError(f"config key '{key}': coordinate {name!r} is not monotonic increasing "
                           f"(first decrease at index {int(np.argmax(steps <= 0)) + 1}); the grid must be sorted")
-    if np.max(np.abs(steps - steps.mean())) > 1e-6 * abs(steps.mean()):
-        raise ConfigError(f"config key '{key}': coordinate {name!r} is not uniformly spaced (spacings from "
-                          f"{steps.min():.6g} to {steps.max():.6g}); a regular grid is required")
-    return float(values[0]), float(steps.mean())
+    return values
+
+
+def is_uniform(values: np.ndarray) -> bool:
+    """Whether an increasing axis's spacings all lie within :data:`UNIFORM_RTOL` of their mean."""
+    steps = np.diff(values)
+    return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
 
 
 def extend_keys(array: np.ndarray, axis: int, low_real: np.ndarray | None, high_real: np.ndarray | None) -> np.ndarray:
@@ -107,9 +118,22 @@ def extend_keys(array: np.ndarray, axis: int, low_real: np.ndarray | None, high_
     return np.moveaxis(np.concatenate([low[None], a, high[None]]), 0, axis)
 
 
+def open_dataset(path: str) -> xr.Dataset:
+    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily."""
+    if path.rstrip("/").endswith(".zarr"):
+        return xr.open_zarr(path, decode_times=False)
+    return xr.open_dataset(path, decode_times=False)
+
+
 @dataclass(frozen=True)
 class DataSource:
-    """A dataset's variables and regular grid, checked, nothing read but the coordinates."""
+    """A dataset's variables and grid, checked, nothing read but the coordinates.
+
+    A regular 2-D grid is ``x_grid``, ``y_grid``, ``t_grid`` (first, spacing, count) and ``nodes``
+    None. A rectilinear grid (an axis not uniform, or 3-D data with ``w`` on (time, z, y, x)) has
+    ``nodes``: every axis's values, (x, y, time) or (x, y, z, time); its ``*_grid`` hold the first
+    value, the mean spacing and the count.
+    """
 
     path: str
     u: str
@@ -123,30 +147,60 @@ class DataSource:
     velocity_scale: float
     sphere: bool
     radius: float
-    mask: str | None = None  # a (y, x) variable, 0 on land (besides missing velocities)
+    mask: str | None = None  # a (y, x) variable, 0 on land (besides missing velocities); (z, y, x) in 3-D
+    w: str | None = None  # the upward velocity of 3-D data
+    z: str | None = None  # its vertical coordinate
+    vertical_scale: float = 0.0  # dz/dt per unit of w: the units' ratio, negative when z is positive down
     velocity_units: str = ""  # as the file writes them (u's units)
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
+    nodes: tuple[tuple[float, ...], ...] | None = None
 
     def open(self) -> xr.Dataset:
-        if self.path.rstrip("/").endswith(".zarr"):
-            return xr.open_zarr(self.path, decode_times=False)
-        return xr.open_dataset(self.path, decode_times=False)
+        return open_dataset(self.path)
 
     def axis_values(self, which: str) -> np.ndarray:
+        if self.nodes is not None:
+            return np.array(self.nodes[self.axis_names.index(which)])
         first, step, count = getattr(self, f"{which}_grid")
         return first + step * np.arange(count)
 
     @property
+    def axis_names(self) -> tuple[str, ...]:
+        """The grid's axes by their roles: x, y, (z,) t."""
+        return ("x", "y", "z", "t") if self.w else ("x", "y", "t")
+
+    @property
     def time_range(self) -> tuple[float, float]:
+        if self.nodes is not None:
+            return self.nodes[-1][0], self.nodes[-1][-1]
         first, step, count = self.t_grid
         return first, first + step * (count - 1)
+
+
+def vertical_sign(entry: dict, dataset: xr.Dataset, key: str) -> float:
+    """+1 if the vertical coordinate z grows upward, -1 if downward (a depth): the entry's
+    ``positive``, else the coordinate's CF ``positive`` attribute; w is the upward velocity."""
+    positive = entry.get("positive") or dataset[entry["z"]].attrs.get("positive")
+    positive = positive.lower() if isinstance(positive, str) else positive  # CF allows "Up", "DOWN"
+    if positive not in ("up", "down"):
+        raise ConfigError(f"config key '{key}.positive': the vertical coordinate {entry['z']!r} says neither "
+                          f"positive: up nor positive: down (got {positive!r}); give positive: up (a height) or "
+                          "down (a depth) in the entry or as the coordinate's CF attribute")
+    return 1.0 if positive == "up" else -1.0
+
+
+def length_of(units: str | None, name: str, key: str, default: float) -> float:
+    """Metres per unit of a coordinate with ``units`` (``default`` when it has none)."""
+    if units and units not in LENGTHS:
+        raise ConfigError(f"config key '{key}': coordinate units {units!r} of {name!r} not a length in {sorted(LENGTHS)}")
+    return LENGTHS[units] if units else default
 
 
 def open_source(spec: dict, key: str) -> DataSource:
     """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units."""
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -155,25 +209,24 @@ def open_source(spec: dict, key: str) -> DataSource:
     axes = SPHERE_AXES if sphere else PLANE_AXES
     entry.setdefault("x", axes[0])
     entry.setdefault("y", axes[1])
+    three_d = "w" in entry
+    if three_d:
+        entry.setdefault("z", VERTICAL_AXIS[sphere])
     path = entry.get("path")
     if not path or not Path(path).exists():
         raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
-    source = DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
-                        x_grid=(0, 1, 0), y_grid=(0, 1, 0), t_grid=(0, 1, 0), velocity_scale=1.0, sphere=sphere,
-                        radius=float(entry["earth_radius"]), mask=entry.get("mask"))
-    with source.open() as dataset:
-        for role in ("u", "v", "x", "y", "time") + (("mask",) if source.mask else ()):
+    velocities = ("u", "v", "w") if three_d else ("u", "v")
+    axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
+    with open_dataset(str(path)) as dataset:
+        for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
                 raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
                                   f"{sorted(map(str, dataset.variables))})")
-        grids = {}
-        for role in ("x", "y", "time"):
-            grids[role] = (*regular_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}"),
-                           dataset[entry[role]].size)
-        expected = (entry["time"], entry["y"], entry["x"])
+        nodes = {role: increasing_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
+        expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
         scales = []
-        for role in ("u", "v"):
+        for role in velocities:
             variable = dataset[entry[role]]
             if tuple(variable.dims) != expected:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
@@ -185,9 +238,10 @@ def open_source(spec: dict, key: str) -> DataSource:
             scales.append(parse_velocity_units(units, f"{key}.{role}"))
         if scales[0] != scales[1]:
             raise ConfigError(f"config key '{key}.v': u and v have different units")
-        if source.mask and tuple(dataset[source.mask].dims) != expected[1:]:
-            raise ConfigError(f"config key '{key}.mask': variable {source.mask!r} has dimensions "
-                              f"{tuple(dataset[source.mask].dims)}; expected {expected[1:]}")
+        mask = entry.get("mask")
+        if mask and tuple(dataset[mask].dims) != expected[1:]:
+            raise ConfigError(f"config key '{key}.mask': variable {mask!r} has dimensions "
+                              f"{tuple(dataset[mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
         time_coordinate_units = dataset[entry["time"]].attrs.get("units")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
@@ -197,20 +251,27 @@ def open_source(spec: dict, key: str) -> DataSource:
         else:
             match = velocity_units_match(velocity_units)
             time_units = match.group(2) or match.group(3)
-        x_global = False
-        if sphere:
-            grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
-            x_units = dataset[entry["x"]].attrs.get("units")
-            if x_units and x_units not in LENGTHS:
-                raise ConfigError(f"config key '{key}.x': coordinate units {x_units!r} not a length in {sorted(LENGTHS)}")
-            length = LENGTHS[x_units] if x_units else metres
-    return DataSource(path=source.path, u=source.u, v=source.v, x=source.x, y=source.y, time=source.time,
+            length = length_of(dataset[entry["x"]].attrs.get("units"), entry["x"], f"{key}.x", metres)
+        vertical_scale = 0.0
+        if three_d:
+            w_metres, w_seconds = scales[2]
+            z_length = length_of(dataset[entry["z"]].attrs.get("units"), entry["z"], f"{key}.z", w_metres)
+            vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
+    grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
+    regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
+    x_global = False
+    if sphere and regular:  # the seam is joined on the uniform kernel's grids only
+        grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
+    return DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
-                      velocity_scale=metres / length * data_seconds / seconds, sphere=sphere, radius=source.radius,
-                      mask=source.mask, velocity_units=velocity_units, time_units=time_units, x_global=x_global)
+                      velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
+                      radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
+                      vertical_scale=vertical_scale, velocity_units=velocity_units, time_units=time_units,
+                      x_global=x_global,
+                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
 #: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or
@@ -257,6 +318,11 @@ def index_window(grid: tuple[float, float, int], low: float, high: float) -> tup
     first, step, count = grid
     a = max(0, int(math.floor((low - first) / step + 1e-9)))
     b = min(count - 1, int(math.ceil((high - first) / step - 1e-9)))
+    return at_least_three_nodes(a, b, count)
+
+
+def at_least_three_nodes(a: int, b: int, count: int) -> tuple[int, int]:
+    """The node range [a, b] of an axis of ``count`` nodes widened to 3 nodes (the kernels' least), upward first."""
     while b - a < 2:
         if b < count - 1:
             b += 1
@@ -297,15 +363,16 @@ def first_copies(columns: np.ndarray) -> np.ndarray:
 
 
 def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
-    """``values`` (time, y, x) with each land node given its nearest water node's value: the
-    stencils of water cells by the coast then see the flow continued, not a wall of zeros (a
-    trajectory still stops on entering a cell with a land node)."""
+    """``values`` (time, y, x), or (time, z, y, x), with each land node (``land``: the space axes)
+    given its nearest water node's value (nearest in grid indices): the stencils of water cells by
+    the coast then see the flow continued, not a wall of zeros (a trajectory still stops on
+    entering a cell with a land node)."""
     if not land.any():
         return values
     if land.all():
         return np.zeros_like(values)
     nearest = ndimage.distance_transform_edt(land, return_distances=False, return_indices=True)
-    return values[:, nearest[0], nearest[1]]
+    return values[(slice(None), *nearest)]
 
 
 @dataclass(frozen=True)
@@ -487,7 +554,7 @@ class VelocityDataSystem:
             yield window
 
     def vector_field(self, state: np.ndarray, t: float = 0.0) -> np.ndarray:
-        out = np.empty(2)
+        out = np.empty(self.n_state)
         with self.time_window(t, t):
             self.rhs(np.ascontiguousarray(state, dtype=np.float64), float(t), out)
         return out
@@ -537,10 +604,13 @@ class VelocityDataSystem:
         return axis, end_states[rows, axis] - gap * steps, sign
 
 
-def velocity_data_coordinates(entry: dict) -> tuple[str, str]:
-    """The state variables' names of a ``velocity_data`` entry (its x and y coordinates), file unread."""
-    axes = SPHERE_AXES if entry.get("coordinates", DEFAULTS["coordinates"]) == "sphere" else PLANE_AXES
-    return entry.get("x", axes[0]), entry.get("y", axes[1])
+def velocity_data_coordinates(entry: dict) -> tuple[str, ...]:
+    """The state variables' names of a ``velocity_data`` entry (its x and y coordinates, and z
+    for 3-D data: an entry with ``w``), file unread."""
+    sphere = entry.get("coordinates", DEFAULTS["coordinates"]) == "sphere"
+    axes = SPHERE_AXES if sphere else PLANE_AXES
+    horizontal = (entry.get("x", axes[0]), entry.get("y", axes[1]))
+    return horizontal + (entry.get("z", VERTICAL_AXIS[sphere]),) if "w" in entry else horizontal
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:
@@ -551,9 +621,10 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     coordinates = (source.x, source.y)
     window = entry.get("window")
     if window is not None:
-        if sorted(window) != sorted(coordinates):
+        if sorted(set(window) - {source.z}) != sorted(coordinates):
             raise ConfigError(f"config key '{key}.velocity_data.window': expected an interval for each of "
-                              f"{list(coordinates)}, got {sorted(window)}")
+                              f"{list(coordinates)}{f' (and optionally {source.z!r})' if source.z else ''}, "
+                              f"got {sorted(window)}")
         for coordinate, (low, high) in window.items():
             # a global grid's window may cross the seam, written either way round (east from low to high)
             if not low < high and not (source.x_global and coordinate == coordinates[0]):
@@ -562,6 +633,10 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
                                       " (a window across the dateline of a regional grid: write its longitudes "
                                       "in the grid's convention, e.g. [170, 190])" if source.sphere
                                       and coordinate == coordinates[0] else ""))
+    if source.nodes is not None:  # a non-uniform axis, or 3-D: the rectilinear kernel
+        from .velocity_data_rectilinear import make_rectilinear_system
+
+        return make_rectilinear_system(name, source, window, spec)
     text = kernel_source()
     (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
     return VelocityDataSystem(name=name, coordinates=coordinates, source=source, window=window, kernel_source=text,
