@@ -263,8 +263,8 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     header = np.zeros(HEADER)
     header[:12] = (tb - ta + 1, ny, nx, x_grid[0], x_grid[1], y_grid[0], y_grid[1], t_first, source.t_grid[1],
                    1.0 if source.sphere else 0.0, source.radius, source.velocity_scale)
-    velocities = np.stack(padded, axis=-1)  # u, v interleaved (the kernel's layout)
-    buffer = np.concatenate([header, velocities.ravel(), cells.ravel()])
+    velocities = np.stack(padded, axis=-1).transpose(1, 2, 0, 3)  # (y, x, time, u/v): the kernel's layout
+    buffer = np.concatenate([header, np.ascontiguousarray(velocities).ravel(), cells.ravel()])
     return DataWindow(np.ascontiguousarray(buffer), land.copy(), x_grid, y_grid)
 
 

@@ -5,11 +5,12 @@
 # third-order accurate in the grid spacing.
 #
 # The bound buffer (ldpipe.systems.velocity_data.DataWindow.buffer): a header of DATA_HEADER
-# values, then u and v interleaved on the padded grid (nt + 2, ny + 2, nx + 2, 2), so that one
-# stencil row's read serves both components, then the land cells (ny + 2, nx + 2): at (j, i)
-# 1.0 where the cell from node (j, i) to (j + 1, i + 1) of the window has a land corner (one
-# read a call instead of four). Header: nt, ny, nx, x_first, dx, y_first, dy, t_first, dt,
-# sphere (0 or 1), radius, velocity_scale.
+# values, then u and v on the padded grid as (ny + 2, nx + 2, nt + 2, 2): u and v side by side,
+# so a node's read serves both, and a node's times together, because a trajectory's calls (the
+# stages of a step) sweep several time cells while moving about one cell in space; then the land
+# cells (ny + 2, nx + 2): at (j, i) 1.0 where the cell from node (j, i) to (j + 1, i + 1) of the
+# window has a land corner (one read a call instead of four). Header: nt, ny, nx, x_first, dx,
+# y_first, dy, t_first, dt, sphere (0 or 1), radius, velocity_scale.
 #
 # Boundaries: a point outside the grid's extent, or in a cell with a land corner, has velocity 0,
 # so a trajectory stops where it reaches land or the data's edge (the LD stage flags it); times
@@ -68,16 +69,19 @@ def rhs(state, t, out):
     wt1 = (1.5 * st - 2.5) * st * st + 1.0
     wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
     wt3 = (0.5 * st - 0.5) * st * st
+    qt = nt + 2
+    step = 2 * qt  # from a node to its x neighbour
     u = 0.0
     v = 0.0
     for a in range(4):
         wa = wt0 if a == 0 else (wt1 if a == 1 else (wt2 if a == 2 else wt3))
         for b in range(4):
-            # the stencil row's 4 nodes, (u, v) each: padded nodes (k + a, j + b, i .. i + 3)
-            row = DATA_HEADER + 2 * (((k + a) * py + j + b) * px + i)
+            # the stencil row's 4 nodes, (u, v) each: padded nodes (j + b, i .. i + 3, k + a)
+            row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + a)
             wab = wa * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
-            u += wab * (wx0 * data[row] + wx1 * data[row + 2] + wx2 * data[row + 4] + wx3 * data[row + 6])
-            v += wab * (wx0 * data[row + 1] + wx1 * data[row + 3] + wx2 * data[row + 5] + wx3 * data[row + 7])
+            u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
+            v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
+                        + wx3 * data[row + 3 * step + 1])
     scale = data[11]
     if data[9] > 0.0:
         degrees = 180.0 / math.pi
