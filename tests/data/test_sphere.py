@@ -177,8 +177,9 @@ def test_the_ring_buffer_wraps_round_the_seam(tmp_path):
     window = sphere_system(path, "coast").data_window(1.0, 2.0)
     nt, ny, nx = (int(v) for v in window.buffer[:3])
     assert nx == len(lon) + 1 and window.x_grid == (0.0, 1.0, len(lon) + 1)
-    u = window.buffer[16:16 + (nt + 2) * (ny + 2) * (nx + 2)].reshape(nt + 2, ny + 2, nx + 2)
-    np.testing.assert_array_equal(u[..., 0], u[..., nx - 1])  # node 359 west of node 0
-    np.testing.assert_array_equal(u[..., nx], u[..., 1])  # the closing column: node 0
-    np.testing.assert_array_equal(u[..., nx + 1], u[..., 2])  # node 1 beyond it
+    # the kernel's layout (velocity_data.read_window): (y, x, time, u/v) on the padded grid
+    u = window.buffer[16:16 + (ny + 2) * (nx + 2) * (nt + 2) * 2].reshape(ny + 2, nx + 2, nt + 2, 2)[..., 0]
+    np.testing.assert_array_equal(u[:, 0], u[:, nx - 1])  # node 359 west of node 0
+    np.testing.assert_array_equal(u[:, nx], u[:, 1])  # the closing column: node 0
+    np.testing.assert_array_equal(u[:, nx + 1], u[:, 2])  # node 1 beyond it
     assert window.land[:, 0].any() and np.array_equal(window.land[:, -1], window.land[:, 0])

@@ -425,17 +425,19 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
             array = np.moveaxis(extend_keys(inner, 0, low, high), 0, axis)
         padded.append(array)
     ny, nx = yb - ya + 1, xb - xa + 1
-    mask = np.zeros((ny + 2, nx + 2))
     ys, xs = slice(ya - lows[1], ya - lows[1] + ny), slice(xa - lows[2], xa - lows[2] + nx)
-    mask[1:-1, 1:-1] = land_nodes[ys, xs]
+    land = land_nodes[ys, xs]
+    cells = np.zeros((ny + 2, nx + 2))  # the kernel's land cells: a cell with a land corner
+    cells[:ny - 1, :nx - 1] = land[:-1, :-1] | land[:-1, 1:] | land[1:, :-1] | land[1:, 1:]
     x_grid = (source.x_grid[0] + source.x_grid[1] * xa, source.x_grid[1], nx)
     y_grid = (source.y_grid[0] + source.y_grid[1] * ya, source.y_grid[1], ny)
     t_first = source.t_grid[0] + source.t_grid[1] * ta
     header = np.zeros(HEADER)
     header[:12] = (tb - ta + 1, ny, nx, x_grid[0], x_grid[1], y_grid[0], y_grid[1], t_first, source.t_grid[1],
                    1.0 if source.sphere else 0.0, source.radius, source.velocity_scale)
-    buffer = np.concatenate([header, padded[0].ravel(), padded[1].ravel(), mask.ravel()])
-    return DataWindow(np.ascontiguousarray(buffer), mask[1:-1, 1:-1] > 0, x_grid, y_grid)
+    velocities = np.stack(padded, axis=-1).transpose(1, 2, 0, 3)  # (y, x, time, u/v): the kernel's layout
+    buffer = np.concatenate([header, np.ascontiguousarray(velocities).ravel(), cells.ravel()])
+    return DataWindow(np.ascontiguousarray(buffer), land.copy(), x_grid, y_grid)
 
 
 @dataclass(frozen=True, eq=False)

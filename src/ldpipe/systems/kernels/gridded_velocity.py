@@ -5,9 +5,12 @@
 # third-order accurate in the grid spacing.
 #
 # The bound buffer (ldpipe.systems.velocity_data.DataWindow.buffer): a header of DATA_HEADER
-# values, then u, v on the padded grid (nt + 2, ny + 2, nx + 2), then the padded land mask
-# (ny + 2, nx + 2), 1.0 where a node is land. Header: nt, ny, nx, x_first, dx, y_first, dy,
-# t_first, dt, sphere (0 or 1), radius, velocity_scale.
+# values, then u and v on the padded grid as (ny + 2, nx + 2, nt + 2, 2): u and v side by side,
+# so a node's read serves both, and a node's times together, because a trajectory's calls (the
+# stages of a step) sweep several time cells while moving about one cell in space; then the land
+# cells (ny + 2, nx + 2): at (j, i) 1.0 where the cell from node (j, i) to (j + 1, i + 1) of the
+# window has a land corner (one read a call instead of four). Header: nt, ny, nx, x_first, dx,
+# y_first, dy, t_first, dt, sphere (0 or 1), radius, velocity_scale.
 #
 # Boundaries: a point outside the grid's extent, or in a cell with a land corner, has velocity 0,
 # so a trajectory stops where it reaches land or the data's edge (the LD stage flags it); times
@@ -17,42 +20,37 @@
 # d lon/dt = u / (R cos lat) * 180/pi, d lat/dt = v / R * 180/pi.
 import math
 
-from numba import carray
 from ldpipe.systems.data_pointer import velocity_data_pointer
 
 DATA_HEADER = 16
 
 
 def rhs(state, t, out):
-    head = carray(velocity_data_pointer(), (DATA_HEADER,))
-    nt = int(head[0])
-    ny = int(head[1])
-    nx = int(head[2])
+    data = velocity_data_pointer()  # read as a raw pointer: no array bounds, no negative-index wraparound
+    nt = int(data[0])
+    ny = int(data[1])
+    nx = int(data[2])
     if nt < 2:  # nothing bound
         out[0] = math.nan
         out[1] = math.nan
         return
-    east = state[0] - head[3]
-    if head[9] > 0.0:  # on the sphere a longitude in either convention, across the dateline too
+    east = state[0] - data[3]
+    if data[9] > 0.0:  # on the sphere a longitude in either convention, across the dateline too
         east -= 360.0 * math.floor(east / 360.0)
-    fx = east / head[4]
-    fy = (state[1] - head[5]) / head[6]
+    fx = east / data[4]
+    fy = (state[1] - data[5]) / data[6]
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
         out[0] = 0.0
         out[1] = 0.0
         return
-    ft = min(max((t - head[7]) / head[8], 0.0), nt - 1.0)
+    ft = min(max((t - data[7]) / data[8], 0.0), nt - 1.0)
     i = min(int(fx), nx - 2)
     j = min(int(fy), ny - 2)
     k = min(int(ft), nt - 2)
     px = nx + 2
     py = ny + 2
-    size = (nt + 2) * py * px
-    data = carray(velocity_data_pointer(), (DATA_HEADER + 2 * size + py * px,))
-    land = DATA_HEADER + 2 * size
-    # the cell's corners are padded nodes (j + 1 .. j + 2, i + 1 .. i + 2)
-    if (data[land + (j + 1) * px + i + 1] + data[land + (j + 1) * px + i + 2]
-            + data[land + (j + 2) * px + i + 1] + data[land + (j + 2) * px + i + 2]) > 0.0:
+    nodes = (nt + 2) * py * px
+    if data[DATA_HEADER + 2 * nodes + j * px + i] > 0.0:  # a land cell
         out[0] = 0.0
         out[1] = 0.0
         return
@@ -63,24 +61,49 @@ def rhs(state, t, out):
     wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
     wx2 = ((-1.5 * sx + 2.0) * sx + 0.5) * sx
     wx3 = (0.5 * sx - 0.5) * sx * sx
-    wy = (((-0.5 * sy + 1.0) * sy - 0.5) * sy, (1.5 * sy - 2.5) * sy * sy + 1.0,
-          ((-1.5 * sy + 2.0) * sy + 0.5) * sy, (0.5 * sy - 0.5) * sy * sy)
-    wt = (((-0.5 * st + 1.0) * st - 0.5) * st, (1.5 * st - 2.5) * st * st + 1.0,
-          ((-1.5 * st + 2.0) * st + 0.5) * st, (0.5 * st - 0.5) * st * st)
+    wy0 = ((-0.5 * sy + 1.0) * sy - 0.5) * sy
+    wy1 = (1.5 * sy - 2.5) * sy * sy + 1.0
+    wy2 = ((-1.5 * sy + 2.0) * sy + 0.5) * sy
+    wy3 = (0.5 * sy - 0.5) * sy * sy
+    wt0 = ((-0.5 * st + 1.0) * st - 0.5) * st
+    wt1 = (1.5 * st - 2.5) * st * st + 1.0
+    wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
+    wt3 = (0.5 * st - 0.5) * st * st
+    qt = nt + 2
+    step = 2 * qt  # from a node to its x neighbour
     u = 0.0
     v = 0.0
-    for a in range(4):
-        for b in range(4):
-            row = DATA_HEADER + ((k + a) * py + j + b) * px + i
-            wab = wt[a] * wy[b]
-            u += wab * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
-            row += size
-            v += wab * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
-    scale = head[11]
-    if head[9] > 0.0:
+    # the time levels k .. k + 3 written out: as a loop, the compiled code picked their weights by a
+    # chain of selects inside it, ~20 % slower a call
+    for b in range(4):  # time level k + 0, rows j .. j + 3, (u, v) of nodes i .. i + 3
+        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 0)
+        wab = wt0 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
+        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
+        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
+                    + wx3 * data[row + 3 * step + 1])
+    for b in range(4):  # time level k + 1, rows j .. j + 3, (u, v) of nodes i .. i + 3
+        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 1)
+        wab = wt1 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
+        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
+        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
+                    + wx3 * data[row + 3 * step + 1])
+    for b in range(4):  # time level k + 2, rows j .. j + 3, (u, v) of nodes i .. i + 3
+        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 2)
+        wab = wt2 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
+        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
+        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
+                    + wx3 * data[row + 3 * step + 1])
+    for b in range(4):  # time level k + 3, rows j .. j + 3, (u, v) of nodes i .. i + 3
+        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 3)
+        wab = wt3 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
+        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
+        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
+                    + wx3 * data[row + 3 * step + 1])
+    scale = data[11]
+    if data[9] > 0.0:
         degrees = 180.0 / math.pi
-        out[0] = u * scale * degrees / (head[10] * math.cos(state[1] / degrees))
-        out[1] = v * scale * degrees / head[10]
+        out[0] = u * scale * degrees / (data[10] * math.cos(state[1] / degrees))
+        out[1] = v * scale * degrees / data[10]
     else:
         out[0] = u * scale
         out[1] = v * scale
