@@ -171,7 +171,7 @@ def test_2d_polar_rotation_on_uneven_latitudes_ld_in_kilometres(tmp_path):
     path = write_velocity_file(tmp_path / "rot2.nc", field, lon, lat, np.arange(0.0, 6.01, 1.0),
                                names=("lon", "lat"), time_units="days since 2000-01-01")
     data = data_system(path, name="rot2", coordinates="sphere")
-    assert data.engine_name == "velocity_data_rectilinear2"
+    assert data.engine_name == "velocity_data_rectilinear2_sphere"
     starts = np.array([[0.0, 0.0], [-5.0, 35.5], [5.0, -50.25]])
     speed = omega * radius * np.cos(np.radians(starts[:, 1]))
     days = 2.0

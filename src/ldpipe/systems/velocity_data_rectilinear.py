@@ -135,8 +135,9 @@ class RectilinearVelocitySystem(VelocityDataSystem):
 
     @property
     def engine_name(self) -> str:
-        """One compiled engine per state dimension (the data are bound at run time)."""
-        return f"velocity_data_rectilinear{self.n_state}"
+        """One compiled engine per state dimension and geometry (the data are bound at run time;
+        the sphere's engine has the LD's metric)."""
+        return f"velocity_data_rectilinear{self.n_state}" + ("_sphere" if self.source.sphere else "")
 
     @property
     def ld_metric_source(self) -> str:
