@@ -139,6 +139,50 @@ def test_3d_rotation_and_sinking_on_the_sphere(tmp_path):
     again = compute_ld(windowed, starts, 1, LDSettings(tau=days, p=0.5, **TIGHT), t0=1.0)
     np.testing.assert_array_equal(again.end_state, result.end_state)
     np.testing.assert_array_equal(again.ld, result.ld)
+    # the LD in physical units, w in u's units (m/s): M_1/2 is (sqrt(u) + sqrt(|w|)) tau in (m/s)^1/2 days
+    # with u = omega R cos(lat0), w = 0.001 m/s (closed form; measured relative error 7.2e-8)
+    speed = omega * radius * np.cos(np.radians(starts[:, 1]))
+    np.testing.assert_allclose(result.ld, (np.sqrt(speed) + math.sqrt(0.001)) * days, rtol=3e-7)
+    assert data.ld_units(True) == "km" and data.ld_units(False, 0.5) == "(m/s)^0.5 days"
+    # the arc length sqrt(u^2 + w^2) tau in km (closed form), with a rotation slow enough that w counts:
+    # u = 0.002 cos(lat) m/s
+    slow = omega * 0.002 / (omega * radius)
+
+    def slow_field(lon, lat, z, t):
+        return slow * radius * np.cos(np.radians(lat)) + 0 * z, 0 * lon, -0.001 + 0 * t
+    path = write_velocity_file_3d(tmp_path / "slow3.nc", slow_field, np.arange(-30.0, 120.01, 1.5),
+                                  uneven(-50, 50, 61, rng), uneven(0.0, 500.0, 9, rng), np.arange(0.0, 6.01, 1.0),
+                                  names=("lon", "lat", "depth"), time_units="days since 2000-01-01")
+    arc = compute_ld(data_system(path, name="slow3", coordinates="sphere", w="w"), starts, 1,
+                     LDSettings(tau=days, p="arclength", **TIGHT), t0=1.0)
+    speed = slow * radius * np.cos(np.radians(starts[:, 1]))
+    np.testing.assert_allclose(arc.ld, np.hypot(speed, 0.001) * days * 86400 / 1000.0, rtol=1e-6)  # measured 2.6e-7
+
+
+def test_2d_polar_rotation_on_uneven_latitudes_ld_in_kilometres(tmp_path):
+    # rotation about the polar axis, u = omega R cos(lat) m/s, v = 0, on uneven latitudes (time in
+    # days): the arc length is omega R cos(lat0) tau in km, M_1/2 sqrt(omega R cos(lat0)) tau (closed forms)
+    radius, omega = 6.371e6, 2 * math.pi / (20 * 86400.0)
+    rng = np.random.default_rng(7)
+    lon, lat = np.arange(-60.0, 90.01, 1.0), uneven(-60.0, 60.0, 91, rng)
+
+    def field(lon, lat, t):
+        return omega * radius * np.cos(np.radians(lat)) + 0 * lon + 0 * t, 0 * lat
+    path = write_velocity_file(tmp_path / "rot2.nc", field, lon, lat, np.arange(0.0, 6.01, 1.0),
+                               names=("lon", "lat"), time_units="days since 2000-01-01")
+    data = data_system(path, name="rot2", coordinates="sphere")
+    assert data.engine_name == "velocity_data_rectilinear2_sphere"
+    starts = np.array([[0.0, 0.0], [-5.0, 35.5], [5.0, -50.25]])
+    speed = omega * radius * np.cos(np.radians(starts[:, 1]))
+    days = 2.0
+    for direction in (1, -1):
+        # measured: relative errors up to 3.7e-7 (arc length) and 1.9e-7 (M_1/2), the interpolation
+        # of cos(lat) between the uneven ~1.3 degree latitudes
+        arc = compute_ld(data, starts, direction, LDSettings(tau=days, p="arclength", **TIGHT), t0=3.0)
+        np.testing.assert_allclose(arc.ld, speed * days * 86400 / 1000.0, rtol=1e-6)
+        half = compute_ld(data, starts, direction, LDSettings(tau=days, p=0.5, **TIGHT), t0=3.0)
+        np.testing.assert_allclose(half.ld, np.sqrt(speed) * days, rtol=6e-7)
+    assert data.ld_units(True) == "km"
 
 
 SADDLE_RATES = (0.2, 0.1, 0.3)  # x' = a x, y' = -b y, z' = c z (z a depth: the file's upward w = -c z)

@@ -63,6 +63,14 @@ def kernel_source() -> str:
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
 
 
+def sphere_ld_metric_source(radius_at: int, scale_at: int) -> str:
+    """The engine section that takes a sphere map's LD in km and velocity units
+    (``kernels/sphere_ld_metric.py``), for a kernel whose header holds the radius and
+    velocity_scale at these indices."""
+    text = resources.files(kernels).joinpath("sphere_ld_metric.py").read_text()
+    return text.replace("LD_RADIUS_AT", str(radius_at)).replace("LD_SCALE_AT", str(scale_at))
+
+
 def velocity_units_match(units: str) -> re.Match | None:
     """``units`` read as a length per time (``m/s``, ``m s-1``, ``m s^-1``): groups length, time (2 or 3)."""
     return re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", units.strip().replace("**", "^"))
@@ -151,6 +159,7 @@ class DataSource:
     w: str | None = None  # the upward velocity of 3-D data
     z: str | None = None  # its vertical coordinate
     vertical_scale: float = 0.0  # dz/dt per unit of w: the units' ratio, negative when z is positive down
+    z_metres: float = 1.0  # metres per unit of z (3-D data)
     velocity_units: str = ""  # as the file writes them (u's units)
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
@@ -256,6 +265,7 @@ def open_source(spec: dict, key: str) -> DataSource:
         else:
             length = length_of(dataset[entry["x"]].attrs.get("units"), entry["x"], f"{key}.x", metres)
         vertical_scale = 0.0
+        z_length = 1.0
         if three_d:
             w_metres, w_seconds = scales[2]
             z_length = length_of(dataset[entry["z"]].attrs.get("units"), entry["z"], f"{key}.z", w_metres)
@@ -269,7 +279,7 @@ def open_source(spec: dict, key: str) -> DataSource:
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
-                      vertical_scale=vertical_scale, velocity_units=velocity_units, time_units=time_units,
+                      vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
                       x_global=x_global,
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
@@ -469,7 +479,7 @@ class VelocityDataSystem:
         velocity units (``kernels/sphere_ld_metric.py``); on the plane none (the state's units are the data's)."""
         if not self.source.sphere:
             return ""
-        return resources.files(kernels).joinpath("sphere_ld_metric.py").read_text()
+        return sphere_ld_metric_source(10, 11)
 
     def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
         """The ``units`` of a map's LD variables (the arc length, or M_p with this ``p``): on the

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..jitcache import njit_functions
 from . import data_pointer, kernels
-from .velocity_data import DataSource, VelocityDataSystem, at_least_three_nodes, fill_land
+from .velocity_data import DataSource, VelocityDataSystem, at_least_three_nodes, fill_land, sphere_ld_metric_source
 
 #: The rectilinear kernel's header length (its GRID_HEADER).
 GRID_HEADER = 16
@@ -118,8 +118,8 @@ def read_rectilinear_window(source: DataSource, ranges: dict[str, tuple[int, int
     mask = np.zeros(tuple(counts[r] + 2 for r in space))
     mask[(slice(1, -1),) * len(space)] = land_nodes[inner]
     header = np.zeros(GRID_HEADER)
-    header[:8] = (counts["t"], counts.get("z", 1), counts["y"], counts["x"], 1.0 if source.sphere else 0.0,
-                  source.radius, source.velocity_scale, source.vertical_scale)
+    header[:9] = (counts["t"], counts.get("z", 1), counts["y"], counts["x"], 1.0 if source.sphere else 0.0,
+                  source.radius, source.velocity_scale, source.vertical_scale, source.z_metres)
     buffer = np.concatenate([header, *(padded_nodes[r] for r in roles), *(a.ravel() for a in padded), mask.ravel()])
     window_nodes = tuple(nodes[r][ranges[r][0]: ranges[r][1] + 1] for r in roles[:-1])
     return RectilinearWindow(np.ascontiguousarray(buffer), mask[(slice(1, -1),) * len(space)] > 0, window_nodes)
@@ -135,17 +135,21 @@ class RectilinearVelocitySystem(VelocityDataSystem):
 
     @property
     def engine_name(self) -> str:
-        """One compiled engine per state dimension (the data are bound at run time)."""
-        return f"velocity_data_rectilinear{self.n_state}"
+        """One compiled engine per state dimension and geometry (the data are bound at run time;
+        the sphere's engine has the LD's metric)."""
+        return f"velocity_data_rectilinear{self.n_state}" + ("_sphere" if self.source.sphere else "")
 
     @property
     def ld_metric_source(self) -> str:
-        """None: the LD of a rectilinear grid is taken in the state's units (degrees on the sphere);
-        the kilometre metric (``kernels/sphere_ld_metric.py``) reads the uniform kernel's header."""
-        return ""
-
-    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
-        return None
+        """On the sphere the LD in km and the data's velocity units, as on a uniform grid
+        (``kernels/sphere_ld_metric.py``), and in 3-D with w in u's units
+        (``kernels/vertical_ld_metric.py``); on the plane none (the state's units)."""
+        if not self.source.sphere:
+            return ""
+        text = sphere_ld_metric_source(5, 6)
+        if self.source.w:
+            text += "\n\n" + resources.files(kernels).joinpath("vertical_ld_metric.py").read_text()
+        return text
 
     @property
     def description(self) -> str:

@@ -24,8 +24,8 @@ _coordinate_step_ld = step_ld
 @njit(**JIT)
 def dense(xv, t, h, K, xs, QC, VC):
     _state_dense(xv, t, h, K, xs, QC, VC)
-    head = velocity_data_pointer()  # the raw pointer, as the kernel reads it
-    per_degree = head[10] * (math.pi / 180.0) / head[11]  # data velocity units per (degree per time unit)
+    head = velocity_data_pointer()  # the raw pointer, as the kernels read it
+    per_degree = head[LD_RADIUS_AT] * (math.pi / 180.0) / head[LD_SCALE_AT]  # data velocity units per (degree per time unit)
     east = np.empty(DENSE_STAGES)
     for m in range(DENSE_STAGES):
         stage_state(xv, h, K, m, xs)
@@ -42,6 +42,6 @@ def dense(xv, t, h, K, xs, QC, VC):
 def step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots):
     value = _coordinate_step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots)
     if kind == KIND_ARCLENGTH:
-        head = velocity_data_pointer()  # the raw pointer, as the kernel reads it
-        return value * head[11] / 1000.0
+        head = velocity_data_pointer()  # the raw pointer, as the kernels read it
+        return value * head[LD_SCALE_AT] / 1000.0
     return value
