@@ -5,8 +5,8 @@ the tests in."""
 import pytest
 
 from ldpipe.systems import make_system
-from support.closed_forms import oscillator_system
 from support import xdist_groups
+from support.closed_forms import oscillator_system
 from support.workflow import copy_workflow, run_snakemake
 
 
