@@ -6,14 +6,16 @@ temporary folder, so nothing already compiled on this machine is reused):
 1. the workflow, ``snakemake --cores N [--configfile FILE ...]``, on a copy of the workflow's
    files (the README's main command without ``--configfile``; ``results/`` of the clone is
    untouched);
-2. the tests, ``pytest [PATHS] [-m EXPR]`` from the repository (the README's test command
-   without paths), after the workflow, so with the cache it left (``--tests-cold`` empties it first).
+2. the tests, ``pytest [PATHS] [-m EXPR] [-n WORKERS]`` from the repository (the README's test
+   command without paths, on pytest-xdist's workers as pyproject's addopts say unless ``-n`` is
+   given), after the workflow, so with the cache it left (``--tests-cold`` empties it first).
 
 ``LDPIPE_COMPILE_LOG`` (:mod:`ldpipe.jitcache`) makes every process append one line per engine
 or kernel module it loads and per function numba compiles (a cache miss), with the compile's
 wall and CPU seconds and the Snakemake rule or pytest test that asked. The report gives, per
 Snakemake job (its benchmark file: wall ``s`` and ``cpu_time``) and per test file (pytest's
-JUnit times), the modules compiled and their compile time; the run's wall and CPU seconds
+JUnit times), the modules compiled and their compile time, and the functions that more than one
+process compiled (two workers or jobs that needed one before either had cached it); the run's wall and CPU seconds
 (``getrusage`` of the children) and the load average before and after, since a shared machine
 slows every compile. ``--rerun`` runs the workflow a second time, forced, on the warm cache.
 
@@ -138,7 +140,8 @@ def workflow_section(folder: Path, run: dict, records: list[dict], title: str) -
     lines = [f"## {title}", "", f"`{run['command']}`: exit {run['returncode']}, wall {run['wall_s']:.0f} s, "
              f"CPU {run['cpu_s']:.0f} s ({run['cpu_s'] / max(run['wall_s'], 1e-9):.2f} cores busy on average); "
              f"load average before {run['load_before']}, after {run['load_after']}; "
-             f"{counts(loaded, modules)}, {sum(j['cpu_s'] for j in jobs.values()):.0f} CPU s of compiling.", "",
+             f"{counts(loaded, modules)}, {sum(j['cpu_s'] for j in jobs.values()):.0f} CPU s of compiling; "
+             f"{repeated_compiles(records)}.", "",
              "| job | wall s | CPU s | modules loaded | compiled | compile wall s | compile CPU s |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     names = sorted(set(benchmarks) | set(jobs), key=lambda n: -benchmarks.get(n, {"wall_s": 0})["wall_s"])
@@ -149,6 +152,19 @@ def workflow_section(folder: Path, run: dict, records: list[dict], title: str) -
                      f"| {job['wall_s']:.1f} | {job['cpu_s']:.1f} |")
     lines += ["", *module_table(records, test_file), ""]
     return lines
+
+
+def repeated_compiles(records: list[dict]) -> str:
+    """The functions compiled by more than one process, and the CPU seconds of all but one compile of each."""
+    by_function = collections.defaultdict(list)
+    for record in records:
+        if record["event"] == "compile":
+            by_function[record["module"], record["function"]].append(record)
+    repeated = {key: found for key, found in by_function.items() if len({r["pid"] for r in found}) > 1}
+    extra = sum(sum(r["cpu_s"] for r in found) - max(r["cpu_s"] for r in found) for found in repeated.values())
+    modules = {module for module, _ in repeated}
+    return (f"{len(repeated)} functions ({len(modules)} modules) compiled by more than one process, "
+            f"{extra:.0f} CPU s of compiling repeated")
 
 
 def module_table(records: list[dict], who) -> list[str]:
@@ -203,7 +219,8 @@ def tests_section(run: dict, records: list[dict], junits: list[Path]) -> list[st
     loaded = set().union(*(f["loaded"] for f in files.values())) if files else set()
     lines = ["## Tests", "", f"`{run['command']}`: exit {run['returncode']}, wall {run['wall_s']:.0f} s, "
              f"CPU {run['cpu_s']:.0f} s; load average before {run['load_before']}, after {run['load_after']}; "
-             f"{counts(loaded, modules)}, {sum(f['cpu_s'] for f in files.values()):.0f} CPU s of compiling.", "",
+             f"{counts(loaded, modules)}, {sum(f['cpu_s'] for f in files.values()):.0f} CPU s of compiling; "
+             f"{repeated_compiles(records)}.", "",
              "| test file | tests | wall s | modules loaded | engine modules loaded | compiled | compile wall s | compile CPU s |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     names = sorted(set(times) | set(files), key=lambda n: -times.get(n, (0.0, 0))[0])
@@ -226,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-tests", action="store_true", help="skip the tests")
     parser.add_argument("--tests", nargs="+", default=[], metavar="PATH", help="test paths (default: all)")
     parser.add_argument("-m", dest="marker", help="pytest -m expression")
+    parser.add_argument("-n", dest="workers", help="pytest-xdist's -n: worker processes, 0 for one process "
+                        "(default: pyproject's addopts, a worker per core)")
     parser.add_argument("--per-file", action="store_true", help="one pytest process per test file: the modules "
                         "each file loads, not only those it loads first")
     parser.add_argument("--tests-cold", action="store_true", help="empty the cache before the tests too")
@@ -279,6 +298,8 @@ def main(argv: list[str] | None = None) -> int:
         command = [str(BIN / "pytest"), "-q", "-p", "no:cacheprovider", f"--junitxml={junit}"]
         if args.marker:
             command += ["-m", args.marker]
+        if args.workers is not None:
+            command += ["-n", args.workers]
         if not args.per_file:
             run = timed(command + args.tests, ROOT, {**env, "LDPIPE_COMPILE_LOG": str(log)}, folder / "tests_output.txt")
             report += tests_section(run, read_log(log), [junit])

@@ -1,11 +1,30 @@
 """Shared fixtures: the paper's systems and the harmonic oscillators, compiled once per test session,
-one quick workflow run and one lint of the workflow."""
+one quick workflow run and one lint of the workflow; and the groups pytest-xdist's workers share
+the tests in."""
 
 import pytest
 
 from ldpipe.systems import make_system
+from support import xdist_groups
 from support.closed_forms import oscillator_system
 from support.workflow import copy_workflow, run_snakemake
+
+
+@pytest.hookimpl(trylast=True)  # after -m and -k have deselected: the node ids the controller gets
+def pytest_collection_modifyitems(config, items):
+    xdist_groups.record_groups(config, items)
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hooks: absent with -p no:xdist
+def pytest_configure_node(node):
+    node.workerinput[xdist_groups.GROUPS_FOLDER] = str(xdist_groups.groups_folder(node.config))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    if config.getoption("dist") == "loadgroup":
+        return xdist_groups.make_scheduler(config, log)
+    return None
 
 
 @pytest.fixture(scope="session")

@@ -19,6 +19,9 @@ CORES = 2
 
 BUILT = {"_build", "gallery", "generated"}  # what building the docs writes into docs/
 BUILD_DOCS = ".venv/bin/sphinx-build -W docs docs/_build/html"  # the development page's command
+#: The pytest-xdist group of every test that reads conftest's ``quick_run`` or ``lint``: session
+#: fixtures run once per worker, and these two run Snakemake for minutes, so their readers share one.
+SNAKEMAKE_RUNS_GROUP = "quick_run"
 
 
 def _documentation() -> dict[str, str]:

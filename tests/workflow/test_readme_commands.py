@@ -37,7 +37,8 @@ import pytest
 
 from ldpipe.io.datafile import open_stage_file
 
-from support.workflow import BIN, BUILD_DOCS, DOCUMENTATION, ROOT, copy_workflow, documented_yaml, run_snakemake
+from support.workflow import (BIN, BUILD_DOCS, DOCUMENTATION, ROOT, SNAKEMAKE_RUNS_GROUP, copy_workflow, documented_yaml,
+                              run_snakemake)
 
 
 def bash_commands(text: str) -> list[str]:
@@ -153,8 +154,15 @@ def _environment() -> dict:
     return {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ['PATH']}"}
 
 
+def _reads_quick_run(command: str) -> bool:
+    how, shell, _ = plan(command)
+    return how == "quick run" or shell.startswith("snakemake study --configfile config.quick.yaml")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize("command", [
+    pytest.param(command, marks=pytest.mark.xdist_group(SNAKEMAKE_RUNS_GROUP)) if _reads_quick_run(command) else command
+    for command in COMMANDS])
 def test_documented_command(command, readme_workdir, request):
     how, shell, why = plan(command)
     assert how != "unknown", f"{COMMANDS[command]}: command {command!r}: {why}"
