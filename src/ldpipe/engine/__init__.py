@@ -29,8 +29,6 @@ Modules, one job each:
 - :mod:`~ldpipe.engine.api` — :func:`compute_ld` and :class:`LDResult`.
 """
 
-from importlib import import_module
-
 from .schemes import SCHEMES
 from .settings import DEFAULT_ESCAPE_RADIUS, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
 
@@ -44,5 +42,7 @@ def __getattr__(name: str):
     # compute_ld and LDResult bring numba and the code generator: imported on first use, so that
     # a job reading only settings or schemes (a figure, a gather) starts without them.
     if name in ("LDResult", "compute_ld"):
-        return getattr(import_module(f"{__name__}.api"), name)
+        from . import api  # a static import, so that ldpipe.io.provenance counts api.py among a stage's sources
+
+        return getattr(api, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
