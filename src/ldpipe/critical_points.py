@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
-from scipy.optimize import root
 
 from .errors import ConfigError, StageFileError
 from .systems import System, VectorFieldSystem
@@ -71,6 +70,8 @@ def roots_in_box(
     at least 1 (|f| / |Df| estimates the distance to the root), and merged with one found before
     when closer than ``sqrt(tolerance)`` times the box size.
     """
+    from scipy.optimize import root  # here: jobs that only read equilibria (figures, LD maps) skip scipy.optimize
+
     axes = [np.linspace(lo, hi, seeds_per_axis) for lo, hi in zip(lower, upper)]
     scale = float(np.max(upper - lower))
     found: list[np.ndarray] = []

@@ -29,7 +29,6 @@ Modules, one job each:
 - :mod:`~ldpipe.engine.api` — :func:`compute_ld` and :class:`LDResult`.
 """
 
-from .api import LDResult, compute_ld
 from .schemes import SCHEMES
 from .settings import DEFAULT_ESCAPE_RADIUS, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
 
@@ -37,3 +36,13 @@ __all__ = [
     "DEFAULT_ESCAPE_RADIUS", "DescriptorSettings", "IntegratorSettings", "LDResult", "LDSettings", "SCHEMES",
     "StoppingRules", "compute_ld",
 ]
+
+
+def __getattr__(name: str):
+    # compute_ld and LDResult bring numba and the code generator: imported on first use, so that
+    # a job reading only settings or schemes (a figure, a gather) starts without them.
+    if name in ("LDResult", "compute_ld"):
+        from . import api  # a static import, so that ldpipe.io.provenance counts api.py among a stage's sources
+
+        return getattr(api, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

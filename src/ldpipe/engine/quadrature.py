@@ -10,17 +10,20 @@ docstrings describe the method; this module holds what Python needs to call it.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import roots_jacobi, roots_legendre
 
 
 def legendre_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre nodes and weights on [0, 1] (weights sum to 1)."""
+    from scipy.special import roots_legendre  # here: only jobs that integrate an LD pay for scipy.special
+
     x, w = roots_legendre(n)
     return 0.5 * (x + 1.0), 0.5 * w
 
 
 def jacobi_rule(n: int, p: float) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on [0, 1] for the weight s^p: int_0^1 s^p f(s) ds ~ sum w f(x)."""
+    from scipy.special import roots_jacobi
+
     x, w = roots_jacobi(n, 0.0, p)  # weight (1 - x)^0 (1 + x)^p on [-1, 1]
     return 0.5 * (x + 1.0), w * 0.5 ** (1.0 + p)
 

@@ -16,7 +16,6 @@ from pathlib import Path
 
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
-from ..ld_grid import map_start_times
 from ..logs import get_logger
 from .parameters import parameters_from_config
 
@@ -150,6 +149,8 @@ def ld_map_caption(config: dict, map_name: str) -> str:
 
 def _start_text(parameters: dict) -> str:
     """A map's start time, or its start times (a list or a range)."""
+    from ..ld_grid import map_start_times  # here: ld_grid brings numba and the engine, which a figure job does not use
+
     starts = map_start_times(parameters)
     if starts is None:
         return f"start time t0 = {_number(parameters.get('t0', 0.0))}"

@@ -42,8 +42,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import sympy
-
 from ...errors import ConfigError
 from ..integrands import is_arclength
 from ..stepping import Layout, SchemeSource, lane_loops
@@ -78,6 +76,8 @@ class Acceleration:
 def acceleration_of(system) -> Acceleration | ExpressionSeries:
     """The acceleration -M^-1 grad V of ``system`` (-grad V without masses), from its formula: as polynomials if it is one,
     else as series nodes (:func:`expression_series`; ConfigError for a term it cannot take)."""
+    import sympy  # here, not at the top: only a Taylor module's text needs it, and a warm job skips sympy's import
+
     from ...systems.formula import parse_potential
 
     if not system.formula:
@@ -126,13 +126,17 @@ def acceleration_of(system) -> Acceleration | ExpressionSeries:
 
 # --- potentials that are not polynomials: auxiliary series ------------------------------------------
 # Functions the series recurrences take (see ExpressionSeries); others a formula may call are
-# first rewritten in these (REWRITES), and what remains is refused naming the term.
-REWRITES = {
-    sympy.tan: lambda f: sympy.sin(f) / sympy.cos(f),
-    sympy.sinh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / 2,
-    sympy.cosh: lambda f: (sympy.exp(f) + sympy.exp(-f)) / 2,
-    sympy.tanh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / (sympy.exp(f) + sympy.exp(-f)),
-}
+# first rewritten in these (rewrites()), and what remains is refused naming the term.
+def rewrites() -> dict:
+    """Each function without a recurrence of its own, mapped to its rewriting in those with one."""
+    import sympy
+
+    return {
+        sympy.tan: lambda f: sympy.sin(f) / sympy.cos(f),
+        sympy.sinh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / 2,
+        sympy.cosh: lambda f: (sympy.exp(f) + sympy.exp(-f)) / 2,
+        sympy.tanh: lambda f: (sympy.exp(f) - sympy.exp(-f)) / (sympy.exp(f) + sympy.exp(-f)),
+    }
 
 
 @dataclass(frozen=True)
@@ -167,6 +171,8 @@ def expression_series(expressions, symbols, name: str, formula: str) -> Expressi
     common factor such as exp(-a x) is one auxiliary series. ConfigError names the system and
     the term if a function has no recurrence here (Abs, sign, a special function).
     """
+    import sympy
+
     index = {symbol: l for l, symbol in enumerate(symbols)}
     nodes: list = []
     memo: dict = {}
@@ -249,7 +255,7 @@ def expression_series(expressions, symbols, name: str, formula: str) -> Expressi
 
     components = []
     for expression in expressions:
-        for function, rewrite in REWRITES.items():
+        for function, rewrite in rewrites().items():
             expression = expression.replace(function, rewrite)
         components.append(build(expression))
     return ExpressionSeries(tuple(nodes), tuple(components))
