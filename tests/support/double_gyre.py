@@ -41,24 +41,10 @@ def sampled_gyre_errors(directory, grids, probes: int) -> tuple[list[float], lis
     """The double gyre sampled on each grid of ``grids`` (``(x, y, t)`` node arrays covering
     [0, 2] x [0, 1] x [1.5, 7.5]) as velocity data: the largest LD error against the formula
     system over 30 starts (tau = 5 from t0 = 2, rtol 1e-12), and the largest velocity error at
-    ``probes`` random points, per grid. Returns (LD errors, velocity errors)."""
-    from ldpipe.engine import LDSettings, compute_ld
-    from ldpipe.systems import make_system
-    from support.gridded import write_velocity_file
+    ``probes`` random points, per grid (:func:`support.gridded.sampled_flow_errors`)."""
+    from support.gridded import sampled_flow_errors
 
-    formula = make_system("double_gyre", DOUBLE_GYRE)
     grid = np.meshgrid(np.linspace(0.15, 1.85, 6), np.linspace(0.1, 0.9, 5))
-    states = np.column_stack([grid[0].ravel(), grid[1].ravel()])
-    settings = LDSettings(tau=5.0, p=0.5, rtol=1e-12, atol=1e-12)
-    reference = compute_ld(formula, states, 1, settings, t0=2.0)
-    rng = np.random.default_rng(1)
-    points = np.column_stack([rng.uniform(0, 2, probes), rng.uniform(0, 1, probes), rng.uniform(2, 7, probes)])
-    exact = np.array(double_gyre_velocity(points[:, 0], points[:, 1], points[:, 2])).T
-    ld_errors, velocity_errors = [], []
-    for k, (x, y, t) in enumerate(grids):
-        path = write_velocity_file(directory / f"gyre{k}.nc", double_gyre_velocity, x, y, t)
-        data = make_system("double_gyre_data", {"velocity_data": {"path": str(path)}})
-        result = compute_ld(data, states, 1, settings, t0=2.0)
-        ld_errors.append(np.max(np.abs(result.ld - reference.ld)))
-        velocity_errors.append(max(np.max(np.abs(data.vector_field(p[:2], p[2]) - u)) for p, u in zip(points, exact)))
-    return ld_errors, velocity_errors
+    starts = np.column_stack([grid[0].ravel(), grid[1].ravel()])
+    return sampled_flow_errors(directory, grids, probes, formula=DOUBLE_GYRE, velocity=double_gyre_velocity,
+                               starts=starts, t0=2.0, tau=5.0, probe_box=((0, 2), (0, 1), (2, 7)))

@@ -69,3 +69,29 @@ def assert_quadratic_field_ld(data) -> None:
         np.testing.assert_allclose(got.ld, want.ld, rtol=1e-12)
         np.testing.assert_allclose(got.end_state, want.end_state, rtol=1e-12, atol=1e-12)
         assert not got.failed.any()
+
+
+def sampled_flow_errors(directory, grids, probes: int, *, formula: dict, velocity, starts: np.ndarray, t0: float,
+                        tau: float, probe_box) -> tuple[list[float], list[float]]:
+    """An analytic flow, given as the formula system ``formula`` and as numpy ``velocity(x, y, t)
+    -> (u, v)``, sampled on each grid of ``grids`` (``(x, y, t)`` node arrays covering the
+    trajectories of ``starts`` over [t0, t0 + tau] and a stencil more) as velocity data: per grid,
+    the largest LD (M_1/2, forward, rtol 1e-12) error against the formula system over ``starts``,
+    and the largest velocity error at ``probes`` random points of ``probe_box`` ((x0, x1), (y0, y1),
+    (t0, t1)). Returns (LD errors, velocity errors)."""
+    from ldpipe.engine import LDSettings, compute_ld
+    from ldpipe.systems import make_system
+
+    settings = LDSettings(tau=tau, p=0.5, rtol=1e-12, atol=1e-12)
+    reference = compute_ld(make_system("formula", formula), starts, 1, settings, t0=t0)
+    rng = np.random.default_rng(1)
+    points = np.column_stack([rng.uniform(low, high, probes) for low, high in probe_box])
+    exact = np.array(velocity(points[:, 0], points[:, 1], points[:, 2])).T
+    ld_errors, velocity_errors = [], []
+    for k, (x, y, t) in enumerate(grids):
+        path = write_velocity_file(directory / f"sampled{k}.nc", velocity, x, y, t)
+        data = make_system("sampled", {"velocity_data": {"path": str(path)}})
+        result = compute_ld(data, starts, 1, settings, t0=t0)
+        ld_errors.append(np.max(np.abs(result.ld - reference.ld)))
+        velocity_errors.append(max(np.max(np.abs(data.vector_field(p[:2], p[2]) - u)) for p, u in zip(points, exact)))
+    return ld_errors, velocity_errors
