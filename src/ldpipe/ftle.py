@@ -25,6 +25,9 @@ import math
 
 import numpy as np
 
+#: A map's ``ftle`` value asking for the exact gradient (:func:`variational_ftle`); ``true``: differences.
+VARIATIONAL = "variational"
+
 #: The LD map file's variables of the flow map: the end state of every state variable, per direction.
 END_STATE_NAME = "end_{coordinate}_{direction}"
 
