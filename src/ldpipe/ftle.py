@@ -17,6 +17,9 @@ radius cancels in the ratio.
 A point is *defined* when it and every grid neighbour its differences use ran the whole time
 (no region exit, escape, land, data edge or failure): elsewhere the exponent is written as 0
 and the ``ftle_defined_*`` flag is false (the files hold no NaN).
+
+A formula system's map may instead take the gradient exact (``ftle: variational``,
+:func:`variational_ftle`): the state transition matrix along each point's own trajectory.
 """
 
 from __future__ import annotations

@@ -39,13 +39,18 @@ def config(name: str, spec: dict):
     return validate_config({"systems": copy.deepcopy(SYSTEMS), "ld_maps": {name: copy.deepcopy(spec)}})
 
 
+def tiled_and_gathered(tmp_path, spec: dict):
+    """The map ``spec`` (two tiles) computed tile by tile and gathered, as the workflow does."""
+    parameters = parameters_from_config(config("m", spec), "ld", "m")
+    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
+             for k in range(2)]
+    return open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+
+
 def test_linear_saddle_ftle_is_its_eigenvalue(tmp_path):
     # closed form: FTLE = ln(e^(2 lam T)) / (2 T) = lam, both directions, every grid point (edges too:
     # the one-sided differences are exact on a linear map). Tiled and gathered: the same.
-    parameters = parameters_from_config(config("m", {**SADDLE_MAP, "tiles": 2}), "ld", "m")
-    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
-             for k in range(2)]
-    dataset = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+    dataset = tiled_and_gathered(tmp_path, {**SADDLE_MAP, "tiles": 2})
     for label in ("forward", "backward"):
         assert dataset[f"ftle_defined_{label}"].values.all()
         # measured relative error 3.2e-13 (the integrator's rtol 1e-12)
@@ -146,10 +151,7 @@ def test_grid_ftle_converges_to_the_variational_ftle():
 def test_variational_ftle_map_of_the_linear_saddle_is_its_eigenvalue(tmp_path):
     # closed form: the state transition matrix is diag(e^(lam T), e^(-lam T)) at every point, so the
     # exact-gradient FTLE is lam forward and backward. Tiled and gathered: each tile its own points.
-    parameters = parameters_from_config(config("m", {**SADDLE_MAP, "ftle": "variational", "tiles": 2}), "ld", "m")
-    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
-             for k in range(2)]
-    dataset = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+    dataset = tiled_and_gathered(tmp_path, {**SADDLE_MAP, "ftle": "variational", "tiles": 2})
     for label in ("forward", "backward"):
         assert dataset[f"ftle_defined_{label}"].values.all()
         # measured relative error 1.9e-13 (scipy at the map's rtol 1e-12)
