@@ -17,6 +17,9 @@ radius cancels in the ratio.
 A point is *defined* when it and every grid neighbour its differences use ran the whole time
 (no region exit, escape, land, data edge or failure): elsewhere the exponent is written as 0
 and the ``ftle_defined_*`` flag is false (the files hold no NaN).
+
+A formula system's map may instead take the gradient exact (``ftle: variational``,
+:func:`variational_ftle`): the state transition matrix along each point's own trajectory.
 """
 
 from __future__ import annotations
@@ -24,6 +27,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+#: A map's ``ftle`` value asking for the exact gradient (:func:`variational_ftle`); ``true``: differences.
+VARIATIONAL = "variational"
 
 #: The LD map file's variables of the flow map: the end state of every state variable, per direction.
 END_STATE_NAME = "end_{coordinate}_{direction}"

@@ -21,7 +21,7 @@ from .engine.schemes import get_scheme
 from .errors import ConfigError
 from . import flow
 from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, sphere_metric
+from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
 from .systems import System, make_system
@@ -332,11 +332,7 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     axes = tuple(dataset[d].values for d in dims)
     for label in ("forward", "backward"):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
-        complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
-                    & ~dataset[f"escaped_{label}"].values & ~dataset[f"failed_{label}"].values)
-        for flag in ("left_region", *STOP_FLAGS):  # a map without its LD has no region
-            if f"{flag}_{label}" in dataset:
-                complete &= ~dataset[f"{flag}_{label}"].values
+        complete = ran_whole_time(dataset, label, tau)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
         values, defined = ftle(ends, axes, tau, complete, metric)
         dataset[f"ftle_{label}"] = (dims, values, {
@@ -346,6 +342,48 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
                        "by differences of end states over the grid; 0 where not defined (see ftle_defined)"})
         dataset[f"ftle_defined_{label}"] = (dims, defined, {
             "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
+    return dataset
+
+
+def ran_whole_time(dataset: xr.Dataset, label: str, tau: float) -> np.ndarray:
+    """Where the ``label`` (forward, backward) trajectory ran the whole time ``tau``: allowed, and
+    it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge)."""
+    complete = (dataset.allowed.values & (dataset[f"exit_time_{label}"].values == tau)
+                & ~dataset[f"escaped_{label}"].values & ~dataset[f"failed_{label}"].values)
+    for flag in ("left_region", *STOP_FLAGS):  # a map without its LD has no region
+        if f"{flag}_{label}" in dataset:
+            complete &= ~dataset[f"{flag}_{label}"].values
+    return complete
+
+
+def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: slice, tau: float, t0: float, *,
+                         rtol: float, atol: float) -> xr.Dataset:
+    """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a vector field's
+    map (or its band ``rows``) by the variational equations along each point's own trajectory
+    (:func:`ldpipe.ftle.variational_ftle`, scipy at ``rtol``, ``atol``, recorded as attributes):
+    the exact gradient, no grid neighbours, so a tile computes its own points. A point is defined
+    where its trajectory ran the whole time in the map (:func:`ran_whole_time`)."""
+    allowed_states, allowed = section_states(system, section, None, rows)[:2]
+    states = np.zeros(allowed.shape + allowed_states.shape[1:])
+    states[allowed] = allowed_states
+    axes = tuple(system.phase_coordinates.index(name) for name in section.axes)
+    dims = dataset.allowed.dims
+    for label, direction in (("forward", 1), ("backward", -1)):
+        defined = ran_whole_time(dataset, label, tau)
+        values = np.zeros(defined.shape)
+        if defined.any():
+            values[defined] = variational_ftle(system, states[defined], axes, t0, direction * tau, rtol=rtol, atol=atol)
+        dataset[f"ftle_{label}"] = (dims, values, {
+            "long_name": f"finite-time Lyapunov exponent, {label} time",
+            "units": "1/time",
+            "method": "variational",
+            "rtol": rtol,
+            "atol": atol,
+            "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
+                       "exact: the state transition matrix of the variational equations along the point's "
+                       "trajectory (scipy DOP853 at rtol, atol); 0 where not defined (see ftle_defined)"})
+        dataset[f"ftle_defined_{label}"] = (dims, defined, {
+            "long_name": f"the {label} FTLE is defined: the point's trajectory ran the whole time"})
     return dataset
 
 

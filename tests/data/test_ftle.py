@@ -39,13 +39,18 @@ def config(name: str, spec: dict):
     return validate_config({"systems": copy.deepcopy(SYSTEMS), "ld_maps": {name: copy.deepcopy(spec)}})
 
 
+def tiled_and_gathered(tmp_path, spec: dict):
+    """The map ``spec`` (two tiles) computed tile by tile and gathered, as the workflow does."""
+    parameters = parameters_from_config(config("m", spec), "ld", "m")
+    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
+             for k in range(2)]
+    return open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+
+
 def test_linear_saddle_ftle_is_its_eigenvalue(tmp_path):
     # closed form: FTLE = ln(e^(2 lam T)) / (2 T) = lam, both directions, every grid point (edges too:
     # the one-sided differences are exact on a linear map). Tiled and gathered: the same.
-    parameters = parameters_from_config(config("m", {**SADDLE_MAP, "tiles": 2}), "ld", "m")
-    tiles = [run_ld_tile(output=tmp_path / f"t{k}.nc", equilibria=None, tile=k, tiles=2, show_progress=False, **parameters)
-             for k in range(2)]
-    dataset = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+    dataset = tiled_and_gathered(tmp_path, {**SADDLE_MAP, "tiles": 2})
     for label in ("forward", "backward"):
         assert dataset[f"ftle_defined_{label}"].values.all()
         # measured relative error 3.2e-13 (the integrator's rtol 1e-12)
@@ -140,4 +145,73 @@ def test_grid_ftle_converges_to_the_variational_ftle():
         errors.append(np.max(np.abs(np.array(values) - exact)))
     slope = np.polyfit(np.log(spacings), np.log(errors), 1)[0]
     # measured: errors 3.3e-3, 8.4e-4, 2.1e-4, slope 1.98
+    assert 1.7 < slope < 2.3, errors
+
+
+def test_variational_ftle_map_of_the_linear_saddle_is_its_eigenvalue(tmp_path):
+    # closed form: the state transition matrix is diag(e^(lam T), e^(-lam T)) at every point, so the
+    # exact-gradient FTLE is lam forward and backward. Tiled and gathered: each tile its own points.
+    dataset = tiled_and_gathered(tmp_path, {**SADDLE_MAP, "ftle": "variational", "tiles": 2})
+    for label in ("forward", "backward"):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        # measured relative error 1.9e-13 (scipy at the map's rtol 1e-12)
+        np.testing.assert_allclose(dataset[f"ftle_{label}"].values, LAM, rtol=1e-12, err_msg=label)
+        attributes = dataset[f"ftle_{label}"].attrs
+        assert (attributes["method"], attributes["rtol"], attributes["atol"]) == ("variational", 1e-12, 1e-12)
+
+
+def test_variational_ftle_map_is_variational_ftle_at_its_points():
+    # identity of the plumbing: the map's values are ldpipe.ftle.variational_ftle at its grid points
+    # (axes in the map's order, start time t0, forward +tau and backward -tau), bit for bit; that
+    # function is checked against the grid's differences (second-order convergence) above.
+    from ldpipe.ftle import variational_ftle
+    from ldpipe.systems import make_system
+
+    spec = {"system": "double_gyre", "t0": 1.5,
+            "section": {"axes": [{"name": "y", "range": [0.2, 0.8], "points": 3},
+                                 {"name": "x", "range": [0.3, 1.7], "points": 4}]},
+            "tau": 5.0, "p": 0.5, "integrator": {"rtol": 1e-9, "atol": 1e-9}, "ftle": "variational"}
+    dataset = compute_ld_map(parameters_from_config(config("g", spec), "ld", "g"), None, show_progress=False)
+    system = make_system("double_gyre", DOUBLE_GYRE)
+    y, x = np.meshgrid(dataset.y.values, dataset.x.values, indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel()])
+    for label, time in (("forward", 5.0), ("backward", -5.0)):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        expected = variational_ftle(system, points, (0, 1), 1.5, time, rtol=1e-9, atol=1e-9).reshape(x.shape)
+        np.testing.assert_array_equal(dataset[f"ftle_{label}"].values, expected, err_msg=label)
+
+
+def test_variational_ftle_needs_a_formula_vector_field(tmp_path):
+    from support.double_gyre import double_gyre_velocity
+    from support.gridded import write_velocity_file
+
+    grid = np.linspace(0.0, 2.0, 5)
+    path = write_velocity_file(tmp_path / "gyre.nc", double_gyre_velocity, grid, grid, grid)
+    data_map = {**SADDLE_MAP, "system": "gyre", "ftle": "variational"}
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': .*velocity data: give ftle: true"):
+        validate_config({"systems": {"gyre": {"velocity_data": {"path": str(path)}}}, "ld_maps": {"m": data_map}})
+    section = {"axes": [{"name": "x", "range": [-1.0, 1.0], "points": 5}, {"name": "px", "range": [-1.0, 1.0], "points": 5}],
+               "fixed": {"y": 0.0}, "solve": "py"}
+    hamiltonian_map = {"system": "b", "section": section, "energy": {"excess": 0.1}, "tau": 1.0, "p": 0.5,
+                       "ftle": "variational"}
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': .*Hamiltonian 'b'.*give ftle: true"):
+        validate_config({"systems": {"b": {"builtin": "barbanis_2dof"}}, "ld_maps": {"m": hamiltonian_map}})
+
+
+def test_differences_maps_converge_to_the_variational_map():
+    # Two map options, one quantity: at the double gyre point (1.0, 0.3) the differences map's FTLE
+    # (3 x 3 grids around it, spacing h) approaches the variational map's at second order in h.
+    def centre(ftle_option, h):
+        spec = {"system": "double_gyre", "t0": 0.0,
+                "section": {"axes": [{"name": "x", "range": [1.0 - h, 1.0 + h], "points": 3},
+                                     {"name": "y", "range": [0.3 - h, 0.3 + h], "points": 3}]},
+                "tau": 10.0, "p": 0.5, "integrator": {"rtol": 1e-12, "atol": 1e-12}, "ftle": ftle_option}
+        dataset = compute_ld_map(parameters_from_config(config("g", spec), "ld", "g"), None, show_progress=False)
+        return np.array([dataset[f"ftle_{label}"].values[1, 1] for label in ("forward", "backward")])
+
+    exact = centre("variational", 0.01)
+    spacings = [0.02, 0.01, 0.005]
+    errors = [np.max(np.abs(centre(True, h) - exact)) for h in spacings]
+    slope = np.polyfit(np.log(spacings), np.log(errors), 1)[0]
+    # measured: errors 6.8e-4, 1.7e-4, 4.2e-5, slope 2.00
     assert 1.7 < slope < 2.3, errors

@@ -9,6 +9,7 @@ checks every configuration module shares (an interval, names of other entries) a
 from __future__ import annotations
 
 from ..errors import ConfigError
+from ..ftle import VARIATIONAL
 from ..systems import is_vector_field, system_coordinates, system_phase_coordinates
 
 
@@ -61,6 +62,7 @@ def check_ld_maps(config: dict) -> None:
             raise ConfigError(f"config key '{key}.ftle': the FTLE of 3-D data on the sphere would mix degrees of arc "
                               "with the vertical coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
+        check_variational_ftle(spec, key, system)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -95,6 +97,21 @@ def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     if not vector_field:
         raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
                           f"{spec['system']!r} is a Hamiltonian (leave ld out)")
+
+
+def check_variational_ftle(spec: dict, key: str, system: dict) -> None:
+    """``ftle: variational`` integrates the variational equations of a vector field given by formulas."""
+    if spec.get("ftle") != VARIATIONAL:
+        return
+    if "velocity_data" in system:
+        raise ConfigError(f"config key '{key}.ftle': the variational FTLE needs the Jacobian of a vector field given by "
+                          f"formulas; system {spec['system']!r} is velocity data: give ftle: true (differences over "
+                          "the grid)")
+    if not is_vector_field(system):
+        raise ConfigError(f"config key '{key}.ftle': the variational FTLE is of a vector field's map; on the energy "
+                          f"surface of the Hamiltonian {spec['system']!r} the gradient along the section would also "
+                          "need the solved coordinate's derivative, which is not implemented: give ftle: true "
+                          "(differences over the grid)")
 
 
 def check_region(spec: dict, key: str, coordinates: tuple[str, ...]) -> None:

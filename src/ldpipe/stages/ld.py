@@ -22,8 +22,9 @@ from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute, is_arclength
 from ..critical_points import select_saddle
 from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
-from ..ld_grid import (add_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map, start_time_band,
-                       tile_rows)
+from ..ftle import VARIATIONAL
+from ..ld_grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
+                       start_time_band, tile_rows)
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
@@ -146,8 +147,11 @@ def compute_ld_map(
                                       show_progress=show_progress, t0=info["t0"])
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                                  t0=info["t0"], flow_map=ftle, descriptor=parameters.get("ld", True))
-    if ftle and tiles == 1:
+                                  t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True))
+    if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
+        add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
+                             rtol=settings.rtol, atol=settings.atol)
+    elif ftle and tiles == 1:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
@@ -230,7 +234,7 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
     """The bands of rows of one start time joined along ``axis``, with the FTLE of the whole grid
     if the map asks for it (a single band has its FTLE already)."""
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
-    if parameters.get("ftle", False) and len(datasets) > 1:
+    if parameters.get("ftle", False) is True and len(datasets) > 1:  # by differences over the whole grid
         add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
                  on_sphere(parameters["system_spec"]))
     return joined
