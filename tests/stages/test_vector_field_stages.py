@@ -135,10 +135,18 @@ def test_equilibria_of_a_time_dependent_field_are_refused(tmp_path):
 
 def test_the_documented_example_is_a_valid_configuration():
     # The documented vector_field example validates as written, and its map resolves.
-    cfg = validate_config(yaml.safe_load(documented_yaml("vector_field:")))
+    cfg = validate_config(yaml.safe_load(documented_yaml("forced_duffing_t0")))
     assert cfg["ld_maps"]["forced_duffing_t0"]["t0"] == 1.5
     system, section, settings, info = resolve_ld_map(parameters_from_config(cfg, "ld", "forced_duffing_t0"), None, None)
     assert system.time_dependent and section.solve is None and info["energy"] is None and info["t0"] == 1.5
+
+
+def test_the_documented_exact_gradient_ftle_example_is_a_valid_configuration():
+    # The documented `ftle: variational` example validates as written, and its map resolves.
+    cfg = validate_config(yaml.safe_load(documented_yaml("double_gyre_ftle_exact")))
+    assert cfg["ld_maps"]["double_gyre_ftle_exact"]["ftle"] == "variational"
+    system, section, settings, info = resolve_ld_map(parameters_from_config(cfg, "ld", "double_gyre_ftle_exact"), None, None)
+    assert system.time_dependent and section.solve is None
 
 
 def test_poincare_section_of_a_vector_field_closed_form(tmp_path):
