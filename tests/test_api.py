@@ -26,23 +26,11 @@ from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.manifolds import run_manifolds
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
+from support.henon_heiles import HENON_HEILES, hh_slice
 from support.stage_files import assert_same_file
 
-HENON_HEILES = {"formula": "(x**2 + y**2)/2 + x**2*y - y**3/3", "coordinates": ["x", "y"]}
 #: ldds' Hénon–Heiles slice at the settings of tests/stages/test_ld.py, in two tiles (gathered).
-HH_MAP = {
-    "system": "henon_heiles",
-    "section": {
-        "axes": [{"name": "y", "range": [-0.45, 0.8], "points": 11}, {"name": "py", "range": [-0.5, 0.5], "points": 9}],
-        "fixed": {"px": 0.0},
-        "solve": "x",
-        "root": "largest",
-    },
-    "energy": {"total": 0.125},
-    "tau": 2.0,
-    "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8},
-    "tiles": 2,
-}
+HH_MAP = hh_slice(tiles=2)
 #: One orbit of Barbanis' bottom family and its manifolds, at the quick run's manifold settings.
 FAMILY = {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0711], "energies": {"excess": [0.125]},
           "tolerance": 1e-10, "energy_tolerance": 1e-12}

@@ -11,6 +11,7 @@ from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
+from support.henon_heiles import HENON_HEILES, HH_ENERGY, hh_slice
 from support.workflow import ROOT
 
 BOX = {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}
@@ -147,23 +148,9 @@ def test_map_with_a_solved_position_records_it_like_a_momentum(tmp_path):
     # Hénon–Heiles on ldds' tutorial slice (axes y, p_y; p_x = 0; x solved, the root x >= 0).
     # Invariant: every allowed point has H = E; closed form: x^2 (1 + 2 y) = 2 E - p_y^2 - y^2
     # + 2 y^3 / 3, no root (not allowed, never integrated) where the right side over 1 + 2 y is < 0.
-    formula = "(x**2 + y**2)/2 + x**2*y - y**3/3"
-    energy = 0.125
-    ld_map = {
-        "system": "henon_heiles",
-        "section": {
-            "axes": [{"name": "y", "range": [-0.45, 0.8], "points": 11}, {"name": "py", "range": [-0.5, 0.5], "points": 9}],
-            "fixed": {"px": 0.0},
-            "solve": "x",
-            "root": "largest",
-        },
-        "energy": {"total": energy},
-        "tau": 2.0,
-        "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8},
-    }
-    config = validate_config({"systems": {"henon_heiles": {"formula": formula, "coordinates": ["x", "y"]}},
-                              "ld_maps": {"m": ld_map}})
-    system = make_system("henon_heiles", {"formula": formula, "coordinates": ["x", "y"]})
+    energy = HH_ENERGY
+    config = validate_config({"systems": {"henon_heiles": dict(HENON_HEILES)}, "ld_maps": {"m": hh_slice()}})
+    system = make_system("henon_heiles", dict(HENON_HEILES))
     parameters = parameters_from_config(config, "ld", "m")
     dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
     path = write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False)
