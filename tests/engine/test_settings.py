@@ -84,6 +84,9 @@ def test_compositions_share_one_engine_module(barbanis):
     for record in compositions:
         assert np.array_equal(record.coefficients(), np.array(record.weights))
     assert SCHEMES["dop853"].coefficients().size == SCHEMES["rk4"].coefficients().size == 0
+    # the flow driver passes no coefficients: a composition's step there would take no sub-step
+    with pytest.raises(ValueError, match="run-time coefficients"):
+        engine_source(barbanis, "sym4", 8, entry="flow_process")
 
 
 def test_input_shape_and_direction(barbanis):

@@ -128,8 +128,13 @@ def assemble(system, title: str, kernels: tuple[str, ...], constants: dict, bodi
 def engine_source(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> str:
     """The full text of the generated engine module (see the module docstring).
 
-    ``entry``: the driver function the module is built for, a key of ``DRIVERS``.
+    ``entry``: the driver function the module is built for, a key of ``DRIVERS``. Only the LD
+    driver ``process`` passes a scheme's run-time coefficients; ValueError for another entry of a
+    scheme that has some.
     """
+    if entry != "process" and get_scheme(scheme).coefficients().size:
+        raise ValueError(f"scheme {scheme!r} has run-time coefficients, which only the LD driver passes; "
+                         f"{entry!r} cannot run it")
     parts = scheme_source(scheme, system, lanes, order)
     constants = {
         **parts.layout.constants(),
