@@ -40,6 +40,9 @@ SETTINGS = (
     ("dop853 rtol 1e-10, M_1/2", "dop853", 1e-10, 0.5),
     ("taylor rtol 1e-10, M_1/2", "taylor", 1e-10, 0.5),
     ("rk4 dt 0.05, M_1/2", "rk4", 0.05, 0.5),
+    ("sym4 dt 0.05, M_1/2", "sym4", 0.05, 0.5),
+    ("sym6 dt 0.1, M_1/2", "sym6", 0.1, 0.5),
+    ("sym6 dt 0.02, M_1/2", "sym6", 0.02, 0.5),
     ("dop853 rtol 1e-10, arc length", "dop853", 1e-10, "arclength"),
     ("taylor rtol 1e-10, arc length", "taylor", 1e-10, "arclength"),
     ("taylor rtol 1e-12, arc length", "taylor", 1e-12, "arclength"),
@@ -72,11 +75,12 @@ def worker(n: int, tau: float, repeat: int, only: list[str] | None = None, flow_
 
     import ldpipe
     from ldpipe.engine import LDSettings, compute_ld
+    from ldpipe.engine.schemes import get_scheme
 
     system, states = flow(flow_name, n)
     rows = {}
     for label, scheme, accuracy, p in selected(only):
-        step = {"dt": accuracy} if scheme == "rk4" else {"rtol": accuracy, "atol": accuracy}
+        step = {"rtol": accuracy, "atol": accuracy} if get_scheme(scheme).adaptive else {"dt": accuracy}
         settings = LDSettings(scheme=scheme, p=p, tau=tau, **step)
         compute_ld(system, states[:8], +1, settings)
         wall = cpu = float("inf")

@@ -71,6 +71,24 @@ def test_compositions_are_consistent():
     assert np.sum(tableaux.SUZUKI4**3) == pytest.approx(0.0, abs=1e-14)
 
 
+def test_compositions_share_one_engine_module(barbanis):
+    # By design (Composition.coefficients): the weights reach the step at run time, so every
+    # composition of a system compiles the same text, under one name, and differs only in the
+    # coefficients the driver is given (the record's own weights).
+    from ldpipe.engine.codegen import engine_name, engine_source
+
+    compositions = [record for record in SCHEMES.values() if isinstance(record, Composition)]
+    assert len({engine_source(barbanis, record.name, 8) for record in compositions}) == 1
+    assert {engine_name(barbanis.name, record.name, 64) for record in compositions} == {
+        "engine_barbanis_2dof_composition_64"}
+    for record in compositions:
+        assert np.array_equal(record.coefficients(), np.array(record.weights))
+    assert SCHEMES["dop853"].coefficients().size == SCHEMES["rk4"].coefficients().size == 0
+    # the flow driver passes no coefficients: a composition's step there would take no sub-step
+    with pytest.raises(ValueError, match="run-time coefficients"):
+        engine_source(barbanis, "sym4", 8, entry="flow_process")
+
+
 def test_input_shape_and_direction(barbanis):
     with pytest.raises(ValueError, match="initial_states"):
         compute_ld(barbanis, np.zeros((3, 3)))

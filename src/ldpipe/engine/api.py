@@ -11,6 +11,7 @@ from .integrator import get_runner, run_units
 from .integrands import integrand_for
 from .kinetic import to_engine_states, to_momenta
 from .quadrature import folded_jacobi_rule, legendre_rule
+from .schemes import get_scheme
 from .settings import LDSettings, engine_escape_radius
 
 
@@ -174,6 +175,7 @@ def compute_ld(
         gjx,
         gjf,
         settings.quadrature_window,
+        get_scheme(settings.scheme).coefficients(),
     )
     # With masses the drivers carry (q, M^-1 p) (ldpipe.engine.kinetic); results are in (q, p).
     run_units(runner, to_engine_states(system, states), unit, args, outputs, get_num_threads())
@@ -197,7 +199,6 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     """compute_ld for a general flow: first-order DOP853 (:mod:`ldpipe.engine.vector_field`)."""
     from numba import get_num_threads
 
-    from .schemes import get_scheme
     from .vector_field import get_vector_field_runner
 
     get_scheme(settings.scheme).check_system(system)

@@ -22,6 +22,10 @@ Every scheme provides, as compiled code (:class:`SchemeSource`; assembled and co
     the configuration polynomials ``QC[k, i, j]`` of the same step (for event location),
     from what ``attempt`` left in the workspace.
 
+The workspace ends, after its regions (at ``SIZE``), with the scheme's run-time coefficients
+(:meth:`ldpipe.engine.schemes.Scheme.coefficients`, which the LD driver appends: a
+composition's weights; none for the other schemes).
+
 The schemes themselves, one module each, and the registry that names them are in
 :mod:`ldpipe.engine.schemes`.
 """

@@ -394,8 +394,8 @@ def ladder_engines(ld: dict) -> dict[str, dict]:
     """The engine modules the LD ladder runs, by name (:func:`ldpipe.engine.codegen.engine_name`), each with
     the first map and ladder setting that needs it: ``{"map": parameters, "setting": spec}``.
 
-    Several settings share a module (the tolerances of dop853, the steps of a fixed-step scheme);
-    the Taylor scheme has one per order. Compiling them in jobs of their own
+    Several settings share a module (the tolerances of dop853, the steps of a fixed-step scheme,
+    every composition: sym4 and sym6); the Taylor scheme has one per order. Compiling them in jobs of their own
     (:func:`run_accuracy_engine`) lets the cores share the compiles the ladder would do one by one.
     """
     steps = [IntegratorStep.from_spec(ld["reference"]), IntegratorStep.from_spec(ld["reference_check"]),

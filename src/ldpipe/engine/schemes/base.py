@@ -15,6 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from ..stepping import SchemeSource
 
 
@@ -85,6 +87,17 @@ class Scheme:
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         """The compiled parts of the scheme for ``system`` and ``lanes`` lanes."""
         raise NotImplementedError
+
+    def coefficients(self) -> np.ndarray:
+        """The step's run-time coefficients, which the LD driver puts at the end of the block
+        workspace for ``attempt`` (the default: none, every number of the step is compiled in)."""
+        return np.zeros(0)
+
+    def variant(self, order: int | None = None) -> str:
+        """What an engine module of the scheme compiles, as its name says it: the scheme's name, with
+        the ``order`` of a scheme compiled per order (``taylor13``). Schemes whose records return the
+        same variant share one module (the same source text)."""
+        return self.name if order is None else f"{self.name}{order}"
 
 
 def _registered():

@@ -4,6 +4,11 @@ Compositions of the kick-drift-kick Störmer–Verlet map with the weights of
 :mod:`ldpipe.engine.schemes.tableaux`: Suzuki's fourth-order five-stage composition (5 forces per step) and
 Yoshida's triple jump of it (sixth order, 15 forces per step). One class, one record per set
 of weights. Dense output as for rk4: the quintic Hermite interpolant (``templates/hermite.py``).
+
+The weights are run-time coefficients (:meth:`Composition.coefficients`), not compiled in: every
+composition of a system shares one engine module, ``engine_<system>_composition_<lanes>``.
+Measured against weights compiled in (benchmarks/accuracy_ladder.md): the same LDs bit for bit,
+and a throughput difference within the 3 % that would pay for a module per composition.
 """
 
 from __future__ import annotations
@@ -28,14 +33,16 @@ class Composition(FixedStepScheme):
         object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
 
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
-        weights = np.array(self.weights, dtype=np.float64)
-        return SchemeSource(
-            Layout.build(system.n_dof, lanes, 6, 0),
-            False,
-            self.order,
-            templates=("hermite", "composition"),
-            constants={"N_SUB": len(weights), "GAMMAS": weights},
-        )
+        # The module is the same text for every composition, so its ORDER (read by adaptive step
+        # control only) is that of the Stormer-Verlet map they compose, not a composition's own.
+        return SchemeSource(Layout.build(system.n_dof, lanes, 6, 0), False, 2, templates=("hermite", "composition"))
+
+    def coefficients(self) -> np.ndarray:
+        """The weights of the sub-steps, in order."""
+        return np.array(self.weights, dtype=np.float64)
+
+    def variant(self, order: int | None = None) -> str:
+        return "composition"
 
 
 SYM4 = Composition(

@@ -1,10 +1,11 @@
 """Template: one step attempt of a symmetric composition of kick-drift-kick Störmer–Verlet.
 
-Sub-step s has the weight GAMMAS[s] (N_SUB of them, summing to 1): kick by g h a / 2,
-drift by g h p, a = a(q), kick by g h a / 2; the last force of a sub-step is the first of the
-next (and, at the end, ``accn``). ``mq`` accumulates the mean velocity (qn - q)/h for the
-Hermite dense output (hermite.py). Header names used: N, LANES, NB, GAMMAS, N_SUB and the
-offsets OQ, OP, OA, OQN, OPN, OAN, OMQ, OH, OERR.
+Sub-step s has the weight g = W[SIZE + s], the scheme's run-time coefficients that the driver
+puts at the end of the workspace (one module serves every set of weights, summing to 1):
+kick by g h a / 2, drift by g h p, a = a(q), kick by g h a / 2; the last force of a sub-step is
+the first of the next (and, at the end, ``accn``). ``mq`` accumulates the mean velocity
+(qn - q)/h for the Hermite dense output (hermite.py). Header names used: N, LANES, NB, SIZE and
+the offsets OQ, OP, OA, OQN, OPN, OAN, OMQ, OH, OERR.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT and the kernels come from the generated module)
 
@@ -20,8 +21,8 @@ def attempt(W, rtol, atol):
             W[OMQ + k] = 0.0
     qn = W[OQN : OQN + NB].reshape((N, LANES))
     an = W[OAN : OAN + NB].reshape((N, LANES))
-    for s in range(N_SUB):
-        g = GAMMAS[s]
+    for s in range(SIZE, W.shape[0]):
+        g = W[s]
         for i in range(N):
             for j in range(LANES):
                 k = i * LANES + j

@@ -146,11 +146,13 @@ def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, r
 @njit(nogil=True, **JIT)
 def process(
     states, start, stop, direction, tau, dt, n_fixed, rtol, atol, kind, p_exp,
-    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
+    lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window, coefficients,
     o_ld, o_time, o_escaped, o_left, o_eerr, o_steps, o_failed, o_end, o_face,
 ):  # fmt: skip
     lanes = LANES
-    W = np.zeros(SIZE)  # the block workspace (see ldpipe.engine.stepping.Layout)
+    # the block workspace (see ldpipe.engine.stepping.Layout), the scheme's run-time coefficients at its end
+    W = np.zeros(SIZE + coefficients.shape[0])
+    W[SIZE:] = coefficients
     q, p, acc, qn, pn, accn, hh, err, VC, QC = workspace_views(W)
     FC = W[OFC : OFC + NCOMP * LANES].reshape((NCOMP, LANES))
     SP = np.zeros((NCOMP, LANES), dtype=np.int8)  # SP_* codes of block_quadrature.py

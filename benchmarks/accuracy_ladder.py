@@ -1,0 +1,150 @@
+"""Where the accuracy_cost stage's time goes: each part of its measurement, in CPU and wall seconds.
+
+Runs the stage's measurement (``ldpipe.stages.accuracy.accuracy_dataset``) on the paper
+configuration's ``accuracy_cost`` section as the workflow job does (the same threads), with every
+timed engine run, warm-up, reference, reference check, orbit ladder and NHIM ladder recorded as
+it happens: each repeat of each rung separately, so the spread of the repeats is seen too.
+Needs the barbanis_2dof equilibria file of a workflow run and the ladder's engine modules in the
+cache (else their compiles are counted as warm-ups).
+
+    python benchmarks/accuracy_ladder.py --equilibria results/barbanis_2dof/equilibria.nc --out /tmp/parts.json
+
+The JSON lists the parts in order (``part``, ``label``, ``repeat``, ``cpu``, ``wall``); the
+Markdown summary goes to stdout. ``--repeats N`` overrides the section's LD repeats.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pickle
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+T0_CPU, T0_WALL = time.process_time(), time.perf_counter()
+
+import numba  # noqa: E402
+import yaml  # noqa: E402
+
+import ldpipe.accuracy.ld_ladder as ld_ladder  # noqa: E402
+import ldpipe.accuracy.orbit_ladder as orbit_ladder  # noqa: E402
+import ldpipe.stages.accuracy as stage  # noqa: E402
+from ldpipe.config import validate_config  # noqa: E402
+from ldpipe.engine import compute_ld  # noqa: E402
+from ldpipe.stages.parameters import parameters_from_config  # noqa: E402
+
+RECORDS: list[dict] = []
+
+
+@contextmanager
+def part(name: str, label: str = "", repeat: int = 0):
+    cpu, wall = time.process_time(), time.perf_counter()
+    yield
+    RECORDS.append({"part": name, "label": label, "repeat": repeat,
+                    "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall})
+
+
+def label_of(settings) -> str:
+    if settings.adaptive:
+        return f"{settings.scheme} rtol {settings.rtol:g}"
+    return f"{settings.scheme} dt {settings.dt:g}"
+
+
+CURRENT = {"map": "", "role": "rung"}
+
+
+def recorded_timed_ld(system, states, settings, repeats):
+    """ld_ladder.timed_ld, each repeat recorded."""
+    best_wall = best_cpu = float("inf")
+    forward = backward = None
+    for r in range(repeats):
+        wall, cpu = time.perf_counter(), time.process_time()
+        forward = compute_ld(system, states, 1, settings)
+        backward = compute_ld(system, states, -1, settings)
+        w, c = time.perf_counter() - wall, time.process_time() - cpu
+        RECORDS.append({"part": f"ld {CURRENT['map']}", "label": label_of(settings), "repeat": r, "cpu": c, "wall": w,
+                        "points": len(states)})
+        best_wall, best_cpu = min(best_wall, w), min(best_cpu, c)
+    return ld_ladder.TimedLD(forward, backward, float(best_wall), float(best_cpu))
+
+
+def wrap(module, name, part_name, label=lambda *a, **k: ""):
+    original = getattr(module, name)
+
+    def wrapped(*args, **kwargs):
+        with part(part_name, label(*args, **kwargs)):
+            return original(*args, **kwargs)
+
+    setattr(module, name, wrapped)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--equilibria", required=True)
+    parser.add_argument("--config", default="config.yaml")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--dataset", default=None, help="pickle the measured dataset here")
+    args = parser.parse_args()
+    numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
+    config = yaml.safe_load(Path(args.config).read_text())
+    validate_config(config)
+    params = parameters_from_config(config, "accuracy")
+    if args.repeats:
+        params["ld"]["repeats"] = args.repeats
+
+    ld_ladder.timed_ld = recorded_timed_ld
+    wrap(ld_ladder, "warm_up", "warm-up", lambda system, states, settings: settings.scheme)
+    original_map = stage._map_dataset
+
+    def map_dataset(name, *a, **k):
+        CURRENT["map"] = name
+        with part("map total", name):
+            return original_map(name, *a, **k)
+
+    stage._map_dataset = map_dataset
+    wrap(stage, "orbit_accuracy_dataset", "orbit total")
+    wrap(orbit_ladder, "timed_orbit", "orbit rung", lambda *a, **k: f"{a[4].label}")
+    wrap(orbit_ladder, "closure_error", "orbit closure check", lambda system, orbit, rtol: f"rtol {rtol:g}")
+    wrap(stage, "nhim_accuracy_dataset", "nhim total")
+    wrap(stage, "compute_orbit", "nhim reference orbit")
+    wrap(stage, "nhim_grid_dataset", "nhim grid ladder")
+    wrap(stage, "ld_grid_dataset", "nhim refinement start grid")
+    wrap(stage, "nhim_refinement_dataset", "nhim refinement ladder")
+
+    load_before = os.getloadavg()
+    setup_cpu, setup_wall = time.process_time() - T0_CPU, time.perf_counter() - T0_WALL
+    RECORDS.append({"part": "imports", "label": "", "repeat": 0, "cpu": setup_cpu, "wall": setup_wall})
+    with part("accuracy_dataset total"):
+        data = stage.accuracy_dataset(params["ld"], params["upo"], params["nhim"], [args.equilibria])
+    with part("table"):
+        stage.accuracy_table(data)
+    load_after = os.getloadavg()
+    RECORDS.append({"part": "process total", "label": "", "repeat": 0, "cpu": time.process_time() - T0_CPU,
+                    "wall": time.perf_counter() - T0_WALL})
+    Path(args.out).write_text(json.dumps({"load_before": load_before, "load_after": load_after,
+                                          "threads": args.threads, "repeats": params["ld"]["repeats"],
+                                          "records": RECORDS}, indent=1))
+    if args.dataset:
+        Path(args.dataset).write_bytes(pickle.dumps(data))
+    summarize(RECORDS, load_before, load_after)
+
+
+def summarize(records, load_before, load_after) -> None:
+    print(f"load average before {load_before}, after {load_after}")
+    groups: dict[tuple, list] = {}
+    for r in records:
+        groups.setdefault((r["part"], r["label"]), []).append(r)
+    print("| part | label | runs | CPU s (sum) | wall s (sum) | CPU s per run (min-max) |")
+    print("| --- | --- | ---: | ---: | ---: | --- |")
+    for (name, label), rs in groups.items():
+        cpus = [r["cpu"] for r in rs]
+        print(f"| {name} | {label} | {len(rs)} | {sum(cpus):.2f} | {sum(r['wall'] for r in rs):.2f} "
+              f"| {min(cpus):.3f}-{max(cpus):.3f} |")
+
+
+if __name__ == "__main__":
+    main()
