@@ -26,12 +26,13 @@ BOX = {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}
 #: Fig. 3's section U_xpx (y = 0, p_y > 0 solved) on a small grid: 40 x values, and 49 p_x values
 #: whose linspace is mirror-symmetric bit for bit (step 0.25, exact); 40 p_x values are not.
 FIG3_AXES = ({"name": "x", "range": [-6.0, 6.0], "points": 40}, {"name": "px", "range": [-6.0, 6.0], "points": 49})
-#: Largest |mirrored - directly integrated| backward LD allowed. Measured: 0, bit for bit, on this grid
-#: (and on a Fig. 3 tile at tau 50, benchmarks/ld_symmetry.md): the forward integration of S z is,
-#: operation for operation, the backward integration of z with signs flipped (grad V(s q) = s grad V(q)
-#: holds in floating point for the Barbanis kernels, and rounding is symmetric), so a few times the
-#: measured difference is 0.
-LD_TOLERANCE = 0.0
+#: Relative difference allowed between the mirrored and the directly integrated backward LD (and
+#: energy error). The forward integration of S z is, operation for operation, the backward
+#: integration of z with signs flipped, so they agree to the bit but for the last bit of a rare LD
+#: that depends on the other trajectories of its engine block (ldpipe.ld_grid's docstring): measured
+#: 0 on this grid, and 1 ulp (2.2e-16 relative) at 9 of 514,750 pixels of a Fig. 3 tile at tau 50
+#: (benchmarks/ld_symmetry.md). About 4 ulp:
+LD_RTOL = 1e-15
 
 
 def fig3_section(points=49, y=0.0):
@@ -93,13 +94,12 @@ def test_mirrored_backward_equals_the_integrated_backward(barbanis):
     for name in direct.data_vars:
         if not name.endswith("_backward") and name != "energy_error":  # the forward integration is the same
             np.testing.assert_array_equal(mirrored[name].values, direct[name].values, err_msg=name)
-    ld, expected = mirrored.ld_backward.values, direct.ld_backward.values
-    assert np.max(np.abs(ld - expected)) <= LD_TOLERANCE
+    np.testing.assert_allclose(mirrored.ld_backward.values, direct.ld_backward.values, rtol=LD_RTOL, atol=0)
     for name in ("exit_time", "escaped", "left_region", "failed", "steps"):
         np.testing.assert_array_equal(mirrored[f"{name}_backward"].values, direct[f"{name}_backward"].values,
                                       err_msg=name)
     # |H(end) - H(start)| of both directions: the same, since H(S z) = H(z) and the integrations agree
-    np.testing.assert_array_equal(mirrored.energy_error.values, direct.energy_error.values)
+    np.testing.assert_allclose(mirrored.energy_error.values, direct.energy_error.values, rtol=LD_RTOL, atol=0)
 
 
 def fig3_config(**entries):
@@ -125,7 +125,7 @@ def test_stage_mirrors_each_tile_and_the_key_turns_it_off(tmp_path, equilibria):
                          show_progress=False)
     assert "reversing_symmetry" not in off.attrs
     np.testing.assert_array_equal(off.ld_forward.values, gathered.ld_forward.values)
-    assert np.max(np.abs(off.ld_backward.values - gathered.ld_backward.values)) <= LD_TOLERANCE
+    np.testing.assert_allclose(gathered.ld_backward.values, off.ld_backward.values, rtol=LD_RTOL, atol=0)
 
 
 def test_required_symmetry_that_does_not_hold_names_the_key(equilibria):
