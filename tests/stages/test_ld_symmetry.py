@@ -137,3 +137,11 @@ def test_required_symmetry_that_does_not_hold_names_the_key(equilibria):
     config["ld_maps"]["m"]["backward_by_symmetry"] = "auto"
     dataset = compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
     assert "reversing_symmetry" not in dataset.attrs and dataset.ld_backward.values.any()
+
+
+def test_a_variable_time_map_is_not_mirrored(equilibria):
+    # The region box decides where a variable-time trajectory stops; only fixed-time maps are mirrored,
+    # even where the section alone (y = 0, a symmetric p_x grid) would allow it.
+    config = fig3_config(backward_by_symmetry=True, time="variable", region={"x": [-6.0, 6.0], "y": [-6.0, 6.0]})
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.backward_by_symmetry.*variable-time"):
+        compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
