@@ -16,7 +16,7 @@ from ldpipe.errors import ConfigError
 from ldpipe.ld_grid import ld_grid_dataset
 from ldpipe.ld_symmetry import ReversingSymmetry, map_mirror, reversing_symmetries
 from ldpipe.sections import Section
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
+from ldpipe.stages.ld import compute_ld_map, note_mirrored_tiles, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.barbanis import E_C
@@ -145,3 +145,30 @@ def test_a_variable_time_map_is_not_mirrored(equilibria):
     config = fig3_config(backward_by_symmetry=True, time="variable", region={"x": [-6.0, 6.0], "y": [-6.0, 6.0]})
     with pytest.raises(ConfigError, match=r"ld_maps\.m\.backward_by_symmetry.*variable-time"):
         compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
+
+
+def test_grid_states_one_ulp_off_their_image_are_not_mirrored(barbanis):
+    # The mirror is used only where the image pixel holds S of the state exactly (the solved
+    # coordinate's rounding included): one p_y moved by 1 ulp refuses it; -0 and 0 count as equal.
+    section = fig3_section()
+    mirror, _ = map_mirror(barbanis, section)
+    x, px = np.meshgrid(*section.axis_values(), indexing="ij")
+    py = np.sqrt(np.maximum(2 * E_C - px**2 - x**2, 0.0))  # a symmetric stand-in for the solved p_y
+    allowed = py > 0
+    states = np.stack([x, np.zeros_like(x), px, py], axis=-1)
+    assert mirror.maps_grid(states, allowed)
+    i, j = np.argwhere(allowed)[0]
+    states[i, j, 3] = np.nextafter(states[i, j, 3], np.inf)
+    assert not mirror.maps_grid(states, allowed)
+
+
+def test_gathered_map_says_which_tiles_were_mirrored():
+    attrs = {"reversing_symmetry": "(x, y, px, py) -> (x, -y, -px, py)", "backward_fields": "mirrored"}
+    tiles = [xr.Dataset(attrs=dict(attrs)), xr.Dataset(), xr.Dataset(attrs=dict(attrs))]
+    joined = xr.Dataset(attrs=dict(attrs))  # the first tile's attributes, as the gather copies them
+    note_mirrored_tiles(joined, tiles)
+    note = joined.attrs["backward_fields"]
+    assert note.startswith("tiles [0, 2] of 3") and "integrated backward" in note
+    whole = xr.Dataset(attrs=dict(attrs))
+    note_mirrored_tiles(whole, [xr.Dataset(attrs=dict(attrs))] * 2)
+    assert whole.attrs == attrs
