@@ -133,7 +133,8 @@ def section_mirror(system, section, symmetry: ReversingSymmetry) -> tuple[tuple[
         if sign[name] < 0 and value != 0.0:
             return None, f"it negates {name}, fixed at {value!r} (not 0)"
     if sign[section.solve] < 0:
-        what = "the sign of the solved momentum" if section.solve in system.momenta else "the root of the solved position"
+        momentum = section.solve in system.momenta
+        what = "the sign of the solved momentum" if momentum else "the root of the solved position"
         return None, f"it negates {section.solve}, so it does not keep {what}"
     mirrored = []
     for name, values in zip(section.axes, section.axis_values()):
