@@ -217,7 +217,7 @@ def ld_grid_dataset(
     With a ``mirror`` (a reversing symmetry of the section, :func:`ldpipe.ld_symmetry.map_mirror`)
     only the forward direction is integrated, and every backward field is the forward one at the
     image pixel (attributes ``reversing_symmetry``, ``backward_fields``), where the grid's states
-    are exactly mirrored (:meth:`~ldpipe.ld_symmetry.MapMirror.maps_grid`); elsewhere the map is
+    are mirrored to its tolerance (:meth:`~ldpipe.ld_symmetry.MapMirror.maps_grid`); elsewhere the map is
     integrated both ways, with a warning. Not with ``flow_map``, without the ``descriptor``, or for
     a system with stop flags; a mirror that negates the first axis needs the whole of it (``rows``).
 
@@ -278,17 +278,20 @@ def ld_grid_dataset(
     return dataset
 
 
-def mirror_attributes(mirror: MapMirror) -> dict[str, str]:
-    """What a map file records of a mirror that gave its backward fields."""
+def mirror_attributes(mirror: MapMirror) -> dict[str, str | float]:
+    """What a map file records of a mirror that gave its backward fields: the symmetry, and the
+    largest |values[j] + values[N-1-j]| accepted on the mirrored axis and found there."""
     return {"reversing_symmetry": mirror.description,
             "backward_fields": "the forward fields at the image pixel under the reversing symmetry "
-                               "(phi_-t(z) = S phi_t(S z)); not integrated"}
+                               "(phi_-t(z) = S phi_t(S z)); not integrated",
+            "reversing_symmetry_tolerance": mirror.tolerance,
+            "reversing_symmetry_mismatch": mirror.mismatch}
 
 
 def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.ndarray, rows: slice, all_rows: int,
                     keeps_flow_map: bool) -> MapMirror | None:
-    """``mirror`` if it gives this band's backward fields exactly, None (integrate both ways) if the
-    grid's states are not mirrored bit for bit; ValueError where it does not apply at all."""
+    """``mirror`` if it gives this band's backward fields, None (integrate both ways) if the grid's
+    states are not mirrored to its tolerance; ValueError where it does not apply at all."""
     if keeps_flow_map or hasattr(system, "stop_flags"):
         raise ValueError("mirror: only an LD map's own fields are mirrored; a map that keeps its flow map, "
                          "or of a system with stop flags, integrates both ways")
@@ -299,8 +302,8 @@ def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.n
     grid[allowed] = states
     if mirror.maps_grid(grid, allowed):
         return mirror
-    log.warning("%s does not map this grid's states onto each other exactly (the solved coordinate's "
-                "rounding); integrating backward", mirror.description)
+    log.warning("%s does not map this grid's states onto each other to %.3g (the solved coordinate's "
+                "rounding or root); integrating backward", mirror.description, mirror.tolerance)
     return None
 
 

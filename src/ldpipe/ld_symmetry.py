@@ -28,8 +28,9 @@ S maps a section onto itself when every fixed coordinate it negates is 0, the so
 coordinate keeps its value's rule (a solved momentum p_k is unchanged by S, s_k = -1, so its
 sign, that of dq_k/dt, is kept; a solved position q_k is unchanged, s_k = +1, so its root
 rule picks the same root), and each axis is left alone or negated; a negated axis must be a
-grid that is mirror-symmetric in floating point (``values[::-1] == -values``, bit for bit),
-so that the mirrored pixel is the image S z0 itself and not a point near it. The pixel
+grid that is mirror-symmetric to rounding: |values[j] + values[N-1-j]| <= tolerance for every j,
+so that the mirrored pixel is the image S z0 up to a start error far below the integration's
+(:func:`mirror_tolerance`). The pixel
 (a, b) then maps to (a or -a, b or -b), and the backward fields are the forward fields
 flipped along the negated axes. The Barbanis potential, even in y, has S(x, y, px, py) =
 (x, -y, -px, py), which maps U_xpx (y = 0, p_y > 0 solved) onto itself, px -> -px.
@@ -37,6 +38,19 @@ flipped along the negated axes. The Barbanis potential, even in y, has S(x, y, p
 Only fixed-time maps are mirrored (a variable-time map's region box would have to be
 S-invariant too), and only along the second axis: tiles are bands of the first axis, and a
 tile mirrored along it would need another tile's forward fields.
+
+The tolerance: ``np.linspace(-a, a, N)`` rounds each value on its own (start + j step), so a
+value and its mirror image miss each other by up to ~2 eps a (measured: at most 1.95 eps a over
+N <= 5000 and a from 1e-3 to 100; 1.33 eps a, 2 ulp, for Fig. 3's N = 1500; eps the machine
+epsilon). The default, :data:`TOLERANCE_EPS` = 4 eps times max|values|, takes every such grid
+with a factor 2 to spare and nothing coarser: a grid off by 1e-9 is integrated both ways. A
+start that far from the image (5e-15 on Fig. 3's axis) is eight orders of magnitude below the
+error the integration itself makes (rtol 1e-7 per step on these maps); where the flow is
+chaotic both differences grow alike, so the mirrored LD differs from the integrated one no more
+than a rerun at a slightly different tolerance would (benchmarks/ld_symmetry.md). The solved
+coordinate c inherits the axes' mismatch scaled by its conditioning: on the energy surface
+c dc = p_a dp_a for a solved momentum, so |dc| <= tolerance (1 + max|values| / |c|) is allowed
+there (near the energy boundary, c -> 0, the solved p_y of Fig. 3 misses its image by up to 7e-13).
 """
 
 from __future__ import annotations
@@ -51,6 +65,19 @@ import sympy
 #: The LD map key that turns mirroring on (``true``: required), off (``false``) or leaves it to detection.
 SETTING_KEY = "backward_by_symmetry"
 AUTO = "auto"
+#: The default tolerance of a mirrored axis, in units of machine epsilon times max|values| (module docstring).
+TOLERANCE_EPS = 4.0
+
+
+def mirror_tolerance(values: np.ndarray) -> float:
+    """The default largest |values[j] + values[N-1-j]| a mirrored axis may have: :data:`TOLERANCE_EPS`
+    machine epsilons of its largest |value| (the rounding of a linspace; module docstring)."""
+    return TOLERANCE_EPS * float(np.finfo(np.float64).eps) * float(np.max(np.abs(values)))
+
+
+def mirror_mismatch(values: np.ndarray) -> float:
+    """The largest |values[j] + values[N-1-j]|: how far the grid misses its own mirror image."""
+    return float(np.max(np.abs(values[::-1] + values)))
 
 
 @dataclass(frozen=True)
@@ -77,18 +104,33 @@ class MapMirror:
     symmetry: ReversingSymmetry
     mirrored: tuple[bool, bool]
     description: str
+    #: The largest |values[j] + values[N-1-j]| accepted on the negated axis, and the largest found.
+    tolerance: float = 0.0
+    mismatch: float = 0.0
+    #: Where the solved coordinate sits in a state, and the largest |value| of the negated axis
+    #: (the scale of its conditioning, module docstring); None where nothing is solved.
+    solved: int | None = None
+    scale: float = 0.0
 
     def mirror(self, field: np.ndarray) -> np.ndarray:
         """``field`` (on the grid, axes first) at the image pixel of each pixel: flipped along the negated axes."""
         return field[tuple(slice(None, None, -1) if m else slice(None) for m in self.mirrored)]
 
     def maps_grid(self, states: np.ndarray, allowed: np.ndarray) -> bool:
-        """Whether the image pixel of every pixel holds S of its state, exactly (values; -0 = 0):
-        ``states`` (shape (rows, columns, 2 n_dof)) on the grid, ``allowed`` its mask. The
-        detection's conditions make it so; this checks the solved coordinate's rounding too."""
+        """Whether the image pixel of every pixel holds S of its state to :attr:`tolerance`:
+        ``states`` (shape (rows, columns, 2 n_dof)) on the grid, ``allowed`` its mask. Every
+        coordinate within the tolerance, the solved one within tolerance (1 + scale / |c|) (its
+        conditioning, module docstring). The detection checks the axes; this checks the solved
+        coordinate's rounding and root too."""
         if not np.array_equal(self.mirror(allowed), allowed):
             return False
-        return bool(np.array_equal(self.mirror(states)[allowed], states[allowed] * self.symmetry.phase_signs()))
+        own = states[allowed]
+        difference = np.abs(self.mirror(states)[allowed] - own * self.symmetry.phase_signs())
+        bound = np.full(own.shape, self.tolerance)
+        if self.solved is not None:
+            with np.errstate(divide="ignore"):
+                bound[:, self.solved] *= 1.0 + self.scale / np.abs(own[:, self.solved])
+        return bool(np.all(difference <= bound))
 
 
 def _kinetic_invariant(system, signs: tuple[int, ...]) -> bool:
@@ -125,9 +167,11 @@ def reversing_symmetries(system) -> list[ReversingSymmetry]:
     return [ReversingSymmetry(s) for s in signs if _kinetic_invariant(system, s)]
 
 
-def section_mirror(system, section, symmetry: ReversingSymmetry) -> tuple[tuple[bool, bool] | None, str]:
+def section_mirror(system, section, symmetry: ReversingSymmetry,
+                   tolerance: float | None = None) -> tuple[tuple[bool, bool] | None, str]:
     """``(mirrored, reason)``: which axes S negates if it maps ``section``'s grid onto itself
-    exactly (see the module docstring), else None and why not."""
+    (see the module docstring), else None and why not. A negated axis must miss its mirror image
+    by at most ``tolerance`` (None: :func:`mirror_tolerance` of its values)."""
     sign = dict(zip(system.phase_coordinates, symmetry.phase_signs()))
     for name, value in section.fixed.items():
         if sign[name] < 0 and value != 0.0:
@@ -138,29 +182,36 @@ def section_mirror(system, section, symmetry: ReversingSymmetry) -> tuple[tuple[
         return None, f"it negates {section.solve}, so it does not keep {what}"
     mirrored = []
     for name, values in zip(section.axes, section.axis_values()):
-        if sign[name] < 0 and not np.array_equal(values[::-1], -values):
-            return None, (f"it negates the axis {name}, whose grid is not mirror-symmetric bit for bit "
-                          f"(largest |v[::-1] + v| = {np.max(np.abs(values[::-1] + values)):.3g})")
+        allowed = mirror_tolerance(values) if tolerance is None else tolerance
+        if sign[name] < 0 and not mirror_mismatch(values) <= allowed:
+            return None, (f"it negates the axis {name}, whose grid is not mirror-symmetric (largest "
+                          f"|v[::-1] + v| = {mirror_mismatch(values):.3g}, tolerance {allowed:.3g})")
         mirrored.append(bool(sign[name] < 0))
     return (mirrored[0], mirrored[1]), ""
 
 
-def map_mirror(system, section) -> tuple[MapMirror | None, str]:
+def map_mirror(system, section, tolerance: float | None = None) -> tuple[MapMirror | None, str]:
     """``(mirror, reason)``: the first reversing symmetry of ``system`` (:func:`reversing_symmetries`)
     that maps ``section`` onto itself, or None and why none does. One that negates the first axis
     is not taken: tiles split a map along it, and a tile would need another tile's rows (a map's
-    file does not depend on its tiles)."""
+    file does not depend on its tiles). ``tolerance``: the largest |values[j] + values[N-1-j]|
+    accepted on the mirrored axis (None: :func:`mirror_tolerance`, a few ulp of its scale)."""
     symmetries = reversing_symmetries(system)
     if not symmetries:
         return None, f"system {system.name!r} has no sign-flip reversing symmetry that can be proved (no formula?)"
     reasons = []
     for symmetry in symmetries:
-        mirrored, reason = section_mirror(system, section, symmetry)
+        mirrored, reason = section_mirror(system, section, symmetry, tolerance)
         description = symmetry.describe(system.phase_coordinates)
         if mirrored is not None and mirrored[0]:
             mirrored, reason = None, (f"it negates the first axis {section.axes[0]}, along which tiles split the map "
                                       "(give that axis second)")
         if mirrored is not None:
-            return MapMirror(symmetry, mirrored, description), ""
+            values = section.axis_values()[1]
+            solved = system.phase_coordinates.index(section.solve) if section.solve else None
+            return MapMirror(symmetry, mirrored, description,
+                             tolerance=mirror_tolerance(values) if tolerance is None else tolerance,
+                             mismatch=mirror_mismatch(values) if mirrored[1] else 0.0, solved=solved,
+                             scale=float(np.max(np.abs(values)))), ""
         reasons.append(f"{description}: {reason}")
     return None, "no reversing symmetry maps the section's grid onto itself: " + "; ".join(reasons)

@@ -14,7 +14,7 @@ from ldpipe.critical_points import equilibria_dataset
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe.ld_grid import ld_grid_dataset
-from ldpipe.ld_symmetry import ReversingSymmetry, map_mirror, reversing_symmetries
+from ldpipe.ld_symmetry import ReversingSymmetry, map_mirror, mirror_mismatch, reversing_symmetries
 from ldpipe.sections import Section
 from ldpipe.stages.ld import compute_ld_map, note_mirrored_tiles, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
@@ -24,7 +24,8 @@ from support.henon_heiles import HENON_HEILES
 
 BOX = {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}
 #: Fig. 3's section U_xpx (y = 0, p_y > 0 solved) on a small grid: 40 x values, and 49 p_x values
-#: whose linspace is mirror-symmetric bit for bit (step 0.25, exact); 40 p_x values are not.
+#: whose linspace is mirror-symmetric bit for bit (step 0.25, exact); 40 p_x values miss their
+#: images by 2 ulp (1.8e-15, as Fig. 3's 1500), within the default tolerance.
 FIG3_AXES = ({"name": "x", "range": [-6.0, 6.0], "points": 40}, {"name": "px", "range": [-6.0, 6.0], "points": 49})
 #: Relative difference allowed between the mirrored and the directly integrated backward LD (and
 #: energy error). The forward integration of S z is, operation for operation, the backward
@@ -33,10 +34,16 @@ FIG3_AXES = ({"name": "x", "range": [-6.0, 6.0], "points": 40}, {"name": "px", "
 #: 0 on this grid, and 1 ulp (2.2e-16 relative) at 9 of 514,750 pixels of a Fig. 3 tile at tau 50
 #: (benchmarks/ld_symmetry.md). About 4 ulp:
 LD_RTOL = 1e-15
+#: The default tolerance of a mirrored axis on [-6, 6]: 4 machine epsilons of its scale 6
+#: (closed form, ldpipe.ld_symmetry's docstring).
+TOLERANCE = 4 * np.finfo(float).eps * 6.0
+#: A p_x grid that misses its mirror image by 1e-9 (its sum v[::-1] + v is -1e-9: negative, so a
+#: comparison without abs would take it), far beyond the tolerance.
+SKEWED = (-6.0 - 1e-9, 6.0)
 
 
-def fig3_section(points=49, y=0.0):
-    return Section(axes=("x", "px"), ranges=((-6.0, 6.0), (-6.0, 6.0)), shape=(40, points), fixed={"y": y},
+def fig3_section(points=49, y=0.0, px=(-6.0, 6.0)):
+    return Section(axes=("x", "px"), ranges=((-6.0, 6.0), px), shape=(40, points), fixed={"y": y},
                    solve="py", sign=1)
 
 
@@ -68,8 +75,8 @@ def test_henon_heiles_symmetries_and_masses():
 
 
 def test_sections_the_symmetry_does_not_map_onto_themselves(barbanis):
-    # y = 0.5 is not mapped onto itself by y -> -y; 40 p_x values are not mirrored bit for bit.
-    for section, words in ((fig3_section(y=0.5), "fixed at 0.5"), (fig3_section(points=40), "not mirror-symmetric")):
+    # y = 0.5 is not mapped onto itself by y -> -y; a p_x grid 1e-9 off its image is not mirror-symmetric.
+    for section, words in ((fig3_section(y=0.5), "fixed at 0.5"), (fig3_section(px=SKEWED), "not mirror-symmetric")):
         mirror, reason = map_mirror(barbanis, section)
         assert mirror is None and words in reason, reason
     # A mirror along the first axis (tiles split it) is not taken.
@@ -88,6 +95,9 @@ def test_mirrored_backward_equals_the_integrated_backward(barbanis):
     direct = ld_grid_dataset(barbanis, section, E_C, settings)
     mirrored = ld_grid_dataset(barbanis, section, E_C, settings, mirror=mirror)
     assert mirrored.attrs["reversing_symmetry"] == "(x, y, px, py) -> (x, -y, -px, py)"
+    # the tolerance used (closed form) and the mismatch found: 0, a step of 0.25 is exact
+    assert mirrored.attrs["reversing_symmetry_tolerance"] == TOLERANCE
+    assert mirrored.attrs["reversing_symmetry_mismatch"] == 0.0
     assert "reversing_symmetry" not in direct.attrs
     allowed = direct.allowed.values
     assert 0 < allowed.sum() < allowed.size
@@ -100,6 +110,32 @@ def test_mirrored_backward_equals_the_integrated_backward(barbanis):
                                       err_msg=name)
     # |H(end) - H(start)| of both directions: the same, since H(S z) = H(z) and the integrations agree
     np.testing.assert_allclose(mirrored.energy_error.values, direct.energy_error.values, rtol=LD_RTOL, atol=0)
+
+
+def test_a_grid_a_few_ulp_off_its_image_is_mirrored_and_agrees_with_integration(barbanis):
+    """linspace(-6, 6, 40) misses its mirror images by 2 ulp, like Fig. 3's 1500 points: mirrored,
+    and its backward fields agree with the direct backward integration (the independent
+    computation) far within what the integration achieves; a grid 1e-9 off is integrated both ways."""
+    values = np.linspace(-6.0, 6.0, 40)
+    assert 0 < mirror_mismatch(values) == np.max(np.abs(values[::-1] + values)) < TOLERANCE
+    section = fig3_section(points=40)
+    mirror, reason = map_mirror(barbanis, section)
+    assert reason == "" and mirror.tolerance == TOLERANCE
+    settings = LDSettings(tau=5.0)
+    direct = ld_grid_dataset(barbanis, section, E_C, settings)
+    mirrored = ld_grid_dataset(barbanis, section, E_C, settings, mirror=mirror)
+    assert mirrored.attrs["reversing_symmetry_mismatch"] == mirror_mismatch(values)
+    assert mirrored.attrs["reversing_symmetry_tolerance"] == TOLERANCE
+    # Starts 2 ulp apart: measured 3.5e-14 relative on the LD, 5.2e-14 on |H(end) - H(start)|; the
+    # integration's own error is 6.3e-7 relative (rtol 1e-8 against 1e-10) and energy errors reach 1.5e-7.
+    np.testing.assert_allclose(mirrored.ld_backward.values, direct.ld_backward.values, rtol=2e-13, atol=0)
+    np.testing.assert_allclose(mirrored.energy_error.values, direct.energy_error.values, rtol=0, atol=3e-13)
+    for name in ("exit_time", "escaped", "failed", "steps"):  # measured equal
+        np.testing.assert_array_equal(mirrored[f"{name}_backward"].values, direct[f"{name}_backward"].values,
+                                      err_msg=name)
+    # 1e-9 off: no mirror, unless a tolerance that large is asked for
+    assert map_mirror(barbanis, fig3_section(points=40, px=SKEWED))[0] is None
+    assert map_mirror(barbanis, fig3_section(points=40, px=SKEWED), tolerance=2e-9)[0].tolerance == 2e-9
 
 
 def fig3_config(**entries):
@@ -147,9 +183,10 @@ def test_a_variable_time_map_is_not_mirrored(equilibria):
         compute_ld_map(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
 
 
-def test_grid_states_one_ulp_off_their_image_are_not_mirrored(barbanis):
-    # The mirror is used only where the image pixel holds S of the state exactly (the solved
-    # coordinate's rounding included): one p_y moved by 1 ulp refuses it; -0 and 0 count as equal.
+def test_grid_states_off_their_image_beyond_the_tolerance_are_not_mirrored(barbanis):
+    # The mirror is used only where the image pixel holds S of the state to the tolerance (the
+    # solved coordinate's rounding included): one p_y moved by 1 ulp keeps it, by 1e-9 refuses it;
+    # -0 and 0 count as equal.
     section = fig3_section()
     mirror, _ = map_mirror(barbanis, section)
     x, px = np.meshgrid(*section.axis_values(), indexing="ij")
@@ -158,7 +195,14 @@ def test_grid_states_one_ulp_off_their_image_are_not_mirrored(barbanis):
     states = np.stack([x, np.zeros_like(x), px, py], axis=-1)
     assert mirror.maps_grid(states, allowed)
     i, j = np.argwhere(allowed)[0]
-    states[i, j, 3] = np.nextafter(states[i, j, 3], np.inf)
+    exact = states[i, j, 3]
+    states[i, j, 3] = np.nextafter(exact, np.inf)
+    assert mirror.maps_grid(states, allowed)
+    for moved in (exact + 1e-9, exact - 1e-9):  # either way: |difference| against the tolerance
+        states[i, j, 3] = moved
+        assert not mirror.maps_grid(states, allowed)
+    states[i, j, 3] = exact
+    states[i, j, 2] -= 1e-12  # an axis coordinate: the tolerance itself (5.3e-15), not the solved one's
     assert not mirror.maps_grid(states, allowed)
 
 
