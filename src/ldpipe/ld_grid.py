@@ -22,6 +22,7 @@ from .errors import ConfigError
 from . import flow
 from .flow import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
+from .ld_symmetry import MapMirror
 from .logs import get_logger, progress_output
 from .sections import Section, section_states
 from .systems import System, make_system
@@ -209,8 +210,16 @@ def ld_grid_dataset(
     t0: float = 0.0,
     flow_map: bool = False,
     descriptor: bool = True,
+    mirror: MapMirror | None = None,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
+
+    With a ``mirror`` (a reversing symmetry of the section, :func:`ldpipe.ld_symmetry.map_mirror`)
+    only the forward direction is integrated, and every backward field is the forward one at the
+    image pixel (attributes ``reversing_symmetry``, ``backward_fields``), where the grid's states
+    are mirrored to its tolerance (:meth:`~ldpipe.ld_symmetry.MapMirror.maps_grid`); elsewhere the map is
+    integrated both ways, with a warning. Not with ``flow_map``, without the ``descriptor``, or for
+    a system with stop flags; a mirror that negates the first axis needs the whole of it (``rows``).
 
     For a vector-field system (no energy: ``energy`` None) every grid point is integrated from
     the start time ``t0``, and the file has no energy error and no solved coordinate. With
@@ -222,13 +231,17 @@ def ld_grid_dataset(
     rows = rows if rows is not None else slice(0, section.shape[0])
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
+    if mirror is not None:
+        mirror = _checked_mirror(system, mirror, states, allowed, rows, section.shape[0],
+                                 flow_map or not descriptor)
+    directions = ((1, "forward"),) if mirror is not None else ((1, "forward"), (-1, "backward"))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
     stream, interval = progress_output(log)
-    progress = tqdm(total=2 * len(states), unit="traj", desc="LD", disable=not show_progress, file=stream,
-                    mininterval=interval, ascii=stream is not sys.stderr)
+    progress = tqdm(total=len(directions) * len(states), unit="traj", desc="LD", disable=not show_progress,
+                    file=stream, mininterval=interval, ascii=stream is not sys.stderr)
     with progress:
-        for direction, label in ((1, "forward"), (-1, "backward")):
+        for direction, label in directions:
             result = integrate_points(system, states, direction, settings, progress, t0, descriptor)
             if descriptor:
                 results = {name: getattr(result, name) for name in MAP_FIELDS}
@@ -256,7 +269,42 @@ def ld_grid_dataset(
                 end = np.zeros(shape + (result.end_state.shape[1],))
                 end[allowed] = result.end_state
                 ends[label] = end
-    return ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+    if mirror is None:
+        return ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+    for name in [key for key in fields if key.endswith("_forward")]:
+        fields[name[: -len("forward")] + "backward"] = np.ascontiguousarray(mirror.mirror(fields[name]))
+    dataset = ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+    dataset.attrs.update(mirror_attributes(mirror))
+    return dataset
+
+
+def mirror_attributes(mirror: MapMirror) -> dict[str, str | float]:
+    """What a map file records of a mirror that gave its backward fields: the symmetry, and the
+    largest |values[j] + values[N-1-j]| accepted on the mirrored axis and found there."""
+    return {"reversing_symmetry": mirror.description,
+            "backward_fields": "the forward fields at the image pixel under the reversing symmetry "
+                               "(phi_-t(z) = S phi_t(S z)); not integrated",
+            "reversing_symmetry_tolerance": mirror.tolerance,
+            "reversing_symmetry_mismatch": mirror.mismatch}
+
+
+def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.ndarray, rows: slice, all_rows: int,
+                    keeps_flow_map: bool) -> MapMirror | None:
+    """``mirror`` if it gives this band's backward fields, None (integrate both ways) if the grid's
+    states are not mirrored to its tolerance; ValueError where it does not apply at all."""
+    if keeps_flow_map or hasattr(system, "stop_flags"):
+        raise ValueError("mirror: only an LD map's own fields are mirrored; a map that keeps its flow map, "
+                         "or of a system with stop flags, integrates both ways")
+    if mirror.mirrored[0] and (rows.start, rows.stop) != (0, all_rows):
+        raise ValueError(f"mirror: {mirror.description} negates the first axis, and rows {rows.start}:{rows.stop} "
+                         f"are a band of its {all_rows}")
+    grid = np.zeros(allowed.shape + states.shape[1:])
+    grid[allowed] = states
+    if mirror.maps_grid(grid, allowed):
+        return mirror
+    log.warning("%s does not map this grid's states onto each other to %.3g (the solved coordinate's "
+                "rounding or root); integrating backward", mirror.description, mirror.tolerance)
+    return None
 
 
 def ld_map_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,

@@ -22,9 +22,11 @@ from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute, is_arclength
 from ..critical_points import select_saddle
 from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
+from ..ld_symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 from ..ftle import VARIATIONAL
 from ..ld_grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
                        start_time_band, tile_rows)
+from ..errors import ConfigError
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
 from .parameters import parameters_from_config
@@ -147,7 +149,8 @@ def compute_ld_map(
                                       show_progress=show_progress, t0=info["t0"])
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
-                                  t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True))
+                                  t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
+                                  mirror=backward_mirror(parameters, system, section))
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
@@ -159,6 +162,29 @@ def compute_ld_map(
     add_ld_units(dataset, system, settings.p)
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
+
+
+def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
+    """The reversing symmetry whose mirror gives the map's backward fields
+    (:mod:`ldpipe.ld_symmetry`), as its ``backward_by_symmetry`` key asks: ``auto`` (left out)
+    where one is found, ``true`` required (ConfigError naming the key if none), ``false`` never."""
+    setting = parameters.get(SETTING_KEY, AUTO)
+    if setting is False:
+        return None
+    if parameters["time"] != "fixed":
+        mirror, reason = None, "the map is variable-time (only fixed-time maps are mirrored)"
+    elif parameters.get("refine") is not None or parameters.get("ftle", False) or not parameters.get("ld", True):
+        mirror, reason = None, "the map is adaptive or keeps its flow map (only a full LD map's fields are mirrored)"
+    elif not getattr(system, "hamiltonian", True):
+        mirror, reason = None, f"system {system.name!r} is a vector field (no Hamiltonian's reversing symmetry)"
+    else:
+        mirror, reason = map_mirror(system, section)
+    if mirror is None and setting is True:
+        raise ConfigError(f"config key 'ld_maps.{parameters['map_name']}.{SETTING_KEY}': true, but {reason}; "
+                          f"give {SETTING_KEY}: auto or false to integrate backward")
+    if mirror is not None:
+        log.info("map %s: backward fields by the reversing symmetry %s", parameters["map_name"], mirror.description)
+    return mirror
 
 
 def add_ld_units(dataset: xr.Dataset, system, p) -> None:
@@ -240,6 +266,19 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
     return joined
 
 
+def note_mirrored_tiles(joined: xr.Dataset, datasets: list[xr.Dataset]) -> None:
+    """The gathered map's record of mirrored backward fields (:func:`ldpipe.ld_grid.mirror_attributes`)
+    when only some tiles were mirrored (a tile whose grid states were not exactly mirrored integrates
+    backward)."""
+    mirrored = [i for i, d in enumerate(datasets) if "backward_fields" in d.attrs]
+    if not mirrored or len(mirrored) == len(datasets):
+        return
+    first = datasets[mirrored[0]].attrs
+    joined.attrs["reversing_symmetry"] = first["reversing_symmetry"]
+    joined.attrs["backward_fields"] = (f"tiles {mirrored} of {len(datasets)} (from 0): {first['backward_fields']}; "
+                                       "the other tiles integrated backward")
+
+
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tiles of one map into the map's file."""
     datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
@@ -264,6 +303,7 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
                            dim="t0", data_vars="all", coords="minimal", compat="identical", join="exact")
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(tiles)
+    note_mirrored_tiles(joined, datasets)
     for name in ("refine_trajectories", "refine_trajectories_forward", "refine_trajectories_backward"):
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
