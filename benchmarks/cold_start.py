@@ -12,10 +12,12 @@ temporary folder, so nothing already compiled on this machine is reused):
 
 ``LDPIPE_COMPILE_LOG`` (:mod:`ldpipe.jitcache`) makes every process append one line per engine
 or kernel module it loads and per function numba compiles (a cache miss), with the compile's
-wall and CPU seconds and the Snakemake rule or pytest test that asked. The report gives, per
-Snakemake job (its benchmark file: wall ``s`` and ``cpu_time``) and per test file (pytest's
-JUnit times), the modules compiled and their compile time, and the functions that more than one
-process compiled (two workers or jobs that needed one before either had cached it); the run's wall and CPU seconds
+wall and CPU seconds and the Snakemake rule or pytest test that asked, and one per wait for
+another process's compile of a module (its lock). The report gives, per Snakemake job (its
+benchmark file: wall ``s`` and ``cpu_time``) and per test file (pytest's JUnit times), the
+modules compiled and their compile time, the waits and their seconds, and the functions that
+more than one process compiled (two workers or jobs that needed one before either had cached it,
+which the lock prevents unless the file system refuses it); the run's wall and CPU seconds
 (``getrusage`` of the children) and the load average before and after, since a shared machine
 slows every compile. ``--rerun`` runs the workflow a second time, forced, on the warm cache.
 
@@ -79,9 +81,14 @@ def read_log(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
+def new_entry() -> dict:
+    return {"modules": set(), "loaded": set(), "wall_s": 0.0, "cpu_s": 0.0, "waits": 0, "waited_s": 0.0}
+
+
 def compiles_by(records: list[dict], key) -> dict:
-    """Per ``key(record)``: modules compiled (set), compile wall and CPU seconds."""
-    found = collections.defaultdict(lambda: {"modules": set(), "loaded": set(), "wall_s": 0.0, "cpu_s": 0.0})
+    """Per ``key(record)``: modules loaded and compiled (sets), compile wall and CPU seconds, the
+    waits for another process's compile and their wall seconds."""
+    found = collections.defaultdict(new_entry)
     for record in records:
         if record["event"] == "load":
             found[key(record)]["loaded"].add(record["module"])
@@ -90,6 +97,10 @@ def compiles_by(records: list[dict], key) -> dict:
             entry["modules"].add(record["module"])
             entry["wall_s"] += record["wall_s"]
             entry["cpu_s"] += record["cpu_s"]
+        if record["event"] == "wait":
+            entry = found[key(record)]
+            entry["waits"] += 1
+            entry["waited_s"] += record["wall_s"]
     return found
 
 
@@ -141,17 +152,25 @@ def workflow_section(folder: Path, run: dict, records: list[dict], title: str) -
              f"CPU {run['cpu_s']:.0f} s ({run['cpu_s'] / max(run['wall_s'], 1e-9):.2f} cores busy on average); "
              f"load average before {run['load_before']}, after {run['load_after']}; "
              f"{counts(loaded, modules)}, {sum(j['cpu_s'] for j in jobs.values()):.0f} CPU s of compiling; "
-             f"{repeated_compiles(records)}.", "",
-             "| job | wall s | CPU s | modules loaded | compiled | compile wall s | compile CPU s |",
-             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+             f"{waits(records)}; {repeated_compiles(records)}.", "",
+             "| job | wall s | CPU s | modules loaded | compiled | compile wall s | compile CPU s | waits | waited s |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     names = sorted(set(benchmarks) | set(jobs), key=lambda n: -benchmarks.get(n, {"wall_s": 0})["wall_s"])
     for name in names:
         bench = benchmarks.get(name, {"wall_s": float("nan"), "cpu_s": float("nan")})
-        job = jobs.get(name, {"modules": (), "loaded": (), "wall_s": 0.0, "cpu_s": 0.0})
+        job = jobs.get(name, new_entry())
         lines.append(f"| {name} | {bench['wall_s']:.1f} | {bench['cpu_s']:.1f} | {len(job['loaded'])} | {len(job['modules'])} "
-                     f"| {job['wall_s']:.1f} | {job['cpu_s']:.1f} |")
+                     f"| {job['wall_s']:.1f} | {job['cpu_s']:.1f} | {job['waits']} | {job['waited_s']:.1f} |")
     lines += ["", *module_table(records, test_file), ""]
     return lines
+
+
+def waits(records: list[dict]) -> str:
+    """The waits for another process's compile of a module: how many, of how many modules, their wall seconds."""
+    found = [record for record in records if record["event"] == "wait"]
+    modules = {record["module"] for record in found}
+    return (f"{len(found)} waits for another process's compile ({len(modules)} modules), "
+            f"{sum(record['wall_s'] for record in found):.0f} s waited")
 
 
 def repeated_compiles(records: list[dict]) -> str:
@@ -168,19 +187,21 @@ def repeated_compiles(records: list[dict]) -> str:
 
 
 def module_table(records: list[dict], who) -> list[str]:
-    """Every module loaded: its compile time here (0 if numba's cache held it), and who used it (``who(record)``)."""
+    """Every module loaded: its compile time here (0 if numba's cache held it), the seconds others
+    waited for its compile, and who used it (``who(record)``)."""
     compiled = compiles_by(records, lambda r: r["module"])
     users = collections.defaultdict(set)
     for record in records:
         if record["event"] == "load":
             users[record["module"]].add(who(record))
-    lines = ["| module | compile wall s | compile CPU s | loaded by |", "| --- | ---: | ---: | --- |"]
+    lines = ["| module | compile wall s | compile CPU s | waited s | loaded by |", "| --- | ---: | ---: | ---: | --- |"]
     order = sorted(users, key=lambda m: (-compiled[m]["cpu_s"] if m in compiled else 0.0, m))
     for module in order:
-        entry = compiled.get(module, {"wall_s": 0.0, "cpu_s": 0.0})
+        entry = compiled.get(module, new_entry())
         names = sorted(users[module])
         shown = ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
-        lines.append(f"| {short(module)} | {entry['wall_s']:.1f} | {entry['cpu_s']:.1f} | {shown} |")
+        lines.append(f"| {short(module)} | {entry['wall_s']:.1f} | {entry['cpu_s']:.1f} | {entry['waited_s']:.1f} "
+                     f"| {shown} |")
     return lines
 
 
@@ -220,15 +241,16 @@ def tests_section(run: dict, records: list[dict], junits: list[Path]) -> list[st
     lines = ["## Tests", "", f"`{run['command']}`: exit {run['returncode']}, wall {run['wall_s']:.0f} s, "
              f"CPU {run['cpu_s']:.0f} s; load average before {run['load_before']}, after {run['load_after']}; "
              f"{counts(loaded, modules)}, {sum(f['cpu_s'] for f in files.values()):.0f} CPU s of compiling; "
-             f"{repeated_compiles(records)}.", "",
-             "| test file | tests | wall s | modules loaded | engine modules loaded | compiled | compile wall s | compile CPU s |",
-             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+             f"{waits(records)}; {repeated_compiles(records)}.", "",
+             "| test file | tests | wall s | modules loaded | engine modules loaded | compiled | compile wall s "
+             "| compile CPU s | waits | waited s |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     names = sorted(set(times) | set(files), key=lambda n: -times.get(n, (0.0, 0))[0])
     for name in names:
         seconds, count = times.get(name, (float("nan"), 0))
-        entry = files.get(name, {"modules": (), "loaded": (), "wall_s": 0.0, "cpu_s": 0.0})
+        entry = files.get(name, new_entry())
         lines.append(f"| {name} | {count} | {seconds:.1f} | {len(entry['loaded'])} | {sum(map(is_engine, entry['loaded']))} | {len(entry['modules'])} | {entry['wall_s']:.1f} "
-                     f"| {entry['cpu_s']:.1f} |")
+                     f"| {entry['cpu_s']:.1f} | {entry['waits']} | {entry['waited_s']:.1f} |")
     lines += ["", *module_table(records, test_file), ""]
     return lines
 

@@ -5,16 +5,22 @@ a real source file (closures get a new cache entry in every process). ldpipe
 therefore writes the source it generates per system (kernels, engine) to a file
 named by the hash of its text, imports it, and lets ``@njit(cache=True)`` keep
 the machine code beside it. A second process, e.g. the next Snakemake tile job,
-then loads the compiled code instead of compiling it again.
+then loads the compiled code instead of compiling it again. Processes that need the
+same uncompiled module at once (two pytest-xdist workers, two tile jobs of one map, two
+notebooks) compile it once: one holds the module's lock while it compiles, the others wait,
+then load what it saved (:class:`CompileLock`).
 
 With ``$LDPIPE_COMPILE_LOG`` set to a file, every process appends one JSON line to it per
 generated module loaded and per function of one compiled (not found in numba's cache): the
 module, the wall and CPU seconds of the compile, and who asked (the pytest test, the Snakemake
-rule). ``benchmarks/cold_start.py`` counts compiles with it.
+rule); and one per wait for another process's compile of a module, with the seconds waited.
+``benchmarks/cold_start.py`` counts compiles and waits with it.
 """
 
 from __future__ import annotations
 
+import fcntl
+import functools
 import hashlib
 import importlib.util
 import json
@@ -25,16 +31,26 @@ import threading
 import time
 import types
 from pathlib import Path
-from typing import Callable
+from typing import Callable, ClassVar
 
 import numba
-from numba.core import event
+from numba.core import event, sigutils
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.dispatcher import Dispatcher
+
+from .logs import get_logger
+
+logger = get_logger(__name__)
 
 _LOCK = threading.Lock()
 # The module name of each (cache directory, hash of a source) loaded by this process.
 _NAMES: dict[tuple[Path, str], str] = {}
 GENERATED_PREFIX = "ldpipe_generated_"
 COMPILE_LOG_VARIABLE = "LDPIPE_COMPILE_LOG"
+# How long a process waits for another's compile of a module before compiling it itself: far
+# above the slowest module's compile (about 270 s on a loaded 2-core machine), so only a holder
+# that hangs (stopped, in a debugger) is ever given up on.
+LOCK_PATIENCE_S = 1800.0
 
 
 def cache_directory() -> Path:
@@ -65,10 +81,7 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
             return sys.modules[name]
         directory.mkdir(parents=True, exist_ok=True)
         path = directory / f"{name}.py"
-        if not path.is_file() or path.read_text() != source:
-            temporary = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-            temporary.write_text(source)
-            os.replace(temporary, path)
+        write_source(path, source)
         record_compile_event({"event": "load", "module": name})
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
@@ -78,7 +91,126 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
         except BaseException:
             del sys.modules[name]
             raise
+        lock = CompileLock(directory / f"{name}.lock", name)
+        for value in vars(module).values():
+            if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
+                value.compile = functools.partial(lock.compile, value, value.compile)
         return module
+
+
+def write_source(path: Path, source: str) -> None:
+    """Put ``source`` at ``path`` atomically, never replacing the same text another process put there.
+
+    numba's cache index is keyed by the source file's modification time: a file rewritten after
+    another process imported it would void that process's cache entries, and the module would
+    be compiled again. A new file is therefore linked into place (which fails if one is there);
+    only a file with other text (torn or edited by hand) is replaced.
+    """
+    if path.is_file() and path.read_text() == source:
+        return
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    temporary.write_text(source)
+    try:
+        if path.is_file():
+            os.replace(temporary, path)
+            return
+        try:
+            os.link(temporary, path)
+        except FileExistsError:  # another process's, linked just now: the same text (the name is its hash)
+            pass
+        except OSError:  # a file system without hard links
+            os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+class CompileLock:
+    """One process at a time compiles the functions of one generated module; the others wait, then load.
+
+    Each dispatcher of the module has its ``compile`` wrapped by :meth:`compile`. numba's
+    ``Dispatcher.compile`` looks in memory, then in its disk cache, then compiles and saves:
+    around the outermost call, in this order, the wrapper takes numba's global compiler lock
+    (re-entrant; it already keeps the threads of a process from compiling at once) and an
+    exclusive ``flock`` on ``path``, a file beside the module. A process that finds the lock
+    taken waits, and its own ``compile`` then finds what the holder saved in numba's cache. The
+    nested compiles of callees (the kernels and templates ``process`` calls) happen inside the
+    outermost one, under the lock already held.
+
+    Deadlock-free: a thread waits for a module's lock only while holding no other module's.
+    Generated modules call no function of another generated module (a module holds the
+    system's kernel source and every template it runs; what they import from ldpipe is numba
+    intrinsics, which are not dispatchers), so a compile never nests one of another module;
+    if one ever did, its lock is only tried, and the function compiled without it if taken.
+
+    The operating system releases an ``flock`` when its holder exits, crashed or not. A file
+    system without ``flock`` (some NFS and FUSE mounts), or a cache folder the process cannot
+    create files in, means compiling without waiting (a debug log line says so). A holder that
+    hangs is waited for :data:`LOCK_PATIENCE_S` at most. Each wait is a ``wait`` line of the
+    compile log: the module, the function, the seconds waited.
+    """
+
+    # The locks this process holds, outermost first (guarded by numba's global compiler lock).
+    held: ClassVar[list["CompileLock"]] = []
+
+    def __init__(self, path: Path, module: str):
+        self.path = path
+        self.module = module
+
+    def compile(self, dispatcher: Dispatcher, compile_function: Callable, signature):
+        """``compile_function(signature)`` (the dispatcher's own ``compile``) under this lock."""
+        with global_compiler_lock:
+            if self in CompileLock.held or tuple(sigutils.normalize_signature(signature)[0]) in dispatcher.overloads:
+                return compile_function(signature)  # a callee's compile inside ours, or compiled already
+            descriptor = self.acquire(dispatcher.py_func.__qualname__, patient=not CompileLock.held)
+            CompileLock.held.append(self)
+            try:
+                return compile_function(signature)
+            finally:
+                CompileLock.held.pop()
+                if descriptor is not None:
+                    os.close(descriptor)  # releases the flock
+
+    def acquire(self, function: str, patient: bool) -> int | None:
+        """A descriptor of the lock file, ``flock``-ed; None if there is no lock to be had (compile anyway)."""
+        try:
+            descriptor = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as error:
+            logger.debug("compiling %s.%s without a lock: cannot open %s (%s)", self.module, function, self.path, error)
+            return None
+        started = time.perf_counter()
+        pause = 0.0
+        try:
+            while True:
+                try:
+                    fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:  # another process holds it
+                    pass
+                except OSError as error:
+                    logger.debug("compiling %s.%s without a lock: the file system refuses flock on %s (%s)",
+                                 self.module, function, self.path, error)
+                    os.close(descriptor)
+                    return None
+                waited = time.perf_counter() - started
+                if not patient:
+                    logger.debug("compiling %s.%s while another process holds its lock (inside another module's "
+                                 "compile, where waiting could deadlock)", self.module, function)
+                    os.close(descriptor)
+                    return None
+                if waited > LOCK_PATIENCE_S:
+                    logger.warning("compiling %s.%s after waiting %.0f s for the process holding %s",
+                                   self.module, function, waited, self.path)
+                    os.close(descriptor)
+                    return None
+                pause = min(2 * pause or 0.01, 0.25)
+                time.sleep(pause)
+        except BaseException:
+            os.close(descriptor)
+            raise
+        if pause:
+            record_compile_event({"event": "wait", "module": self.module, "function": function,
+                                  "wall_s": time.perf_counter() - started})
+        return descriptor
 
 
 def njit_functions(source: str, names: tuple[str, ...], prefix: str) -> list[Callable]:

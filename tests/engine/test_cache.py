@@ -8,15 +8,21 @@ processes that loaded the code (the same program, strict IEEE arithmetic).
 """
 
 import builtins
+import collections
+import errno
 import json
+import logging
 import os
 import subprocess
 import sys
 import symtable
+import threading
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
+from ldpipe import jitcache
 from ldpipe.engine import SCHEMES
 from ldpipe.engine.codegen import engine_source
 
@@ -42,8 +48,8 @@ print(json.dumps({
 """
 
 
-def start_child(cache_dir):
-    env = {**os.environ, "LDPIPE_CACHE_DIR": str(cache_dir)}
+def start_child(cache_dir, log):
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(cache_dir), "LDPIPE_COMPILE_LOG": str(log)}
     return subprocess.Popen([sys.executable, "-c", CHILD], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -53,20 +59,29 @@ def finish(child):
     return json.loads(out.strip().splitlines()[-1])
 
 
+def read_log(path):
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
 @pytest.mark.slow
 def test_second_process_loads_the_compiled_engine(tmp_path):
-    # Two processes start on an empty cache at once (both may compile; the file and numba's
-    # cache entries are written atomically, so neither may fail or read a torn file); a third
-    # process afterwards must load everything from the cache.
-    racing = [start_child(tmp_path), start_child(tmp_path)]
+    # Two processes start on an empty cache at once: one compiles the engine, the other waits for
+    # its lock and loads what it saved (numba's cache statistics: misses in one, none in the
+    # other); every function is compiled once (the compile log). The file and numba's cache
+    # entries are written atomically, so neither may fail or read a torn file; a third process
+    # afterwards must load everything from the cache.
+    cache, log = tmp_path / "cache", tmp_path / "compiles.jsonl"
+    racing = [start_child(cache, log), start_child(cache, log)]
     first = [finish(child) for child in racing]
-    later = finish(start_child(tmp_path))
-    assert any(run["misses"] > 0 for run in first)  # the cache really started empty
+    later = finish(start_child(cache, log))
+    assert sorted(run["misses"] > 0 for run in first) == [False, True]  # the cache really started empty
     assert later["hits"] > 0 and later["misses"] == 0
+    compiled = collections.Counter((r["module"], r["function"]) for r in read_log(log) if r["event"] == "compile")
+    assert compiled and set(compiled.values()) == {1}
     # compiled here or loaded from disk, the same machine code gives the same bits
     assert first[0]["ld"] == first[1]["ld"] == later["ld"]
-    generated = list(tmp_path.glob("ldpipe_generated_engine_*.py"))
-    assert len(generated) == 1 and not list(tmp_path.glob(".*.tmp"))
+    generated = list(cache.glob("ldpipe_generated_engine_*.py"))
+    assert len(generated) == 1 and not list(cache.glob(".*.tmp"))
 
 
 @pytest.mark.parametrize(("scheme", "entry"), [*((s, "process") for s in SCHEMES), ("dop853", "flow_process")])
@@ -141,3 +156,120 @@ def test_the_same_source_under_another_name_reuses_the_compiled_module(tmp_path)
     assert [r["event"] for r in records] == ["load", "compile", "load"]
     assert records[0]["module"] == records[2]["module"] and "first_name" in records[2]["module"]
     assert len(list((tmp_path / "cache").glob("ldpipe_generated_*.py"))) == 1
+
+
+# Two of these start at once on an empty cache: each loads a one-function module, waits at a
+# barrier (a file per process in argv[1]) until both are there, then calls the function. A
+# listener makes numba's compile last 3 s, so two compiles started together would overlap.
+RACING_CHILD = """
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from numba.core import event
+
+from ldpipe.jitcache import njit_functions
+
+
+class SlowCompile(event.Listener):
+    def on_start(self, ev):
+        time.sleep(3.0)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", SlowCompile())
+(double,) = njit_functions("def double(x):\\n    return 2.0 * x\\n", ("double",), "compile_lock_check")
+barrier = Path(sys.argv[1])
+(barrier / str(os.getpid())).touch()
+while len(list(barrier.iterdir())) < 2:
+    time.sleep(0.01)
+value = double(1.5)
+stats = double.stats
+print(json.dumps({"pid": os.getpid(), "value": value, "hits": sum(stats.cache_hits.values()),
+                  "misses": sum(stats.cache_misses.values())}))
+"""
+
+
+def test_processes_needing_one_module_at_once_compile_it_once(tmp_path):
+    # Invariants of the lock and numba's cache: of two processes that need the same uncompiled
+    # function at the same moment, one compiles it (a miss in numba's statistics, the only
+    # compile line of the log) and the other waits for it (a wait line, most of the 3 s compile
+    # long) and then loads it from the disk cache (a hit, no miss).
+    barrier, log = tmp_path / "barrier", tmp_path / "compiles.jsonl"
+    barrier.mkdir()
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
+    racing = [subprocess.Popen([sys.executable, "-c", RACING_CHILD, str(barrier)], env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    runs = {run["pid"]: run for run in (finish(child) for child in racing)}
+    assert [run["value"] for run in runs.values()] == [3.0, 3.0]
+    records = read_log(log)
+    compiles = [r for r in records if r["event"] == "compile"]
+    assert [r["function"] for r in compiles] == ["double"]
+    compiler = compiles[0]["pid"]
+    (waiter,) = set(runs) - {compiler}
+    assert runs[compiler]["misses"] == 1
+    assert runs[waiter]["misses"] == 0 and runs[waiter]["hits"] == 1
+    (wait,) = [r for r in records if r["event"] == "wait"]
+    assert wait["pid"] == waiter and wait["function"] == "double" and wait["module"] == compiles[0]["module"]
+    assert wait["wall_s"] > 1.0
+
+
+def tiny_module(cache, tag):
+    """A one-function generated module in the cache folder ``cache``, its text unique to ``tag``
+    (a process keeps one module per text), not compiled yet."""
+    (double,) = jitcache.njit_functions(f"def double(x):  # {tag}\n    return 2.0 * x\n", ("double",), "lock_check")
+    assert Path(sys.modules[double.__module__].__file__).parent == cache
+    return double
+
+
+# Holds an flock on the file argv[1] until killed: a process compiling the module, then crashing.
+HOLDER = """
+import fcntl
+import os
+import sys
+import time
+
+descriptor = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT)
+fcntl.flock(descriptor, fcntl.LOCK_EX)
+print("held", flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_crashed_holder_releases_the_lock(tmp_path, monkeypatch):
+    # The operating system drops a dead process's flock: a process waiting for a holder that is
+    # killed (1 s after it took the lock) stops waiting and compiles the function itself (a miss).
+    cache, log = tmp_path / "cache", tmp_path / "compiles.jsonl"
+    monkeypatch.setenv("LDPIPE_CACHE_DIR", str(cache))
+    monkeypatch.setenv("LDPIPE_COMPILE_LOG", str(log))
+    double = tiny_module(cache, tmp_path.name)
+    lock = Path(sys.modules[double.__module__].__file__).with_suffix(".lock")  # the module's lock file, beside it
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(lock)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        threading.Timer(1.0, holder.kill).start()
+        assert double(1.5) == 3.0
+    finally:
+        holder.kill()
+        holder.communicate(timeout=60)
+    assert sum(double.stats.cache_misses.values()) == 1
+    (wait,) = [r for r in read_log(log) if r["event"] == "wait"]
+    assert wait["module"] == double.__module__ and wait["function"] == "double" and wait["wall_s"] > 0.5
+
+
+def test_without_flock_the_module_compiles_unlocked(tmp_path, monkeypatch, caplog):
+    # A file system refusing flock (NFS without a lock manager: ENOLCK) must not stop or hang a
+    # compile: the function is compiled without the lock, and a debug line says so.
+    def refuse(descriptor, operation):
+        raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+
+    monkeypatch.setenv("LDPIPE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(jitcache, "fcntl", SimpleNamespace(flock=refuse, LOCK_EX=1, LOCK_NB=2))
+    caplog.set_level(logging.DEBUG, logger=jitcache.__name__)
+    double = tiny_module(tmp_path, tmp_path.name)
+    assert double(1.5) == 3.0
+    assert "refuses flock" in caplog.text and double.__module__ in caplog.text
