@@ -152,7 +152,7 @@ def workflow_section(folder: Path, run: dict, records: list[dict], title: str) -
              f"CPU {run['cpu_s']:.0f} s ({run['cpu_s'] / max(run['wall_s'], 1e-9):.2f} cores busy on average); "
              f"load average before {run['load_before']}, after {run['load_after']}; "
              f"{counts(loaded, modules)}, {sum(j['cpu_s'] for j in jobs.values()):.0f} CPU s of compiling; "
-             f"{waits(records)}; {repeated_compiles(records)}.", "",
+             f"{waits(records)}; {repeated_compiles(records)}; {jobs_and_rest(run, benchmarks)}.", "",
              "| job | wall s | CPU s | modules loaded | compiled | compile wall s | compile CPU s | waits | waited s |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     names = sorted(set(benchmarks) | set(jobs), key=lambda n: -benchmarks.get(n, {"wall_s": 0})["wall_s"])
@@ -171,6 +171,14 @@ def waits(records: list[dict]) -> str:
     modules = {record["module"] for record in found}
     return (f"{len(found)} waits for another process's compile ({len(modules)} modules), "
             f"{sum(record['wall_s'] for record in found):.0f} s waited")
+
+
+def jobs_and_rest(run: dict, benchmarks: dict) -> str:
+    """The jobs' CPU seconds by their benchmark files, and the rest of the run's: Snakemake's main
+    process, and what the benchmarks miss (their last sample comes up to 0.5 s before a short
+    job's end, 30 s before a long one's, and never sees the interpreter's exit)."""
+    jobs = sum(b["cpu_s"] for b in benchmarks.values() if b["cpu_s"] == b["cpu_s"])
+    return f"{len(benchmarks)} jobs' benchmarks {jobs:.0f} CPU s, the rest {run['cpu_s'] - jobs:.0f}"
 
 
 def repeated_compiles(records: list[dict]) -> str:

@@ -1,8 +1,10 @@
 """Which library files each stage depends on: the rerun trigger for library edits."""
 
+import hashlib
+import os
 from pathlib import Path
 
-from ldpipe.io.provenance import library_sources
+from ldpipe.io.provenance import code_digest, library_sources
 
 
 def names(module):
@@ -49,3 +51,20 @@ def test_code_generation_templates_count_as_sources():
     ld = names("ldpipe.stages.ld")
     assert {"engine/templates/driver.py", "engine/templates/quadrature.py", "systems/kernels/barbanis_2dof.py"} <= ld
     assert "engine/templates/flow_driver.py" in names("ldpipe.stages.poincare")
+
+
+def test_code_digest_lists_every_source_and_changes_only_with_them(tmp_path):
+    # The workflow's one code input per rule: Snakemake reruns a stage when the file is newer than
+    # its outputs, so it must be rewritten when a source changes and left alone when none does.
+    module = "ldpipe.stages.upo"
+    path = code_digest(module, tmp_path)
+    # sha256sum's format, each hash recomputed here with hashlib: one line per source, in order.
+    expected = "".join(f"{hashlib.sha256(Path(source).read_bytes()).hexdigest()}  {name}\n"
+                       for source, name in zip(library_sources(module), sorted(names(module))))
+    assert path.read_text() == expected
+    os.utime(path, (1_000_000_000, 1_000_000_000))
+    assert code_digest(module, tmp_path).stat().st_mtime == 1_000_000_000  # nothing changed: not rewritten
+    path.write_text(expected.replace(expected[:64], "0" * 64, 1))  # as if a source had changed since
+    os.utime(path, (1_000_000_000, 1_000_000_000))
+    assert code_digest(module, tmp_path).read_text() == expected
+    assert path.stat().st_mtime > 1_000_000_000

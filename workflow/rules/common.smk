@@ -1,13 +1,12 @@
 # Helpers shared by the rules: configuration checks, targets, parameters, code dependencies.
 import math
-import os
 import re
 
 try:
     import ldpipe
     from ldpipe.config import validate_config
     from ldpipe.errors import ConfigError
-    from ldpipe.io.provenance import library_sources
+    from ldpipe.io.provenance import code_digest
     from ldpipe.stages.parameters import parameters_from_config
     from ldpipe.systems import has_equilibria, is_vector_field
 except ImportError as error:
@@ -52,9 +51,14 @@ wildcard_constraints:
     section=_one_of(POINCARE_SECTIONS),
 
 
+# Where each stage's code digest lives: beside Snakemake's own records, one file per module.
+CODE_DIGESTS = ".snakemake/ldpipe_code"
+
+
 def library_code(module):
-    """The ldpipe source files a stage imports, so editing them reruns the stage."""
-    return [os.path.relpath(path) for path in library_sources(module)]
+    """The digest of the ldpipe source files a stage imports, rewritten when one of them changes,
+    so that editing them reruns the stage (and only then)."""
+    return str(code_digest(module, CODE_DIGESTS))
 
 
 def all_targets():

@@ -1,9 +1,10 @@
 """Which library source files a stage depends on, so Snakemake can rerun it when they change.
 
 Snakemake sees a rule's own script change but not the modules it imports. Each
-rule therefore lists as input the source files of every ldpipe module its
+rule therefore depends on the source files of every ldpipe module its
 stage imports, directly or through other ldpipe modules, found by reading the
-import statements (nothing is imported or compiled to find them). Some packages hold
+import statements (nothing is imported or compiled to find them), through one
+input: their digest (:func:`code_digest`). Some packages hold
 source that is read as text and compiled, not imported (the engine's templates, the built-in
 systems' kernels): a stage that reaches such a package depends on every file in it.
 """
@@ -11,6 +12,8 @@ systems' kernels): a stage that reaches such a package depends on every file in 
 from __future__ import annotations
 
 import ast
+import hashlib
+import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -78,3 +81,24 @@ def library_sources(module: str) -> tuple[str, ...]:
         if name in TEXT_SOURCE_PACKAGES:
             pending.extend(f"{name}.{source.stem}" for source in path.parent.glob("*.py") if source.stem != "__init__")
     return tuple(sorted(str(path) for path in seen.values()))
+
+
+def code_digest(module: str, folder: str | os.PathLike) -> Path:
+    """A file in ``folder`` listing the SHA-256 of each of ``module``'s :func:`library_sources`,
+    rewritten only when that list changes.
+
+    A rule takes it as its one code input: its time is newer than a stage's outputs exactly when
+    a source the stage depends on changed. Snakemake checks every input of every ready job each
+    time it schedules, so one file per rule in place of dozens keeps that check cheap.
+    """
+    lines = []
+    for source in map(Path, library_sources(module)):
+        lines.append(f"{hashlib.sha256(source.read_bytes()).hexdigest()}  {source.relative_to(PACKAGE_ROOT).as_posix()}\n")
+    text = "".join(lines)
+    path = Path(folder) / f"{module}.sha256"
+    if not path.is_file() or path.read_text() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        temporary.write_text(text)
+        temporary.replace(path)  # atomic: a reader never sees half a list
+    return path
