@@ -221,7 +221,7 @@ def run_engine(runner: Runner, tau: float, args) -> list[str]:
         ("taylor", dict(scheme="taylor", rtol=1e-12, atol=1e-12), 0.5, "rtol 1e-12"),
     ] + [  # a ladder of one decade steps: the work–precision curve of the matched-error table
         ("taylor", dict(scheme="taylor", rtol=rtol, atol=rtol), "arclength", f"rtol {rtol:g}")
-        for rtol in (1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
+        for rtol in args.taylor_arclength_rtols
     ]
     for scheme, kw, p, label in configs:
         if not runner.wanted(f"{scheme} {'arclength' if p == 'arclength' else 'M_1/2'}"):
@@ -445,6 +445,9 @@ def main(argv=None):
     ap.add_argument("--px-range", type=float, nargs=2, default=[-5.6, 5.6])
     ap.add_argument("--flat-rtols", type=float, nargs="*", default=[1e-4, 1e-6, 1e-8])
     ap.add_argument("--heyoka-tols", type=float, nargs="*", default=[1e-10, 1e-8, 1e-6])
+    ap.add_argument("--taylor-arclength-rtols", type=float, nargs="*", default=[1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
+                    help="rtols of ldpipe's Taylor rows with the arc length; each picks its order, one engine "
+                         "module per order (default: the decades 1e-8 to 1e-12)")
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds over all methods (interleaved); each row keeps its fastest wall and CPU time")
     ap.add_argument("--no-engine", action="store_true", help="skip the ldpipe engine rows")
