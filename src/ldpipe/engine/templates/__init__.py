@@ -8,6 +8,14 @@ scheme data; upper case), and the templates; it loads the result through
 keeps its machine code on disk for the next process. Module-level names are frozen by numba
 as compile-time constants, exactly as closure variables would be.
 
+Template functions call each other as plain ``@njit(**JIT)`` functions: LLVM inlines the small
+ones into their callers as it optimizes them (the lane loops still vectorize), while numba's own
+``inline="always"`` typed and lowered a function again at every call site, the larger part of a
+module's compile time (``benchmarks/compile_time.py``). ``stage_state`` of the vector-field
+driver is the one exception, measured faster inlined by numba. Arguments a function passes on
+are typed, never literals (``np.int64(0)``, not ``0``): numba compiles a callee once per
+argument-type signature, and a literal start value gives it one more.
+
 - ``quadrature.py`` — scalar polynomial helpers and the cusp-aware LD quadrature of one lane;
 - ``block_quadrature.py`` — the vectorized LD quadrature passes over a block (``fast``, ``special``);
 - ``block_two_roots.py`` — ``special``'s items with two roots in the step, vectorized;

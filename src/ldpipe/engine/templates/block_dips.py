@@ -50,7 +50,7 @@ DIP_CONVERGED = 1e-12  # the last Newton step (x units) of a converged minimum
 D_ROWS = NC + 15
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _value_slope(DB, t, x):
     """Item t's v and v' at x."""
     v = DB[(NC - 1) * CBS + t]
@@ -61,7 +61,7 @@ def _value_slope(DB, t, x):
     return v, d
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _slope_curvature(DB, t, x):
     """Item t's v, v' and v'' at x."""
     v = DB[(NC - 1) * CBS + t]

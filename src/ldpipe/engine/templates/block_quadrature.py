@@ -178,7 +178,7 @@ def fast(W, kind, p, glx, glw, window, SP):
                 SP[c, j] = SP_SPECIAL if ((root | dip) & (W[OH + j] != 0.0)) else 0
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _curvature(W, base):
     """sum_k k (k - 1) |c_k|: a bound of |v''| on [0, 1] for the polynomial at W[base + k * CS]."""
     bound = 0.0
@@ -187,7 +187,7 @@ def _curvature(W, base):
     return bound
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def item_value(CB, t, x):
     """Item t's polynomial at x (its coefficients in rows 0 .. NC - 1 of CB, or of a case's rows)."""
     v = CB[(NC - 1) * CBS + t]
@@ -196,7 +196,7 @@ def item_value(CB, t, x):
     return v
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _at_both_sides(CB, t, s0, s1):
     """Item t's polynomial at s0 and at s1 (two Horner chains, interleaved)."""
     v0 = CB[(NC - 1) * CBS + t]
@@ -234,7 +234,7 @@ def special(W, SP, kind, p, glx, glw, gjx, gjf, window, CB, ITEM, roots):
     # (branch-free compaction: each index is written, and kept where the component is flagged;
     # with a branch per component the gather cost ~25-45 cycles per lane step, as much as the
     # Newton iteration, through mispredictions)
-    m = 0
+    m = np.int64(0)  # (typed, not a literal: numba would compile the callees it reaches once more for the literal's type)
     for c in range(NCOMP):
         for j in range(LANES):
             ITEM[m] = c * LANES + j

@@ -48,7 +48,7 @@ GRADING_LEVELS = 4
 N_TWO_NEWTON = 10
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _bracketed_newton(CB, t, x, lo, hi, f_lo):
     """One Newton step for item t's root in [lo, hi] (f_lo: v at the bracket's start, nonzero):
     the bracket shrinks to the side of x that keeps the sign change, and a step that leaves it
@@ -66,7 +66,7 @@ def _bracketed_newton(CB, t, x, lo, hi, f_lo):
     return (0.5 * (lo + hi) if leaves else x_new), lo, hi
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _is_root(CB, t, x):
     """|v(x)| at the rounding level of the coefficients (``special``'s convergence test)."""
     v = CB[(NC - 1) * CBS + t]
@@ -78,7 +78,7 @@ def _is_root(CB, t, x):
     return abs(v) <= 1e-12 * scale
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _add_rule(CB, t, total, start, step, sign, kind, p, nodes, weights):
     """total + sign |step| sum_g weights_g |v(start + step nodes_g)|^p: a rule on [0, 1] mapped
     onto the segment from start, step long (signed), added (sign 1) or taken away (-1)."""
@@ -88,7 +88,7 @@ def _add_rule(CB, t, total, start, step, sign, kind, p, nodes, weights):
     return total
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def _graded(CB, t, total, r1, r2, far, left, kind, p, glx, glw, gjx, gjf):
     """total + F(r1 -> 0) (left) or F(r2 -> 1): Gauss–Jacobi from the root over min(gap, length),
     then up to GRADING_LEVELS Gauss–Legendre pieces [r + near, r + 2 near] cut at the end

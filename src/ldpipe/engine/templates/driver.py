@@ -122,7 +122,7 @@ def lane_buffers():
 def load_lane(j, k, states, q, p, acc, qv, pv, av, q1, g1, direction, tau, dt, rtol, atol, lo, hi, has_region, elo, ehi):
     """Put trajectory k into lane j, its start state left in (qv, pv); return (outcome
     (``start_outcome``'s), H0, first |h|), H0 and |h| 0 for a trajectory that does not start."""
-    finite = True
+    finite = np.bool_(True)  # (typed, not a literal: numba would compile the callees it reaches once more for the literal's type)
     for i in range(N):
         qv[i] = states[k, i]
         pv[i] = states[k, N + i]

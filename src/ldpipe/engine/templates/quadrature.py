@@ -139,7 +139,7 @@ def curvature_bound(VC, c, j, nc, radius):
     return bound
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def pair_possible(va, vb, bound, gap):
     """1.0 if v may cross zero twice between samples va, vb of one sign, gap apart, given
     |v''| <= bound there; else 0.0.
@@ -158,7 +158,7 @@ def pair_possible(va, vb, bound, gap):
     return 1.0 if possible else 0.0
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def dip_possible(va, vb, bound, width):
     """1.0 if a near-touch (complex roots x_m +- i eps of v) may lie within ``width`` of a sample
     where v = va or vb, given |v''| <= bound; else 0.0.
@@ -405,7 +405,7 @@ def component_integral(VC, c, j, nc, u, kind, p, glx, glw, gjx, gjf, window, roo
     curvature = curvature_bound(VC, c, j, nc, max(1.0, u) + (m_out + 1) * dx)
     dip_limit = DIP_PER_WINDOW * window * u
     n_roots = 0
-    n_dips = 0
+    n_dips = np.int64(0)  # (typed, not a literal: numba would compile the callees it reaches once more for the literal's type)
     # v and v' at each sample in one Horner pass: root_pair needs v' at both ends of an
     # interval, and each sample is the end of two
     x_prev = -m_out * dx

@@ -44,7 +44,7 @@ def _float(typingctx, i):
     return types.float64(types.int64), codegen
 
 
-@njit(inline="always", **JIT)
+@njit(**JIT)
 def inverse_root(x, inverse_m):
     small = x < TINY
     y = x * SCALE if small else x

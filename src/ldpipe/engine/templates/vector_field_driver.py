@@ -50,7 +50,7 @@ def initial_step(xv, f0, t, direction, tau, rtol, atol, x1, f1):
 def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs, f1):
     """Put trajectory k's start state in xv; return (outcome (``start_outcome``'s), first |h|),
     with K[0] = f(xv, t0) for a trajectory that starts."""
-    finite = True
+    finite = np.bool_(True)  # (typed, not a literal: numba would compile the callees it reaches once more for the literal's type)
     for i in range(N):
         xv[i] = states[k, i]
         finite = finite and math.isfinite(xv[i])
