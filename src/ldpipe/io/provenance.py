@@ -34,7 +34,8 @@ def _module_file(module: str) -> Path | None:
     return None
 
 
-def _imported_modules(path: Path, module: str) -> set[str]:
+@lru_cache(maxsize=None)  # a Snakefile asks for ~30 stages' closures, which share most files
+def _imported_modules(path: Path, module: str) -> frozenset[str]:
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     found = set()
     for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
@@ -50,13 +51,13 @@ def _imported_modules(path: Path, module: str) -> set[str]:
             found.add(base)
             # `from . import x` and `from .pkg import mod` may name submodules.
             found.update(f"{base}.{alias.name}" for alias in node.names)
-    return {name for name in found if name.split(".")[0] == PACKAGE}
+    return frozenset(name for name in found if name.split(".")[0] == PACKAGE)
 
 
 def imported_modules(module: str) -> set[str]:
     """The ldpipe modules (and packages) ``module``'s source imports by name, anywhere in it."""
     path = _module_file(module)
-    return set() if path is None else _imported_modules(path, module)
+    return set() if path is None else set(_imported_modules(path, module))
 
 
 @lru_cache(maxsize=None)
