@@ -26,7 +26,7 @@ from ldpipe.systems import make_system
 from support.closed_forms import massive_harmonic_ld
 from support.scipy_reference import m1_and_arclength
 
-# Eleven engines of systems with masses that no other test loads.
+# Eight engines of systems with masses that no other test loads (and barbanis_m8's, which test_ld.py loads too).
 pytestmark = pytest.mark.compiles
 
 STIFFNESS = (2.0, 1.5)
@@ -138,15 +138,34 @@ def test_flow_samples_and_momentum_crossings_with_masses(oscillator):
     assert np.allclose(run.crossings[0, :, 0], amplitude, atol=1e-10, rtol=0)
 
 
-def test_diagonal_masses_equal_the_hand_rescaled_system():
+RESCALED_FORMULA = "wx**2*(x/r)**2/2 + wy**2*(y/r)**2/2 + d*(x/r)*(y/r)**2"
+M8 = 8.0
+
+
+def rescaled_barbanis(name: str, r: float, masses: dict | None = None):
+    """Barbanis' potential (paper values) rescaled, V(q / r), as a formula; unit masses without ``masses``."""
+    spec = {"formula": RESCALED_FORMULA, "coordinates": ["x", "y"],
+            "parameters": {"wx": 1.0, "wy": 1.1, "d": -0.11, "r": r}}
+    return make_system(name, {**spec, "masses": masses} if masses else spec)
+
+
+@pytest.fixture(scope="module")
+def barbanis_m8():
+    """Barbanis with m_x = m_y = 8, the builtin potential (test_ld.py loads its dop853 engine too)."""
+    return make_system("barbanis_m8", {"builtin": "barbanis_2dof", "masses": {"x": M8, "y": M8}})
+
+
+@pytest.fixture(scope="module")
+def barbanis_rescaled():
+    """The unit-mass image of barbanis_m8 under q' = sqrt(8) q: V(q' / sqrt(8)), no masses."""
+    return rescaled_barbanis("barbanis_rescaled", math.sqrt(M8))
+
+
+def test_diagonal_masses_equal_the_hand_rescaled_system(barbanis_m8, barbanis_rescaled):
     # q' = sqrt(m) q, p' = p / sqrt(m) maps H = p^2 / (2 m) + V(q) onto |p'|^2 / 2 + V(q' / sqrt(m)):
     # the same trajectories, so the end state of one maps onto the other's.
-    m = 8.0
-    massive = make_system("barbanis_m8", {"builtin": "barbanis_2dof", "masses": {"x": m, "y": m}})
-    rescaled = make_system("barbanis_rescaled", {
-        "formula": "wx**2*(x/r)**2/2 + wy**2*(y/r)**2/2 + d*(x/r)*(y/r)**2", "coordinates": ["x", "y"],
-        "parameters": {"wx": 1.0, "wy": 1.1, "d": -0.11, "r": math.sqrt(m)},
-    })
+    m = M8
+    massive, rescaled = barbanis_m8, barbanis_rescaled
     states = np.array([[0.3, 0.1, 0.8, -1.2], [-0.5, 0.6, 0.4, 0.9]])
     scale = np.array([math.sqrt(m)] * 2 + [1.0 / math.sqrt(m)] * 2)
     settings = LDSettings(rtol=1e-12, atol=1e-12, p=0.5, tau=15.0)
@@ -156,28 +175,24 @@ def test_diagonal_masses_equal_the_hand_rescaled_system():
     assert abs(massive.energy(states[0]) - rescaled.energy(states[0] * scale)) < 1e-15
 
 
-def test_p_norm_ld_scales_by_component_under_the_rescaling():
+def test_p_norm_ld_scales_by_component_under_the_rescaling(barbanis_m8, barbanis_rescaled):
     # Under q' = s q, p' = p / s (H = |p|^2 / (2 m) + V becomes |p'|^2 s^2 / (2 m) + V(q' / s): masses
     # m / s^2) the trajectory is the same and each velocity component scales: dq'/dt = s dq/dt,
     # dp'/dt = (dp/dt) / s. So M_p = s^p A + s^-p B with A, B the position and momentum parts of the
     # unscaled LD. Two runs (m = 8 at s = 1, and the unit-mass system at s = sqrt(8)) give A and B; a
-    # third (masses 2 at s = 2) must equal 2^p A + 2^-p B.
-    m, p = 8.0, 0.5
-    formula = "wx**2*(x/r)**2/2 + wy**2*(y/r)**2/2 + d*(x/r)*(y/r)**2"
-
-    def scaled(s, name):
-        spec = {"formula": formula, "coordinates": ["x", "y"],
-                "parameters": {"wx": 1.0, "wy": 1.1, "d": -0.11, "r": s}}
-        if m / s**2 != 1.0:
-            spec["masses"] = {"x": m / s**2, "y": m / s**2}
-        return make_system(name, spec)
-
+    # third (masses 2 at s = 2) must equal 2^p A + 2^-p B. The first two runs are on the test above's
+    # systems, so they share its engines: at s = 1 the builtin Barbanis potential is the formula's
+    # V(q / 1), and at s = sqrt(8) the masses m / s^2 are 1 to 2e-16 in floating point, given as
+    # exactly 1 (no kinetic matrix), which moves the LD by ~1e-16 relative, far below the rtol 1e-9.
+    m, p = M8, 0.5
+    systems = {1.0: barbanis_m8, math.sqrt(m): barbanis_rescaled,
+               2.0: rescaled_barbanis("barbanis_scaled_2", 2.0, {"x": m / 4.0, "y": m / 4.0})}
     states = np.array([[0.3, 0.1, 0.8, -1.2], [-0.5, 0.6, 0.4, 0.9], [1.0, -0.4, -0.7, 0.2]])
     settings = LDSettings(rtol=1e-12, atol=1e-12, p=p, tau=12.0)
     lds = {}
-    for s, name in ((1.0, "barbanis_scaled_1"), (math.sqrt(m), "barbanis_rescaled"), (2.0, "barbanis_scaled_2")):
+    for s, system in systems.items():
         scale = np.array([s, s, 1.0 / s, 1.0 / s])
-        lds[s] = compute_ld(scaled(s, name), states * scale, +1, settings).ld
+        lds[s] = compute_ld(system, states * scale, +1, settings).ld
     root = m ** (p / 2)
     # A + B = L(1), root A + B / root = L(sqrt m)
     a = (lds[math.sqrt(m)] - lds[1.0] / root) / (root - 1.0 / root)

@@ -21,10 +21,11 @@ from ldpipe.testing import reference_ld as reference
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
 from support.barbanis import E_C
+from support.henon_heiles import HENON_HEILES
 from support.step_integral import from_roots, mpmath_step_integral
 from support.step_rules import rule_engine, rules
 
-# Taylor engines of two orders and the Hénon–Heiles engines, which only these tests and test_ld load.
+# Hénon–Heiles' Taylor engines of two orders, which only these tests load.
 pytestmark = pytest.mark.compiles
 
 ENERGY = 0.2  # Hénon–Heiles, above the escape energy 1/6 (as ldds's tutorial map)
@@ -61,10 +62,8 @@ def touch_states() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def henon_heiles():
-    return make_system(
-        "henon_heiles",
-        {"formula": "(x**2 + y**2)/2 + lam*(x**2*y - y**3/3)", "coordinates": ["x", "y"], "parameters": {"lam": 1.0}},
-    )
+    # The system's text of support.henon_heiles, whose dop853 engine test_ld.py and the docs' tests load too.
+    return make_system("henon_heiles", dict(HENON_HEILES))
 
 
 @pytest.fixture(scope="module")
@@ -119,13 +118,17 @@ def test_double_root_at_the_start(scheme, tau, rtols):
     # wrong (|p_y'|^p ~ t^(2p)). Taken as a root: taylor 1.7e-8 over its one step of 0.05, and over
     # tau = 0.3 2.3e-8 at rtol 1e-10, 1.2e-8 at 1e-12 (not following the tolerance); as a dip ~2e-14.
     # dop853 at rtol 1e-12 is left out: 1.1e-10 there either way, from another step (8.5e-12
-    # with 16 quadrature nodes), not from the double root.
+    # with 16 quadrature nodes), not from the double root. Taylor runs at order 13 at both
+    # tolerances (the default at 1e-12; 11 would be at 1e-10): the double root, not the order, is
+    # what is checked, and test_taylor.py compiles Barbanis' order-13 engine too.
     barbanis = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
     kinetic = 2.0 * (E_C + 0.2 - barbanis.potential(np.array([5.5, 7.0])))
     state = np.array([5.5, 7.0, 0.0, math.sqrt(kinetic)])
     expected = reference.reference_ld(state, tau, 0.5, field=barbanis_field).ld
+    order = {"taylor_order": 13} if scheme == "taylor" else {}
     for rtol in rtols:
-        result = compute_ld(barbanis, state[None, :], +1, LDSettings(scheme=scheme, rtol=rtol, atol=rtol, p=0.5, tau=tau))
+        settings = LDSettings(scheme=scheme, rtol=rtol, atol=rtol, p=0.5, tau=tau, **order)
+        result = compute_ld(barbanis, state[None, :], +1, settings)
         assert abs(result.ld[0] - expected) / expected <= 5.0 * rtol  # scaled by the tolerance asked for
 
 

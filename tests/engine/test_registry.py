@@ -17,6 +17,7 @@ from ldpipe.engine import (
     DEFAULT_ESCAPE_RADIUS, SCHEMES, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld,
 )
 from ldpipe.engine import api, integrands
+from ldpipe.engine.codegen import engine_source
 from ldpipe.engine.schemes.taylor import MAX_ORDER, MIN_ORDER
 from ldpipe.flow import FlowSettings
 
@@ -109,15 +110,27 @@ def test_integrand_registry():
         integrands.check_p(1.5)
 
 
+class SharedModuleRK4(type(SCHEMES["rk4"])):
+    """rk4's record under another name whose engine module is rk4's, as sym4 and sym6 share theirs."""
+
+    def variant(self, order: int | None = None) -> str:
+        return "rk4"
+
+
 def test_a_registered_toy_scheme_is_accepted_and_runs(barbanis, monkeypatch):
     # A record under a new name over rk4's builder: the registry alone makes it known to the
     # settings and the code generator. Invariant: the same builder generates the same
-    # arithmetic, so the LD equals rk4's bit for bit. monkeypatch restores the registry.
+    # arithmetic, so the generated text is rk4's and the LD equals rk4's bit for bit. Its record
+    # names rk4's variant, so the copy runs rk4's module, which other tests compile too: the
+    # registry's path (settings, the generator reading the record) is what this test runs, not a
+    # second compile of the same text. monkeypatch restores the registry.
     with pytest.raises(ValueError, match="unknown scheme"):
         LDSettings(scheme="rk4_copy")
-    monkeypatch.setitem(SCHEMES, "rk4_copy", dataclasses.replace(SCHEMES["rk4"], name="rk4_copy"))
+    toy_record = SharedModuleRK4(**{**dataclasses.asdict(SCHEMES["rk4"]), "name": "rk4_copy"})
+    monkeypatch.setitem(SCHEMES, "rk4_copy", toy_record)
     settings = LDSettings(scheme="rk4_copy", dt=0.05, tau=2.0)
     assert not settings.adaptive and settings.nodes == LDSettings(scheme="rk4").nodes
+    assert engine_source(barbanis, "rk4_copy", 64) == engine_source(barbanis, "rk4", 64)
     states = np.array([[0.5, 0.2, 0.1, 0.8], [1.0, -0.5, 0.3, 0.2]])
     toy = compute_ld(barbanis, states, +1, settings)
     rk4 = compute_ld(barbanis, states, +1, dataclasses.replace(settings, scheme="rk4"))
