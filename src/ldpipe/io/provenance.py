@@ -23,6 +23,7 @@ PACKAGE = PACKAGE_ROOT.name
 TEXT_SOURCE_PACKAGES = ("ldpipe.engine.templates", "ldpipe.systems.kernels")
 
 
+@lru_cache(maxsize=None)  # asked again for every module that imports it, two file checks each time
 def _module_file(module: str) -> Path | None:
     parts = module.split(".")
     if parts[0] != PACKAGE:
