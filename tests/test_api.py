@@ -69,6 +69,20 @@ def test_import_is_cheap_and_names_the_api():
     assert out[:2] == ["[]", "True True True"]
 
 
+# Stages whose modules load none of these on import: each is imported where it is first used, so a
+# job that only reads files (an LD gather, the NHIM validation, most figures) never pays for it
+# (the design, not a measurement; transport, saddle flux, normal form and accuracy need theirs).
+LAZY_STAGES = ("equilibria", "figures", "ld", "manifolds", "nhim", "nhim_orbits", "nhim_sampling", "nhim_validation",
+               "upo")
+
+
+def test_stage_modules_import_the_engine_and_the_algebra_on_first_use():
+    code = ("import sys; " + "; ".join(f"import ldpipe.stages.{name}" for name in LAZY_STAGES) + "; "
+            "print(sorted(m for m in ('matplotlib', 'numba', 'scipy.integrate', 'sympy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out == "[]\n"
+
+
 def test_section_shorthand_is_the_config_block():
     block = ldpipe.section(y=(-0.45, 0.8, 11), py=(-0.5, 0.5, 9), fixed={"px": 0.0}, solve="x", root="largest")
     assert block == HH_MAP["section"]

@@ -25,7 +25,8 @@ import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.ld import ld_map_tiles, run_ld_map
+from ldpipe.stages.ld import run_ld_map
+from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare

@@ -48,7 +48,8 @@ from .io.contracts import (
 )
 from .io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from .stages.equilibria import run_equilibria
-from .stages.ld import ld_map_tiles, map_contract, run_ld_map
+from .stages.ld import map_contract, run_ld_map
+from .stages.plan import ld_map_tiles
 from .stages.manifolds import run_manifolds
 from .stages.nhim import run_nhim_study
 from .stages.parameters import parameters_from_config

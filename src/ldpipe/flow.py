@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from .engine.integrator import get_runner, run_units
@@ -171,6 +170,8 @@ def _section_arguments(section, coordinates, max_crossings: int) -> tuple[int, f
 
 def _thread_count(threads: int | None) -> int:
     """``threads`` within numba's pool, or all of it."""
+    import numba  # here: the engine's runners load numba too; a job that integrates nothing never does
+
     return min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
 
 

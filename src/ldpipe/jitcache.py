@@ -31,14 +31,12 @@ import threading
 import time
 import types
 from pathlib import Path
-from typing import Callable, ClassVar
-
-import numba
-from numba.core import event, sigutils
-from numba.core.compiler_lock import global_compiler_lock
-from numba.core.dispatcher import Dispatcher
+from typing import TYPE_CHECKING, Callable, ClassVar
 
 from .logs import get_logger
+
+if TYPE_CHECKING:
+    from numba.core.dispatcher import Dispatcher
 
 logger = get_logger(__name__)
 
@@ -69,6 +67,13 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
     The same text under another prefix (two names for one system: the same kernels, the same
     engine) reuses the file already there, and with it numba's compiled code.
     """
+    # numba is imported here, not with this module: a process that plans or reads stage files
+    # (Snakemake's planning, a figure job) imports ldpipe's systems and code generator, never
+    # loading a module.
+    import numba
+    from numba.core.dispatcher import Dispatcher
+
+    register_compile_recorder()
     digest = hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:20]
     with _LOCK:
         directory = cache_directory()
@@ -158,6 +163,9 @@ class CompileLock:
 
     def compile(self, dispatcher: Dispatcher, compile_function: Callable, signature):
         """``compile_function(signature)`` (the dispatcher's own ``compile``) under this lock."""
+        from numba.core import sigutils
+        from numba.core.compiler_lock import global_compiler_lock
+
         with global_compiler_lock:
             if self in CompileLock.held or tuple(sigutils.normalize_signature(signature)[0]) in dispatcher.overloads:
                 return compile_function(signature)  # a callee's compile inside ours, or compiled already
@@ -248,33 +256,54 @@ def record_compile_event(record: dict) -> None:
             log.write(line)
 
 
-class CompileRecorder(event.Listener):
-    """Times each outermost numba compile of a generated module's function (its callees compile inside it).
+def compile_recorder():
+    """A numba event listener that times each outermost compile of a generated module's function
+    (its callees compile inside it) into the compile log.
 
     numba raises "numba:compile" only on a cache miss, so a function loaded from the disk cache
-    records nothing.
+    records nothing. The class is made on first use: its base is numba's.
     """
+    from numba.core import event
 
-    def __init__(self):
-        self.local = threading.local()
+    class CompileRecorder(event.Listener):
+        def __init__(self):
+            self.local = threading.local()
 
-    def on_start(self, ev):
-        depth = getattr(self.local, "depth", 0)
-        self.local.depth = depth + 1
-        if depth == 0:
-            self.local.started = (time.perf_counter(), time.thread_time())
+        def on_start(self, ev):
+            depth = getattr(self.local, "depth", 0)
+            self.local.depth = depth + 1
+            if depth == 0:
+                self.local.started = (time.perf_counter(), time.thread_time())
 
-    def on_end(self, ev):
-        self.local.depth -= 1
-        if self.local.depth:
-            return
-        function = ev.data["dispatcher"].py_func
-        module = getattr(function, "__module__", "") or ""
-        if module.startswith(GENERATED_PREFIX):
-            wall, cpu = self.local.started
-            record_compile_event({"event": "compile", "module": module, "function": function.__qualname__,
-                                  "wall_s": time.perf_counter() - wall, "cpu_s": time.thread_time() - cpu})
+        def on_end(self, ev):
+            self.local.depth -= 1
+            if self.local.depth:
+                return
+            function = ev.data["dispatcher"].py_func
+            module = getattr(function, "__module__", "") or ""
+            if module.startswith(GENERATED_PREFIX):
+                wall, cpu = self.local.started
+                record_compile_event({"event": "compile", "module": module, "function": function.__qualname__,
+                                      "wall_s": time.perf_counter() - wall, "cpu_s": time.thread_time() - cpu})
+
+    return CompileRecorder()
 
 
-if os.environ.get(COMPILE_LOG_VARIABLE):
-    event.register("numba:compile", CompileRecorder())
+_recorder = None  # the compile log's listener, registered once per process
+
+
+def register_compile_recorder() -> None:
+    """With ``$LDPIPE_COMPILE_LOG`` set, listen to numba's compiles (once per process).
+
+    Called before a generated module is loaded: every compile the log counts is of a function
+    of such a module, so none happens before.
+    """
+    global _recorder
+    if _recorder is not None or not os.environ.get(COMPILE_LOG_VARIABLE):
+        return
+    from numba.core import event
+
+    with _LOCK:
+        if _recorder is None:
+            _recorder = compile_recorder()
+            event.register("numba:compile", _recorder)

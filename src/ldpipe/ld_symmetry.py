@@ -60,7 +60,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import sympy
 
 #: The LD map key that turns mirroring on (``true``: required), off (``false``) or leaves it to detection.
 SETTING_KEY = "backward_by_symmetry"
@@ -144,6 +143,8 @@ def _kinetic_invariant(system, signs: tuple[int, ...]) -> bool:
 @lru_cache(maxsize=32)
 def _even_signs(formula: str, coordinates: tuple[str, ...], parameters: tuple) -> tuple[tuple[int, ...], ...]:
     """Every s with V(s q) = V(q) identically (sympy: the difference expands or simplifies to 0)."""
+    import sympy  # here, with the formula's parsing: a map that mirrors nothing never needs it
+
     from .systems.formula import parse_potential
 
     potential = parse_potential(formula, coordinates, dict(parameters), "systems")

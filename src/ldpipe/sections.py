@@ -42,7 +42,6 @@ from functools import lru_cache
 from numbers import Real
 
 import numpy as np
-import sympy
 
 from .errors import ConfigError
 from .systems import System
@@ -211,6 +210,8 @@ def root_rule(spec, *, key: str = "root") -> tuple[str | None, float | None]:
 
 @lru_cache(maxsize=32)
 def _quadratic_coefficients(formula: str, coordinates: tuple, parameters: tuple, name: str):
+    import sympy  # here, with the formula's parsing: a section that solves no coordinate never needs it
+
     from .systems.formula import parse_potential
 
     expression = parse_potential(formula, coordinates, dict(parameters), "systems")

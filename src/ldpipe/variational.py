@@ -13,9 +13,11 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .systems import System
+
+# scipy.integrate (a third of a second to import) is imported by the functions that integrate:
+# the NHIM studies and samplings reach this module for the saddle's linearization alone.
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,8 @@ def propagate(
     With ``event_momentum`` k, stop at the first zero of the momentum p_k crossed in
     ``event_direction`` (+1 increasing, -1 decreasing, 0 either) after the start.
     """
+    from scipy.integrate import solve_ivp
+
     n = system.n_dof
     m = 2 * n
     state = np.asarray(state, dtype=np.float64)
@@ -127,6 +131,8 @@ def sample(
     system: System, state: np.ndarray, times: np.ndarray, *, rtol: float, atol: float, stm: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """States (and with ``stm`` the STMs) at ``times`` (increasing from 0) along the trajectory."""
+    from scipy.integrate import solve_ivp
+
     n = system.n_dof
     m = 2 * n
     state = np.asarray(state, dtype=np.float64)
@@ -146,6 +152,8 @@ def sample(
 def propagate_flow(system, state: np.ndarray, t0: float, duration: float, *, rtol: float, atol: float) -> FlowResult:
     """A general flow's trajectory from ``state`` at ``t0`` for ``duration`` (negative: backward)
     with its state transition matrix, dPhi/dt = Df(x, t) Phi (Df the system's compiled Jacobian)."""
+    from scipy.integrate import solve_ivp
+
     m = system.n_state
 
     def rhs(t, y):

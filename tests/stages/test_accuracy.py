@@ -24,6 +24,7 @@ from ldpipe.lyapunov_orbits import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.plan import ladder_engines
 
 # The closed-form M_p of the uncoupled oscillators (Beta functions) of the `oscillator` fixture,
 # frequencies (wx, wy) = (1.0, 1.3): derived in tests/support, checked in tests/engine/test_closed_form.py.
@@ -313,7 +314,7 @@ def test_ladder_engines_name_each_engine_module_of_the_ladder_once():
 
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     validate_config(config)
-    engines = accuracy_stage.ladder_engines(parameters_from_config(config, "accuracy")["ld"])
+    engines = ladder_engines(parameters_from_config(config, "accuracy")["ld"])
     orders = [jorba_zou_order(tolerance) - 2 for tolerance in (1e-6, 1e-8, 1e-10, 1e-12)]
     assert orders == [6, 9, 11, 13]
     variants = ["dop853", "rk4", "composition", *(f"taylor{order}" for order in orders)]

@@ -27,6 +27,7 @@ from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import compute_ld_map, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.plan import nhim_study_inputs
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 
@@ -262,7 +263,7 @@ def test_derived_slices_take_the_cap_and_names():
     assert entry["section"]["fixed"] == {"y": -7.05} and entry["energy"] == {"excess": 0.375}
     assert [axis["points"] for axis in entry["section"]["axes"]] == [48, 48]
     assert entry["section"]["axes"][1]["range"] == [-1.2, 1.2]
-    assert nhim_stage.nhim_study_inputs(config, "s") == {"maps": [], "references": ["bottom"],
+    assert nhim_study_inputs(config, "s") == {"maps": [], "references": ["bottom"],
                                                          "systems": ["barbanis_2dof"]}
 
 

@@ -20,7 +20,8 @@ from ldpipe.errors import ConfigError
 from ldpipe.ld_grid import resolve_ld_map
 from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.nhim_orbits import nhim_orbit_inputs, run_nhim_orbit_validation
+from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
+from ldpipe.stages.plan import nhim_orbit_inputs
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system

@@ -68,3 +68,63 @@ def test_code_digest_lists_every_source_and_changes_only_with_them(tmp_path):
     os.utime(path, (1_000_000_000, 1_000_000_000))
     assert code_digest(module, tmp_path).read_text() == expected
     assert path.stat().st_mtime > 1_000_000_000
+
+
+NESTED_IMPORTS = '''
+import a0
+def f():
+    import a1
+    class C:
+        from a2 import x
+if x:
+    import a3
+elif y:
+    import a4
+else:
+    import a5
+for i in x:
+    import a6
+else:
+    import a7
+while x:
+    import a8
+else:
+    import a9
+try:
+    import a10
+except ImportError:
+    import a11
+else:
+    import a12
+finally:
+    import a13
+with x:
+    import a14
+match x:
+    case 1:
+        import a15
+async def g():
+    async for i in x:
+        import a16
+    async with x:
+        import a17
+x = [y for y in z]  # expressions hold no import
+'''
+
+
+def test_the_statement_walk_finds_every_import_a_full_walk_finds():
+    # The reference is ast.walk over every node; the statement walk (provenance's) must find the same
+    # import statements, in a file with an import in every kind of nested block and in the package.
+    import ast
+
+    from ldpipe.io.provenance import PACKAGE_ROOT, statements
+
+    def imports(nodes):
+        return sorted((node.lineno, ast.dump(node)) for node in nodes if isinstance(node, (ast.Import, ast.ImportFrom)))
+
+    tree = ast.parse(NESTED_IMPORTS)
+    assert len(imports(ast.walk(tree))) == 18
+    assert imports(statements(tree.body)) == imports(ast.walk(tree))
+    for path in PACKAGE_ROOT.rglob("*.py"):
+        tree = ast.parse(path.read_text())
+        assert imports(statements(tree.body)) == imports(ast.walk(tree)), path

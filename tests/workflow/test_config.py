@@ -16,6 +16,21 @@ def test_shipped_configurations_validate(name):
     validate_config(config)
 
 
+def test_the_schema_reads_the_same_with_the_fast_loader():
+    # The schema is parsed by libyaml when PyYAML has it (planning reads it on every command); the
+    # expected document is PyYAML's pure-Python safe loader's, the reference parser.
+    from importlib import resources
+
+    from ldpipe.config import SCHEMA_RESOURCE, load_schema
+
+    text = resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
+    reference = yaml.load(text, Loader=yaml.SafeLoader)
+    loaded = load_schema()
+    assert loaded == reference
+    # == holds 1 == 1.0 == True: the scalars' types must agree too (a default of 1 is not 1.0).
+    assert repr(loaded) == repr(reference)
+
+
 def test_paper_parameters_in_config_yaml():
     config = load_config(ROOT / "config.yaml")
     assert config["systems"]["barbanis_2dof"]["parameters"] == {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}

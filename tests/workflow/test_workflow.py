@@ -1,5 +1,8 @@
 """The Snakemake workflow, run for real on a copy of the repository's workflow files."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -15,6 +18,28 @@ def test_dry_run_lists_equilibria_for_both_systems(workdir):
     for system in ("barbanis_2dof", "barbanis_contopoulos_3dof"):
         assert f"results/{system}/equilibria.nc" in result.stdout
     assert job_counts(result.stdout).get("equilibria", 0) == 2
+
+
+# Planning reads the configuration and names files (ldpipe.stages.plan): it needs none of the
+# science's libraries. The expected set is the design, not a measurement: each of these, imported
+# by a plan, costs every `snakemake` command (and every SLURM job's own snakemake) a fixed start-up.
+NOT_FOR_PLANNING = ("matplotlib", "numba", "scipy.integrate", "scipy.optimize", "sympy")
+PLAN_AND_LIST_MODULES = """
+import runpy, sys
+sys.argv = ["snakemake", "--cores", "2", "-n", "-q"]
+try:
+    runpy.run_module("snakemake", run_name="__main__")
+except SystemExit as stop:
+    print("exit", stop.code)
+print("loaded", sorted(name for name in {names!r} if name in sys.modules))
+"""
+
+
+def test_planning_the_paper_imports_none_of_the_science_libraries(workdir):
+    code = PLAN_AND_LIST_MODULES.format(names=NOT_FOR_PLANNING)
+    result = subprocess.run([sys.executable, "-c", code], cwd=workdir, capture_output=True, text=True, timeout=600)
+    lines = result.stdout.splitlines()
+    assert lines[-2:] == ["exit 0", "loaded []"], result.stdout[-2000:] + result.stderr[-2000:]
 
 
 def test_lint_is_clean(lint):

@@ -8,6 +8,8 @@ try:
     from ldpipe.errors import ConfigError
     from ldpipe.io.provenance import code_digest
     from ldpipe.stages.parameters import parameters_from_config
+    from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_tiles, nhim_orbit_inputs,
+                                    nhim_sampling_system, nhim_study_inputs)
     from ldpipe.systems import has_equilibria, is_vector_field
 except ImportError as error:
     raise WorkflowError(
@@ -102,8 +104,6 @@ def ld_velocity_data_file(wildcards):
 
 
 def ld_tile_files(wildcards):
-    from ldpipe.stages.ld import ld_map_tiles
-
     tiles = ld_map_tiles(config, wildcards.map)
     return [f"{RESULTS}/ld/{wildcards.map}/tile-{tile}-of-{tiles}.nc" for tile in range(tiles)]
 
@@ -189,8 +189,6 @@ def nhim_params(wildcards):
 
 
 def _nhim_inputs(study):
-    from ldpipe.stages.nhim import nhim_study_inputs
-
     return nhim_study_inputs(config, study)
 
 
@@ -221,8 +219,6 @@ def nhim_orbit_params(wildcards):
 
 
 def _nhim_orbit_inputs(study):
-    from ldpipe.stages.nhim_orbits import nhim_orbit_inputs
-
     return nhim_orbit_inputs(config, study)
 
 
@@ -269,8 +265,6 @@ def nhim_sampling_params(wildcards):
 
 
 def nhim_sampling_equilibria_file(wildcards):
-    from ldpipe.stages.nhim_sampling import nhim_sampling_system
-
     return f"{RESULTS}/{nhim_sampling_system(config, wildcards.study)}/equilibria.nc"
 
 
@@ -320,8 +314,6 @@ def accuracy_params(wildcards):
 
 
 def accuracy_equilibria_files(wildcards):
-    from ldpipe.stages.accuracy import accuracy_systems
-
     return [f"{RESULTS}/{system}/equilibria.nc" for system in accuracy_systems(config)]
 
 
@@ -329,8 +321,6 @@ def accuracy_engines():
     """The LD ladder's engine modules by name, each with the map and setting that compile it (none without a ladder)."""
     if not config.get("accuracy_cost"):
         return {}
-    from ldpipe.stages.accuracy import ladder_engines
-
     return ladder_engines(parameters_from_config(config, "accuracy")["ld"])
 
 

@@ -10,7 +10,7 @@ import xarray as xr
 
 from ..engine import IntegratorSettings, LDSettings, compute_ld
 from ..engine.api import LDResult
-from ..engine.schemes import get_scheme
+from ..engine.settings import integrator_ladder  # noqa: F401 (a name of this package, kept where it was)
 from ..logs import get_logger
 from ..systems import System
 
@@ -31,28 +31,6 @@ def same_number(a: float, b: float) -> bool:
 #: (built from a ladder entry with :meth:`~ldpipe.engine.IntegratorSettings.from_spec`; its
 #: ``label``, ``numbers``, ``apply`` and ``matches`` serve the ladder).
 IntegratorStep = IntegratorSettings
-
-
-def integrator_ladder(spec: dict) -> list[IntegratorSettings]:
-    """The ladder ``{scheme: {rtol: [...]} or {dt: [...]}}`` as settings, scheme by scheme in order.
-
-    The values listed are those of the scheme's step parameter (``rtol`` of an adaptive scheme,
-    ``dt`` of a fixed-step one; the registry's ``parameters``). For an adaptive scheme ``atol``
-    equals ``rtol`` (the LD maps' convention) unless the entry gives an ``atol`` list of the
-    same length.
-    """
-    steps = []
-    for scheme, values in spec.items():
-        if get_scheme(scheme).adaptive:
-            rtols = values["rtol"]
-            atols = values.get("atol", rtols)
-            if len(atols) != len(rtols):
-                raise ValueError(f"{scheme}: {len(rtols)} rtol values but {len(atols)} atol values")
-            steps += [IntegratorSettings.from_spec({"scheme": scheme, "rtol": float(r), "atol": float(a)})
-                      for r, a in zip(rtols, atols)]
-        else:
-            steps += [IntegratorSettings.from_spec({"scheme": scheme, "dt": float(dt)}) for dt in values["dt"]]
-    return steps
 
 
 def sample_indices(n_allowed: int, points: int, seed: int, multiple_of: int = 1) -> np.ndarray:

@@ -167,7 +167,8 @@ def _solve_options(args: argparse.Namespace) -> dict:
 
 def _run_ld(args: argparse.Namespace) -> None:
     from ..stages import equilibria as equilibria_stage
-    from ..stages.ld import ld_map_tiles, run_ld_map
+    from ..stages.ld import run_ld_map
+    from ..stages.plan import ld_map_tiles
     from ..stages.parameters import parameters_from_config
 
     if args.map is not None:

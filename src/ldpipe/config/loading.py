@@ -34,9 +34,15 @@ from .studies import (
 SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 
 
+#: PyYAML's safe loader, in C (libyaml) where PyYAML was built with it: the same documents, parsed
+#: about ten times faster than by the pure-Python loader (the schema is read by every process
+#: that validates a configuration, Snakemake's planning included).
+SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def load_schema() -> dict:
     text = resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
-    return yaml.safe_load(text)
+    return yaml.load(text, Loader=SAFE_LOADER)
 
 
 @functools.lru_cache(maxsize=1)

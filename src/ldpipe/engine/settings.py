@@ -180,6 +180,28 @@ class IntegratorSettings(_NamesAScheme):
         return dataclasses.replace(base, scheme=self.scheme, **{name: getattr(self, name) for name in self.record.parameters})
 
 
+def integrator_ladder(spec: dict) -> list[IntegratorSettings]:
+    """The ladder ``{scheme: {rtol: [...]} or {dt: [...]}}`` as settings, scheme by scheme in order.
+
+    The values listed are those of the scheme's step parameter (``rtol`` of an adaptive scheme,
+    ``dt`` of a fixed-step one; the registry's ``parameters``). For an adaptive scheme ``atol``
+    equals ``rtol`` (the LD maps' convention) unless the entry gives an ``atol`` list of the
+    same length.
+    """
+    steps = []
+    for scheme, values in spec.items():
+        if get_scheme(scheme).adaptive:
+            rtols = values["rtol"]
+            atols = values.get("atol", rtols)
+            if len(atols) != len(rtols):
+                raise ValueError(f"{scheme}: {len(rtols)} rtol values but {len(atols)} atol values")
+            steps += [IntegratorSettings.from_spec({"scheme": scheme, "rtol": float(r), "atol": float(a)})
+                      for r, a in zip(rtols, atols)]
+        else:
+            steps += [IntegratorSettings.from_spec({"scheme": scheme, "dt": float(dt)}) for dt in values["dt"]]
+    return steps
+
+
 @dataclass(frozen=True)
 class DescriptorSettings:
     """The LD integrand and its quadrature.

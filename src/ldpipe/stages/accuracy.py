@@ -29,7 +29,7 @@ from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
 from ..critical_points import select_saddle
 from ..errors import ConfigError, StageFileError
-from ..ld_grid import ld_grid_dataset, ld_map_settings
+from ..ld_grid import ld_grid_dataset
 from ..logs import get_logger
 from ..nhim_points import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
 from ..lyapunov_orbits import CorrectionFailed, linearize_saddle
@@ -50,17 +50,6 @@ REFERENCE_VALIDATION = (
     "Each run stores the reference's agreement with reference_check (default: half the step) as "
     "reference_check_quantile; errors below it are not resolved."
 )
-
-
-def accuracy_systems(config: dict) -> list[str]:
-    """The systems whose equilibria files the measurement reads (sorted)."""
-    spec = config["accuracy_cost"]
-    systems = {config["ld_maps"][name]["system"] for name in spec["ld"]["maps"]}
-    if spec["upo"]["family"]:
-        systems.add(config["periodic_orbits"][spec["upo"]["family"]]["system"])
-    if spec["nhim"]["map"]:
-        systems.add(config["ld_maps"][spec["nhim"]["map"]]["system"])
-    return sorted(systems)
 
 
 def _equilibria_by_system(paths: list[str | Path]) -> dict[str, xr.Dataset]:
@@ -388,27 +377,6 @@ def accuracy_table(data: xr.Dataset) -> str:
     if "nhim_grid" in data.dims:
         lines += _nhim_tables(data)
     return "\n".join(lines)
-
-
-def ladder_engines(ld: dict) -> dict[str, dict]:
-    """The engine modules the LD ladder runs, by name (:func:`ldpipe.engine.codegen.engine_name`), each with
-    the first map and ladder setting that needs it: ``{"map": parameters, "setting": spec}``.
-
-    Several settings share a module (the tolerances of dop853, the steps of a fixed-step scheme,
-    every composition: sym4 and sym6); the Taylor scheme has one per order. Compiling them in jobs of their own
-    (:func:`run_accuracy_engine`) lets the cores share the compiles the ladder would do one by one.
-    """
-    steps = [IntegratorStep.from_spec(ld["reference"]), IntegratorStep.from_spec(ld["reference_check"]),
-             *integrator_ladder(ld["ladder"])]
-    engines = {}
-    for parameters in ld["maps"].values():
-        base = ld_map_settings(parameters)
-        for step in steps:
-            settings = step.apply(base)
-            name = engine_name(parameters["system_name"], settings.scheme, settings.lanes, settings.order)
-            spec = {"scheme": step.scheme, **{key: getattr(step, key) for key in step.record.parameters}}
-            engines.setdefault(name, {"map": parameters, "setting": spec})
-    return engines
 
 
 def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map: dict, setting: dict) -> Path:

@@ -149,7 +149,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
 
 def _start_text(parameters: dict) -> str:
     """A map's start time, or its start times (a list or a range)."""
-    from ..ld_grid import map_start_times  # here: ld_grid brings numba and the engine, which a figure job does not use
+    from ..ld_grid import map_start_times  # here: ld_grid brings the engine, which a figure job does not use
 
     starts = map_start_times(parameters)
     if starts is None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-import numba
 import numpy as np
 import xarray as xr
 
@@ -29,18 +28,8 @@ from ..ld_grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dat
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..systems import on_sphere, system_phase_coordinates
-from .parameters import parameters_from_config
 
 log = get_logger(__name__)
-
-
-def ld_map_tiles(config: dict, map_name: str) -> int:
-    """How many tiles the map is split into: bands of rows (never more than its rows), for each
-    start time of a map with several (:func:`ldpipe.ld_grid.map_start_times`)."""
-    spec = config["ld_maps"][map_name]
-    parameters = parameters_from_config(config, "ld", map_name)
-    rows = parameters["section"]["axes"][0]["points"]
-    return min(spec["tiles"], rows) * len(map_start_times(parameters) or [None])
 
 
 def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
@@ -123,6 +112,8 @@ def compute_ld_map(
 ) -> xr.Dataset:
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
     if threads:
+        import numba  # here, where the engine runs: a gather job reads tiles and never needs it
+
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension

@@ -34,16 +34,6 @@ from . import ld as ld_stage
 log = get_logger(__name__)
 
 
-def nhim_study_inputs(config: dict, study: str) -> dict[str, list[str]]:
-    """Names the study reads: LD maps (``maps``), periodic-orbit families (``references``), and the system whose
-    equilibria a derived study needs (``systems``)."""
-    spec = config["nhim"]["studies"][study]
-    systems = []
-    if "derived" in spec:
-        systems = [config["ld_maps"][spec["derived"]["base_map"]]["system"]]
-    return {"maps": list(spec.get("maps", [])), "references": list(spec.get("reference", [])), "systems": systems}
-
-
 # ----------------------------------------------------------------------------------------------
 
 

@@ -45,12 +45,6 @@ from ..variational import propagate
 log = get_logger(__name__)
 
 
-def nhim_orbit_inputs(config: dict, study: str) -> dict[str, list[str]]:
-    """Names the study reads: periodic-orbit families (``orbits``) and the system (``systems``)."""
-    spec = config["nhim"]["orbit_validation"][study]
-    return {"orbits": list(spec["orbits"]), "systems": [config["ld_maps"][spec["base_map"]]["system"]]}
-
-
 def _orbit_at(data: xr.Dataset, energies: dict, key: str) -> list[int]:
     """Indices of the family file's orbits at the study's energies (total or excess)."""
     field, values = ("excess_energy", energies["excess"]) if "excess" in energies else ("energy", energies["total"])

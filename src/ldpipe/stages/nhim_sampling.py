@@ -30,11 +30,6 @@ from . import ld as ld_stage
 log = get_logger(__name__)
 
 
-def nhim_sampling_system(config: dict, study: str) -> str:
-    """The system whose equilibria file the study reads (its base map's)."""
-    return config["ld_maps"][config["nhim_sampling"][study]["base_map"]]["system"]
-
-
 def fixed_grid(fixed: dict, key: str) -> dict[str, np.ndarray]:
     """The values of each fixed coordinate: ``points`` evenly spaced over ``range`` (one point: its middle)."""
     grid = {}

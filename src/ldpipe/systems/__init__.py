@@ -14,7 +14,6 @@ from functools import lru_cache
 from ..errors import ConfigError
 from .base import Kernels, System
 from .builtin import BUILTINS, make_builtin
-from .formula import make_formula_system
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
 from .kinetic import kinetic_matrix
 from .velocity_data import VelocityDataSystem, make_velocity_data_system, velocity_data_coordinates
@@ -86,6 +85,8 @@ def _make_system_cached(name: str, spec_json: str, key: str) -> System | VectorF
             raise ConfigError(f"config key '{key}.{given[0]}': a vector field has no kinetic energy to give masses to; "
                               "write them into its formulas")
         return make_vector_field_system(name, spec["vector_field"], tuple(coordinates), parameters, spec, key)
+    from .formula import make_formula_system  # here: sympy, which no other kind of system needs
+
     mass_matrix = kinetic_matrix(spec, tuple(coordinates), key)
     system = make_formula_system(name, spec["formula"], tuple(coordinates), parameters, spec, key)
     return system if mass_matrix is None else replace(system, mass_matrix=mass_matrix)

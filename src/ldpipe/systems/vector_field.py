@@ -21,12 +21,13 @@ from functools import cached_property
 from typing import Callable, ClassVar
 
 import numpy as np
-import sympy
-from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
-from .formula import kernel_lines, parse_formulas
+
+# sympy (through .formula) is imported where formulas are parsed or printed, not with this module:
+# the stages and the workflow's planning reach VectorFieldSystem and require_hamiltonian for
+# every system, built-ins included, whose kernels are files.
 
 #: The name of the time in the formulas.
 TIME = "t"
@@ -48,12 +49,16 @@ def parse_vector_field(
             f"config key '{key}.vector_field': expected one formula for each coordinate {list(coordinates)}, "
             f"got formulas for {list(components)}"
         )
+    from .formula import parse_formulas
+
     formulas = {f"vector_field.{name}": components[name] for name in coordinates}
     return parse_formulas(formulas, coordinates, parameters, key, RESERVED_NAMES, time=TIME)
 
 
 def _function_source(name: str, coordinates, outputs) -> str:
     """``def name(state, t, out)``: load the coordinates, share subexpressions, assign outputs."""
+    from .formula import kernel_lines
+
     lines = kernel_lines(coordinates, outputs, lambda i: f"state[{i}]")
     return f"def {name}(state, t, out):\n" + "".join(f"    {line}\n" for line in lines)
 
@@ -91,6 +96,8 @@ class VectorFieldSystem:
 
     @property
     def time_dependent(self) -> bool:
+        import sympy
+
         return any(sympy.Symbol(TIME, real=True) in e.free_symbols for e in self.expressions)
 
     def kinetic_attributes(self) -> dict[str, str]:
@@ -114,6 +121,9 @@ class VectorFieldSystem:
 
     @cached_property
     def _jacobian_kernel(self) -> Callable:
+        import sympy
+        from sympy.printing.codeprinter import PrintMethodNotImplementedError
+
         symbols = [sympy.Symbol(c, real=True) for c in self.coordinates]
         outputs = [(f"out[{i}, {k}]", sympy.diff(f, s)) for i, f in enumerate(self.expressions) for k, s in enumerate(symbols)]
         try:
@@ -135,6 +145,8 @@ class VectorFieldSystem:
 def make_vector_field_system(
     name: str, components: dict, coordinates: tuple[str, ...], parameters: dict[str, float], spec: dict, key: str
 ) -> VectorFieldSystem:
+    from sympy.printing.codeprinter import PrintMethodNotImplementedError
+
     expressions = parse_vector_field(components, coordinates, parameters, key)
     outputs = [(f"out[{i}]", f) for i, f in enumerate(expressions)]
     try:

@@ -39,11 +39,14 @@ from typing import Callable, ClassVar
 
 import numpy as np
 import xarray as xr
-from scipy import ndimage
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
-from . import data_pointer, kernels
+from . import kernels
+
+# data_pointer (llvmlite and numba) and scipy.ndimage are imported where a kernel is made, bound
+# or a land mask filled: a velocity-data entry is read for its coordinates (planning, figures)
+# without either.
 
 #: Defaults of a ``velocity_data`` entry.
 DEFAULTS = {"u": "u", "v": "v", "time": "time", "coordinates": "plane", "earth_radius": 6371000.0}
@@ -59,6 +62,8 @@ TIMES = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "min": 60.0, "minu
 
 def kernel_source() -> str:
     """The data kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
+    from . import data_pointer
+
     text = resources.files(kernels).joinpath("gridded_velocity.py").read_text()
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
 
@@ -381,6 +386,8 @@ def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
         return values
     if land.all():
         return np.zeros_like(values)
+    from scipy import ndimage
+
     nearest = ndimage.distance_transform_edt(land, return_distances=False, return_indices=True)
     return values[(slice(None), *nearest)]
 
@@ -561,6 +568,8 @@ class VelocityDataSystem:
     @contextmanager
     def time_window(self, start: float, end: float):
         """Within the block the compiled kernels read the data over [start, end]."""
+        from . import data_pointer
+
         window = self.data_window(start, end)
         with data_pointer.bound_data(window.buffer):
             yield window
