@@ -19,8 +19,14 @@ tree, the more often LLVM works on its code. ``--functions`` lists the CPU secon
 After the compile the worker computes the module's results on a small test grid and reports
 their hash, so that two versions can be checked bit for bit (``equal`` column).
 
+``--second`` then compiles the same kind for a second system of the same shape (Hénon–Heiles, a
+formula system with 2 DoF) in a fresh process on the same cache, and reports that compile's CPU
+seconds (``second CPU s``): what the second engine of a shape costs once the first is compiled
+(the LD quadrature's common modules are then loaded from the cache).
+
     .venv/bin/python benchmarks/compile_time.py --old ../baseline/src --new src --kinds dop853 rk4 --rounds 2
     .venv/bin/python benchmarks/compile_time.py --new src --kinds dop853 --functions 25   # one version, its profile
+    .venv/bin/python benchmarks/compile_time.py --old ../baseline/src --new src --kinds dop853 --second
 
 Kinds: ``dop853``, ``rk4``, ``sym4``, ``sym6``, ``taylor`` (LD maps of Barbanis 2 DoF, 64 lanes,
 the default LD settings), ``flow`` (``ldpipe.flow.integrate``'s dop853 driver, 32 lanes) and
@@ -43,6 +49,8 @@ from pathlib import Path
 import numpy as np
 
 KINDS = ("dop853", "rk4", "sym4", "sym6", "taylor", "flow", "vector-field")
+HENON_HEILES = {"formula": "(x**2 + y**2)/2 + lam*(x**2*y - y**3/3)", "coordinates": ["x", "y"],
+                "parameters": {"lam": 1.0}}
 DUFFING = {"vector_field": {"x": "y", "y": "x - x**3 - delta*y + F*cos(omega*t)"}, "coordinates": ["x", "y"],
            "parameters": {"delta": 0.25, "F": 0.3, "omega": 1.2}}
 
@@ -112,8 +120,9 @@ def barbanis_states(n: int) -> np.ndarray:
     return np.column_stack([x[keep], np.zeros(keep.sum()), px[keep], np.sqrt(kinetic_y[keep])])
 
 
-def run_kind(kind: str, n: int) -> tuple[float, float, str]:
-    """(CPU s, wall s) of the first call of ``kind`` (the compile), and the hash of its results on the test grid."""
+def run_kind(kind: str, n: int, second: bool = False) -> tuple[float, float, str]:
+    """(CPU s, wall s) of the first call of ``kind`` (the compile), and the hash of its results on
+    the test grid; of Hénon–Heiles in place of Barbanis with ``second`` (a Hamiltonian kind)."""
     from ldpipe.engine import LDSettings, compute_ld
     from ldpipe.systems import make_system
 
@@ -140,6 +149,8 @@ def run_kind(kind: str, n: int) -> tuple[float, float, str]:
             return result.samples, result.crossings, result.crossing_times, result.status, result.steps
     else:
         system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
+        if second:
+            system = make_system("henon_heiles", HENON_HEILES)
         states = barbanis_states(n)
         step = {"dt": 0.05} if kind in ("rk4", "sym4", "sym6") else {}
         scheme = "taylor" if kind == "taylor" else kind
@@ -162,13 +173,13 @@ def run_kind(kind: str, n: int) -> tuple[float, float, str]:
     return cpu, wall, digest(*call(states))  # (the first call compiled everything the others run)
 
 
-def worker(kind: str, n: int) -> None:
+def worker(kind: str, n: int, second: bool = False) -> None:
     """Compile ``kind`` in this process (the version first on sys.path); JSON on stdout."""
     import ldpipe
 
     timer = PhaseTimer()
     install(timer)
-    cpu, wall, result_hash = run_kind(kind, n)
+    cpu, wall, result_hash = run_kind(kind, n, second)
     from ldpipe.jitcache import GENERATED_PREFIX
 
     signatures = {}
@@ -182,16 +193,23 @@ def worker(kind: str, n: int) -> None:
                "seconds": [[f, p, s] for (f, p), s in timer.seconds.items()], "signatures": signatures}, sys.stdout)
 
 
-def run(source: Path, kind: str, n: int) -> dict:
+def run(source: Path, kind: str, n: int, second: bool = False) -> dict:
+    """The worker's record of ``kind``; with ``second``, its ``second`` entry is the record of a
+    second system's compile after it, on the same cache."""
     with tempfile.TemporaryDirectory(prefix="ldpipe-compile-") as cache:
         # one numba thread: the compile runs in the calling thread, where the phases are timed
         env = {**os.environ, "PYTHONPATH": str(source.resolve()), "LDPIPE_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "1"}
         env.pop("LDPIPE_COMPILE_LOG", None)
-        done = subprocess.run([sys.executable, __file__, "--worker", kind, "--n", str(n)], env=env,
-                              capture_output=True, text=True)
-    if done.returncode:
-        raise SystemExit(f"{source} {kind}: the worker failed\n{done.stderr}")
-    result = json.loads(done.stdout)
+        records = []
+        for extra in ([], ["--second"])[:2 if second else 1]:
+            done = subprocess.run([sys.executable, __file__, "--worker", kind, "--n", str(n), *extra], env=env,
+                                  capture_output=True, text=True)
+            if done.returncode:
+                raise SystemExit(f"{source} {kind} {' '.join(extra)}: the worker failed\n{done.stderr}")
+            records.append(json.loads(done.stdout))
+    result = records[0]
+    if second:
+        result["second"] = records[1]
     if not Path(result["ldpipe"]).resolve().is_relative_to(source.resolve()):
         raise SystemExit(f"{source}: the worker imported ldpipe from {result['ldpipe']}")
     return result
@@ -233,17 +251,20 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=20, help="test grid points per side for the results' hash")
     parser.add_argument("--functions", type=int, default=0, help="list the N costliest functions of each compile")
     parser.add_argument("--json", type=Path, help="write every run's record here")
+    parser.add_argument("--second", action="store_true",
+                        help="then time a second system of the same shape on the same cache (the LD kinds of Barbanis)")
     parser.add_argument("--worker", choices=KINDS, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        return worker(args.worker, args.n)
+        return worker(args.worker, args.n, args.second)
     versions = ("old", "new") if args.old else ("new",)
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}, {os.cpu_count()} CPUs")
     runs = {(version, kind): [] for version in versions for kind in args.kinds}
     for round_ in range(args.rounds):
         for kind in args.kinds:
             for version in versions if round_ % 2 == 0 else versions[::-1]:
-                runs[version, kind].append(run(getattr(args, version), kind, args.n))
+                second = args.second and kind not in ("flow", "vector-field")
+                runs[version, kind].append(run(getattr(args, version), kind, args.n, second))
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     if args.json:
         args.json.write_text(json.dumps({f"{v} {k}": r for (v, k), r in runs.items()}))
@@ -261,6 +282,16 @@ def main() -> None:
                 if args.old else "-"
             print(f"| {kind} | {version} | {best['cpu']:.1f} | {', '.join(format(r['cpu'], '.1f') for r in rows)} | "
                   + " | ".join(f"{totals[name]:.1f}" for name in names) + f" | {equal} |")
+    if args.second:
+        print(f"\nthe second system's compile on the same cache, CPU s, best of {args.rounds} round(s)")
+        print("| kind | version | first CPU s | second CPU s | runs (second) |")
+        print("| --- | --- | ---: | ---: | --- |")
+        for kind in [kind for kind in args.kinds if kind not in ("flow", "vector-field")]:
+            for version in versions:
+                rows = runs[version, kind]
+                seconds = [row["second"]["cpu"] for row in rows]
+                print(f"| {kind} | {version} | {min(row['cpu'] for row in rows):.1f} | {min(seconds):.1f} | "
+                      + ", ".join(f"{v:.1f}" for v in seconds) + " |")
     if args.functions:
         for (version, kind), rows in runs.items():
             print(f"\n## {version}")

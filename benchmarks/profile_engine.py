@@ -1,6 +1,7 @@
 """Where the engine's time goes: the block driver instrumented with the CPU's cycle counter.
 
-The engine's generated module (``ldpipe.engine.codegen.engine_source``) is copied twice. The
+The engine's generated module, as one module (``ldpipe.engine.codegen.engine_modules(...).inlined``:
+the common modules' templates pasted in place of their imports), is copied twice. The
 timing copy has timers around each phase of ``process`` (lane refill, step attempt, fast
 quadrature, special quadrature, events, the scalar per-lane pass) and around each part of
 ``special`` (SPECIAL_PARTS), and only the counters that sit outside its loops over items. The
@@ -349,12 +350,12 @@ def _count_reasons(probes: Probes, special: ast.FunctionDef, r: int) -> None:
 
 def load_instrumented(system, scheme: str, lanes: int, directory: Path, order: int | None = None,
                       counting: bool = False):
-    from ldpipe.engine.codegen import engine_source
+    from ldpipe.engine.codegen import engine_modules
 
     (directory / "ldpipe_cycles.py").write_text(CYCLES_SOURCE)
     if str(directory) not in sys.path:
         sys.path.insert(0, str(directory))
-    source = instrumented_source(engine_source(system, scheme, lanes, order), counting)
+    source = instrumented_source(engine_modules(system, scheme, lanes, order).inlined, counting)
     kind = "counted" if counting else "timed"
     name = f"{kind}_" + re.sub(r"\W", "_", f"{system.name}_{scheme}{order or ''}_{lanes}")
     path = directory / f"{name}.py"

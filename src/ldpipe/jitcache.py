@@ -43,6 +43,8 @@ logger = get_logger(__name__)
 _LOCK = threading.Lock()
 # The module name of each (cache directory, hash of a source) loaded by this process.
 _NAMES: dict[tuple[Path, str], str] = {}
+# The generated modules each loaded generated module imports, directly or through another.
+_BELOW: dict[str, frozenset[str]] = {}
 GENERATED_PREFIX = "ldpipe_generated_"
 COMPILE_LOG_VARIABLE = "LDPIPE_COMPILE_LOG"
 # How long a process waits for another's compile of a module before compiling it itself: far
@@ -59,28 +61,50 @@ def cache_directory() -> Path:
     return Path(base) / "ldpipe"
 
 
-def load_generated_module(source: str, prefix: str) -> types.ModuleType:
+def module_digest(source: str) -> str:
+    """The hash that names the file of ``source``: the numba version and the text, so an upgrade
+    never meets an old cache."""
+    import numba  # here, not with this module (see load_generated_module)
+
+    return hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:20]
+
+
+def module_name(source: str, prefix: str) -> str:
+    """The name a generated module of ``source`` is first written and imported under:
+    ``ldpipe_generated_<prefix>_<hash>``, ``prefix``'s non-word characters replaced by ``_``.
+
+    A module that another generated module imports is named in the importer's text by this
+    name, so a change of its text changes the importer's text, and with it the importer's file.
+    """
+    return GENERATED_PREFIX + re.sub(r"\W", "_", prefix) + f"_{module_digest(source)}"
+
+
+def load_generated_module(source: str, prefix: str, imports: tuple[types.ModuleType, ...] = ()) -> types.ModuleType:
     """Import ``source`` as a module from a file named by its hash (written once, atomically).
 
-    The numba version is part of the hash, so an upgrade never meets an old cache. ``prefix``
-    (e.g. a system's name) starts the file name, its non-word characters replaced by ``_``.
-    The same text under another prefix (two names for one system: the same kernels, the same
-    engine) reuses the file already there, and with it numba's compiled code.
+    The file is :func:`module_name`'s. The same text under another prefix (two names for one
+    system: the same kernels, the same engine) reuses the file already there, and with it numba's
+    compiled code.
+
+    ``imports``: the generated modules ``source`` imports (by their :func:`module_name`), loaded
+    by the caller first, so that the import statement finds them in ``sys.modules``, in this
+    process as in one that finds everything in the cache. Their compile locks are then below this
+    module's: a compile of this module that needs one of their functions waits for it
+    (:class:`CompileLock`).
     """
     # numba is imported here, not with this module: a process that plans or reads stage files
     # (Snakemake's planning, a figure job) imports ldpipe's systems and code generator, never
     # loading a module.
-    import numba
     from numba.core.dispatcher import Dispatcher
 
     register_compile_recorder()
-    digest = hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:20]
+    digest = module_digest(source)
     with _LOCK:
         directory = cache_directory()
         name = _NAMES.get((directory, digest))
         if name is None:
             existing = sorted(directory.glob(f"{GENERATED_PREFIX}*_{digest}.py"))
-            name = existing[0].stem if existing else GENERATED_PREFIX + re.sub(r"\W", "_", prefix) + f"_{digest}"
+            name = existing[0].stem if existing else module_name(source, prefix)
             _NAMES[directory, digest] = name
         if name in sys.modules:
             return sys.modules[name]
@@ -88,6 +112,8 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
         path = directory / f"{name}.py"
         write_source(path, source)
         record_compile_event({"event": "load", "module": name})
+        below = frozenset().union(*({module.__name__, *_BELOW.get(module.__name__, ())} for module in imports))
+        _BELOW[name] = below
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
@@ -96,7 +122,7 @@ def load_generated_module(source: str, prefix: str) -> types.ModuleType:
         except BaseException:
             del sys.modules[name]
             raise
-        lock = CompileLock(directory / f"{name}.lock", name)
+        lock = CompileLock(directory / f"{name}.lock", name, below)
         for value in vars(module).values():
             if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
                 value.compile = functools.partial(lock.compile, value, value.compile)
@@ -141,11 +167,13 @@ class CompileLock:
     nested compiles of callees (the kernels and templates ``process`` calls) happen inside the
     outermost one, under the lock already held.
 
-    Deadlock-free: a thread waits for a module's lock only while holding no other module's.
-    Generated modules call no function of another generated module (a module holds the
-    system's kernel source and every template it runs; what they import from ldpipe is numba
-    intrinsics, which are not dispatchers), so a compile never nests one of another module;
-    if one ever did, its lock is only tried, and the function compiled without it if taken.
+    Deadlock-free: a thread waits for a module's lock only while holding no other module's, or
+    only locks of modules that import it (``below``: an engine compiling a function of the
+    common modules it imports, see :mod:`ldpipe.engine.codegen`). Imports between generated
+    modules never go round in a circle, so every chain of waits goes down them and ends. The
+    wait, rather than compiling alongside, is what lets two engines racing for one common module
+    compile it once. Any other nesting (none today) only tries the lock, and compiles without it
+    if it is taken.
 
     The operating system releases an ``flock`` when its holder exits, crashed or not. A file
     system without ``flock`` (some NFS and FUSE mounts), or a cache folder the process cannot
@@ -157,9 +185,10 @@ class CompileLock:
     # The locks this process holds, outermost first (guarded by numba's global compiler lock).
     held: ClassVar[list["CompileLock"]] = []
 
-    def __init__(self, path: Path, module: str):
+    def __init__(self, path: Path, module: str, below: frozenset[str] = frozenset()):
         self.path = path
         self.module = module
+        self.below = below  # the generated modules this one imports, directly or not
 
     def compile(self, dispatcher: Dispatcher, compile_function: Callable, signature):
         """``compile_function(signature)`` (the dispatcher's own ``compile``) under this lock."""
@@ -169,7 +198,8 @@ class CompileLock:
         with global_compiler_lock:
             if self in CompileLock.held or tuple(sigutils.normalize_signature(signature)[0]) in dispatcher.overloads:
                 return compile_function(signature)  # a callee's compile inside ours, or compiled already
-            descriptor = self.acquire(dispatcher.py_func.__qualname__, patient=not CompileLock.held)
+            patient = all(self.module in outer.below for outer in CompileLock.held)
+            descriptor = self.acquire(dispatcher.py_func.__qualname__, patient)
             CompileLock.held.append(self)
             try:
                 return compile_function(signature)
@@ -201,8 +231,8 @@ class CompileLock:
                     return None
                 waited = time.perf_counter() - started
                 if not patient:
-                    logger.debug("compiling %s.%s while another process holds its lock (inside another module's "
-                                 "compile, where waiting could deadlock)", self.module, function)
+                    logger.debug("compiling %s.%s while another process holds its lock (inside the compile of a "
+                                 "module that does not import it, where waiting could deadlock)", self.module, function)
                     os.close(descriptor)
                     return None
                 if waited > LOCK_PATIENCE_S:

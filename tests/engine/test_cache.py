@@ -7,6 +7,7 @@ and no miss afterwards), and bitwise equality of the results of processes that c
 processes that loaded the code (the same program, strict IEEE arithmetic).
 """
 
+import ast
 import builtins
 import collections
 import errno
@@ -24,7 +25,7 @@ import pytest
 
 from ldpipe import jitcache
 from ldpipe.engine import SCHEMES
-from ldpipe.engine.codegen import engine_source
+from ldpipe.engine.codegen import engine_modules, engine_source
 
 # Run in a subprocess: a small LD computation; prints the LDs (as hex, for bitwise comparison)
 # and the cache statistics of the compiled driver ``process``.
@@ -89,17 +90,27 @@ def test_generated_module_defines_every_name_it_uses(barbanis, scheme, entry):
     # The templates use names the header defines (sizes, offsets, kernels): every global a
     # function reads must be bound at module level or be a builtin. Both drivers: the LD
     # engine's and ldpipe.flow's.
+    # The same holds in each common module the engine imports from, and the names an engine or a
+    # common module imports are names the module it imports them from binds.
     order = 12 if scheme == "taylor" else None
-    table = symtable.symtable(engine_source(barbanis, scheme, 8, order, entry), "<engine>", "exec")
-    defined = {s.get_name() for s in table.get_symbols() if s.is_assigned() or s.is_imported()}
+    modules = engine_modules(barbanis, scheme, 8, order, entry)
+    bound = {}
     missing = set()
-    for child in table.get_children():
-        for function in [child, *child.get_children()]:
-            for symbol in function.get_symbols():
-                name = symbol.get_name()
-                if symbol.is_global() and name not in defined and not hasattr(builtins, name):
-                    missing.add((function.get_name(), name))
-    assert not missing
+    for name, text in [*((m.name, m.text) for m in modules.common), ("<engine>", modules.engine)]:
+        table = symtable.symtable(text, name, "exec")
+        defined = {s.get_name() for s in table.get_symbols() if s.is_assigned() or s.is_imported()}
+        bound[name] = {s.get_name() for s in table.get_symbols() if s.is_assigned()}
+        for child in table.get_children():
+            for function in [child, *child.get_children()]:
+                for symbol in function.get_symbols():
+                    used = symbol.get_name()
+                    if symbol.is_global() and used not in defined and not hasattr(builtins, used):
+                        missing.add((name, function.get_name(), used))
+        for node in ast.parse(text).body:
+            if isinstance(node, ast.ImportFrom) and node.module.startswith(jitcache.GENERATED_PREFIX):
+                missing |= {(name, node.module, alias.name) for alias in node.names
+                            if alias.name not in bound[node.module]}
+    assert modules.common and not missing
 
 
 def test_kernel_source_may_not_shadow_engine_names(barbanis):
@@ -194,19 +205,25 @@ print(json.dumps({"pid": os.getpid(), "value": value, "hits": sum(stats.cache_hi
 """
 
 
+def race(tmp_path, child, roles):
+    """Start the script ``child`` once per role (its arguments: a barrier folder, the role) at once,
+    on an empty cache of their own; (their outputs by role, the compile log's records)."""
+    barrier, log = tmp_path / "barrier", tmp_path / "compiles.jsonl"
+    barrier.mkdir()
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
+    racing = [subprocess.Popen([sys.executable, "-c", child, str(barrier), role], env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True) for role in roles]
+    return [finish(process) for process in racing], read_log(log)
+
+
 def test_processes_needing_one_module_at_once_compile_it_once(tmp_path):
     # Invariants of the lock and numba's cache: of two processes that need the same uncompiled
     # function at the same moment, one compiles it (a miss in numba's statistics, the only
     # compile line of the log) and the other waits for it (a wait line, most of the 3 s compile
     # long) and then loads it from the disk cache (a hit, no miss).
-    barrier, log = tmp_path / "barrier", tmp_path / "compiles.jsonl"
-    barrier.mkdir()
-    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache"), "LDPIPE_COMPILE_LOG": str(log)}
-    racing = [subprocess.Popen([sys.executable, "-c", RACING_CHILD, str(barrier)], env=env, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True) for _ in range(2)]
-    runs = {run["pid"]: run for run in (finish(child) for child in racing)}
+    outputs, records = race(tmp_path, RACING_CHILD, ("first", "second"))
+    runs = {run["pid"]: run for run in outputs}
     assert [run["value"] for run in runs.values()] == [3.0, 3.0]
-    records = read_log(log)
     compiles = [r for r in records if r["event"] == "compile"]
     assert [r["function"] for r in compiles] == ["double"]
     compiler = compiles[0]["pid"]
@@ -216,6 +233,66 @@ def test_processes_needing_one_module_at_once_compile_it_once(tmp_path):
     (wait,) = [r for r in records if r["event"] == "wait"]
     assert wait["pid"] == waiter and wait["function"] == "double" and wait["module"] == compiles[0]["module"]
     assert wait["wall_s"] > 1.0
+
+
+# A module B that calls a function of a module A it imports (as an engine calls its common
+# modules'). Role "a" calls A's function itself, its compile made 3 s long, while role "b", half a
+# second later, calls B's: B's compile needs A's function, whose lock "a" holds.
+NESTED_CHILD = """
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from numba.core import event
+
+from ldpipe.jitcache import load_generated_module, module_name
+
+A = "from numba import njit\\n\\n\\n@njit(cache=True)\\ndef double(x):\\n    return 2.0 * x\\n"
+B = ("from numba import njit\\nfrom " + module_name(A, "nested_a") + " import double\\n\\n\\n"
+     "@njit(cache=True)\\ndef quad(x):\\n    return double(double(x))\\n")
+barrier, role = Path(sys.argv[1]), sys.argv[2]
+
+
+class SlowCompile(event.Listener):
+    def on_start(self, ev):
+        if role == "a":
+            time.sleep(3.0)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", SlowCompile())
+a = load_generated_module(A, "nested_a")
+b = load_generated_module(B, "nested_b", (a,))
+(barrier / role).touch()
+while len(list(barrier.iterdir())) < 2:
+    time.sleep(0.01)
+if role == "a":
+    value = a.double(1.5)
+else:
+    time.sleep(0.5)
+    value = b.quad(1.5)
+stats = a.double.stats
+print(json.dumps({"pid": os.getpid(), "value": value, "misses": sum(stats.cache_misses.values()),
+                  "hits": sum(stats.cache_hits.values())}))
+"""
+
+
+def test_a_compile_needing_an_imported_function_waits_for_its_compile(tmp_path):
+    # Invariant of the lock and numba's cache: "b", compiling B's function, needs A's function
+    # while "a" compiles it; it waits for A's lock (a wait line in the log, most of the 3 s long)
+    # and loads A's function from the disk cache (a hit, no miss), so it is compiled once.
+    outputs, records = race(tmp_path, NESTED_CHILD, ("a", "b"))
+    runs = dict(zip("ab", outputs))
+    assert runs["a"]["value"] == 3.0 and runs["b"]["value"] == 6.0
+    assert runs["a"]["misses"] == 1
+    assert runs["b"]["misses"] == 0 and runs["b"]["hits"] == 1
+    waits = [r for r in records if r["event"] == "wait"]
+    assert [(r["pid"], r["function"]) for r in waits] == [(runs["b"]["pid"], "double")]
+    assert waits[0]["module"].startswith("ldpipe_generated_nested_a_") and waits[0]["wall_s"] > 1.0
 
 
 def tiny_module(cache, tag):

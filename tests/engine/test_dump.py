@@ -1,8 +1,9 @@
-"""``python -m ldpipe.engine.codegen --dump``: the module the engine loads, as text.
+"""``python -m ldpipe.engine.codegen --dump``: the modules the engine loads, as text.
 
 What it prints is compared with the code generator's own functions for the same arguments
-(``engine_source``, ``vector_field_source``), and must compile; bad arguments are one line on
-stderr naming the argument, and exit status 2.
+(``engine_modules``, ``vector_field_modules``: the common modules, then the engine module, which
+``engine_source`` gives alone), and must compile; bad arguments are one line on stderr naming the
+argument, and exit status 2.
 """
 
 import subprocess
@@ -11,9 +12,9 @@ import sys
 import pytest
 
 from ldpipe.engine import LDSettings
-from ldpipe.engine.codegen import engine_source
+from ldpipe.engine.codegen import engine_modules, engine_source
 from ldpipe.engine.codegen.__main__ import main
-from ldpipe.engine.vector_field import vector_field_source
+from ldpipe.engine.vector_field import vector_field_modules
 from ldpipe.systems import make_system
 
 HENON_HEILES = {"formula": "(x**2 + y**2)/2 + lam*(x**2*y - y**3/3)", "coordinates": ["x", "y"],
@@ -50,22 +51,27 @@ def dump(capsys, *argv):
 
 def test_a_builtin_system(capsys):
     barbanis = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
-    assert dump(capsys, "barbanis_2dof", "rk4", "--lanes", "8") == engine_source(barbanis, "rk4", 8)
+    printed = dump(capsys, "barbanis_2dof", "rk4", "--lanes", "8")
+    assert printed == engine_modules(barbanis, "rk4", 8).listing()
+    assert printed.endswith(engine_source(barbanis, "rk4", 8) + "\n")  # the engine module last
     flow = dump(capsys, "barbanis_2dof", "dop853", "--lanes", "16", "--entry", "flow_process")
-    assert flow == engine_source(barbanis, "dop853", 16, entry="flow_process")
+    assert flow == engine_modules(barbanis, "dop853", 16, entry="flow_process").listing()
+    assert flow.endswith(engine_source(barbanis, "dop853", 16, entry="flow_process") + "\n")
 
 
 def test_a_system_of_a_config_file(capsys, config_file):
     # The default block size is compute_ld's (LDSettings.lanes).
     henon_heiles = make_system("henon_heiles", HENON_HEILES)
     lanes = LDSettings(scheme="dop853").lanes
-    expected = engine_source(henon_heiles, "dop853", lanes)
+    expected = engine_modules(henon_heiles, "dop853", lanes).listing()
     assert dump(capsys, "--config", str(config_file), "henon_heiles", "dop853") == expected
 
 
 def test_a_vector_field_of_a_config_file_is_the_flow_engine(capsys, config_file):
     duffing = make_system("forced_duffing", DUFFING)
-    assert dump(capsys, "forced_duffing", "dop853", "--config", str(config_file)) == vector_field_source(duffing)
+    printed = dump(capsys, "forced_duffing", "dop853", "--config", str(config_file))
+    assert printed == vector_field_modules(duffing).listing()
+    assert printed.endswith(vector_field_modules(duffing).engine + "\n")
 
 
 @pytest.mark.parametrize(

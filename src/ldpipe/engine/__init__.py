@@ -20,8 +20,9 @@ Modules, one job each:
   the block driver (lane refill, step control), and the driver of :mod:`ldpipe.flow` (samples,
   section crossings, escapes) on the same DOP853 step;
 - :mod:`~ldpipe.engine.codegen` — joins the system's kernel source, the compile-time constants
-  and the templates into one module, loaded through :mod:`ldpipe.jitcache` so that numba's
-  on-disk cache serves the next process (``python -m ldpipe.engine.codegen --dump`` prints it);
+  and the templates into one module, which imports the LD quadrature from common modules shared
+  by every engine of one shape, all loaded through :mod:`ldpipe.jitcache` so that numba's
+  on-disk cache serves the next process (``python -m ldpipe.engine.codegen --dump`` prints them);
 - :mod:`~ldpipe.engine.vector_field` — the flow engine's module for a general vector field,
   assembled the same way;
 - :mod:`~ldpipe.engine.integrator` — compiled runners per system (of both engines), and the

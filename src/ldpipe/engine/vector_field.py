@@ -1,11 +1,13 @@
 """The engine path of a general flow dx/dt = f(x, t) (:class:`ldpipe.systems.VectorFieldSystem`).
 
 The generated module is the system's ``rhs`` source, a header (the tableau of DOP853 as
-arrays, the state dimension, the integrand kinds) and the templates ``quadrature`` and
-``events`` (the same LD quadrature and event location as the Hamiltonian engine),
-``step_control`` and ``flow_status`` (the Hamiltonian drivers' step control and flow outcomes) and
+arrays, the state dimension, the integrand kinds), the import of the Hamiltonian engine's
+common module ``quadrature`` (the same LD quadrature, compiled once for every engine of either
+kind), and the templates ``events`` (the same event location), ``step_control`` and
+``flow_status`` (the Hamiltonian drivers' step control and flow outcomes) and
 ``vector_field_driver`` (first-order DOP853, one trajectory at a time, see its docstring),
-assembled by :func:`ldpipe.engine.codegen.assemble` as the Hamiltonian engine is.
+assembled by :func:`ldpipe.engine.codegen.assemble` as the Hamiltonian engine is. ``events``
+stays in the module: it reads the state's dimension, and it is small.
 Only schemes whose record says ``general_flow`` take this path (today: dop853).
 
 The flow map alone (``vector_field_endpoints``: end states, no LD) is a second module, the same
@@ -23,12 +25,12 @@ from __future__ import annotations
 import numpy as np
 
 from .schemes import tableaux
-from ..jitcache import load_generated_module
-from .codegen import assemble, template
+from .codegen import COMMON_LAYERS, EngineModules, assemble, load_modules, template
 from .integrands import KINDS
 from .integrator import kept_runner
 
-TEMPLATES = ("quadrature", "events", "step_control", "flow_status", "vector_field_driver")
+TEMPLATES = ("events", "step_control", "flow_status", "vector_field_driver")
+LAYERS = COMMON_LAYERS[:1]  # the quadrature
 NC = 8  # coefficients of the dense output (degree 7) and of its derivative
 #: The driver functions of the generated module: LDs, and section crossings (ldpipe.flow).
 ENTRIES = ("vector_field_process", "vector_field_crossings")
@@ -37,9 +39,9 @@ ENDPOINTS = "vector_field_endpoints"
 KERNELS = ("rhs",)
 
 
-def vector_field_source(system, extra: tuple[str, ...] = ()) -> str:
-    """The full text of the generated module for ``system`` (see the module docstring), with the
-    templates ``extra`` appended."""
+def vector_field_modules(system, extra: tuple[str, ...] = ()) -> EngineModules:
+    """The texts of the generated module for ``system`` (see the module docstring) and of its
+    common module, with the templates ``extra`` appended."""
     constants = {
         "N": system.n_state,
         "NC": NC,
@@ -55,7 +57,8 @@ def vector_field_source(system, extra: tuple[str, ...] = ()) -> str:
     bodies = [(name, template(name)) for name in TEMPLATES + extra]
     if system.ld_metric_source and ENDPOINTS not in extra:  # the flow map alone has no LD to take a metric
         bodies.append(("the LD's metric (given by the system)", system.ld_metric_source))
-    return assemble(system, title, KERNELS, constants, bodies)
+    prefix = f"vfield_{'endpoints' if ENDPOINTS in extra else 'engine'}_{system.engine_name}"
+    return assemble(system, prefix, title, KERNELS, constants, bodies, LAYERS)
 
 
 def get_vector_field_runner(system, entry: str = "vector_field_process"):
@@ -65,9 +68,6 @@ def get_vector_field_runner(system, entry: str = "vector_field_process"):
         raise ValueError(f"entry: expected one of {ENTRIES + (ENDPOINTS,)}, got {entry!r}")
 
     def build():
-        if entry == ENDPOINTS:
-            source = vector_field_source(system, (ENDPOINTS,))
-            return getattr(load_generated_module(source, f"vfield_endpoints_{system.engine_name}"), entry)
-        return getattr(load_generated_module(vector_field_source(system), f"vfield_engine_{system.engine_name}"), entry)
+        return getattr(load_modules(vector_field_modules(system, (ENDPOINTS,) if entry == ENDPOINTS else ())), entry)
 
     return kept_runner(system, ("vector_field", entry), build)

@@ -1,7 +1,9 @@
-"""Print the engine module ldpipe assembles for a system and a scheme, to read or diff it.
+"""Print the engine modules ldpipe assembles for a system and a scheme, to read or diff them.
 
     python -m ldpipe.engine.codegen --dump SYSTEM SCHEME [--config FILE] [--lanes N] [--order K] [--entry ENTRY]
 
+The common modules (the LD quadrature and events, shared by every engine of one shape) come
+first, then the engine module that imports from them, each under a ``# ==== <file> ====`` line.
 SYSTEM is an entry of the ``systems:`` mapping of ``--config FILE`` (only that mapping is read,
 so an overlay such as config.quick.yaml will do), else a built-in. A vector field's module is
 the flow engine's (:mod:`ldpipe.engine.vector_field`): one module for every block size, order
@@ -21,8 +23,8 @@ from ...errors import ConfigError, LdpipeError
 from ...systems import BUILTINS, make_system, system_spec
 from ..schemes import SCHEMES
 from ..settings import LDSettings
-from ..vector_field import vector_field_source
-from . import DRIVERS, engine_source
+from ..vector_field import vector_field_modules
+from . import DRIVERS, engine_modules
 
 PROG = "python -m ldpipe.engine.codegen"
 
@@ -61,7 +63,8 @@ def dumped_system(name: str, config: Path | None):
 
 
 def dumped_source(args: argparse.Namespace) -> str:
-    """The module :func:`ldpipe.engine.compute_ld` would load for these arguments."""
+    """The modules :func:`ldpipe.engine.compute_ld` would load for these arguments: the common
+    modules, then the engine module that imports from them, each under a line naming its file."""
     if args.scheme not in SCHEMES:
         raise ConfigError(f"SCHEME {args.scheme!r}: unknown scheme; expected one of {list(SCHEMES)}")
     if args.lanes is not None and args.lanes < 1:
@@ -76,8 +79,8 @@ def dumped_source(args: argparse.Namespace) -> str:
     try:
         if not system.hamiltonian:
             settings.record.check_system(system)  # only the schemes of general flows take one
-            return vector_field_source(system)
-        return engine_source(system, args.scheme, settings.lanes, settings.order, args.entry)
+            return vector_field_modules(system).listing()
+        return engine_modules(system, args.scheme, settings.lanes, settings.order, args.entry).listing()
     except ValueError as error:  # the scheme cannot integrate the system (the message names both)
         raise ConfigError(str(error)) from None
 
@@ -88,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         epilog="A vector field's module is the flow engine's, the same for every --lanes, --order and --entry.",
     )
     parser.add_argument("--dump", action="store_true", required=True,
-                        help="print the assembled module of SYSTEM and SCHEME to stdout")
+                        help="print the assembled modules of SYSTEM and SCHEME to stdout")
     parser.add_argument("system", metavar="SYSTEM", help="a built-in, or an entry of --config's systems:")
     parser.add_argument("scheme", metavar="SCHEME", help=f"an integration scheme: {', '.join(SCHEMES)}")
     parser.add_argument("--config", type=Path, metavar="FILE", help="a YAML file whose 'systems:' declares SYSTEM")

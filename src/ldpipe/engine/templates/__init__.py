@@ -5,7 +5,10 @@ Each module here is source text, not imported as is (except ``flow_status.py``, 
 ``gradient``, ``acceleration_block``, ...), a header of compile-time constants (sizes, workspace offsets,
 scheme data; upper case), and the templates; it loads the result through
 :mod:`ldpipe.jitcache`, so every ``@njit(**JIT)`` function (``JIT`` has ``cache=True``)
-keeps its machine code on disk for the next process. Module-level names are frozen by numba
+keeps its machine code on disk for the next process. The templates that read only header
+constants (the quadrature, the block quadrature, the flag checks, the events) are compiled in
+common modules that every engine of one shape imports (see :mod:`ldpipe.engine.codegen`): a
+template there may read no kernel or scheme function. Module-level names are frozen by numba
 as compile-time constants, exactly as closure variables would be.
 
 Template functions call each other as plain ``@njit(**JIT)`` functions: LLVM inlines the small
