@@ -16,7 +16,7 @@ from docutils.core import publish_parts
 from matplotlib import image
 from packaging.requirements import Requirement
 
-from support.browser import browse, chromium, ink
+from support.browser import browse_all, chromium, ink
 from support.workflow import ROOT, run_snakemake
 
 # docutils' system messages as it prints them, e.g. "(ERROR/3) Undefined substitution referenced"
@@ -82,11 +82,9 @@ window.addEventListener("load", ldpipeShow);
 """
 
 
-def _browse(browser: str, page: Path, fragment: str, profile: Path, *, screenshot: Path | None = None) -> str:
-    """Open ``page#fragment``: its DOM after the scripts ran, or a screenshot of the view without
-    the navigation bar."""
-    url = page.as_uri() + ("?bare" if screenshot else "") + "#" + fragment
-    return browse(browser, url, profile, screenshot=screenshot)
+def _view(page: Path, fragment: str, *, bare: bool = False) -> str:
+    """The URL of ``page#fragment``; ``bare``: the view without the navigation bar."""
+    return page.as_uri() + ("?bare" if bare else "") + "#" + fragment
 
 
 @pytest.mark.slow
@@ -115,20 +113,23 @@ def test_the_report_of_the_quick_run_shows_every_figure_in_a_browser(quick_run, 
     page = tmp_path / "view.html"
     end = html.rindex("</body>")
     page.write_text(html[:end] + SHOW_RESULT + html[end:])
-    profile = tmp_path / "chromium-profile"
+    profiles = tmp_path / "chromium-profiles"
 
     # Control: the same view with no image. A figure's view differs from it where the figure is:
     # a box of the figure's aspect ratio (from the PNG file), inked about as densely as the file.
-    _browse(browser, page, "none", profile, screenshot=tmp_path / "blank.png")
+    # Each figure is opened twice: its DOM in the normal view (with the caption), a screenshot of
+    # the bare one. The launches are independent, so they all run first, side by side.
+    shots = [tmp_path / (Path(path).stem + ".png") for path in figures]
+    launches = [(_view(page, "none", bare=True), tmp_path / "blank.png")]
+    for path, shot in zip(figures, shots):
+        launches += [(_view(page, path), None), (_view(page, path, bare=True), shot)]
+    doms = browse_all(browser, launches, profiles)[1::2]
     blank = image.imread(tmp_path / "blank.png")
-    for path in figures:
-        dom = _browse(browser, page, path, profile)
+    for path, dom, shot in zip(figures, doms, shots):
         assert f"<title>shown:{path}</title>" in dom
         shown = re.findall(r'<img src="(data:image/png[^"]*)"', dom)
         assert shown == [results[path]["data_uri"]], f"{path}: the view does not show the figure's image"
         assert results[path]["caption"][:40] in dom  # the caption is shown beside it
-        shot = tmp_path / (Path(path).stem + ".png")
-        _browse(browser, page, path, profile, screenshot=shot)
         inked = ink(image.imread(shot), blank)
         inked[:60, :60] = False  # the navigation bar's "show" button, drawn once the bar is hidden
         assert inked.any(), f"{path}: the view is blank"
