@@ -38,9 +38,10 @@ Modules, one job each (every public name is importable from this package, as bef
 - :mod:`~ldpipe.accuracy.nhim_ladder` — the NHIM ladders.
 """
 
+from ..engine.settings import integrator_ladder
 from .ld_ladder import (
-    QUANTILES, STOP_REASONS, IntegratorStep, TimedLD, finite_quantiles, integrator_ladder, ld_ladder_dataset,
-    relative_error, same_number, sample_indices, stop_reason, timed_ld, warm_up,
+    QUANTILES, STOP_REASONS, IntegratorStep, TimedLD, finite_quantiles, ld_ladder_dataset, relative_error,
+    same_number, sample_indices, stop_reason, timed_ld, warm_up,
 )
 from .machine import cpu_model, load_average, machine_attributes
 from .nhim_ladder import REFINEMENT_METHODS, nhim_grid_dataset, nhim_refinement_dataset

@@ -10,7 +10,6 @@ import xarray as xr
 
 from ..engine import IntegratorSettings, LDSettings, compute_ld
 from ..engine.api import LDResult
-from ..engine.settings import integrator_ladder  # noqa: F401 (a name of this package, kept where it was)
 from ..logs import get_logger
 from ..systems import System
 
