@@ -8,7 +8,7 @@ import pytest
 import xarray as xr
 
 from ldpipe.io import datafile
-from ldpipe.io.contracts import CONTRACTS, StageFile
+from ldpipe.io.contracts import CONTRACTS, FLOW_MAP_TILE, LD_GRID, LD_TILE, StageFile
 from ldpipe.io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ldpipe.errors import StageFileError
 
@@ -46,6 +46,28 @@ def test_round_trip_keeps_values_types_and_attributes(tmp_path):
     with netCDF4.Dataset(path) as handle:
         assert handle.variables["energy"].filters()["zlib"] is True
         assert handle.data_model == "NETCDF4"
+
+
+def test_intermediate_files_are_written_uncompressed_with_the_same_values(tmp_path):
+    """A contract's intermediate file (a map's tile, read once by the gather and deleted) is written
+    without compression, also from data read out of a compressed file (whose variables carry that
+    file's encoding); the values read back are the written ones, bit for bit, either way."""
+    assert LD_TILE.intermediate and FLOW_MAP_TILE.intermediate and not LD_GRID.intermediate
+    kept = write_stage_file(sample_dataset(), tmp_path / "kept.nc", stage="probe", title="t", parameters={})
+    loaded = open_stage_file(kept, stage="probe")
+    scratch = write_stage_file(loaded, tmp_path / "tile.nc", stage=StageFile("probe", intermediate=True), title="t",
+                               parameters={})
+    with netCDF4.Dataset(kept) as compressed, netCDF4.Dataset(scratch) as plain:
+        for name in ("energy", "escaped", "count"):
+            assert compressed.variables[name].filters()["complevel"] == datafile.COMPRESSION["complevel"]
+            assert compressed.variables[name].filters()["shuffle"] is datafile.COMPRESSION["shuffle"]
+            assert plain.variables[name].filters()["zlib"] is False
+            assert plain.variables[name].chunking() == "contiguous"
+    again = open_stage_file(scratch, stage="probe")
+    for name, variable in sample_dataset().variables.items():
+        assert np.array_equal(again[name].values, variable.values)
+        if variable.dtype.kind in "fiub":
+            assert again[name].dtype == variable.dtype
 
 
 def test_git_commit_is_recorded_when_known(tmp_path):

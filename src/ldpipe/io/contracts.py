@@ -23,10 +23,14 @@ class StageFile:
         The stage's identifier, written as the file's ``ldpipe_stage`` attribute.
     variables : tuple of str
         Variables the stage writes that its readers rely on.
+    intermediate : bool
+        True for a file read once by the next job and then deleted (a tile of a map): it is
+        written uncompressed, which is cheaper to write and to read (:mod:`ldpipe.io.datafile`).
     """
 
     stage: str
     variables: tuple[str, ...] = ()
+    intermediate: bool = False
 
 
 EQUILIBRIA = StageFile("equilibria", (
@@ -39,10 +43,10 @@ FLOW_EQUILIBRIA = StageFile("flow_equilibria", (
     "eigenvector_imag",
 ))
 #: One tile of an LD map, gathered into the map's file.
-LD_TILE = StageFile("ld_tile", ("ld_forward", "ld_backward"))
+LD_TILE = StageFile("ld_tile", ("ld_forward", "ld_backward"), intermediate=True)
 LD_GRID = StageFile("ld_grid", ("ld_forward", "ld_backward", "allowed"))
 #: A map without its LD (``ld: false``): a file of the same stages holding the flow map and its FTLE.
-FLOW_MAP_TILE = StageFile("ld_tile", ("allowed",))
+FLOW_MAP_TILE = StageFile("ld_tile", ("allowed",), intermediate=True)
 FLOW_MAP = StageFile("ld_grid", ("ftle_forward", "ftle_backward", "allowed"))
 UPO = StageFile("upo", (
     "period", "energy", "excess_energy", "initial_state", "floquet_real", "floquet_imag", "closure_error",
