@@ -538,7 +538,7 @@ def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequen
     """
     if not maps:
         raise ConfigError("ldpipe.nhim: argument 'maps': give at least one LD map")
-    recorded = stage_parameters(open_stage_file(maps[0], stage=LD_GRID))
+    recorded = stage_parameters(open_stage_file(maps[0], stage=LD_GRID, only=True))
     with _arguments_of("nhim", "nhim.refinement"):
         # the refinement block is validated in a configuration holding the maps' system
         config = validate_config({"systems": {recorded["system_name"]: copy.deepcopy(recorded["system_spec"])},

@@ -147,6 +147,24 @@ def test_a_contract_names_the_stage_and_the_variables_checked(tmp_path):
         open_stage_file(path, stage=probe, variables=("count",))
 
 
+def test_only_loads_the_variables_asked_for(tmp_path):
+    probe = StageFile("probe", ("energy", "escaped"))
+    path = write_stage_file(sample_dataset(), tmp_path / "s.nc", stage=probe, title="t", parameters={"a": 1})
+    full = open_stage_file(path, stage=probe)
+    part = open_stage_file(path, stage=probe, variables=("energy",), only=True)
+    # The variable asked for, its coordinate and the file's attributes, as the full load has them; no other variable.
+    assert list(part.data_vars) == ["energy"]
+    xr.testing.assert_identical(part, full[["energy"]])
+    # Without variables, the contract's; flags still come back as booleans; the stage is still checked.
+    by_contract = open_stage_file(path, stage=probe, only=True)
+    assert sorted(by_contract.data_vars) == ["energy", "escaped"] and by_contract.escaped.dtype == bool
+    with pytest.raises(StageFileError, match=r"s\.nc: written by the 'probe' stage; expected the 'upo' stage"):
+        open_stage_file(path, stage="upo", variables=(), only=True)
+    path.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(StageFileError, match=r"s\.nc: not a readable netCDF file"):
+        open_stage_file(path, stage=probe, only=True)
+
+
 def test_contracts_are_indexed_by_their_stage():
     assert all(stage == contract.stage for stage, contract in CONTRACTS.items())
     assert {"equilibria", "flow_equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim",

@@ -69,7 +69,7 @@ def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDM
     """An LD map from a file of the ``ld_grid`` stage (``descriptor`` one of :data:`DESCRIPTORS`)."""
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
-    dataset = open_stage_file(path, stage=LD_GRID)
+    dataset = open_stage_file(path, stage=LD_GRID, only=True)
     axes = tuple(dataset.ld_forward.dims)
     if descriptor == "total":
         values = dataset.ld_forward.values + dataset.ld_backward.values

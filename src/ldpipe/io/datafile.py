@@ -123,9 +123,10 @@ def write_stage_file(
 
 
 def open_stage_file(
-    path: str | os.PathLike | xr.Dataset, *, stage: str | StageFile, variables: tuple[str, ...] | None = None
+    path: str | os.PathLike | xr.Dataset, *, stage: str | StageFile, variables: tuple[str, ...] | None = None,
+    only: bool = False,
 ) -> xr.Dataset:
-    """Load a stage file fully into memory, checking it is what ``stage`` wrote.
+    """Load a stage file into memory, checking it is what ``stage`` wrote.
 
     Parameters
     ----------
@@ -137,6 +138,9 @@ def open_stage_file(
     variables : tuple of str, optional
         The variables the reader needs, which the file must hold: by default every variable of
         the contract (none for a bare name). With a contract, each must be one it names.
+    only : bool
+        Load only ``variables`` (and the coordinates), not every variable of the file: for a
+        reader of a few fields of a large map, which would otherwise decompress them all.
 
     Raises
     ------
@@ -162,13 +166,16 @@ def open_stage_file(
     if not path.is_file():
         raise StageFileError(f"{path}: no such file; expected the output of the {stage!r} stage")
     try:
-        dataset = xr.load_dataset(path, engine=ENGINE)
+        with xr.open_dataset(path, engine=ENGINE) as opened:
+            _check_stage(opened, path, stage, variables)
+            dataset = (opened[list(variables)] if only else opened).load()
+    except StageFileError:
+        raise
     except Exception as error:  # netCDF4/HDF5 raise OSError, RuntimeError, ValueError...
         raise StageFileError(
             f"{path}: not a readable netCDF file ({type(error).__name__}: {error}); "
             f"expected the output of the {stage!r} stage; delete it and rerun that stage"
         ) from None
-    _check_stage(dataset, path, stage, variables)
     for name, variable in dataset.data_vars.items():
         if variable.attrs.get("flag_meanings") == "false true":
             dataset[name] = variable.astype(bool)

@@ -323,7 +323,7 @@ def refuse_empty_maps(figure_name: str, ld_maps) -> None:
     from ..io.datafile import open_stage_file
 
     for path in _as_list(ld_maps):
-        dataset = open_stage_file(path, stage="ld_grid", variables=("allowed",))
+        dataset = open_stage_file(path, stage="ld_grid", variables=("allowed",), only=True)
         if not dataset.allowed.values.any():
             raise ConfigError(
                 f"figure {figure_name!r}: LD map {dataset.attrs.get('map', Path(path).stem)!r} ({path}) has no "

@@ -136,7 +136,7 @@ def run_nhim_study(
     phase = None
     sources = []
     for path in maps:
-        data = open_stage_file(path, stage=LD_GRID)
+        data = open_stage_file(path, stage=LD_GRID, only=True)
         sources.append((data, stage_parameters(data)))
     if derived:
         if equilibria is None:
