@@ -165,9 +165,25 @@ def orbit_accuracy_dataset(orbit: dict, equilibria: dict[str, xr.Dataset]) -> xr
     return result
 
 
-def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset]) -> xr.Dataset:
+def _reference_orbit_of(orbit_ladder: xr.Dataset | None, parameters: dict, family: dict, energy: float):
+    """(initial state, period) of the orbit ladder's reference orbit if it is the NHIM's (same system,
+    saddle, settings and energy: the same computation, so the same numbers); else None."""
+    if orbit_ladder is None or "orbit_reference_period" not in orbit_ladder.attrs:
+        return None
+    same = (parameters["system_name"] == family["system_name"] and parameters["system_spec"] == family["system_spec"]
+            and orbit_ladder.attrs["orbit_target_energy"] == energy)
+    return (orbit_ladder.attrs["orbit_reference_initial_state"], orbit_ladder.attrs["orbit_reference_period"]) if same \
+        else None
+
+
+def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset],
+                          orbit_ladder: xr.Dataset | None = None) -> xr.Dataset:
     """The NHIM ladders on one variable-time map: grid resolution -> detection error, refinement
-    tolerance -> location error, both against the crossing of the tight reference orbit."""
+    tolerance -> location error, both against the crossing of the tight reference orbit.
+
+    ``orbit_ladder``: the orbit ladder's dataset (:func:`orbit_accuracy_dataset`), whose reference
+    orbit is taken where it is the same orbit (same system and energy) instead of computed again.
+    """
     parameters = nhim["map"]
     name = parameters["map_name"]
     key = "accuracy_cost.nhim"
@@ -178,16 +194,19 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     family = upo["family"]
     ref = upo["reference"]
     reference = CorrectorStep(ref["tolerance"], ref["energy_tolerance"], ref["rtol"], ref["rtol"])
-    orbit_position, _ = select_saddle(data, family.get("saddle_near"))
-    try:
-        orbit, _ = compute_orbit(system, linearize_saddle(system, orbit_position), family["center_mode"],
-                                 info["energy"], reference, family["continuation"], family["max_iterations"])
-    except CorrectionFailed as error:
-        raise ConfigError(f"config key '{key}': no reference orbit of family {family['family']!r} at the energy of "
-                          f"map {name!r}: {error}") from None
-    crossing = orbit_section_crossing(problem, orbit.initial_state, orbit.period, rtol=upo["check_rtol"],
-                                      atol=upo["check_rtol"])
-    log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, orbit.period, crossing)
+    known = _reference_orbit_of(orbit_ladder, parameters, family, info["energy"])
+    if known is None:
+        orbit_position, _ = select_saddle(data, family.get("saddle_near"))
+        try:
+            orbit, _ = compute_orbit(system, linearize_saddle(system, orbit_position), family["center_mode"],
+                                     info["energy"], reference, family["continuation"], family["max_iterations"])
+        except CorrectionFailed as error:
+            raise ConfigError(f"config key '{key}': no reference orbit of family {family['family']!r} at the energy "
+                              f"of map {name!r}: {error}") from None
+        known = orbit.initial_state, orbit.period
+    initial_state, period = known
+    crossing = orbit_section_crossing(problem, initial_state, period, rtol=upo["check_rtol"], atol=upo["check_rtol"])
+    log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, period, crossing)
     grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"], repeats=nhim["repeats"],
                               repeat_budget=nhim["repeat_budget"])
     start = dataclasses.replace(section, shape=(nhim["refinement_grid"], nhim["refinement_grid"]))
@@ -223,10 +242,11 @@ def accuracy_dataset(ld: dict, upo: dict, nhim: dict, equilibria: list[str | Pat
     parts = []
     if ld["maps"]:
         parts.append(ld_accuracy_dataset(ld, found))
-    if upo["family"]:
-        parts.append(orbit_accuracy_dataset(upo, found))
+    orbits = orbit_accuracy_dataset(upo, found) if upo["family"] else None
+    if orbits is not None:
+        parts.append(orbits)
     if nhim["map"]:
-        parts.append(nhim_accuracy_dataset(nhim, upo, found))
+        parts.append(nhim_accuracy_dataset(nhim, upo, found, orbits))
     if not parts:
         raise ConfigError("config key 'accuracy_cost': names no LD map (ld.maps), orbit family (upo.family) "
                           "or NHIM map (nhim.map)")
