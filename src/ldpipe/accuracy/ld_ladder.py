@@ -227,8 +227,7 @@ def ld_ladder_dataset(
                 "units": "s", "long_name": f"wall time of the sample, forward and backward, {rule.description()}"}),
             "cpu_time": ("setting", fields["cpu_time"], {
                 "units": "s", "long_name": "CPU time of the process (all threads) in the run of smallest CPU time"}),
-            "timed_runs": ("setting", counts["timed_runs"], {
-                "long_name": "runs timed for wall_time and cpu_time (fewer than repeats once they fill repeat_budget)"}),
+            "timed_runs": ("setting", counts["timed_runs"], RepeatRule.runs_attributes("wall_time and cpu_time")),
             "trajectory_time": ("setting", fields["trajectory_time"], {
                 "long_name": "time units integrated, summed over the trajectories and both directions"}),
             "throughput": ("setting", throughput, {"units": "1", "long_name": "trajectory time units per wall second"}),

@@ -79,8 +79,7 @@ def nhim_grid_dataset(
             "nhim_grid_diagonal": ("nhim_grid", diagonal, {"long_name": "diagonal of one grid cell (section units)"}),
             "nhim_grid_wall_time": ("nhim_grid", wall, {
                 "units": "s", "long_name": f"LD grid (forward and backward) and detection; {rule.description()}"}),
-            "nhim_grid_timed_runs": ("nhim_grid", runs, {
-                "long_name": "runs timed for nhim_grid_wall_time (fewer than repeats once they fill repeat_budget)"}),
+            "nhim_grid_timed_runs": ("nhim_grid", runs, RepeatRule.runs_attributes("nhim_grid_wall_time")),
             "nhim_detection_error": ("nhim_grid", error, {
                 "long_name": "distance of the detected cell (largest min(F/F_ridge, B/B_ridge)) from the orbit's crossing"}),
             "nhim_argmax_error": ("nhim_grid", argmax_error, {
@@ -152,8 +151,7 @@ def nhim_refinement_dataset(
                 "units": "s", "long_name": f"refinement from the detected cell; {rule.description()}",
                 "comment": zero_note}),
             "nhim_refinement_timed_runs": (("nhim_method", "nhim_refinement"), runs, {
-                "long_name": "runs timed for nhim_refinement_wall_time (fewer than repeats once they fill "
-                             "repeat_budget)", "comment": zero_note}),
+                **RepeatRule.runs_attributes("nhim_refinement_wall_time"), "comment": zero_note}),
             "nhim_refinement_trajectories": (("nhim_method", "nhim_refinement"), trajectories, {"comment": zero_note}),
             "nhim_refinement_iterations": (("nhim_method", "nhim_refinement"), iterations, {"comment": zero_note}),
             "nhim_refinement_uncertainty": (("nhim_method", "nhim_refinement"), out["uncertainty"], {

@@ -153,8 +153,7 @@ def orbit_ladder_dataset(
             "orbit_wall_time": ("orbit_setting", out["wall_time"], {
                 "units": "s", "long_name": f"continuation, bracketing, correction and monodromy; {rule.description()} "
                                            "(of the failed attempt where it did not converge)"}),
-            "orbit_timed_runs": ("orbit_setting", runs, {
-                "long_name": "runs timed for orbit_wall_time (fewer than repeats once they fill repeat_budget)"}),
+            "orbit_timed_runs": ("orbit_setting", runs, RepeatRule.runs_attributes("orbit_wall_time")),
             "orbit_closure_error": ("orbit_setting", out["closure_error"], {
                 "long_name": "||x(T) - x(0)|| re-measured by a separate integration at check_rtol", "comment": zero_note}),
             "orbit_reported_closure_error": ("orbit_setting", out["reported_closure_error"], {

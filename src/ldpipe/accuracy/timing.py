@@ -42,6 +42,11 @@ class RepeatRule:
             return f"smallest of {self.repeats} runs"
         return f"smallest of up to {self.repeats} runs, fewer once the runs total {self.budget:g} s"
 
+    @staticmethod
+    def runs_attributes(timed_variable: str) -> dict:
+        """Attributes of the variable that stores how many runs each setting's ``timed_variable`` is the smallest of."""
+        return {"long_name": f"runs timed for {timed_variable} (fewer than repeats once they total repeat_budget)"}
+
 
 @dataclass(frozen=True)
 class Timed(Generic[T]):
