@@ -302,6 +302,26 @@ def test_stage_file_holds_every_ladder_without_nan(stage_output):
     assert "Wall time: the time of one run" in text
 
 
+def test_nhim_ladders_take_the_orbit_ladders_reference_orbit_only_where_it_is_theirs(equilibria_file, monkeypatch):
+    # Independent method: the NHIM stage's own computation of the reference orbit. Taken from the
+    # orbit ladder (same system, saddle and energy here), the crossing is the same bits and the orbit
+    # is not computed again; an orbit ladder at another energy is not taken.
+    config = small_config(upo={"family": "bottom", "tolerance": [1e-10], "rtol": [1e-13], "repeats": 1},
+                          nhim={"map": "slice", "grid_points": [24], "refinement_grid": 24, "tolerance": [1e-4]})
+    parameters = parameters_from_config(config, "accuracy")
+    found = accuracy_stage._equilibria_by_system([equilibria_file])
+    own = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found)
+    orbits = accuracy_stage.orbit_accuracy_dataset(parameters["upo"], found)
+    computed = []
+    monkeypatch.setattr(accuracy_stage, "compute_orbit",
+                        lambda *a, **k: computed.append(1) or accuracy.compute_orbit(*a, **k))
+    taken = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, orbits)
+    assert computed == [] and np.array_equal(taken.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
+    elsewhere = orbits.assign_attrs(orbit_target_energy=orbits.attrs["orbit_target_energy"] + 0.01)
+    again = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, elsewhere)
+    assert computed == [1] and np.array_equal(again.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
+
+
 def test_figure_is_drawn(stage_output, tmp_path):
     from ldpipe.figures.accuracy import draw_accuracy_cost
 

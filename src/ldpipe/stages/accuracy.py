@@ -20,9 +20,9 @@ import numpy as np
 import xarray as xr
 
 from ..accuracy import (
-    QUANTILES, CorrectorStep, IntegratorStep, RepeatRule, compute_orbit, corrector_ladder, integrator_ladder, ld_ladder_dataset,
-    load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset, sample_indices,
-    same_number, warm_up,
+    QUANTILES, CorrectorStep, IntegratorStep, RepeatRule, compute_orbit, corrector_ladder, integrator_ladder,
+    ld_ladder_dataset, load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset,
+    sample_indices, same_number, warm_up,
 )
 from ..engine.codegen import engine_name
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
@@ -172,8 +172,9 @@ def _reference_orbit_of(orbit_ladder: xr.Dataset | None, parameters: dict, famil
         return None
     same = (parameters["system_name"] == family["system_name"] and parameters["system_spec"] == family["system_spec"]
             and orbit_ladder.attrs["orbit_target_energy"] == energy)
-    return (orbit_ladder.attrs["orbit_reference_initial_state"], orbit_ladder.attrs["orbit_reference_period"]) if same \
-        else None
+    if not same:
+        return None
+    return orbit_ladder.attrs["orbit_reference_initial_state"], orbit_ladder.attrs["orbit_reference_period"]
 
 
 def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset],
