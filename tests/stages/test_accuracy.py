@@ -114,6 +114,63 @@ def test_reference_check_and_throughput_are_recorded(oscillator_ladder):
     assert list(data.label.values) == [s.label for s in steps]
 
 
+class FakeClock:
+    """Stands in for the time module of ldpipe.accuracy.timing: each run lasts the next of ``durations``
+    (wall seconds; CPU twice that, two threads), so the repeat rule is tested without a real clock."""
+
+    def __init__(self, durations):
+        self.durations, self.wall, self.cpu, self.calls = list(durations), 0.0, 0.0, 0
+
+    def perf_counter(self):
+        self.calls += 1
+        if self.calls % 2 == 0:  # the call that ends a run: the run has taken its duration
+            self.wall += self.durations.pop(0)
+        return self.wall
+
+    def process_time(self):
+        return 2.0 * self.wall
+
+
+@pytest.mark.parametrize("durations, budget, runs, smallest", [
+    # (durations are sums of powers of two, so the clock's differences are exact)
+    ([1.5, 1.5, 1.5], 1.0, 1, 1.5),   # the first run fills the budget: timed once
+    ([0.75, 0.5, 0.5], 1.0, 2, 0.5),  # 0.75 + 0.5 >= 1: two runs
+    ([0.25, 0.125, 0.375], 1.0, 3, 0.125),  # short: every one of the repeats
+    ([1.5, 1.25, 1.75], math.inf, 3, 1.25),  # no budget: every setting `repeats` times, as before the rule
+])
+def test_repeat_rule_times_a_setting_until_its_runs_fill_the_budget(monkeypatch, durations, budget, runs, smallest):
+    # Expected from the rule's definition: runs stop at `repeats` (3) or once their wall times total
+    # the budget; the smallest wall and CPU time of the runs is kept, with the result of the last run.
+    from ldpipe.accuracy import timing
+
+    clock = FakeClock(durations)
+    monkeypatch.setattr(timing, "time", clock)
+    results = iter(range(10))
+    timed = timing.repeat_timed(lambda: next(results), timing.RepeatRule(3, budget))
+    assert (timed.runs, timed.wall_time, timed.cpu_time, timed.result) == (runs, smallest, 2 * smallest, runs - 1)
+    with pytest.raises(ValueError, match="repeats"):
+        timing.RepeatRule(0, 1.0)
+    with pytest.raises(ValueError, match="budget"):
+        timing.RepeatRule(3, 0.0)
+
+
+def test_ld_ladder_stores_its_repeat_rule(oscillator, oscillator_states):
+    # A budget every run exceeds (1 ns) times each setting once; without one, `repeats` times. The
+    # count, the budget and the rule are stored, and the numbers do not depend on the runs.
+    steps = integrator_ladder({"dop853": {"rtol": [1e-4]}, "rk4": {"dt": [0.2]}})
+    reference, check = IntegratorStep("sym6", dt=0.05), IntegratorStep("sym6", dt=0.1)
+    runs = {}
+    for budget in (1e-9, math.inf):
+        data = ld_ladder_dataset(oscillator, oscillator_states, LDSettings(tau=TAU), steps, reference, check,
+                                 repeats=3, repeat_budget=budget)
+        runs[budget] = data
+        assert data.attrs["repeats"] == 3 and data.attrs["repeat_budget"] == budget
+    assert runs[1e-9].timed_runs.values.tolist() == [1, 1] and runs[math.inf].timed_runs.values.tolist() == [3, 3]
+    assert "fewer once the runs total 1e-09 s" in runs[1e-9].wall_time.attrs["long_name"]
+    assert "smallest of 3 runs" in runs[math.inf].wall_time.attrs["long_name"]
+    xr.testing.assert_identical(runs[1e-9].ld_relative_error, runs[math.inf].ld_relative_error)
+
+
 def test_relative_error_quantiles_and_sample_indices():
     # Definitions: the relative error falls back to the absolute difference where the reference is 0;
     # non-finite values are counted and left out of the quantiles (which stay finite for the file).
@@ -230,7 +287,7 @@ def test_stage_file_holds_every_ladder_without_nan(stage_output):
     assert data.is_default.values[0].tolist() == [False, True, False]  # the map's own dop853 rtol 1e-8
     assert data.orbit_is_default.values.tolist() == [False, True]  # the family's tolerance 1e-10, rtol 1e-13
     for key in ("machine_cpu_model", "machine_cores", "machine_threads_used", "load_average_before",
-                "reference_validation"):
+                "reference_validation", "repeat_budget", "orbit_repeat_budget", "nhim_repeat_budget"):
         assert key in data.attrs
     # The NHIM point is the orbit's crossing of y = -7 (2 DoF): refinement to 1e-8 lands within 1e-7 of it
     # by both methods (the validation stage's tolerance), and the detection within a few grid cells.
@@ -239,6 +296,30 @@ def test_stage_file_holds_every_ladder_without_nan(stage_output):
     assert np.all(data.nhim_detection_error.values < 4 * data.nhim_grid_diagonal.values)
     text = table.read_text()
     assert "dop853 rtol 1e-08 *" in text and "## slice" in text and "Periodic orbit" in text
+    # repeats 1: every setting of every ladder timed once, whatever the budget
+    for name in ("timed_runs", "orbit_timed_runs", "nhim_grid_timed_runs"):
+        assert np.all(data[name].values == 1), name
+    assert "Wall time: the time of one run" in text
+
+
+def test_nhim_ladders_take_the_orbit_ladders_reference_orbit_only_where_it_is_theirs(equilibria_file, monkeypatch):
+    # Independent method: the NHIM stage's own computation of the reference orbit. Taken from the
+    # orbit ladder (same system, saddle and energy here), the crossing is the same bits and the orbit
+    # is not computed again; an orbit ladder at another energy is not taken.
+    config = small_config(upo={"family": "bottom", "tolerance": [1e-10], "rtol": [1e-13], "repeats": 1},
+                          nhim={"map": "slice", "grid_points": [24], "refinement_grid": 24, "tolerance": [1e-4]})
+    parameters = parameters_from_config(config, "accuracy")
+    found = accuracy_stage._equilibria_by_system([equilibria_file])
+    own = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found)
+    orbits = accuracy_stage.orbit_accuracy_dataset(parameters["upo"], found)
+    computed = []
+    monkeypatch.setattr(accuracy_stage, "compute_orbit",
+                        lambda *a, **k: computed.append(1) or accuracy.compute_orbit(*a, **k))
+    taken = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, orbits)
+    assert computed == [] and np.array_equal(taken.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
+    elsewhere = orbits.assign_attrs(orbit_target_energy=orbits.attrs["orbit_target_energy"] + 0.01)
+    again = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, elsewhere)
+    assert computed == [1] and np.array_equal(again.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
 
 
 def test_figure_is_drawn(stage_output, tmp_path):

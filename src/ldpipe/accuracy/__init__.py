@@ -6,7 +6,8 @@ same run:
 * **LD ladder.** A sample of the allowed points of one LD map (a seeded random subset of the
   map's own grid points) is integrated forward and backward with every setting of the ladder
   (integrator scheme and tolerance or step). Per setting: the wall time and CPU time (the
-  smallest of ``repeats`` runs, the usual guard against a busy machine), the trajectory time
+  smallest of up to ``repeats`` runs, the usual guard against a busy machine; fewer runs once
+  they total ``repeat_budget`` seconds, see :mod:`~ldpipe.accuracy.timing`), the trajectory time
   integrated per wall second, the relative LD error against the reference per trajectory and
   its quantiles, the energy drift |H(end) - H(0)| the engine reports, and how many
   trajectories stopped for another reason than the reference's (reached tau, left the saddle
@@ -33,6 +34,7 @@ machine and its load average go into the file with the times.
 Modules, one job each (every public name is importable from this package, as before):
 
 - :mod:`~ldpipe.accuracy.machine` — the machine, its load and the library versions;
+- :mod:`~ldpipe.accuracy.timing` — how a setting is timed (repeated runs within a budget);
 - :mod:`~ldpipe.accuracy.ld_ladder` — the LD ladder (integrator settings, timing, errors);
 - :mod:`~ldpipe.accuracy.orbit_ladder` — the periodic-orbit ladder;
 - :mod:`~ldpipe.accuracy.nhim_ladder` — the NHIM ladders.
@@ -46,10 +48,13 @@ from .ld_ladder import (
 from .machine import cpu_model, load_average, machine_attributes
 from .nhim_ladder import REFINEMENT_METHODS, nhim_grid_dataset, nhim_refinement_dataset
 from .orbit_ladder import CorrectorStep, closure_error, compute_orbit, corrector_ladder, orbit_ladder_dataset, timed_orbit
+from .timing import RepeatRule, Timed, repeat_timed
 
 __all__ = [
-    "QUANTILES", "REFINEMENT_METHODS", "STOP_REASONS", "CorrectorStep", "IntegratorStep", "TimedLD", "closure_error",
+    "QUANTILES", "REFINEMENT_METHODS", "STOP_REASONS", "CorrectorStep", "IntegratorStep", "RepeatRule", "Timed",
+    "TimedLD", "closure_error",
     "compute_orbit", "corrector_ladder", "cpu_model", "finite_quantiles", "integrator_ladder", "ld_ladder_dataset",
     "load_average", "machine_attributes", "nhim_grid_dataset", "nhim_refinement_dataset", "orbit_ladder_dataset",
-    "relative_error", "same_number", "sample_indices", "stop_reason", "timed_ld", "timed_orbit", "warm_up",
+    "relative_error", "repeat_timed", "same_number", "sample_indices", "stop_reason", "timed_ld", "timed_orbit",
+    "warm_up",
 ]

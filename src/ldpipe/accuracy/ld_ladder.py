@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import time
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,6 +12,7 @@ from ..engine import IntegratorSettings, LDSettings, compute_ld
 from ..engine.api import LDResult
 from ..logs import get_logger
 from ..systems import System
+from .timing import RepeatRule, repeat_timed
 
 log = get_logger(__package__)  # the package's name, as before the split, in the log lines
 
@@ -56,6 +57,7 @@ class TimedLD:
     backward: LDResult
     wall_time: float
     cpu_time: float
+    runs: int = 1
 
     @property
     def directions(self) -> tuple[LDResult, LDResult]:
@@ -69,24 +71,16 @@ def warm_up(system: System, states: np.ndarray, settings: LDSettings) -> None:
         compute_ld(system, states[:count], 1, settings)
 
 
-def timed_ld(system: System, states: np.ndarray, settings: LDSettings, repeats: int) -> TimedLD:
-    """Forward and backward LD of ``states`` (shape (N, 2 n_dof)), timed ``repeats`` times.
+def timed_ld(system: System, states: np.ndarray, settings: LDSettings, rule: RepeatRule) -> TimedLD:
+    """Forward and backward LD of ``states`` (shape (N, 2 n_dof)), timed as ``rule`` says.
 
-    The engine is deterministic, so every repeat gives the same numbers; the smallest wall time
+    The engine is deterministic, so every run gives the same numbers; the smallest wall time
     is the one least disturbed by other work on the machine. CPU time is the process's (all
     threads).
     """
-    if repeats < 1:
-        raise ValueError(f"repeats: expected an integer >= 1, got {repeats!r}")
-    best_wall = best_cpu = np.inf
-    forward = backward = None
-    for _ in range(repeats):
-        wall, cpu = time.perf_counter(), time.process_time()
-        forward = compute_ld(system, states, 1, settings)
-        backward = compute_ld(system, states, -1, settings)
-        best_wall = min(best_wall, time.perf_counter() - wall)
-        best_cpu = min(best_cpu, time.process_time() - cpu)
-    return TimedLD(forward, backward, float(best_wall), float(best_cpu))
+    timed = repeat_timed(lambda: (compute_ld(system, states, 1, settings), compute_ld(system, states, -1, settings)),
+                         rule)
+    return TimedLD(*timed.result, timed.wall_time, timed.cpu_time, timed.runs)
 
 
 def relative_error(values: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -136,6 +130,7 @@ def ld_ladder_dataset(
     reference_check: IntegratorSettings,
     *,
     repeats: int = 1,
+    repeat_budget: float = math.inf,
 ) -> xr.Dataset:
     """Measure every step of the ladder on ``states`` against the reference.
 
@@ -151,7 +146,10 @@ def ld_ladder_dataset(
     reference, reference_check : IntegratorSettings
         The reference, and a second setting whose agreement with it is stored as a check.
     repeats : int
-        Timed runs per setting (the smallest time is kept).
+        Timed runs per setting (the smallest time is kept), at most.
+    repeat_budget : float
+        Seconds: a setting's runs stop once their wall times total this (see
+        :class:`~ldpipe.accuracy.timing.RepeatRule`); inf runs every setting ``repeats`` times.
 
     Returns
     -------
@@ -160,6 +158,7 @@ def ld_ladder_dataset(
         ``quantile``: per-setting times, throughput, error quantiles, energy drift, stop-reason
         mismatches and failures; per-point errors; the reference's LD, stop reasons and check.
     """
+    rule = RepeatRule(repeats, repeat_budget)
     states = np.ascontiguousarray(states, dtype=np.float64)
     if states.ndim != 2 or states.shape[1] != 2 * system.n_dof or len(states) == 0:
         raise ValueError(f"states: expected shape (N > 0, {2 * system.n_dof}), got {states.shape}")
@@ -171,7 +170,7 @@ def ld_ladder_dataset(
     for settings in modules.values():
         warm_up(system, states, settings)
     log.info("reference %s on %d points", reference.label, len(states))
-    ref = timed_ld(system, states, reference.apply(base), 1)
+    ref = timed_ld(system, states, reference.apply(base), RepeatRule())
     ref_ld = _stack(ref, "ld")
     if not np.all(np.isfinite(ref_ld)) or not np.all(np.isfinite(_stack(ref, "energy_error"))):
         raise ValueError(f"the reference {reference.label} gave a non-finite LD or energy error; choose a smaller step "
@@ -182,7 +181,7 @@ def ld_ladder_dataset(
     # of the LD at dt 0.005, measured); the error statistics leave those trajectories out (their
     # per-point errors are kept, with the reference's stop reason beside them).
     resolved = ref_reason != STOP_REASONS.index("escaped")
-    check = timed_ld(system, states, reference_check.apply(base), 1)
+    check = timed_ld(system, states, reference_check.apply(base), RepeatRule())
     check_error = relative_error(_stack(check, "ld"), ref_ld)
     if not np.all(np.isfinite(check_error)):
         raise ValueError(f"the reference check {reference_check.label} gave a non-finite LD; choose a smaller step or a "
@@ -194,12 +193,12 @@ def ld_ladder_dataset(
     quantiles = np.array(QUANTILES)
     fields = {name: np.zeros(n_steps) for name in ("wall_time", "cpu_time", "trajectory_time", "mean_steps")}
     counts = {name: np.zeros(n_steps, dtype=np.int64)
-              for name in ("stop_mismatches", "failed_trajectories", "nonfinite_ld", "nonfinite_energy_errors")}
+              for name in ("stop_mismatches", "failed_trajectories", "nonfinite_ld", "nonfinite_energy_errors", "timed_runs")}
     ld_error = np.zeros((n_steps, 2, n))
     ld_error_q = np.zeros((n_steps, len(quantiles)))
     energy_error_q = np.zeros((n_steps, len(quantiles)))
     for k, step in enumerate(steps):
-        timed = timed_ld(system, states, step.apply(base), repeats)
+        timed = timed_ld(system, states, step.apply(base), rule)
         error = relative_error(_stack(timed, "ld"), ref_ld)
         ld_error_q[k], counts["nonfinite_ld"][k] = finite_quantiles(error[resolved], quantiles)
         ld_error[k] = np.where(np.isfinite(error), error, 0.0)
@@ -207,13 +206,14 @@ def ld_ladder_dataset(
             _stack(timed, "energy_error"), quantiles)
         fields["wall_time"][k] = timed.wall_time
         fields["cpu_time"][k] = timed.cpu_time
+        counts["timed_runs"][k] = timed.runs
         fields["trajectory_time"][k] = float(_stack(timed, "time").sum())
         fields["mean_steps"][k] = float(_stack(timed, "steps").mean())
         reasons = np.stack([stop_reason(r) for r in timed.directions])
         counts["stop_mismatches"][k] = int(np.sum(reasons != ref_reason))
         counts["failed_trajectories"][k] = int(np.sum(reasons == 3))
-        log.info("%-22s wall %8.4f s  LD error median %.2e max %.2e  energy drift median %.2e  mismatches %d",
-                 step.label, timed.wall_time, ld_error_q[k, 0], ld_error_q[k, -1], energy_error_q[k, 0],
+        log.info("%-22s wall %8.4f s (%d runs)  LD error median %.2e max %.2e  energy drift median %.2e  mismatches %d",
+                 step.label, timed.wall_time, timed.runs, ld_error_q[k, 0], ld_error_q[k, -1], energy_error_q[k, 0],
                  counts["stop_mismatches"][k])
 
     throughput = np.divide(fields["trajectory_time"], fields["wall_time"], out=np.zeros(n_steps),
@@ -224,9 +224,10 @@ def ld_ladder_dataset(
     data = xr.Dataset(
         {
             "wall_time": ("setting", fields["wall_time"], {
-                "units": "s", "long_name": f"wall time of the sample, forward and backward, smallest of {repeats} runs"}),
+                "units": "s", "long_name": f"wall time of the sample, forward and backward, {rule.description()}"}),
             "cpu_time": ("setting", fields["cpu_time"], {
                 "units": "s", "long_name": "CPU time of the process (all threads) in the run of smallest CPU time"}),
+            "timed_runs": ("setting", counts["timed_runs"], RepeatRule.runs_attributes("wall_time and cpu_time")),
             "trajectory_time": ("setting", fields["trajectory_time"], {
                 "long_name": "time units integrated, summed over the trajectories and both directions"}),
             "throughput": ("setting", throughput, {"units": "1", "long_name": "trajectory time units per wall second"}),
@@ -277,6 +278,7 @@ def ld_ladder_dataset(
     data.attrs.update({
         "reference": reference.label, "reference_check": reference_check.label,
         "reference_wall_time": ref.wall_time, "reference_check_wall_time": check.wall_time, "repeats": repeats,
+        "repeat_budget": repeat_budget,
         "reference_escapes": int((~resolved).sum()),
     })
     return data

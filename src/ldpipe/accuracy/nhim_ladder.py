@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-import time
+import math
 
 import numpy as np
 import xarray as xr
@@ -14,6 +14,7 @@ from ..nhim_points import (
     RefinementFailed, RefinementSettings, SliceProblem, detect_global_argmax, detect_nhim_cell, refine_by_fates,
     refine_by_ld_zoom,
 )
+from .timing import RepeatRule, repeat_timed
 
 log = get_logger(__package__)  # the package's name, as before the split, in the log lines
 
@@ -28,6 +29,7 @@ def nhim_grid_dataset(
     grid_points: list[int],
     *,
     repeats: int = 1,
+    repeat_budget: float = math.inf,
 ) -> xr.Dataset:
     """Detection error against grid resolution: the LD map at n x n points, its NHIM cell, the distance.
 
@@ -44,22 +46,27 @@ def nhim_grid_dataset(
     -------
     xarray.Dataset
         Dimension ``nhim_grid`` (G): points per axis, cell diagonal, wall time (LD grid forward
-        and backward plus detection, smallest of ``repeats``), the distance of the detected cell
+        and backward plus detection, smallest of at most ``repeats`` runs, fewer once they total
+        ``repeat_budget`` seconds: :class:`~ldpipe.accuracy.timing.RepeatRule`), the distance of the detected cell
         (``nhim.detect_nhim_cell``) and of the plain LD maximum (``nhim.detect_global_argmax``)
         from the crossing.
     """
+    rule = RepeatRule(repeats, repeat_budget)
     n = len(grid_points)
-    wall = np.full(n, np.inf)
+    wall = np.zeros(n)
+    runs = np.zeros(n, dtype=np.int64)
     error, argmax_error, diagonal = np.zeros(n), np.zeros(n), np.zeros(n)
     for k, points in enumerate(grid_points):
         section = dataclasses.replace(problem.section, shape=(int(points), int(points)))
-        for _ in range(repeats):
-            start = time.perf_counter()
+
+        def detect():
             grid = ld_grid_dataset(problem.system, section, problem.energy, problem.ld_settings)
             axes = (grid[section.axes[0]].values, grid[section.axes[1]].values)
             fields = (grid.ld_forward.values, grid.ld_backward.values, grid.allowed.values)
-            detected = detect_nhim_cell(*fields, axes)
-            wall[k] = min(wall[k], time.perf_counter() - start)
+            return axes, fields, detect_nhim_cell(*fields, axes)
+
+        timed = repeat_timed(detect, rule)
+        (axes, fields, detected), wall[k], runs[k] = timed.result, timed.wall_time, timed.runs
         error[k] = float(np.linalg.norm(detected.point - crossing))
         argmax_error[k] = float(np.linalg.norm(detect_global_argmax(*fields, axes).point - crossing))
         diagonal[k] = float(np.hypot(*[(hi - lo) / (points - 1) for lo, hi in section.ranges]))
@@ -71,7 +78,8 @@ def nhim_grid_dataset(
                                  {"long_name": "grid points per axis of the LD map"}),
             "nhim_grid_diagonal": ("nhim_grid", diagonal, {"long_name": "diagonal of one grid cell (section units)"}),
             "nhim_grid_wall_time": ("nhim_grid", wall, {
-                "units": "s", "long_name": f"LD grid (forward and backward) and detection; smallest of {repeats} run(s)"}),
+                "units": "s", "long_name": f"LD grid (forward and backward) and detection; {rule.description()}"}),
+            "nhim_grid_timed_runs": ("nhim_grid", runs, RepeatRule.runs_attributes("nhim_grid_wall_time")),
             "nhim_detection_error": ("nhim_grid", error, {
                 "long_name": "distance of the detected cell (largest min(F/F_ridge, B/B_ridge)) from the orbit's crossing"}),
             "nhim_argmax_error": ("nhim_grid", argmax_error, {
@@ -90,6 +98,7 @@ def nhim_refinement_dataset(
     *,
     precision_ratio: float,
     repeats: int = 1,
+    repeat_budget: float = math.inf,
 ) -> xr.Dataset:
     """Location error against refinement depth, for both refinement methods of :mod:`ldpipe.nhim_points`.
 
@@ -101,30 +110,31 @@ def nhim_refinement_dataset(
     -------
     xarray.Dataset
         Dimensions ``nhim_method`` (fates, ld_zoom) and ``nhim_refinement`` (len(tolerances)):
-        wall time (smallest of ``repeats``), trajectories integrated, iterations, the method's own
+        wall time (smallest of at most ``repeats`` runs, fewer once they total ``repeat_budget``
+        seconds), the runs timed, trajectories integrated, iterations, the method's own
         uncertainty, the distance from the crossing, and whether it converged (0 elsewhere).
     """
     methods = {"fates": refine_by_fates, "ld_zoom": refine_by_ld_zoom}
+    rule = RepeatRule(repeats, repeat_budget)
     shape = (len(REFINEMENT_METHODS), len(tolerances))
     out = {name: np.zeros(shape) for name in ("wall_time", "error", "uncertainty")}
     trajectories = np.zeros(shape, dtype=np.int64)
     iterations = np.zeros(shape, dtype=np.int64)
+    runs = np.zeros(shape, dtype=np.int64)
     converged = np.zeros(shape, dtype=bool)
     for m, method in enumerate(REFINEMENT_METHODS):
         for k, tolerance in enumerate(tolerances):
             settings = dataclasses.replace(base, tolerance=float(tolerance),
                                            bisection_precision=float(tolerance) * precision_ratio)
-            best = np.inf
             try:
-                for _ in range(repeats):
-                    start = time.perf_counter()
-                    refined = methods[method](problem, guess, settings)
-                    best = min(best, time.perf_counter() - start)
+                timed = repeat_timed(lambda: methods[method](problem, guess, settings), rule)
             except RefinementFailed as error:
                 log.info("NHIM refinement by %s at tolerance %g failed: %s", method, tolerance, error)
                 continue
+            refined, best = timed.result, timed.wall_time
             converged[m, k] = True
             out["wall_time"][m, k] = best
+            runs[m, k] = timed.runs
             out["error"][m, k] = float(np.linalg.norm(refined.point - crossing))
             out["uncertainty"][m, k] = refined.uncertainty
             trajectories[m, k] = refined.cost.trajectories
@@ -138,8 +148,10 @@ def nhim_refinement_dataset(
                                {"long_name": "refinement tolerance (section units)"}),
             "nhim_refinement_converged": (("nhim_method", "nhim_refinement"), converged),
             "nhim_refinement_wall_time": (("nhim_method", "nhim_refinement"), out["wall_time"], {
-                "units": "s", "long_name": f"refinement from the detected cell; smallest of {repeats} run(s)",
+                "units": "s", "long_name": f"refinement from the detected cell; {rule.description()}",
                 "comment": zero_note}),
+            "nhim_refinement_timed_runs": (("nhim_method", "nhim_refinement"), runs, {
+                **RepeatRule.runs_attributes("nhim_refinement_wall_time"), "comment": zero_note}),
             "nhim_refinement_trajectories": (("nhim_method", "nhim_refinement"), trajectories, {"comment": zero_note}),
             "nhim_refinement_iterations": (("nhim_method", "nhim_refinement"), iterations, {"comment": zero_note}),
             "nhim_refinement_uncertainty": (("nhim_method", "nhim_refinement"), out["uncertainty"], {

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -12,6 +13,7 @@ from ..logs import get_logger
 from ..lyapunov_orbits import BrakeOrbit, CorrectionFailed, CorrectorSettings, LyapunovFamily, SaddleLinearization
 from ..systems import System
 from ..variational import propagate
+from .timing import RepeatRule, repeat_timed
 
 log = get_logger(__package__)  # the package's name, as before the split, in the log lines
 
@@ -64,20 +66,18 @@ def compute_orbit(
     return orbit, len(family.members)
 
 
-def timed_orbit(system, saddle, mode, energy, step, continuation, repeats, max_iterations=20):
-    """:func:`compute_orbit` ``repeats`` times: (orbit, members, smallest wall time), or
-    (None, 0, wall time of the failed attempt) when the correction fails."""
-    best = np.inf
-    orbit, members = None, 0
-    for _ in range(repeats):
-        start = time.perf_counter()
-        try:
-            orbit, members = compute_orbit(system, saddle, mode, energy, step, continuation, max_iterations)
-        except CorrectionFailed as error:
-            log.info("%s: correction failed (%s)", step.label, error)
-            return None, 0, time.perf_counter() - start
-        best = min(best, time.perf_counter() - start)
-    return orbit, members, float(best)
+def timed_orbit(system, saddle, mode, energy, step, continuation, rule: RepeatRule, max_iterations=20):
+    """:func:`compute_orbit` timed as ``rule`` says: (orbit, members, smallest wall time, runs), or
+    (None, 0, wall time of the failed attempt, 1) when the correction fails (it fails on every run)."""
+    start = time.perf_counter()
+    try:
+        timed = repeat_timed(lambda: compute_orbit(system, saddle, mode, energy, step, continuation, max_iterations),
+                             rule)
+    except CorrectionFailed as error:
+        log.info("%s: correction failed (%s)", step.label, error)
+        return None, 0, time.perf_counter() - start, 1
+    orbit, members = timed.result
+    return orbit, members, timed.wall_time, timed.runs
 
 
 def closure_error(system: System, orbit: BrakeOrbit, rtol: float) -> float:
@@ -97,6 +97,7 @@ def orbit_ladder_dataset(
     continuation: dict,
     check_rtol: float,
     repeats: int = 1,
+    repeat_budget: float = math.inf,
     max_iterations: int = 20,
 ) -> xr.Dataset:
     """Measure every corrector setting on the orbit at total ``energy`` against a tight reference orbit.
@@ -108,9 +109,12 @@ def orbit_ladder_dataset(
         ``closure_error`` (re-measured at ``check_rtol``), ``reported_closure_error``,
         ``energy_error``, ``period_error``, ``initial_state_error``, ``family_members``; the
         reference orbit's period, initial state and closure error as attributes. Fields of a
-        setting that did not converge are 0.
+        setting that did not converge are 0. Each setting is timed at most ``repeats`` times,
+        fewer once its runs total ``repeat_budget`` seconds (:class:`~ldpipe.accuracy.timing.RepeatRule`).
     """
-    ref, _, ref_wall = timed_orbit(system, saddle, mode, energy, reference, continuation, 1, max_iterations)
+    rule = RepeatRule(repeats, repeat_budget)
+    ref, _, ref_wall, _ = timed_orbit(system, saddle, mode, energy, reference, continuation, RepeatRule(),
+                                      max_iterations)
     if ref is None:
         raise CorrectionFailed(f"the reference orbit ({reference.label}) did not converge at energy {energy:.12g}")
     ref_closure = closure_error(system, ref, check_rtol)
@@ -121,8 +125,9 @@ def orbit_ladder_dataset(
         "wall_time", "closure_error", "reported_closure_error", "energy_error", "period_error", "initial_state_error")}
     converged = np.zeros(n, dtype=bool)
     members = np.zeros(n, dtype=np.int64)
+    runs = np.zeros(n, dtype=np.int64)
     for k, step in enumerate(steps):
-        orbit, count, wall = timed_orbit(system, saddle, mode, energy, step, continuation, repeats, max_iterations)
+        orbit, count, wall, runs[k] = timed_orbit(system, saddle, mode, energy, step, continuation, rule, max_iterations)
         out["wall_time"][k] = wall
         if orbit is None:
             continue
@@ -146,8 +151,9 @@ def orbit_ladder_dataset(
             "orbit_label": ("orbit_setting", [s.label for s in steps]),
             "orbit_converged": ("orbit_setting", converged),
             "orbit_wall_time": ("orbit_setting", out["wall_time"], {
-                "units": "s", "long_name": f"continuation, bracketing, correction and monodromy; smallest of {repeats} runs "
+                "units": "s", "long_name": f"continuation, bracketing, correction and monodromy; {rule.description()} "
                                            "(of the failed attempt where it did not converge)"}),
+            "orbit_timed_runs": ("orbit_setting", runs, RepeatRule.runs_attributes("orbit_wall_time")),
             "orbit_closure_error": ("orbit_setting", out["closure_error"], {
                 "long_name": "||x(T) - x(0)|| re-measured by a separate integration at check_rtol", "comment": zero_note}),
             "orbit_reported_closure_error": ("orbit_setting", out["reported_closure_error"], {
@@ -167,5 +173,6 @@ def orbit_ladder_dataset(
         "orbit_reference_period": ref.period, "orbit_reference_initial_state": ref.initial_state,
         "orbit_reference_closure_error": ref_closure, "orbit_reference_wall_time": ref_wall,
         "orbit_check_rtol": check_rtol, "orbit_target_energy": energy, "orbit_repeats": repeats,
+        "orbit_repeat_budget": repeat_budget,
     })
     return data

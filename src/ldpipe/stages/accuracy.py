@@ -20,9 +20,9 @@ import numpy as np
 import xarray as xr
 
 from ..accuracy import (
-    QUANTILES, CorrectorStep, IntegratorStep, compute_orbit, corrector_ladder, integrator_ladder, ld_ladder_dataset,
-    load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset, sample_indices,
-    same_number, warm_up,
+    QUANTILES, CorrectorStep, IntegratorStep, RepeatRule, compute_orbit, corrector_ladder, integrator_ladder,
+    ld_ladder_dataset, load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset,
+    sample_indices, same_number, warm_up,
 )
 from ..engine.codegen import engine_name
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
@@ -76,7 +76,8 @@ def _map_dataset(name: str, parameters: dict, equilibria: xr.Dataset, ld: dict, 
     grid_index = np.argwhere(allowed)[chosen]  # C order of the grid, as section_states orders the states
     log.info("map %s: %d of %d allowed points sampled (grid %s), %s time, tau %g", name, len(chosen), len(states),
              section.shape, parameters["time"], settings.tau)
-    data = ld_ladder_dataset(system, states[chosen], settings, steps, reference, check, repeats=ld["repeats"])
+    data = ld_ladder_dataset(system, states[chosen], settings, steps, reference, check, repeats=ld["repeats"],
+                              repeat_budget=ld["repeat_budget"])
     n = len(chosen)
     default = np.array([step.matches(settings) for step in steps])
     if not default.any():
@@ -129,7 +130,7 @@ def ld_accuracy_dataset(ld: dict, equilibria: dict[str, xr.Dataset]) -> xr.Datas
     joined = joined.assign_coords(map=list(ld["maps"]))
     joined.attrs.update({
         "reference": reference.label, "reference_check": check.label, "reference_validation": REFERENCE_VALIDATION,
-        "repeats": ld["repeats"], "sample_seed": ld["seed"],
+        "repeats": ld["repeats"], "repeat_budget": ld["repeat_budget"], "sample_seed": ld["seed"],
     })
     return joined
 
@@ -153,7 +154,8 @@ def orbit_accuracy_dataset(orbit: dict, equilibria: dict[str, xr.Dataset]) -> xr
              family["center_mode"], energy, energy - critical_energy, len(steps))
     result = orbit_ladder_dataset(
         system, saddle, family["center_mode"], energy, steps, reference, continuation=family["continuation"],
-        check_rtol=orbit["check_rtol"], repeats=orbit["repeats"], max_iterations=family["max_iterations"],
+        check_rtol=orbit["check_rtol"], repeats=orbit["repeats"],
+        repeat_budget=orbit["repeat_budget"], max_iterations=family["max_iterations"],
     )
     default = [same_number(s.tolerance, family["tolerance"]) and same_number(s.rtol, family["integrator"]["rtol"])
                for s in steps]
@@ -163,9 +165,26 @@ def orbit_accuracy_dataset(orbit: dict, equilibria: dict[str, xr.Dataset]) -> xr
     return result
 
 
-def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset]) -> xr.Dataset:
+def _reference_orbit_of(orbit_ladder: xr.Dataset | None, parameters: dict, family: dict, energy: float):
+    """(initial state, period) of the orbit ladder's reference orbit if it is the NHIM's (same system,
+    saddle, settings and energy: the same computation, so the same numbers); else None."""
+    if orbit_ladder is None or "orbit_reference_period" not in orbit_ladder.attrs:
+        return None
+    same = (parameters["system_name"] == family["system_name"] and parameters["system_spec"] == family["system_spec"]
+            and orbit_ladder.attrs["orbit_target_energy"] == energy)
+    if not same:
+        return None
+    return orbit_ladder.attrs["orbit_reference_initial_state"], orbit_ladder.attrs["orbit_reference_period"]
+
+
+def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset],
+                          orbit_ladder: xr.Dataset | None = None) -> xr.Dataset:
     """The NHIM ladders on one variable-time map: grid resolution -> detection error, refinement
-    tolerance -> location error, both against the crossing of the tight reference orbit."""
+    tolerance -> location error, both against the crossing of the tight reference orbit.
+
+    ``orbit_ladder``: the orbit ladder's dataset (:func:`orbit_accuracy_dataset`), whose reference
+    orbit is taken where it is the same orbit (same system and energy) instead of computed again.
+    """
     parameters = nhim["map"]
     name = parameters["map_name"]
     key = "accuracy_cost.nhim"
@@ -176,17 +195,21 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     family = upo["family"]
     ref = upo["reference"]
     reference = CorrectorStep(ref["tolerance"], ref["energy_tolerance"], ref["rtol"], ref["rtol"])
-    orbit_position, _ = select_saddle(data, family.get("saddle_near"))
-    try:
-        orbit, _ = compute_orbit(system, linearize_saddle(system, orbit_position), family["center_mode"],
-                                 info["energy"], reference, family["continuation"], family["max_iterations"])
-    except CorrectionFailed as error:
-        raise ConfigError(f"config key '{key}': no reference orbit of family {family['family']!r} at the energy of "
-                          f"map {name!r}: {error}") from None
-    crossing = orbit_section_crossing(problem, orbit.initial_state, orbit.period, rtol=upo["check_rtol"],
-                                      atol=upo["check_rtol"])
-    log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, orbit.period, crossing)
-    grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"], repeats=nhim["repeats"])
+    known = _reference_orbit_of(orbit_ladder, parameters, family, info["energy"])
+    if known is None:
+        orbit_position, _ = select_saddle(data, family.get("saddle_near"))
+        try:
+            orbit, _ = compute_orbit(system, linearize_saddle(system, orbit_position), family["center_mode"],
+                                     info["energy"], reference, family["continuation"], family["max_iterations"])
+        except CorrectionFailed as error:
+            raise ConfigError(f"config key '{key}': no reference orbit of family {family['family']!r} at the energy "
+                              f"of map {name!r}: {error}") from None
+        known = orbit.initial_state, orbit.period
+    initial_state, period = known
+    crossing = orbit_section_crossing(problem, initial_state, period, rtol=upo["check_rtol"], atol=upo["check_rtol"])
+    log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, period, crossing)
+    grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"], repeats=nhim["repeats"],
+                              repeat_budget=nhim["repeat_budget"])
     start = dataclasses.replace(section, shape=(nhim["refinement_grid"], nhim["refinement_grid"]))
     start_problem = dataclasses.replace(problem, section=start)
     grid = ld_grid_dataset(system, start, info["energy"], settings)
@@ -194,7 +217,7 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     guess = detect_nhim_cell(grid.ld_forward.values, grid.ld_backward.values, grid.allowed.values, axes).point
     refinements = nhim_refinement_dataset(
         start_problem, guess, crossing, nhim["tolerance"], RefinementSettings(**nhim["refinement"]),
-        precision_ratio=nhim["precision_ratio"], repeats=nhim["repeats"],
+        precision_ratio=nhim["precision_ratio"], repeats=nhim["repeats"], repeat_budget=nhim["repeat_budget"],
     )
     result = xr.merge([grids, refinements], compat="no_conflicts", join="outer", combine_attrs="drop")
     result["nhim_grid_is_default"] = ("nhim_grid", np.array([p == section.shape[0] for p in nhim["grid_points"]]),
@@ -207,6 +230,7 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
         "nhim_refinement_grid": nhim["refinement_grid"], "nhim_refinement_start": guess,
         "nhim_refinement_start_error": float(np.linalg.norm(guess - crossing)),
         "nhim_precision_ratio": nhim["precision_ratio"], "nhim_repeats": nhim["repeats"],
+        "nhim_repeat_budget": nhim["repeat_budget"],
     })
     return result
 
@@ -219,10 +243,11 @@ def accuracy_dataset(ld: dict, upo: dict, nhim: dict, equilibria: list[str | Pat
     parts = []
     if ld["maps"]:
         parts.append(ld_accuracy_dataset(ld, found))
-    if upo["family"]:
-        parts.append(orbit_accuracy_dataset(upo, found))
+    orbits = orbit_accuracy_dataset(upo, found) if upo["family"] else None
+    if orbits is not None:
+        parts.append(orbits)
     if nhim["map"]:
-        parts.append(nhim_accuracy_dataset(nhim, upo, found))
+        parts.append(nhim_accuracy_dataset(nhim, upo, found, orbits))
     if not parts:
         raise ConfigError("config key 'accuracy_cost': names no LD map (ld.maps), orbit family (upo.family) "
                           "or NHIM map (nhim.map)")
@@ -247,12 +272,18 @@ def _default_mark(is_default) -> str:
     return " *" if bool(is_default) else ""
 
 
+def _repeat_rule(attrs: dict, repeats: str, budget: str) -> RepeatRule:
+    """The repeat rule a ladder was timed with, from the file's attributes (a file without a budget repeated every setting)."""
+    return RepeatRule(int(attrs[repeats]), float(attrs.get(budget, np.inf)))
+
+
 def _ld_tables(data: xr.Dataset) -> list[str]:
     quantiles = list(np.round(data["quantile"].values, 6))
     median, p99, worst = quantiles.index(0.5), quantiles.index(0.99), quantiles.index(1.0)
     lines = [
         f"LD: reference {data.attrs['reference']}; the reference check ({data.attrs['reference_check']}) "
-        f"is listed per map. Wall time is the smallest of {data.attrs['repeats']} run(s); the full-map "
+        f"is listed per map. Wall time: the {_repeat_rule(data.attrs, 'repeats', 'repeat_budget').description()} "
+        "(column runs); the full-map "
         "estimate scales it to every allowed grid point. Errors are relative to the reference, over the "
         "sampled points and both directions where the reference did not escape (a fixed-step reference stops "
         "an escape at the start of a step, short by up to one step's LD); energy drift is |H(end) - H(0)|. "
@@ -272,7 +303,7 @@ def _ld_tables(data: xr.Dataset) -> list[str]:
             f"{int(d.reference_escapes)} of {2 * int(d.sampled_points)} reference trajectories escaped "
             "(left out of the error columns).",
             "",
-            *_table_head(["setting", "wall s (sample)", "full map s", "time units / s", "LD error median", "99%",
+            *_table_head(["setting", "wall s (sample)", "runs", "full map s", "time units / s", "LD error median", "99%",
                           "worst", "energy drift median", "worst", "stop mismatches", "non-finite energy"],
                          left=("setting",)),
         ]
@@ -280,7 +311,8 @@ def _ld_tables(data: xr.Dataset) -> list[str]:
             e = d.ld_error_quantile.values[s]
             h = d.energy_error_quantile.values[s]
             lines.append(
-                f"| {d.label.values[s]}{_default_mark(d.is_default.values[s])} | {float(d.wall_time[s]):.3f} | {float(d.map_wall_time_estimate[s]):.1f} "
+                f"| {d.label.values[s]}{_default_mark(d.is_default.values[s])} | {float(d.wall_time[s]):.3f} "
+                f"| {int(d.timed_runs[s])} | {float(d.map_wall_time_estimate[s]):.1f} "
                 f"| {float(d.throughput[s]):.2e} | {_scientific(e[median])} | {_scientific(e[p99])} "
                 f"| {_scientific(e[worst])} | {_scientific(h[median])} | {_scientific(h[worst])} "
                 f"| {int(d.stop_mismatches[s])} | {int(d.nonfinite_energy_errors[s])} |"
@@ -298,7 +330,8 @@ def _orbit_table(data: xr.Dataset) -> list[str]:
         f"Reference: {a['orbit_reference']}, period {a['orbit_reference_period']:.15g}, closure error "
         f"{a['orbit_reference_closure_error']:.1e}. Closure errors re-measured at rtol {a['orbit_check_rtol']:g}; "
         f"energy tolerance {ratio:g} x tolerance; wall time from the saddle (continuation, bracketing, "
-        "correction, monodromy). `*` marks the family's own setting.",
+        f"correction, monodromy), the {_repeat_rule(a, 'orbit_repeats', 'orbit_repeat_budget').description()}. "
+        "`*` marks the family's own setting.",
         "",
         *_table_head(["tolerance", "integrator rtol", "wall s", "closure error", "period error", "energy error",
                       "x(0) error"]),
@@ -324,7 +357,8 @@ def _nhim_tables(data: xr.Dataset) -> list[str]:
         f"Exact point: the reference orbit's crossing of the slice, ({', '.join(a['nhim_axes'])}) = "
         f"({', '.join(f'{v:.12g}' for v in a['nhim_crossing'])}). Detection: the LD map at n x n points (forward and "
         "backward) and its cell of largest min(F/F_ridge, B/B_ridge); the plain maximum of F + B for comparison. "
-        "`*` marks the map's own grid.",
+        "Wall times (of the grid and of each refinement): the "
+        f"{_repeat_rule(a, 'nhim_repeats', 'nhim_repeat_budget').description()}. `*` marks the map's own grid.",
         "",
         *_table_head(["n", "wall s", "cell diagonal", "distance (detected cell)", "distance (plain maximum)"]),
     ]
