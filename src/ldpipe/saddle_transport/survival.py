@@ -27,6 +27,7 @@ As T → ∞, Φ E[τ] = V (1 − P(∞)): the mean gap time is the reactive par
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -48,7 +49,7 @@ def sample_well(system, well, energy: float, lines: Sequence[DividingLine], coun
     out, have = [], 0
     while have < count:
         q = rng.uniform(lower, upper, size=(4 * (count - have) + 64, 2))
-        v = np.array([system.potential(row) for row in q])
+        v = system.potentials(q)
         keep = v < energy
         for line in lines:
             keep &= (q - line.saddle) @ line.normal < 0
@@ -82,7 +83,8 @@ def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], durati
         grid = np.linspace(0.0, length, max(1, math.ceil(length / sample_step - 1e-9)) + 1)
         result = integrate(system, current, grid[-1], flow, sample_times=grid, threads=threads)
         s = np.einsum("tsi,ki->tsk", result.samples[:, :, :2], normals) - offsets  # (traj, sample, line)
-        s = s.max(axis=2)
+        # the largest over the lines, one line at a time: a reduction over a short last axis is slow
+        s = functools.reduce(np.maximum, (s[:, :, k] for k in range(1, s.shape[2])), s[:, :, 0])
         if on_surface and start == 0.0:
             s[:, 0] = -np.inf
         out = s > 0
