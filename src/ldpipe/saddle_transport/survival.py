@@ -27,7 +27,6 @@ As T → ∞, Φ E[τ] = V (1 − P(∞)): the mean gap time is the reactive par
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -61,6 +60,19 @@ def sample_well(system, well, energy: float, lines: Sequence[DividingLine], coun
     return np.concatenate(out)[:count]
 
 
+def _largest_side(samples: np.ndarray, normals: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """max over the lines k of s_k = n_k·q − c_k at each sample (shape (traj, sample)), q = the first two
+    entries of each state. Line by line, each s_k as x n_x + y n_y − c (the sum of products in
+    order, as a contraction over the two coordinates forms it); the max taken pairwise, in line
+    order: no (traj, sample, line) array and no reduction over a short last axis."""
+    x, y = samples[:, :, 0], samples[:, :, 1]
+    largest = None
+    for normal, offset in zip(normals, offsets):
+        side = x * normal[0] + y * normal[1] - offset
+        largest = side if largest is None else np.maximum(largest, side, out=largest)
+    return largest
+
+
 def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], duration: float, *,
                sample_step: float = 0.05, segment: float = 20.0, flow: FlowSettings | None = None,
                threads: int | None = None, on_surface: bool = False) -> np.ndarray:
@@ -82,9 +94,7 @@ def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], durati
         length = min(segment, duration - start)
         grid = np.linspace(0.0, length, max(1, math.ceil(length / sample_step - 1e-9)) + 1)
         result = integrate(system, current, grid[-1], flow, sample_times=grid, threads=threads)
-        s = np.einsum("tsi,ki->tsk", result.samples[:, :, :2], normals) - offsets  # (traj, sample, line)
-        # the largest over the lines, one line at a time: a reduction over a short last axis is slow
-        s = functools.reduce(np.maximum, (s[:, :, k] for k in range(1, s.shape[2])), s[:, :, 0])
+        s = _largest_side(result.samples, normals, offsets)  # (traj, sample)
         if on_surface and start == 0.0:
             s[:, 0] = -np.inf
         out = s > 0
