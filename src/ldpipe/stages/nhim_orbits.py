@@ -19,7 +19,9 @@ and records per slice a status:
 
 The reference (the orbit point) comes from the periodic-orbit corrector, not from LDs or fates.
 :func:`ldpipe.nhim_points.validate_orbit_slice` searches and classifies one slice; this module reads the
-orbit files, computes each orbit point's monodromy matrix and writes the study file.
+orbit files, computes each orbit point's monodromy matrix, passes the slices through the points of one
+orbit together (:func:`ldpipe.nhim_points.validate_orbit_slices`, which refines their candidates in
+shared engine calls) and writes the study file.
 The validation stage (:mod:`ldpipe.stages.nhim_validation`) writes the table and fails the run on
 any ``fail:``. Refined crossings are in their own table (dimension ``crossing``); a degenerate or
 failed slice has none there.
