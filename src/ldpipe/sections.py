@@ -328,8 +328,7 @@ def solve_momentum(
     """
     n = system.n_dof
     sign = np.broadcast_to(np.asarray(sign, dtype=np.float64), (len(states),))
-    potential = np.empty(len(states))
-    system.kernels.potential_block(np.ascontiguousarray(states[:, :n].T), potential, len(states))
+    potential = system.potentials(states[:, :n])
     solved = np.zeros(len(states))
     if system.mass_matrix is None:
         other_momenta = np.delete(states[:, n:], index, axis=1)
@@ -439,6 +438,4 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
 
 def potential_of_columns(system: System, positions: np.ndarray) -> np.ndarray:
     """V at each column of ``positions`` (shape (n_dof, count), C-contiguous)."""
-    out = np.empty(positions.shape[1])
-    system.kernels.potential_block(positions, out, positions.shape[1])
-    return out
+    return system.potentials(positions.T)

@@ -12,7 +12,7 @@ from scipy.integrate._ivp import dop853_coefficients as scipy_dop853
 
 from ldpipe.engine.schemes import tableaux
 from ldpipe.engine.codegen import load_engine
-from ldpipe.engine.quadrature import folded_jacobi_rule, jacobi_rule
+from ldpipe.engine.quadrature import folded_jacobi_rule, jacobi_rule, legendre_rule
 from ldpipe.engine.schemes import scheme_source
 from ldpipe.engine.schemes.dop853 import nystrom_form
 
@@ -112,3 +112,19 @@ def test_folded_jacobi_rule_moments(p, n):
         exact = 1.0 / (p + k + 1.0)
         assert np.dot(folded, x ** (p + k)) == pytest.approx(exact, rel=1e-13)
         assert np.dot(weights, x**k) == pytest.approx(exact, rel=1e-13)
+
+
+def test_legendre_rule_is_built_once_and_handed_out_as_copies():
+    # Closed form: the 2-node Gauss–Legendre rule on [0, 1] has nodes 1/2 -+ 1/(2 sqrt 3), weights 1/2.
+    nodes, weights = legendre_rule(2)
+    expected = np.array([0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0)])
+    np.testing.assert_allclose(nodes, expected, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(weights, [0.5, 0.5], rtol=0, atol=1e-15)
+    nodes[:] = 0.0  # a caller's change must not reach the next caller of the cached rule
+    weights[:] = 0.0
+    again, again_weights = legendre_rule(2)
+    np.testing.assert_allclose(again, expected, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(again_weights, [0.5, 0.5], rtol=0, atol=1e-15)
+    x, w = jacobi_rule(3, 0.5)
+    x[:], w[:] = 0.0, 0.0
+    assert np.all(jacobi_rule(3, 0.5)[0] > 0) and np.all(jacobi_rule(3, 0.5)[1] > 0)

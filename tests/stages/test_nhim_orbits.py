@@ -86,6 +86,24 @@ def test_every_crossing_of_the_linear_saddle_is_its_nhim_point(linear_saddle):
     assert found.crossings[0].refined.uncertainty <= SETTINGS.tolerance
 
 
+def test_slices_refined_together_are_the_slices_refined_alone(linear_saddle):
+    # Identity: the engine integrates each trajectory on its own lane, so refining the candidates of
+    # several slices (through three points of the orbit) in shared rounds must give each slice's
+    # crossings, uncertainties and costs exactly as its search alone does.
+    ld_settings = LDSettings(rtol=1e-10, atol=1e-10, tau=20.0, region_lower=(-1.0, -2.0), region_upper=(1.0, 2.0))
+    problems = [nhim.make_slice_problem(f"linear{t}", linear_saddle,
+                                        nhim.point_slice(linear_saddle, _linear_orbit_point(t), ("x", "px"), 0.3, 21),
+                                        0.5, 0.0, np.zeros(2), ld_settings) for t in (0.3, 0.7, 1.1)]
+    together = nhim.find_crossings_together(problems, SETTINGS)
+    for problem, found in zip(problems, together):
+        alone = nhim.find_every_crossing(problem, SETTINGS)
+        assert [c.status for c in found.crossings] == [c.status for c in alone.crossings] == ["refined"]
+        assert np.array_equal(found.points, alone.points)
+        assert found.crossings[0].refined.uncertainty == alone.crossings[0].refined.uncertainty
+        assert (found.cost.trajectories, found.cost.time_units, found.cost.steps) == (
+            alone.cost.trajectories, alone.cost.time_units, alone.cost.steps)
+
+
 def test_transversality_and_boundary_distance_of_the_linear_saddle(linear_saddle):
     # Closed forms. Monodromy of the linear saddle over the y period T = 2 pi / w: diag-like, the
     # hyperbolic pair u = (1, 0, lam, 0), s = (1, 0, -lam, 0). At x = p_x = 0 the slice (x, p_x)

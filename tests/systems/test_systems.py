@@ -137,3 +137,14 @@ def test_compiled_kernels_are_reused_by_the_next_process(tmp_path):
     assert runs[1]["hits"] == 1 and runs[1]["misses"] == 0
     # Henon-Heiles at (0.3, 0.4): (0.09 + 0.16)/2 + 0.09*0.4 - 0.064/3 (closed form).
     assert runs[0]["value"] == runs[1]["value"] == pytest.approx(0.125 + 0.036 - 0.064 / 3, rel=1e-15)
+
+
+@pytest.mark.parametrize("builtin", sorted(BUILTINS))
+def test_potentials_are_the_one_point_potential_bit_for_bit(builtin):
+    """System.potentials (the block kernel, one call) gives exactly System.potential row by row: both
+    kernels evaluate the same expression in the same order (identity, no tolerance)."""
+    system = make_system(builtin, {"builtin": builtin})
+    points = RNG.uniform(-12, 12, size=(37, system.n_dof))
+    expected = np.array([system.potential(q) for q in points])
+    assert np.array_equal(system.potentials(points), expected)
+    assert np.array_equal(system.potentials(points[::2]), expected[::2])  # a strided view of the rows

@@ -40,7 +40,7 @@ crossing in a slice's window, each refined, degenerate ones recorded as such), :
 slice of a stage's study, as its file records it: an LD map's slice, a slice through an orbit point).
 """
 
-from .crossings import CROSSING_STATUS, Crossing, SliceCrossings, find_every_crossing
+from .crossings import CROSSING_STATUS, Crossing, SliceCrossings, find_crossings_together, find_every_crossing
 from .detection import (
     Candidate, Detection, crossing_candidates, detect_global_argmax, detect_nhim_cell, nhim_score, ridge_level,
     switch_cells,
@@ -52,14 +52,14 @@ from .refinement import ManifoldsTangent, Refined, ld_at_points, refine_by_fates
 from .slices import (
     SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality,
 )
-from .study import ReferenceOrbit, study_map_slice, validate_orbit_slice
+from .study import ReferenceOrbit, study_map_slice, validate_orbit_slice, validate_orbit_slices
 
 __all__ = [
     "CROSSING_STATUS", "Candidate", "boundary_distance", "Crossing", "ManifoldsTangent", "SliceCrossings", "crossing_candidates",
-    "find_every_crossing", "point_slice", "slice_transversality", "switch_cells",
+    "find_crossings_together", "find_every_crossing", "point_slice", "slice_transversality", "switch_cells",
     "Cost", "Detection", "RefinementFailed", "RefinementSettings", "Refined", "SliceProblem", "bisect_fate_switch",
     "detect_global_argmax", "detect_nhim_cell", "exit_fates", "ld_at_points", "make_slice_problem", "nhim_score",
     "orbit_section_crossing", "orbit_section_residual", "refine_by_fates", "refine_by_ld_zoom", "residence_evidence",
     "ridge_level", "section_point_states",
-    "ReferenceOrbit", "study_map_slice", "validate_orbit_slice",
+    "ReferenceOrbit", "study_map_slice", "validate_orbit_slice", "validate_orbit_slices",
 ]

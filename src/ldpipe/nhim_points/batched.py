@@ -68,6 +68,7 @@ def _answer(kind: str, problems: list[SliceProblem], points: np.ndarray, directi
     if kind == "fates":
         fate = np.zeros(len(states), dtype=np.int64)
         exit_time = np.full(len(states), refinement.max_time)
+        run_time, steps = np.zeros(len(states)), np.zeros(len(states), dtype=np.int64)
         if allowed.any():
             start = _reverse(states[allowed], directions[allowed], n)
             result = compute_ld(base.system, start, +1, fate_settings(base, refinement))
@@ -75,8 +76,9 @@ def _answer(kind: str, problems: list[SliceProblem], points: np.ndarray, directi
             side = np.sign((result.end_state[:, :n] - base.saddle) @ base.reaction).astype(np.int64)
             fate[allowed] = np.where(left, side, 0)
             exit_time[allowed] = np.where(left, result.time, refinement.max_time)
+            run_time[allowed], steps[allowed] = result.time, result.steps
             cost.add(int(allowed.sum()), float(result.time.sum()), int(result.steps.sum()))
-        return {"fate": fate, "exit_time": exit_time, "allowed": allowed}
+        return {"fate": fate, "exit_time": exit_time, "allowed": allowed, "time": run_time, "steps": steps}
     # "ld": the map's LD settings; "residence": DOP853 at the refinement's tolerances to max_time.
     settings = base.ld_settings
     if kind == "residence":
@@ -84,7 +86,8 @@ def _answer(kind: str, problems: list[SliceProblem], points: np.ndarray, directi
                            tau=refinement.max_time)
     out = {name: np.zeros(len(states)) for name in ("ld_forward", "ld_backward", "exit_time_forward",
                                                      "exit_time_backward")}
-    out["allowed"] = allowed
+    out.update(allowed=allowed, steps_forward=np.zeros(len(states), dtype=np.int64),
+               steps_backward=np.zeros(len(states), dtype=np.int64))
     if allowed.any():
         k = int(allowed.sum())
         both = np.vstack([states[allowed], _reverse(states[allowed], -np.ones(k), n)])
@@ -92,6 +95,7 @@ def _answer(kind: str, problems: list[SliceProblem], points: np.ndarray, directi
         for suffix, part in (("forward", slice(0, k)), ("backward", slice(k, 2 * k))):
             out[f"ld_{suffix}"][allowed] = result.ld[part]
             out[f"exit_time_{suffix}"][allowed] = result.time[part]
+            out[f"steps_{suffix}"][allowed] = result.steps[part]
         cost.add(2 * k, float(result.time.sum()), int(result.steps.sum()))
     return out
 
@@ -102,9 +106,10 @@ def run_tasks(tasks: list[Task], refinement: RefinementSettings, cost: Cost | No
     A task yields ``(problem, kind, points, directions)``: ``kind`` one of ``"fates"``, ``"ld"``,
     ``"residence"``; ``points`` shape (k, 2) on ``problem``'s slice; ``directions`` shape (k,), +1 or
     -1, the direction of time of each fate (ignored otherwise: both directions are computed). It
-    receives a dict of arrays of shape (k,): ``fate``, ``exit_time`` and ``allowed`` for fates;
-    ``ld_forward``, ``ld_backward``, ``exit_time_forward``, ``exit_time_backward`` and ``allowed``
-    otherwise. Each round answers every pending request, one engine call per kind.
+    receives a dict of arrays of shape (k,): ``fate``, ``exit_time``, ``allowed``, and the trajectories'
+    integration ``time`` and ``steps`` (0 where not allowed) for fates;
+    ``ld_forward``, ``ld_backward``, ``exit_time_forward``, ``exit_time_backward``, ``steps_forward``,
+    ``steps_backward`` and ``allowed`` otherwise. Each round answers every pending request, one engine call per kind.
     """
     cost = Cost() if cost is None else cost
     results: list = [None] * len(tasks)
@@ -136,6 +141,28 @@ def run_tasks(tasks: list[Task], refinement: RefinementSettings, cost: Cost | No
         for i, answer in answers.items():
             advance(i, answer)
     return results
+
+
+def charging(task: Task, cost: Cost) -> Task:
+    """``task`` unchanged, charging ``cost`` with the trajectories of its own requests as
+    :func:`run_tasks` charges a batch's (so a task run among others is costed as if run alone:
+    the same counts, and its own rows' times and steps summed in the same order)."""
+    answer = None
+    while True:
+        try:
+            request = task.send(answer)
+        except StopIteration as stop:
+            return stop.value
+        answer = yield request
+        allowed = answer["allowed"]
+        if not allowed.any():
+            continue
+        if request[1] == "fates":
+            cost.add(int(allowed.sum()), float(answer["time"][allowed].sum()), int(answer["steps"][allowed].sum()))
+        else:
+            both = np.concatenate([answer["exit_time_forward"][allowed], answer["exit_time_backward"][allowed]])
+            steps = int(answer["steps_forward"][allowed].sum()) + int(answer["steps_backward"][allowed].sum())
+            cost.add(2 * int(allowed.sum()), float(both.sum()), steps)
 
 
 def bisect_task(problem: SliceProblem, starts: np.ndarray, ends: np.ndarray, directions: np.ndarray,

@@ -17,7 +17,8 @@ import numpy as np
 
 from .detection import Candidate, crossing_candidates, switch_cells
 from .fates import Cost, RefinementFailed, RefinementSettings, exit_fates
-from .refinement import ManifoldsTangent, Refined, refine_by_fates
+from .batched import charging, run_tasks
+from .refinement import ManifoldsTangent, Refined, refine_by_fates_task
 from .slices import SliceProblem, section_point_states
 
 #: Reason codes of a candidate that is not a refined crossing, and what each means.
@@ -72,54 +73,86 @@ def _inside(problem: SliceProblem, point: np.ndarray) -> bool:
     return all(lo <= v <= hi for v, (lo, hi) in zip(point, problem.section.ranges))
 
 
-def _refine(problem: SliceProblem, candidate: Candidate, settings: RefinementSettings) -> Refined:
-    """Refine by fates, retrying with the stencil halved (to one cell) if the refinement fails: two
-    crossings a few cells apart put both in the first stencil, whose fate-switch lines then fit
-    neither (measured: z-p_z slices through the x-y orbit of the 3 DoF system, 6 cells apart)."""
+def _refine_task(problem: SliceProblem, candidate: Candidate, settings: RefinementSettings):
+    """Refine by fates, as a task, retrying with the stencil halved (to one cell) if the refinement fails:
+    two crossings a few cells apart put both in the first stencil, whose fate-switch lines then fit
+    neither (measured: z-p_z slices through the x-y orbit of the 3 DoF system, 6 cells apart).
+    Returns the :class:`Refined`, its cost that of the attempt that succeeded (as
+    :func:`refine_by_fates` counts it), or the :class:`RefinementFailed` that ended it."""
     half = settings.stencil_half_width
     while True:
+        started = time.perf_counter()
+        cost = Cost()
         try:
-            return refine_by_fates(problem, candidate.point, replace(settings, stencil_half_width=half))
-        except ManifoldsTangent:
-            raise
-        except RefinementFailed:
+            refined = yield from charging(
+                refine_by_fates_task(problem, candidate.point, replace(settings, stencil_half_width=half)), cost)
+        except ManifoldsTangent as error:
+            return error
+        except RefinementFailed as error:
             if half <= 1.0:
-                raise
+                return error
             half = max(half / 2, 1.0)
+            continue
+        cost.wall_time = time.perf_counter() - started
+        return replace(refined, cost=cost)
 
 
 def find_every_crossing(problem: SliceProblem, settings: RefinementSettings) -> SliceCrossings:
     """Fates forward and backward on the slice's grid, every candidate (:func:`crossing_candidates`)
     refined by fates; candidates that refine to the same crossing (within 10 x tolerance) count once."""
+    (found,) = find_crossings_together([problem], settings)
+    return found
+
+
+def find_crossings_together(problems: list[SliceProblem], settings: RefinementSettings) -> list[SliceCrossings]:
+    """:func:`find_every_crossing` of slices of one family (one system, energy, pair of axes and solved
+    momentum: what :func:`ldpipe.nhim_points.batched.run_tasks` answers together), every candidate of
+    every slice refined in the same bisection rounds. A refinement is a chain of small engine calls;
+    one slice's few candidates leave most of an engine block's lanes idle, and the call's cost is the
+    block's. Each crossing is the one its slice searched alone would give; the refinements' wall
+    time, shared, is split among the slices by their number of candidates."""
+    searched = []
+    for problem in problems:
+        started = time.perf_counter()
+        cost = Cost()
+        axes = problem.section.axis_values()
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
+        shape = problem.section.shape
+        _, allowed = section_point_states(problem, grid)
+        forward, _ = exit_fates(problem, grid, +1, settings, cost)
+        backward, _ = exit_fates(problem, grid, -1, settings, cost)
+        forward, backward, allowed = forward.reshape(shape), backward.reshape(shape), allowed.reshape(shape)
+        candidates = list(crossing_candidates(forward, backward, allowed, axes))
+        cost.wall_time = time.perf_counter() - started
+        searched.append((cost, forward, backward, allowed, candidates))
     started = time.perf_counter()
-    cost = Cost()
-    axes = problem.section.axis_values()
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
-    shape = problem.section.shape
-    _, allowed = section_point_states(problem, grid)
-    forward, _ = exit_fates(problem, grid, +1, settings, cost)
-    backward, _ = exit_fates(problem, grid, -1, settings, cost)
-    forward, backward, allowed = forward.reshape(shape), backward.reshape(shape), allowed.reshape(shape)
-    crossings = []
-    for candidate in crossing_candidates(forward, backward, allowed, axes):
-        try:
-            refined = _refine(problem, candidate, settings)
-        except ManifoldsTangent as error:
-            crossings.append(Crossing(candidate, "tangent", message=str(error)))
-            continue
-        except RefinementFailed as error:
-            crossings.append(Crossing(candidate, "not_converged", message=str(error)))
-            continue
-        cost.add(refined.cost.trajectories, refined.cost.time_units, refined.cost.steps)
-        earlier = [c.refined.point for c in crossings if c.status == "refined"]
-        if any(np.linalg.norm(refined.point - p) <= 10 * settings.tolerance for p in earlier):
-            crossings.append(Crossing(candidate, "duplicate", refined))
-        elif not _inside(problem, refined.point):
-            crossings.append(Crossing(candidate, "outside_window", refined))
-        else:
-            crossings.append(Crossing(candidate, "refined", refined))
-    cost.wall_time = time.perf_counter() - started
-    return SliceCrossings(
-        crossings=crossings, forward_cells=int(switch_cells(forward, allowed).sum()),
-        backward_cells=int(switch_cells(backward, allowed).sum()), allowed_fraction=float(allowed.mean()), cost=cost,
-    )
+    tasks = [_refine_task(problem, candidate, settings)
+             for problem, (*_, candidates) in zip(problems, searched) for candidate in candidates]
+    outcomes = iter(run_tasks(tasks, settings))
+    refining = (time.perf_counter() - started) / max(1, len(tasks))
+    found = []
+    for problem, (cost, forward, backward, allowed, candidates) in zip(problems, searched):
+        crossings = []
+        for candidate in candidates:
+            refined = next(outcomes)
+            if isinstance(refined, ManifoldsTangent):
+                crossings.append(Crossing(candidate, "tangent", message=str(refined)))
+                continue
+            if isinstance(refined, RefinementFailed):
+                crossings.append(Crossing(candidate, "not_converged", message=str(refined)))
+                continue
+            cost.add(refined.cost.trajectories, refined.cost.time_units, refined.cost.steps)
+            earlier = [c.refined.point for c in crossings if c.status == "refined"]
+            if any(np.linalg.norm(refined.point - p) <= 10 * settings.tolerance for p in earlier):
+                crossings.append(Crossing(candidate, "duplicate", refined))
+            elif not _inside(problem, refined.point):
+                crossings.append(Crossing(candidate, "outside_window", refined))
+            else:
+                crossings.append(Crossing(candidate, "refined", refined))
+        cost.wall_time += refining * len(candidates)
+        found.append(SliceCrossings(
+            crossings=crossings, forward_cells=int(switch_cells(forward, allowed).sum()),
+            backward_cells=int(switch_cells(backward, allowed).sum()), allowed_fraction=float(allowed.mean()),
+            cost=cost,
+        ))
+    return found

@@ -22,7 +22,7 @@ from ..engine import LDSettings
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..systems import System
-from .crossings import find_every_crossing
+from .crossings import SliceCrossings, find_crossings_together
 from .detection import detect_global_argmax, detect_nhim_cell
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
 from .fates import RefinementFailed, RefinementSettings
@@ -149,26 +149,56 @@ def validate_orbit_slice(
         Its refined crossings inside the window: ``point``, ``uncertainty``, ``angle``, and
         ``distance`` from the orbit point.
     """
+    ((row, crossings),) = validate_orbit_slices(
+        system, [(state, axes, monodromy)], family=family, energy=energy, critical_energy=critical_energy,
+        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width, points=points,
+        boundary_cells=boundary_cells, min_transversality=min_transversality, tolerance=tolerance)
+    return row, crossings
+
+
+def validate_orbit_slices(
+    system: System, slices: list[tuple[np.ndarray, tuple[str, str], np.ndarray]], *, family: str, energy: float,
+    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
+    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
+) -> list[tuple[dict, list[dict]]]:
+    """:func:`validate_orbit_slice` of each ``(state, axes, monodromy)`` of ``slices`` (points of one orbit
+    of ``family`` at ``energy``), in order; the searched slices of one pair of axes and solved momentum
+    refine their candidates together (:func:`ldpipe.nhim_points.find_crossings_together`)."""
     phase = system.phase_coordinates
-    section = point_slice(system, state, tuple(axes), half_width, points)
-    centre = np.array([state[phase.index(a)] for a in axes])
-    momentum = float(state[phase.index(section.solve)])
-    name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
-    row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
-           "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
-           "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
-           "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
-    boundary = boundary_distance(system, section, state)
-    reach = boundary_cells * 2 * half_width / (points - 1)
-    row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
-    if boundary < reach:
-        row.update(status="degenerate:solved_momentum_vanishes", reason=(
-            f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
-            f"{boundary_cells:g} grid cells ({reach:.3g})"))
-        return row, []
-    row["transversality"] = slice_transversality(system, section, state, monodromy)
-    problem = make_slice_problem(name, system, section, energy, critical_energy, saddle, ld_settings)
-    found = find_every_crossing(problem, settings)
+    prepared, families = [], {}
+    for state, axes, monodromy in slices:
+        section = point_slice(system, state, tuple(axes), half_width, points)
+        centre = np.array([state[phase.index(a)] for a in axes])
+        momentum = float(state[phase.index(section.solve)])
+        name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
+        row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
+               "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
+               "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
+               "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
+        boundary = boundary_distance(system, section, state)
+        reach = boundary_cells * 2 * half_width / (points - 1)
+        row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
+        if boundary < reach:
+            row.update(status="degenerate:solved_momentum_vanishes", reason=(
+                f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
+                f"{boundary_cells:g} grid cells ({reach:.3g})"))
+            prepared.append((row, None))
+            continue
+        row["transversality"] = slice_transversality(system, section, state, monodromy)
+        problem = make_slice_problem(name, system, section, energy, critical_energy, saddle, ld_settings)
+        families.setdefault((tuple(section.axes), section.solve), []).append(problem)
+        prepared.append((row, problem))
+    found = {}
+    for problems in families.values():
+        found.update(zip(map(id, problems), find_crossings_together(problems, settings)))
+    return [(row, []) if problem is None else _orbit_slice_outcome(row, found[id(problem)], tolerance, min_transversality)
+            for row, problem in prepared]
+
+
+def _orbit_slice_outcome(row: dict, found: SliceCrossings, tolerance: float,
+                         min_transversality: float) -> tuple[dict, list[dict]]:
+    """The searched slice's record completed from its crossings, and the crossings inside the window."""
+    centre = row["orbit_point"]
     statuses = [c.status for c in found.crossings]
     row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
                tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,

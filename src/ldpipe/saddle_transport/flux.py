@@ -176,7 +176,8 @@ class DividingLine:
 
     def momentum_bound(self, u: np.ndarray) -> np.ndarray:
         """√(2 (E − V)) at the points u (0 where forbidden)."""
-        values = np.array([self.potential(float(v)) for v in np.atleast_1d(u)])
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        values = self.system.potentials(self.saddle[None, :] + u[:, None] * self.tangent[None, :])
         return np.sqrt(np.maximum(2.0 * (self.energy - values), 0.0))
 
     def area(self) -> float:

@@ -48,7 +48,7 @@ def sample_well(system, well, energy: float, lines: Sequence[DividingLine], coun
     out, have = [], 0
     while have < count:
         q = rng.uniform(lower, upper, size=(4 * (count - have) + 64, 2))
-        v = np.array([system.potential(row) for row in q])
+        v = system.potentials(q)
         keep = v < energy
         for line in lines:
             keep &= (q - line.saddle) @ line.normal < 0
@@ -58,6 +58,19 @@ def sample_well(system, well, energy: float, lines: Sequence[DividingLine], coun
         out.append(np.hstack([q, (speed * np.cos(phi))[:, None], (speed * np.sin(phi))[:, None]]))
         have += len(q)
     return np.concatenate(out)[:count]
+
+
+def _largest_side(samples: np.ndarray, normals: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """max over the lines k of s_k = n_k·q − c_k at each sample (shape (traj, sample)), q = the first two
+    entries of each state. Line by line, each s_k as x n_x + y n_y − c (the sum of products in
+    order, as a contraction over the two coordinates forms it); the max taken pairwise, in line
+    order: no (traj, sample, line) array and no reduction over a short last axis."""
+    x, y = samples[:, :, 0], samples[:, :, 1]
+    largest = None
+    for normal, offset in zip(normals, offsets):
+        side = x * normal[0] + y * normal[1] - offset
+        largest = side if largest is None else np.maximum(largest, side, out=largest)
+    return largest
 
 
 def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], duration: float, *,
@@ -81,8 +94,7 @@ def exit_times(system, states: np.ndarray, lines: Sequence[DividingLine], durati
         length = min(segment, duration - start)
         grid = np.linspace(0.0, length, max(1, math.ceil(length / sample_step - 1e-9)) + 1)
         result = integrate(system, current, grid[-1], flow, sample_times=grid, threads=threads)
-        s = np.einsum("tsi,ki->tsk", result.samples[:, :, :2], normals) - offsets  # (traj, sample, line)
-        s = s.max(axis=2)
+        s = _largest_side(result.samples, normals, offsets)  # (traj, sample)
         if on_surface and start == 0.0:
             s[:, 0] = -np.inf
         out = s > 0

@@ -18,9 +18,22 @@ from scipy import optimize
 from .flux import DividingLine
 
 
+#: Steps of a ray whose potential is evaluated in one kernel call (most rays end within ~150).
+RAY_CHUNK = 64
+
+#: How far a ray is followed before the well is declared unbounded in its direction.
+RAY_REACH = 1e6
+
+
 def ray_radius(system, well: np.ndarray, energy: float, lines: Sequence[DividingLine], theta: float,
-                step: float) -> float:
-    """Distance from ``well`` along direction θ to the first of: V = E, or a dividing line (s = 0)."""
+               step: float) -> float:
+    """Distance from ``well`` along direction θ to the first of: V = E, or a dividing line (s = 0).
+
+    The ray is walked in steps of ``step`` (r_k = r_{k-1} + step, summed in that order) until V ≥ E
+    or the nearest line is reached, then the crossing is found by Brent's method in the last step.
+    The steps are evaluated a chunk at a time in one kernel call; the walk and the bracket are the
+    ones a step-by-step loop finds.
+    """
     direction = np.array([math.cos(theta), math.sin(theta)])
     limit = math.inf
     for line in lines:
@@ -29,17 +42,25 @@ def ray_radius(system, well: np.ndarray, energy: float, lines: Sequence[Dividing
             limit = min(limit, float(line.normal @ (line.saddle - well)) / approach)
     inner = 0.0
     while True:
-        outer = inner + step
-        if outer >= limit:
-            if system.potential(well + limit * direction) < energy:
-                return limit
-            outer = limit
-        if system.potential(well + outer * direction) >= energy:
-            return optimize.brentq(lambda r: system.potential(well + r * direction) - energy, inner, outer,
-                                   xtol=1e-14, rtol=4 * np.finfo(float).eps)
-        inner = outer
-        if inner > 1e6:
+        outers = np.add.accumulate(np.concatenate([[inner], np.full(RAY_CHUNK, step)]))[1:]
+        at_limit = outers >= limit
+        if at_limit.any():  # the walk stops at the line: the step that would pass it ends on it
+            outers = outers[: int(np.argmax(at_limit)) + 1]
+            outers[-1] = limit
+        beyond = outers > RAY_REACH
+        if beyond.any():  # a step past the reach that is not a crossing is the last one tried
+            outers = outers[: int(np.argmax(beyond)) + 1]
+        above = system.potentials(well[None, :] + outers[:, None] * direction[None, :]) >= energy
+        if above.any():
+            k = int(np.argmax(above))
+            lower = inner if k == 0 else float(outers[k - 1])
+            return optimize.brentq(lambda r: system.potential(well + r * direction) - energy, lower,
+                                   float(outers[k]), xtol=1e-14, rtol=4 * np.finfo(float).eps)
+        if outers[-1] == limit:
+            return limit
+        if beyond.any():
             raise ValueError(f"the well is not bounded in direction θ = {theta:.6g}")
+        inner = float(outers[-1])
 
 
 def well_area(system, well, energy: float, lines: Sequence[DividingLine] = (), *, step: float = 0.05) -> float:

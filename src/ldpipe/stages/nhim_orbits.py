@@ -19,7 +19,9 @@ and records per slice a status:
 
 The reference (the orbit point) comes from the periodic-orbit corrector, not from LDs or fates.
 :func:`ldpipe.nhim_points.validate_orbit_slice` searches and classifies one slice; this module reads the
-orbit files, computes each orbit point's monodromy matrix and writes the study file.
+orbit files, computes each orbit point's monodromy matrix, passes the slices through the points of one
+orbit together (:func:`ldpipe.nhim_points.validate_orbit_slices`, which refines their candidates in
+shared engine calls) and writes the study file.
 The validation stage (:mod:`ldpipe.stages.nhim_validation`) writes the table and fails the run on
 any ``fail:``. Refined crossings are in their own table (dimension ``crossing``); a degenerate or
 failed slice has none there.
@@ -39,7 +41,7 @@ from ..critical_points import select_saddle
 from ..errors import ConfigError
 from ..ld_grid import resolve_ld_map
 from ..logs import get_logger
-from ..nhim_points import RefinementSettings, validate_orbit_slice
+from ..nhim_points import RefinementSettings, validate_orbit_slices
 from ..variational import propagate
 
 log = get_logger(__name__)
@@ -91,20 +93,23 @@ def run_nhim_orbit_validation(
         for k in _orbit_at(data, energies, key):
             energy, period = float(data.energy.values[k]), float(data.period.values[k])
             samples = data.trajectory.values[k]
-            for index in (round(j * (len(samples) - 1) / phases) for j in range(phases)):
-                state = samples[index]
-                monodromy = propagate(system, state, period, rtol=settings.rtol, atol=settings.atol).stm
-                for axes in slices:
-                    row, crossings = validate_orbit_slice(
-                        system, state, axes, monodromy, family=family, energy=energy, critical_energy=critical,
-                        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width,
-                        points=points, boundary_cells=boundary_cells, min_transversality=min_transversality,
-                        tolerance=tolerance)
-                    crossing_rows += [{"slice": len(slice_rows), **crossing} for crossing in crossings]
-                    row.update(family=family, energy=energy, excess_energy=energy - critical,
-                               orbit_phase=index / (len(samples) - 1), orbit_state=state)
-                    slice_rows.append(row)
-                    log.info("%s: %s", row["name"], row["status"] + (f" ({row['reason']})" if row["reason"] else ""))
+            indices = [round(j * (len(samples) - 1) / phases) for j in range(phases)]
+            monodromies = [propagate(system, samples[index], period, rtol=settings.rtol, atol=settings.atol).stm
+                           for index in indices]
+            # every slice of the orbit at once, so that those of one pair of axes refine together
+            points_slices = [(index, samples[index], axes, monodromy)
+                             for index, monodromy in zip(indices, monodromies) for axes in slices]
+            outcomes = validate_orbit_slices(
+                system, [(state, axes, monodromy) for _, state, axes, monodromy in points_slices], family=family,
+                energy=energy, critical_energy=critical, saddle=saddle, ld_settings=ld_settings, settings=settings,
+                half_width=half_width, points=points, boundary_cells=boundary_cells,
+                min_transversality=min_transversality, tolerance=tolerance)
+            for (index, state, _, _), (row, crossings) in zip(points_slices, outcomes):
+                crossing_rows += [{"slice": len(slice_rows), **crossing} for crossing in crossings]
+                row.update(family=family, energy=energy, excess_energy=energy - critical,
+                           orbit_phase=index / (len(samples) - 1), orbit_state=state)
+                slice_rows.append(row)
+                log.info("%s: %s", row["name"], row["status"] + (f" ({row['reason']})" if row["reason"] else ""))
     dataset = _dataset(slice_rows, crossing_rows, phase_names)
     parameters = {"study": study, "base_map": base_map["map_name"], "orbits": orbits, "energies": energies,
                   "phases": phases, "slices": slices, "half_width": half_width, "points": points,

@@ -106,6 +106,14 @@ class System:
     def potential(self, q: np.ndarray) -> float:
         return float(self.kernels.potential(np.ascontiguousarray(q, dtype=np.float64)))
 
+    def potentials(self, points: np.ndarray) -> np.ndarray:
+        """V at each row of ``points`` (shape (k, n_dof)) in one kernel call; the same numbers as
+        :meth:`potential` row by row (the block kernel evaluates the same expression)."""
+        columns = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, self.n_dof).T)
+        out = np.empty(columns.shape[1])
+        self.kernels.potential_block(columns, out, columns.shape[1])
+        return out
+
     def gradient(self, q: np.ndarray) -> np.ndarray:
         out = np.empty(self.n_dof)
         self.kernels.gradient(np.ascontiguousarray(q, dtype=np.float64), out)
