@@ -1,8 +1,8 @@
 # Accuracy against cost: the work-precision measurement and its figure. Runs only when the
 # configuration has an `accuracy_cost:` section. The measurement times the engine with as many
-# threads as an LD tile job (STAGE_THREADS, capped at --cores: on 2 cores nothing else runs beside
-# it); the threads used and the machine's load go into the file. For a clean remeasurement on a
-# larger machine run it alone: `snakemake --forcerun accuracy_cost results/figures/accuracy_cost.png`.
+# threads as an LD tile job (STAGE_THREADS, capped at --cores; the default profile sets both to
+# one, so other jobs run beside it); the threads used and the machine's load go into the file. For a
+# clean remeasurement run it alone: `snakemake --forcerun accuracy_cost results/figures/accuracy_cost.png`.
 
 
 rule accuracy_cost:
