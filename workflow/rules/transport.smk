@@ -22,6 +22,8 @@ rule transport_study:
     conda:
         "../envs/ldpipe.yaml"
     threads: STAGE_THREADS
+    # A long job: started as soon as it can be, so the short jobs fill the cores at the end.
+    priority: 1
     resources:
         mem_mb=2000,
         runtime=60,
