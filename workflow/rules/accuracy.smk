@@ -28,7 +28,7 @@ rule accuracy_cost:
         "../envs/ldpipe.yaml"
     threads: STAGE_THREADS
     # The longest job of a run: started as soon as it can be, so the short jobs fill the cores at the end.
-    priority: 1
+    priority: 2
     resources:
         mem_mb=2000,
         runtime=30,
@@ -80,8 +80,8 @@ rule accuracy_engine:
     conda:
         "../envs/ldpipe.yaml"
     threads: 1
-    # First, so that accuracy_cost (priority 1) can start early.
-    priority: 1
+    # First, so that accuracy_cost (priority 2) can start early.
+    priority: 2
     resources:
         mem_mb=1000,
         runtime=10,

@@ -15,6 +15,8 @@ rule ld_tile:
     conda:
         "../envs/ldpipe.yaml"
     threads: STAGE_THREADS
+    # After the longest jobs (priority 2), before the short ones that read the maps.
+    priority: 1
     resources:
         mem_mb=ld_tile_memory_mb,
         runtime=ld_tile_runtime_min,

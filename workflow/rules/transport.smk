@@ -23,7 +23,7 @@ rule transport_study:
         "../envs/ldpipe.yaml"
     threads: STAGE_THREADS
     # A long job: started as soon as it can be, so the short jobs fill the cores at the end.
-    priority: 1
+    priority: 2
     resources:
         mem_mb=2000,
         runtime=60,
