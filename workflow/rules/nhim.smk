@@ -44,6 +44,8 @@ rule nhim_orbit_validation:
     conda:
         "../envs/ldpipe.yaml"
     threads: 2
+    # A science job with figures after it: before the short jobs, so it does not end a run.
+    priority: 1
     resources:
         mem_mb=1500,
         runtime=60,

@@ -21,6 +21,8 @@ rule normal_form_study:
     conda:
         "../envs/ldpipe.yaml"
     threads: 1
+    # A science job with figures after it: before the short jobs, so it does not end a run.
+    priority: 1
     resources:
         mem_mb=2000,
         runtime=30,

@@ -21,6 +21,8 @@ rule saddle_flux_study:
     conda:
         "../envs/ldpipe.yaml"
     threads: STAGE_THREADS
+    # A science job with figures after it: before the short jobs, so it does not end a run.
+    priority: 1
     resources:
         mem_mb=2000,
         runtime=60,
