@@ -79,7 +79,7 @@ def write_stage_file(
     The file is written to a temporary name in the same folder and renamed into
     place only once complete, so a job killed mid-write never leaves a file
     under the final name. Floating-point data must be finite. Numeric variables are compressed
-    (``COMPRESSION``), but those of a contract's intermediate files.
+    (``COMPRESSION``), except in a contract's intermediate files.
     """
     path = Path(path)
     compression = {} if isinstance(stage, StageFile) and stage.intermediate else COMPRESSION
