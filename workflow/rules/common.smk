@@ -26,6 +26,9 @@ SYSTEMS = sorted(config["systems"])
 # A time-dependent vector field has no fixed equilibria: no equilibrium file for it.
 EQUILIBRIUM_SYSTEMS = [name for name in SYSTEMS if has_equilibria(name, config["systems"][name])]
 LD_MAPS = sorted(config["ld_maps"])
+# A map of one tile is computed and finished by one job (rule ld_map); the others by tile jobs and a gather.
+ONE_TILE_MAPS = [name for name in LD_MAPS if ld_map_tiles(config, name) == 1]
+TILED_MAPS = [name for name in LD_MAPS if name not in ONE_TILE_MAPS]
 UPO_FAMILIES = sorted(config["periodic_orbits"])
 MANIFOLD_SETS = sorted(config["manifolds"])
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
@@ -126,21 +129,38 @@ LD_CORE_SECONDS_PER_POINT_TAU = 2e-5
 
 
 def ld_tile_memory_mb(wildcards):
+    return _ld_tile_memory_mb(wildcards.map, int(wildcards.tiles))
+
+
+def _ld_tile_memory_mb(map_name, tiles):
     # About 200 bytes a grid point for the fields and the engine's arrays, plus the interpreter
     # (measured: 350-460 MB peak for a 1500 x 375 tile).
-    return 1000 + _ld_points(wildcards.map) * 200 // int(wildcards.tiles) // 2**20
+    return 1000 + _ld_points(map_name) * 200 // tiles // 2**20
 
 
 def ld_tile_runtime_min(wildcards, threads, attempt):
+    return _ld_tile_runtime_min(wildcards.map, int(wildcards.tiles), threads, attempt)
+
+
+def _ld_tile_runtime_min(map_name, tiles, threads, attempt):
     # A time limit that fits the tile (a scheduler starts short jobs sooner), doubled on a retry.
-    tau = parameters_from_config(config, "ld", wildcards.map)["tau"]
-    tile_points = _ld_points(wildcards.map) / int(wildcards.tiles)
+    tau = parameters_from_config(config, "ld", map_name)["tau"]
+    tile_points = _ld_points(map_name) / tiles
     core_seconds = tile_points * tau * LD_CORE_SECONDS_PER_POINT_TAU
     return (10 + math.ceil(core_seconds / threads / 60)) * attempt
 
 
 def ld_gather_memory_mb(wildcards):
     return 1000 + 2 * _ld_points(wildcards.map) * 120 // 2**20
+
+
+def ld_map_memory_mb(wildcards):
+    """A one-tile map's job: the tile's computation, then the gather's write of the same fields."""
+    return max(_ld_tile_memory_mb(wildcards.map, 1), ld_gather_memory_mb(wildcards))
+
+
+def ld_map_runtime_min(wildcards, threads, attempt):
+    return _ld_tile_runtime_min(wildcards.map, 1, threads, attempt)
 
 
 def upo_params(wildcards):

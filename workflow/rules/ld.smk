@@ -24,6 +24,33 @@ rule ld_tile:
         "../scripts/ld_tile.py"
 
 
+rule ld_map:
+    """An LD map of one tile, computed and finished in one job (no tile file, no gather)."""
+    input:
+        equilibria=ld_equilibria_file,
+        velocity_data=ld_velocity_data_file,
+        code=library_code("ldpipe.stages.ld"),
+    output:
+        f"{RESULTS}/ld/{{map}}.nc",
+    wildcard_constraints:
+        map=_one_of(ONE_TILE_MAPS),
+    params:
+        stage=ld_params,
+    log:
+        f"{RESULTS}/logs/ld/{{map}}/map.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/ld/{{map}}/map.tsv"
+    conda:
+        "../envs/ldpipe.yaml"
+    threads: STAGE_THREADS
+    priority: 1  # as a tile's
+    resources:
+        mem_mb=ld_map_memory_mb,
+        runtime=ld_map_runtime_min,
+    script:
+        "../scripts/ld_map.py"
+
+
 rule ld_gather:
     """An LD map from its tiles."""
     input:
@@ -31,6 +58,8 @@ rule ld_gather:
         code=library_code("ldpipe.stages.ld"),
     output:
         f"{RESULTS}/ld/{{map}}.nc",
+    wildcard_constraints:
+        map=_one_of(TILED_MAPS),
     log:
         f"{RESULTS}/logs/ld/{{map}}/gather.log",
     benchmark:

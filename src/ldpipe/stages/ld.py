@@ -195,13 +195,18 @@ def map_contract(parameters: dict, *, tile_file: bool):
     return FLOW_MAP_TILE if tile_file else FLOW_MAP
 
 
+def recorded_parameters(dataset: xr.Dataset, parameters: dict) -> dict:
+    """The parameters a map's file records: the map's, and the energies or start time they resolved to."""
+    resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy", "t0") if k in dataset.attrs}
+    return {**parameters, "resolved": resolved}
+
+
 def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, tile_file: bool) -> Path:
     """Write a whole map, or (``tile_file``) one tile of it for :func:`run_ld_gather`."""
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
     stage = map_contract(parameters, tile_file=tile_file)
     title = f"Lagrangian descriptor map {parameters['map_name']}" + (f", tile {tile + 1} of {tiles}" if tile_file else "")
-    resolved = {k: dataset.attrs[k] for k in ("energy", "excess_energy", "critical_energy", "t0") if k in dataset.attrs}
-    recorded = {**parameters, "tile": tile, "tiles": tiles, "resolved": resolved}
+    recorded = {**recorded_parameters(dataset, parameters), "tile": tile, "tiles": tiles}
     path = write_stage_file(dataset, output, stage=stage, title=title, parameters=recorded)
     log.info("wrote %s (%d allowed points)", path, int(dataset.allowed.sum()))
     return path
@@ -219,11 +224,14 @@ def run_ld_tile(
 ) -> Path:
     """Compute one tile of an LD map from the system's equilibria file (None for a vector field,
     which has no energy), and write it as a tile file."""
-    equilibria_data = open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria is not None else None
     dataset = compute_ld_map(
-        parameters, equilibria_data, tile=tile, tiles=tiles, threads=threads, show_progress=show_progress
+        parameters, _open_equilibria(equilibria), tile=tile, tiles=tiles, threads=threads, show_progress=show_progress
     )
     return write_ld_map(dataset, parameters, output, tile_file=True)
+
+
+def _open_equilibria(equilibria: str | Path | xr.Dataset | None) -> xr.Dataset | None:
+    return open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria is not None else None
 
 
 def run_ld_map(
@@ -235,9 +243,14 @@ def run_ld_map(
     show_progress: bool = True,
     **parameters,
 ) -> Path:
-    """Compute a whole map as the workflow does, tile by tile (:func:`run_ld_tile`) then joined
-    (:func:`run_ld_gather`), in one process: the file is the workflow's, bit for bit (the command
-    line and the Python API write maps this way)."""
+    """Compute a whole map as the workflow does, in one process: the file is the workflow's, bit
+    for bit (the command line and the Python API write maps this way). Several tiles are computed
+    one by one (:func:`run_ld_tile`), then joined (:func:`run_ld_gather`); a single tile, as the
+    workflow's one job for such a map does, is finished in memory (:func:`finish_ld_map`) with no
+    tile file to write and read back."""
+    if tiles == 1:
+        dataset = compute_ld_map(parameters, _open_equilibria(equilibria), threads=threads, show_progress=show_progress)
+        return finish_ld_map([dataset], recorded_parameters(dataset, parameters), output)
     with tempfile.TemporaryDirectory() as scratch:
         paths = [
             run_ld_tile(**parameters, output=Path(scratch) / f"tile-{tile}-of-{tiles}.nc", equilibria=equilibria,
@@ -279,26 +292,32 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     if counts != {len(tiles)} or sorted(p["tile"] for p in parameters) != list(range(len(tiles))):
         raise ValueError(f"{output}: expected tiles 0..{len(tiles) - 1} of one map, got {[str(t) for t in tiles]}")
     datasets = [datasets[i] for i in np.argsort([p["tile"] for p in parameters])]
-    axis = datasets[0].allowed.dims[-2]
     common = {k: v for k, v in parameters[0].items() if k not in ("tile", "tiles")}
     for path, p in zip(tiles, parameters):
         if {k: v for k, v in p.items() if k not in ("tile", "tiles")} != common:
             raise ValueError(f"{path}: computed with other parameters than {tiles[0]}; recompute the tiles")
+    return finish_ld_map(datasets, common, output)
+
+
+def finish_ld_map(datasets: list[xr.Dataset], common: dict, output: str | Path) -> Path:
+    """Write the map's file from all its tiles, in order, computed with the parameters ``common``
+    (:func:`recorded_parameters`): joined, with the whole map's attributes, compressed."""
+    axis = datasets[0].allowed.dims[-2]
     starts = map_start_times(common)
     if starts is None:
         joined = gather_bands(datasets, axis, common)
     else:  # the bands of each start time, then the start times stacked
-        bands = start_time_band(starts, 0, len(tiles))[2]
+        bands = start_time_band(starts, 0, len(datasets))[2]
         joined = xr.concat([gather_bands([d.isel(t0=0, drop=True) for d in datasets[k * bands:(k + 1) * bands]],
                                          axis, common).expand_dims(t0=[start]) for k, start in enumerate(starts)],
                            dim="t0", data_vars="all", coords="minimal", compat="identical", join="exact")
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
-    joined.attrs["tiles"] = len(tiles)
+    joined.attrs["tiles"] = len(datasets)
     note_mirrored_tiles(joined, datasets)
     for name in ("refine_trajectories", "refine_trajectories_forward", "refine_trajectories_backward"):
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
-    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(tiles)})
+    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(datasets)})
 
