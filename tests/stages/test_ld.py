@@ -2,13 +2,15 @@
 
 import numpy as np
 import pytest
+import xarray as xr
 
 from ldpipe.cli import main
 from ldpipe.config import validate_config
-from ldpipe.io.datafile import open_stage_file, stage_parameters
+from ldpipe.io.datafile import open_stage_file, stage_parameters, write_stage_file
+from ldpipe.io.filediff import compare_files
 from ldpipe.critical_points import equilibria_dataset
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
+from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_map, run_ld_tile, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.henon_heiles import HENON_HEILES, HH_ENERGY, hh_slice
@@ -55,6 +57,24 @@ def test_tiles_gathered_equal_the_untiled_map(tmp_path, equilibria):
     np.testing.assert_array_equal(gathered.x.values, np.linspace(4.8, 6.0, 13))
     assert gathered.attrs["tiles"] == 3 and gathered.attrs["time_mode"] == "variable"
     assert stage_parameters(gathered)["map_name"] == "m"
+
+
+@pytest.mark.parametrize("refine", [None, {"tolerance": 0.002, "coarse_spacing": 4}], ids=["full", "adaptive"])
+def test_a_one_tile_map_in_one_job_is_its_tile_gathered(tmp_path, equilibria, refine):
+    """The workflow's one job for a map of one tile (rule ld_map: run_ld_map) finishes the band in
+    memory; the expected file is the other path through the code, the tile job's file read back
+    and joined by the gather (run_ld_gather): equal variables and attributes, and compressed alike."""
+    parameters = parameters_from_config(small_config(refine=refine), "ld", "m")
+    equilibria = write_stage_file(equilibria, tmp_path / "equilibria.nc", stage="equilibria", title="", parameters={})
+    tile = run_ld_tile(**parameters, output=tmp_path / "tile-0-of-1.nc", equilibria=equilibria, show_progress=False)
+    gathered = run_ld_gather(tiles=[tile], output=tmp_path / "gathered.nc")
+    alone = run_ld_map(**parameters, output=tmp_path / "alone.nc", equilibria=equilibria, tiles=1, show_progress=False)
+    assert compare_files(gathered, alone) == []
+    with xr.open_dataset(gathered) as expected, xr.open_dataset(alone) as found:
+        for name in expected.data_vars:
+            compression = {key: expected[name].encoding.get(key) for key in ("zlib", "complevel", "shuffle")}
+            assert compression == {key: found[name].encoding.get(key) for key in compression}, name
+        assert expected.ld_forward.encoding["zlib"]  # the map's file, not an uncompressed tile
 
 
 def test_masked_points_are_never_integrated(equilibria):

@@ -208,7 +208,7 @@ def test_documented_command(command, readme_workdir, request):
         ran = set(re.findall(r"localrule (\w+):|rule (\w+):", result.stderr + result.stdout))
         rules = {a or b for a, b in ran}
         # "nothing else": the family and the saddle come from the existing stage files
-        assert rules <= {"ld_tile", "ld_gather", "study"}, rules
+        assert rules <= {"ld_tile", "ld_gather", "ld_map", "study"}, rules
     if "benchmarks/compare.py" in shell:  # its tables, with the rows asked for
         report = next((workdir / "results/compare").glob("compare_*.md")).read_text()
         assert "dop853" in report and "taylor" in report and "flattened" in report

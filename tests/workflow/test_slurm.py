@@ -106,9 +106,10 @@ def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quic
     local, local_result = quick_run
     assert local_result.returncode == 0, local_result.stderr[-5000:]
     # Each cluster job costs ~9 s of submission, two Snakemake starts and status polling on two
-    # cores, so by default the cluster runs one chain of the quick configuration that has
-    # every kind of job: equilibria, LD tiles as separate multi-threaded jobs, their gather, a
-    # periodic-orbit family and the NHIM study of Fig. 4 (12 jobs). LDPIPE_SLURM_TEST=full runs
+    # cores, so by default the cluster runs the chains of the quick configuration that have
+    # every kind of job: equilibria, a Fig. 3 map's LD tiles as separate multi-threaded jobs and
+    # their gather, Fig. 4's maps of one tile (one job each), a periodic-orbit family and the NHIM
+    # study of Fig. 4 (9 jobs). LDPIPE_SLURM_TEST=full runs
     # every stage file instead (~40 jobs, minutes), leaving out the accuracy-cost stage,
     # whose numbers are wall times, and the figures, which are drawings of these files.
     if os.environ.get("LDPIPE_SLURM_TEST") == "full":
@@ -116,7 +117,7 @@ def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quic
             path.relative_to(local) for path in (local / "results").rglob("*.nc") if path.parts[-2] != "accuracy"
         )
     else:
-        stage_files = [Path("results/nhim/fig4.nc")]
+        stage_files = [Path("results/nhim/fig4.nc"), Path("results/ld/fig3_dE0.125.nc")]
     run = snakemake(
         workdir,
         "--workflow-profile", "profiles/slurm",
@@ -131,6 +132,7 @@ def test_quick_configuration_on_slurm_equals_a_local_run(slurm_environment, quic
     # as "localrule".
     jobs = job_counts(output)
     assert jobs.get("ld_tile", 0) > 1, jobs  # LD tiles are separate cluster jobs
+    assert jobs.get("ld_map", 0) > 0 and jobs.get("ld_gather", 0) > 0, jobs
     local_jobs = len(re.findall(r"^localrule \w+:$", output, flags=re.M))
     submitted = output.count("has been submitted with SLURM jobid")
     assert submitted == sum(jobs.values()) - local_jobs > 0, output[-5000:]

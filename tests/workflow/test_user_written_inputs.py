@@ -78,7 +78,7 @@ def test_numbers_written_1e_minus_10_are_numbers_for_snakemake(workdir):
         """))
     result = run_snakemake(workdir, "results/ld/fig4_k-7.0.nc", "-n", "--configfile", "config.quick.yaml", "user.yaml")
     assert result.returncode == 0, result.stderr[-3000:]
-    assert "ld_tile" in result.stdout  # the map's tiles are planned
+    assert "ld_map" in result.stdout  # the map (of one tile) is planned
 
 
 # ---------------------------------------------- the escape radius on the command line

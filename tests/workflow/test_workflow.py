@@ -20,6 +20,22 @@ def test_dry_run_lists_equilibria_for_both_systems(workdir):
     assert job_counts(result.stdout).get("equilibria", 0) == 2
 
 
+def test_a_map_of_one_tile_is_one_job_and_a_map_of_more_its_tiles_and_a_gather(workdir):
+    """The tile counts config.yaml gives (Fig. 4's maps 1, Fig. 3's 2), as planned
+    (ldpipe.stages.plan.ld_map_tiles): a map of one tile is one ld_map job, with no tile file and no
+    gather; another is its ld_tile jobs and their ld_gather. A changed count moves a map across."""
+    targets = ("results/ld/fig4_k-7.0.nc", "results/ld/fig3_dE0.125.nc")
+    result = run_snakemake(workdir, "-n", *targets)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert job_counts(result.stdout) == {"equilibria": 1, "ld_map": 1, "ld_tile": 2, "ld_gather": 1}
+    assert "results/ld/fig3_dE0.125/tile-1-of-2.nc" in result.stdout and "fig4_k-7.0/tile-" not in result.stdout
+    (workdir / "tiles.yaml").write_text("ld_maps:\n  fig4_k-7.0: {tiles: 3}\n  fig3_dE0.125: {tiles: 1}\n")
+    result = run_snakemake(workdir, "-n", *targets, "--configfile", "tiles.yaml")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert job_counts(result.stdout) == {"equilibria": 1, "ld_map": 1, "ld_tile": 3, "ld_gather": 1}
+    assert "results/ld/fig4_k-7.0/tile-2-of-3.nc" in result.stdout and "fig3_dE0.125/tile-" not in result.stdout
+
+
 # Planning reads the configuration and names files (ldpipe.stages.plan): it needs none of the
 # science's libraries. The expected set is the design, not a measurement: each of these, imported
 # by a plan, costs every `snakemake` command (and every SLURM job's own snakemake) a fixed start-up.
