@@ -5,7 +5,7 @@ One LD map of the configuration (default: Fig. 3's fixed-time map at ΔE = 0.125
 on a single-node cluster started by ``tests/workflow/local_cluster.sh`` (this machine's cores and
 memory), for every number of tiles in ``--tiles`` and of concurrent SLURM jobs in ``--jobs``,
 each tile a one-core job; and, as the baseline, by a plain local ``snakemake --cores N`` (tiles
-on every core). The timed run is the target ``results/ld/MAP.nc`` only: tiles and gather, with
+on every core). The timed run is the target ``results/ld/MAP.nc`` only: tiles and gather (one tile: one job), with
 the system's equilibria computed beforehand. Reported per run: the wall time of the snakemake
 command, the CPU seconds of the tile jobs (Snakemake's benchmark files: the work, which tiling
 does not change much), and ``uptime``'s load averages just before the run, since the machine may
@@ -76,9 +76,11 @@ def run(arguments: list[str], workdir: Path, env: dict | None = None) -> float:
 
 
 def tile_cpu_seconds(workdir: Path, map_name: str) -> float:
-    """CPU seconds of the map's tile jobs, from Snakemake's benchmark files (column cpu_time)."""
+    """CPU seconds of the map's tile jobs (of a map of one tile, its one job ``map``), from
+    Snakemake's benchmark files (column cpu_time)."""
     total = 0.0
-    for path in sorted((workdir / "results" / "benchmarks" / "ld" / map_name).glob("tile-*.tsv")):
+    folder = workdir / "results" / "benchmarks" / "ld" / map_name
+    for path in sorted([*folder.glob("tile-*.tsv"), *folder.glob("map.tsv")]):
         with path.open() as handle:
             rows = list(csv.DictReader(handle, delimiter="\t"))
         total += float(rows[-1]["cpu_time"])
