@@ -155,7 +155,8 @@ def ld_gather_memory_mb(wildcards):
 
 
 def ld_map_memory_mb(wildcards):
-    """A one-tile map's job: the tile's computation, then the gather's write of the same fields."""
+    """A one-tile map's job: the tile's computation, then the gather's write of the same fields
+    (measured: 670 MB peak for a 1500 x 1500 adaptive Fig. 4 map, asked 1515)."""
     return max(_ld_tile_memory_mb(wildcards.map, 1), ld_gather_memory_mb(wildcards))
 
 

@@ -300,8 +300,9 @@ def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
 
 
 def finish_ld_map(datasets: list[xr.Dataset], common: dict, output: str | Path) -> Path:
-    """Write the map's file from all its tiles, in order, computed with the parameters ``common``
-    (:func:`recorded_parameters`): joined, with the whole map's attributes, compressed."""
+    """Write the map's file from all its tiles, in order (files read back, or the one tile in
+    memory), computed with the parameters ``common`` (:func:`recorded_parameters`): joined, with
+    the whole map's attributes, compressed."""
     axis = datasets[0].allowed.dims[-2]
     starts = map_start_times(common)
     if starts is None:
@@ -319,5 +320,6 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict, output: str | Path) 
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
     title = f"Lagrangian descriptor map {common['map_name']}"
-    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title, parameters={**common, "tiles": len(datasets)})
+    return write_stage_file(joined, output, stage=map_contract(common, tile_file=False), title=title,
+                            parameters={**common, "tiles": len(datasets)})
 
