@@ -129,6 +129,24 @@ def load_generated_module(source: str, prefix: str, imports: tuple[types.ModuleT
         return module
 
 
+def compiled_in_cache(source: str, function: str) -> bool:
+    """Whether numba's disk cache holds machine code of ``function`` of the generated module of
+    ``source``: its cache index, beside the module's file. Loading the module then compiles nothing.
+
+    False where it cannot tell (``$NUMBA_CACHE_DIR`` moves numba's cache elsewhere). An index
+    that numba finds stale (its module's file rewritten) still reads True here; the load then
+    compiles, as it would have.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return False
+    directory = cache_directory()
+    tag = f"py{sys.version_info.major}{sys.version_info.minor}"
+    for path in directory.glob(f"{GENERATED_PREFIX}*_{module_digest(source)}.py"):
+        if any((directory / "__pycache__").glob(f"{path.stem}.{function}-*.{tag}.nbi")):
+            return True
+    return False
+
+
 def write_source(path: Path, source: str) -> None:
     """Put ``source`` at ``path`` atomically, never replacing the same text another process put there.
 
@@ -259,9 +277,13 @@ def njit_functions(source: str, names: tuple[str, ...], prefix: str) -> list[Cal
     # Strict IEEE arithmetic (no fastmath): with fastmath, code compiled in this process and
     # code loaded from the disk cache can round differently, and results must not depend on
     # which process compiled them.
-    footer = "\nfrom numba import njit as _njit\n\n" + "".join(f"{name} = _njit(cache=True)({name})\n" for name in names)
-    module = load_generated_module(source + footer, prefix=prefix)
+    module = load_generated_module(njit_module_source(source, names), prefix=prefix)
     return [getattr(module, name) for name in names]
+
+
+def njit_module_source(source: str, names: tuple[str, ...]) -> str:
+    """The text of :func:`njit_functions`' module: ``source``, then ``names`` compiled by ``njit(cache=True)``."""
+    return source + "\nfrom numba import njit as _njit\n\n" + "".join(f"{name} = _njit(cache=True)({name})\n" for name in names)
 
 
 def compile_log_context() -> dict:

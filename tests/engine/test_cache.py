@@ -24,8 +24,8 @@ from types import SimpleNamespace
 import pytest
 
 from ldpipe import jitcache
-from ldpipe.engine import SCHEMES
-from ldpipe.engine.codegen import engine_modules, engine_source
+from ldpipe.engine import SCHEMES, LDSettings
+from ldpipe.engine.codegen import engine_compiled, engine_modules, engine_source
 
 # Run in a subprocess: a small LD computation; prints the LDs (as hex, for bitwise comparison)
 # and the cache statistics of the compiled driver ``process``.
@@ -65,15 +65,20 @@ def read_log(path):
 
 
 @pytest.mark.slow
-def test_second_process_loads_the_compiled_engine(tmp_path):
+def test_second_process_loads_the_compiled_engine(tmp_path, barbanis, monkeypatch):
     # Two processes start on an empty cache at once: one compiles the engine, the other waits for
     # its lock and loads what it saved (numba's cache statistics: misses in one, none in the
     # other); every function is compiled once (the compile log). The file and numba's cache
     # entries are written atomically, so neither may fail or read a torn file; a third process
     # afterwards must load everything from the cache.
     cache, log = tmp_path / "cache", tmp_path / "compiles.jsonl"
+    monkeypatch.setenv("LDPIPE_CACHE_DIR", str(cache))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    lanes = LDSettings(scheme="sym4", dt=0.05, tau=5.0, block=8).lanes  # the children's engine
+    assert not engine_compiled(barbanis, "sym4", lanes)
     racing = [start_child(cache, log), start_child(cache, log)]
     first = [finish(child) for child in racing]
+    assert engine_compiled(barbanis, "sym4", lanes)  # what the later process loads without a miss
     later = finish(start_child(cache, log))
     assert sorted(run["misses"] > 0 for run in first) == [False, True]  # the cache really started empty
     assert later["hits"] > 0 and later["misses"] == 0
@@ -153,6 +158,24 @@ def test_compile_log_records_compiles_and_loads(tmp_path):
     compiled = next(r for r in records if r["event"] == "compile")
     assert compiled["module"].startswith("ldpipe_generated_compile_log_check_")
     assert compiled["wall_s"] > 0 and compiled["cpu_s"] > 0
+
+
+def test_compiled_in_cache_says_whether_numba_saved_the_function(tmp_path, monkeypatch):
+    # Expected values from numba's own cache: nothing before the first process; after it compiled
+    # ``double`` (its compile line), the function is in the cache, and a function it never had is
+    # not. With numba's cache moved elsewhere the answer is "cannot tell": False.
+    cache, log = tmp_path / "cache", tmp_path / "compiles.jsonl"
+    monkeypatch.setenv("LDPIPE_CACHE_DIR", str(cache))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    source = jitcache.njit_module_source("def double(x):\n    return 2.0 * x\n", ("double",))
+    assert not jitcache.compiled_in_cache(source, "double")
+    run_logged_child({**os.environ, "LDPIPE_COMPILE_LOG": str(log)}, "compiled_in_cache_check")
+    assert [r["function"] for r in read_log(log) if r["event"] == "compile"] == ["double"]
+    assert jitcache.compiled_in_cache(source, "double")
+    assert not jitcache.compiled_in_cache(source, "dou")
+    assert not jitcache.compiled_in_cache(source.replace("2.0", "3.0"), "double")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    assert not jitcache.compiled_in_cache(source, "double")
 
 
 def test_the_same_source_under_another_name_reuses_the_compiled_module(tmp_path):

@@ -56,7 +56,7 @@ from importlib import resources
 
 import numpy as np
 
-from ...jitcache import load_generated_module, module_name
+from ...jitcache import compiled_in_cache, load_generated_module, module_name
 from .. import templates
 from ..integrands import KINDS
 from ..kinetic import kinetic_source
@@ -320,6 +320,12 @@ def engine_name(system_name: str, scheme: str, lanes: int, order: int | None = N
     variant = get_scheme(scheme).variant(order)
     kind = "engine" if entry == "process" else "flow"
     return f"{kind}_{system_name}_{variant}_{lanes}"
+
+
+def engine_compiled(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> bool:
+    """Whether numba's disk cache already holds this engine's entry function, so that loading it
+    compiles nothing (:func:`ldpipe.jitcache.compiled_in_cache`; False where that cannot tell)."""
+    return compiled_in_cache(engine_modules(system, scheme, lanes, order, entry).engine, entry)
 
 
 def load_engine(system, scheme: str, lanes: int, order: int | None = None, entry: str = "process") -> types.ModuleType:
