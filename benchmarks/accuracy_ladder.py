@@ -30,8 +30,8 @@ T0_CPU, T0_WALL = time.process_time(), time.perf_counter()
 import numba  # noqa: E402
 import yaml  # noqa: E402
 
-import ldpipe.accuracy.ld_ladder as ld_ladder  # noqa: E402
-import ldpipe.accuracy.orbit_ladder as orbit_ladder  # noqa: E402
+import ldpipe.core.accuracy.ld_ladder as ld_ladder  # noqa: E402
+import ldpipe.core.accuracy.orbit_ladder as orbit_ladder  # noqa: E402
 import ldpipe.stages.accuracy as stage  # noqa: E402
 from ldpipe.config import validate_config  # noqa: E402
 from ldpipe.engine import compute_ld  # noqa: E402

@@ -149,7 +149,7 @@ def measure(config: dict, name: str, args, equilibria) -> dict:
     record["wall_ratios_each_run"] = [f / a for f, a in zip(record["wall_s"]["full"], record["wall_s"]["adaptive"])]
     record["pixels_per_cpu_s"] = {k: allowed / cpu[k] for k in cpu}
     if parameters["time"] == "variable":  # the NHIM stage's detection, on both maps
-        from ldpipe.nhim_points import detect_nhim_cell
+        from ldpipe.core.nhim import detect_nhim_cell
 
         axes = tuple(full[a].values for a in full.ld_forward.dims)
         found = [detect_nhim_cell(d.ld_forward.values, d.ld_backward.values, d.allowed.values.astype(bool), axes)

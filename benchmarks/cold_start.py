@@ -46,7 +46,7 @@ import time
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
-from ldpipe.accuracy import cpu_model
+from ldpipe.core.accuracy import cpu_model
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent

@@ -29,7 +29,7 @@ seconds (``second CPU s``): what the second engine of a shape costs once the fir
     .venv/bin/python benchmarks/compile_time.py --old ../baseline/src --new src --kinds dop853 --second
 
 Kinds: ``dop853``, ``rk4``, ``sym4``, ``sym6``, ``taylor`` (LD maps of Barbanis 2 DoF, 64 lanes,
-the default LD settings), ``flow`` (``ldpipe.flow.integrate``'s dop853 driver, 32 lanes) and
+the default LD settings), ``flow`` (``ldpipe.core.trajectories.integrate``'s dop853 driver, 32 lanes) and
 ``vector-field`` (the forced Duffing oscillator's first-order DOP853 LDs).
 """
 
@@ -138,7 +138,7 @@ def run_kind(kind: str, n: int, second: bool = False) -> tuple[float, float, str
             results = [compute_ld(system, rows, +1, settings, t0=1.5) for settings in variants[:1 if len(rows) <= 8 else None]]
             return [array for r in results for array in (r.ld, r.time, r.end_state, r.steps, r.exit_face)]
     elif kind == "flow":
-        from ldpipe.flow import FlowSettings, integrate
+        from ldpipe.core.trajectories import FlowSettings, integrate
 
         system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
         states = barbanis_states(n)

@@ -11,7 +11,7 @@ maps from t0 = 2 over tau = 5 forward on a ``--nx`` x ``--nx/2`` grid of [0, 2] 
   scaled to the grid. Accuracy: both against the formula system's LD (ldpipe at rtol 1e-12,
   validated against scipy in tests/data).
 - FTLE (forward): ldpipe, with its LD (``ftle: true``) and alone (``ld: false``: the flow map
-  by ``ldpipe.flow.flow_map``, no quadrature, no dense output), against numbacs (cubic splines of
+  by ``ldpipe.core.trajectories.flow_map``, no quadrature, no dense output), against numbacs (cubic splines of
   the ``interpolation`` package, numbalsoda's DOP853, its ftle_grid_2D), the same grid and
   tolerance (``--ftle-rtols``: several, to compare at matched accuracy: each method at its
   loosest tolerance whose error is within 10 % of numbacs' floor). Accuracy: all against the
@@ -45,8 +45,8 @@ from support.double_gyre import DOUBLE_GYRE, double_gyre_velocity  # noqa: E402
 from support.gridded import write_velocity_file  # noqa: E402
 
 from ldpipe.engine import LDSettings, compute_ld  # noqa: E402
-from ldpipe.flow import FlowSettings, flow_map  # noqa: E402
-from ldpipe.ftle import ftle  # noqa: E402
+from ldpipe.core.trajectories import FlowSettings, flow_map  # noqa: E402
+from ldpipe.core.maps.ftle import ftle  # noqa: E402
 from ldpipe.systems import make_system  # noqa: E402
 
 H = 1.0 / 32

@@ -1,4 +1,4 @@
-"""One tile of a Fig. 3 map with its backward fields mirrored (ldpipe.ld_symmetry) against integrated.
+"""One tile of a Fig. 3 map with its backward fields mirrored (ldpipe.core.maps.symmetry) against integrated.
 
     .venv/bin/python benchmarks/ld_symmetry.py --map fig3_dE0.125 --points 1500 --tile 1 --rounds 2
 

@@ -33,9 +33,9 @@ import numba
 import numpy as np
 
 from ldpipe.engine import LDSettings
-from ldpipe.nhim_points import Cost, RefinementSettings, make_slice_problem
-from ldpipe.nhim_points.sampling import STATUS, SamplingSettings, sample_family, sample_slice
-from ldpipe.sections import Section
+from ldpipe.core.nhim import Cost, RefinementSettings, make_slice_problem
+from ldpipe.core.nhim.sampling import STATUS, SamplingSettings, sample_family, sample_slice
+from ldpipe.core.sections import Section
 from ldpipe.systems import make_system
 
 SADDLE = np.array([10.289915108550531, 5.294117647058823, 2.6470588235294117])  # closed form (paper)

@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ldpipe.flow import FlowSettings
-from ldpipe.normal_form import flux, system_normal_form
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
+from ldpipe.core.trajectories import FlowSettings
+from ldpipe.core.normal_form import flux, system_normal_form
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import DividingPlane, orbit_action, reactive_flux_monte_carlo
+from ldpipe.core.transport import DividingPlane, orbit_action, reactive_flux_monte_carlo
 
 OUTPUT = Path(__file__).parent / "normal_form.md"
 

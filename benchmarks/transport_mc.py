@@ -26,10 +26,10 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from ldpipe.accuracy.machine import load_average, machine_attributes
-from ldpipe.flow import FlowSettings
+from ldpipe.core.accuracy.machine import load_average, machine_attributes
+from ldpipe.core.trajectories import FlowSettings
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import DividingLine, DividingPlane, reactive_flux_monte_carlo
+from ldpipe.core.transport import DividingLine, DividingPlane, reactive_flux_monte_carlo
 
 RESULTS = Path(__file__).parent / "results"
 

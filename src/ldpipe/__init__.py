@@ -9,14 +9,9 @@ accessor ``ds.ldpipe.plot()`` once ldpipe is imported.
 """
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 
-try:
-    __version__ = version("ldpipe")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0+unknown"
-
-from . import accessor  # noqa: E402, F401  (registers ds.ldpipe; after __version__, which it reaches)
+from . import accessor  # noqa: F401  (registers ds.ldpipe)
+from ._version import __version__
 
 #: The names :mod:`ldpipe.api` exports, available as ``ldpipe.NAME``.
 API = (

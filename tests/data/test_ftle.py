@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
-from ldpipe.ftle import complete_neighbourhood, ftle
+from ldpipe.core.maps.ftle import complete_neighbourhood, ftle
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
 from ldpipe.stages.parameters import parameters_from_config
@@ -127,7 +127,7 @@ def test_grid_ftle_converges_to_the_variational_ftle():
     # The exact gradient (variational equations along each trajectory, scipy) is what the grid's
     # central differences approximate to second order in the spacing: their error must fall at slope 2.
     from ldpipe.engine import LDSettings, compute_ld
-    from ldpipe.ftle import variational_ftle
+    from ldpipe.core.maps.ftle import variational_ftle
     from ldpipe.systems import make_system
 
     system = make_system("double_gyre", DOUBLE_GYRE)
@@ -161,10 +161,10 @@ def test_variational_ftle_map_of_the_linear_saddle_is_its_eigenvalue(tmp_path):
 
 
 def test_variational_ftle_map_is_variational_ftle_at_its_points():
-    # identity of the plumbing: the map's values are ldpipe.ftle.variational_ftle at its grid points
+    # identity of the plumbing: the map's values are ldpipe.core.maps.ftle.variational_ftle at its grid points
     # (axes in the map's order, start time t0, forward +tau and backward -tau), bit for bit; that
     # function is checked against the grid's differences (second-order convergence) above.
-    from ldpipe.ftle import variational_ftle
+    from ldpipe.core.maps.ftle import variational_ftle
     from ldpipe.systems import make_system
 
     spec = {"system": "double_gyre", "t0": 1.5,

@@ -94,7 +94,7 @@ def test_second_process_loads_the_compiled_engine(tmp_path, barbanis, monkeypatc
 def test_generated_module_defines_every_name_it_uses(barbanis, scheme, entry):
     # The templates use names the header defines (sizes, offsets, kernels): every global a
     # function reads must be bound at module level or be a builtin. Both drivers: the LD
-    # engine's and ldpipe.flow's.
+    # engine's and ldpipe.core.trajectories's.
     # The same holds in each common module the engine imports from, and the names an engine or a
     # common module imports are names the module it imports them from binds.
     order = 12 if scheme == "taylor" else None

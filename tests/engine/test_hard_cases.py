@@ -32,16 +32,16 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.critical_points import equilibria_dataset
-from ldpipe.ld_grid import ld_grid_dataset
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
-from ldpipe.sections import Section
+from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.maps.grid import ld_grid_dataset
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.core.sections import Section
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
-from ldpipe.variational import sample
+from ldpipe.core.variational import sample
 from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2, escaping_states
 
 EPS = np.finfo(float).eps

@@ -17,8 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.ld_grid import gather_tiles, ld_grid_dataset, tile_rows
-from ldpipe.sections import Section
+from ldpipe.core.maps.grid import gather_tiles, ld_grid_dataset, tile_rows
+from ldpipe.core.sections import Section
 # The paper's Barbanis 2 DoF: V = x^2/2 + y^2 (wy2 + 2 delta x)/2, E_c = 15.125 at x = 5.5.
 from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2
 

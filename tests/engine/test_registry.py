@@ -19,7 +19,7 @@ from ldpipe.engine import (
 from ldpipe.engine import api, integrands
 from ldpipe.engine.codegen import engine_source
 from ldpipe.engine.schemes.taylor import MAX_ORDER, MIN_ORDER
-from ldpipe.flow import FlowSettings
+from ldpipe.core.trajectories import FlowSettings
 
 
 @pytest.fixture(scope="module")

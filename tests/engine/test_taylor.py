@@ -32,7 +32,7 @@ from scipy.special import ellipeinc
 
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.engine.schemes.taylor import MAX_ORDER, MIN_ORDER, SAFETY, acceleration_of
-from ldpipe.sections import Section, section_states
+from ldpipe.core.sections import Section, section_states
 from ldpipe.systems import make_system
 from ldpipe.testing.reference_ld import reference_ld
 from support.barbanis import E_C, escaping_states

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 import sympy
 
-from ldpipe.normal_form import MonomialBasis, equilibrium_normal_form, flux
-from ldpipe.normal_form.expansion import symplectic_defect
+from ldpipe.core.normal_form import MonomialBasis, equilibrium_normal_form, flux
+from ldpipe.core.normal_form.expansion import symplectic_defect
 
 X, Y = sympy.symbols("x y", real=True)
 

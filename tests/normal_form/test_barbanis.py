@@ -15,9 +15,9 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe.normal_form import dividing_surface_points, flux, nhim_points, system_normal_form
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
-from ldpipe.saddle_transport import orbit_action
+from ldpipe.core.normal_form import dividing_surface_points, flux, nhim_points, system_normal_form
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
+from ldpipe.core.transport import orbit_action
 
 SADDLE = np.array([5.5, -math.sqrt(50.0)])
 EXCESS = 0.125

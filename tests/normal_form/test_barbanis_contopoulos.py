@@ -8,9 +8,9 @@
 * The two Lyapunov orbits lie in the NHIM: in the normal form they are its circles with the other
   centre action zero; against ldpipe's corrected orbits as the order grows.
 * The NHIM points the LD sampling refines on a family of slices (independent: where the forward and
-  backward fates both switch, ldpipe.nhim_points) have Q₁ = P₁ = 0 in the normal form, down to
+  backward fates both switch, ldpipe.core.nhim) have Q₁ = P₁ = 0 in the normal form, down to
   the refinement's stated uncertainty as the order grows.
-* The Monte Carlo reactive flux through the dividing plane (ldpipe.saddle_transport), within its error.
+* The Monte Carlo reactive flux through the dividing plane (ldpipe.core.transport), within its error.
 """
 
 import math
@@ -18,14 +18,14 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe.flow import FlowSettings
-from ldpipe.normal_form import flux, lyapunov_orbit_points, nhim_points, system_normal_form
-from ldpipe.nhim_points import RefinementSettings
-from ldpipe.nhim_points.sampling import SamplingSettings, sample_family, slice_problem
-from ldpipe.nhim_points.slices import section_point_states
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
+from ldpipe.core.trajectories import FlowSettings
+from ldpipe.core.normal_form import flux, lyapunov_orbit_points, nhim_points, system_normal_form
+from ldpipe.core.nhim import RefinementSettings
+from ldpipe.core.nhim.sampling import SamplingSettings, sample_family, slice_problem
+from ldpipe.core.nhim.slices import section_point_states
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import DividingPlane, reactive_flux_monte_carlo
+from ldpipe.core.transport import DividingPlane, reactive_flux_monte_carlo
 from support.barbanis import BC_SADDLE, fig5_slice_problem
 from support.decoupled_flux import decoupled_reactive_flux
 

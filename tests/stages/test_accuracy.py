@@ -12,7 +12,7 @@ import xarray as xr
 
 from ldpipe.io import contracts
 from ldpipe import accuracy
-from ldpipe.accuracy import (
+from ldpipe.core.accuracy import (
     CorrectorStep, IntegratorStep, closure_error, corrector_ladder, finite_quantiles, integrator_ladder,
     ld_ladder_dataset, orbit_ladder_dataset, relative_error, sample_indices,
 )
@@ -20,7 +20,7 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.lyapunov_orbits import BrakeOrbit, linearize_saddle
+from ldpipe.core.orbits.periodic import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
@@ -115,7 +115,7 @@ def test_reference_check_and_throughput_are_recorded(oscillator_ladder):
 
 
 class FakeClock:
-    """Stands in for the time module of ldpipe.accuracy.timing: each run lasts the next of ``durations``
+    """Stands in for the time module of ldpipe.core.accuracy.timing: each run lasts the next of ``durations``
     (wall seconds; CPU twice that, two threads), so the repeat rule is tested without a real clock."""
 
     def __init__(self, durations):
@@ -141,7 +141,7 @@ class FakeClock:
 def test_repeat_rule_times_a_setting_until_its_runs_fill_the_budget(monkeypatch, durations, budget, runs, smallest):
     # Expected from the rule's definition: runs stop at `repeats` (3) or once their wall times total
     # the budget; the smallest wall and CPU time of the runs is kept, with the result of the last run.
-    from ldpipe.accuracy import timing
+    from ldpipe.core.accuracy import timing
 
     clock = FakeClock(durations)
     monkeypatch.setattr(timing, "time", clock)
@@ -390,7 +390,7 @@ def test_ladder_engines_name_each_engine_module_of_the_ladder_once():
 
     from ldpipe.engine.codegen import engine_name
     from ldpipe.engine.schemes.taylor import jorba_zou_order
-    from ldpipe.ld_grid import ld_map_settings
+    from ldpipe.core.maps.grid import ld_map_settings
     from support.workflow import ROOT
 
     config = yaml.safe_load((ROOT / "config.yaml").read_text())

@@ -20,9 +20,9 @@ from ldpipe.io.datafile import write_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures import style
 from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_points
-from ldpipe.sections import Section, section_states
+from ldpipe.core.sections import Section, section_states
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, run_figure
+from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
 from ldpipe.stages.parameters import parameters_from_config
 from support.workflow import ROOT, job_counts, run_snakemake
 
@@ -355,7 +355,7 @@ def test_captions_state_the_parameters_used_and_render_as_html():
     henon = figure_caption(config, "henon_heiles_potential")["lines"][0]
     assert "V = (x^2 + y^2)/2 + lam·(x^2·y - y^3/3)" in henon  # no '*', which is emphasis markup
     for name in config["figures"]:
-        parameters = parameters_from_config(config, "figures", name)
+        parameters = figure_parameters(config, name)
         json.dumps(parameters)  # Snakemake compares params as text: they must be plain data
         template = (ROOT / "workflow/report" / f"{parameters['kind']}.rst").read_text()
         rst = jinja2.Template(template).render(snakemake=SimpleNamespace(params=SimpleNamespace(figure=parameters)))

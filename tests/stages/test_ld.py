@@ -8,7 +8,7 @@ from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ldpipe.io.filediff import compare_files
-from ldpipe.critical_points import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibria_dataset
 from ldpipe.errors import ConfigError
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_map, run_ld_tile, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config

@@ -1,4 +1,4 @@
-"""Adaptive LD maps (ldpipe.ld_adaptive): where they integrate, how far they are from the full map,
+"""Adaptive LD maps (ldpipe.core.maps.adaptive): where they integrate, how far they are from the full map,
 what narrow features they find, determinism, tiles, the NHIM detection, the CLI."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ from ldpipe import nhim_points as nhim
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings
-from ldpipe.critical_points import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibria_dataset
 from ldpipe.io.datafile import open_stage_file
-from ldpipe.ld_adaptive import RefineSettings, adaptive_ld_dataset, refine_band
-from ldpipe.ld_grid import ld_grid_dataset
-from ldpipe.sections import Section
+from ldpipe.core.maps.adaptive import RefineSettings, adaptive_ld_dataset, refine_band
+from ldpipe.core.maps.grid import ld_grid_dataset
+from ldpipe.core.sections import Section
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system

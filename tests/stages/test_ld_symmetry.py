@@ -1,4 +1,4 @@
-"""Backward LD fields from the forward ones by a reversing symmetry (ldpipe.ld_symmetry).
+"""Backward LD fields from the forward ones by a reversing symmetry (ldpipe.core.maps.symmetry).
 
 The identity phi_-t(z) = S phi_t(S z) is checked against the direct backward integration (an
 independent computation of the same fields); detection against the symmetries read off the
@@ -10,12 +10,12 @@ import pytest
 import xarray as xr
 
 from ldpipe.config import validate_config
-from ldpipe.critical_points import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibria_dataset
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
-from ldpipe.ld_grid import ld_grid_dataset
-from ldpipe.ld_symmetry import ReversingSymmetry, map_mirror, mirror_mismatch, reversing_symmetries
-from ldpipe.sections import Section
+from ldpipe.core.maps.grid import ld_grid_dataset
+from ldpipe.core.maps.symmetry import ReversingSymmetry, map_mirror, mirror_mismatch, reversing_symmetries
+from ldpipe.core.sections import Section
 from ldpipe.stages.ld import compute_ld_map, note_mirrored_tiles, run_ld_gather, write_ld_map
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
@@ -30,12 +30,12 @@ FIG3_AXES = ({"name": "x", "range": [-6.0, 6.0], "points": 40}, {"name": "px", "
 #: Relative difference allowed between the mirrored and the directly integrated backward LD (and
 #: energy error). The forward integration of S z is, operation for operation, the backward
 #: integration of z with signs flipped, so they agree to the bit but for the last bit of a rare LD
-#: that depends on the other trajectories of its engine block (ldpipe.ld_grid's docstring): measured
+#: that depends on the other trajectories of its engine block (ldpipe.core.maps.grid's docstring): measured
 #: 0 on this grid, and 1 ulp (2.2e-16 relative) at 9 of 514,750 pixels of a Fig. 3 tile at tau 50
 #: (benchmarks/ld_symmetry.md). About 4 ulp:
 LD_RTOL = 1e-15
 #: The default tolerance of a mirrored axis on [-6, 6]: 4 machine epsilons of its scale 6
-#: (closed form, ldpipe.ld_symmetry's docstring).
+#: (closed form, ldpipe.core.maps.symmetry's docstring).
 TOLERANCE = 4 * np.finfo(float).eps * 6.0
 #: A p_x grid that misses its mirror image by 1e-9 (its sum v[::-1] + v is -1e-9: negative, so a
 #: comparison without abs would take it), far beyond the tolerance.

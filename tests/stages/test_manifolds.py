@@ -9,15 +9,15 @@ from scipy.integrate import solve_ivp
 from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
-from ldpipe.flow import FlowSettings, integrate
-from ldpipe.invariant_manifolds import ManifoldSettings, manifold_dataset, start_states
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.core.trajectories import FlowSettings, integrate
+from ldpipe.core.orbits.manifolds import ManifoldSettings, manifold_dataset, start_states
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.systems import make_system
-from ldpipe.variational import propagate
+from ldpipe.core.variational import propagate
 
 EXCESS = 0.125
 EPSILON = 1e-6

@@ -21,7 +21,7 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.sections import Section, section_states
+from ldpipe.core.sections import Section, section_states
 from ldpipe.stages import nhim as nhim_stage
 from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria

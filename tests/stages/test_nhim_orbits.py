@@ -17,7 +17,7 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
-from ldpipe.ld_grid import resolve_ld_map
+from ldpipe.core.maps.grid import resolve_ld_map
 from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
@@ -25,7 +25,7 @@ from ldpipe.stages.plan import nhim_orbit_inputs
 from ldpipe.stages.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
-from ldpipe.variational import propagate
+from ldpipe.core.variational import propagate
 from support.lindstedt import barbanis_contopoulos_saddle
 
 LAM, OMEGA = 1.5, 1.0
@@ -265,7 +265,7 @@ def test_degenerate_slices_are_recorded_never_written_as_points(three_dof_file):
 
 def test_the_same_machinery_returns_the_2dof_orbit_crossings(orbit_files):
     # Independent method: the 2 DoF periodic orbit's crossing of the slice y = y(t), p_y of the
-    # orbit's sign (ldpipe.nhim_points.orbit_section_crossing, the engine's located section crossing of the
+    # orbit's sign (ldpipe.core.nhim.orbit_section_crossing, the engine's located section crossing of the
     # corrector's orbit, as the fig4 study's validation uses) is the slice's one crossing: the
     # one-dimensional NHIM meets each slice once in its window.
     config = orbit_files["config"]

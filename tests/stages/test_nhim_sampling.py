@@ -23,11 +23,11 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe import nhim_points as nhim
-from ldpipe.nhim_points.batched import run_tasks
-from ldpipe.nhim_points.refinement import refine_by_fates_task
-from ldpipe.nhim_points.sampling import SamplingSettings, predict, sample_family, sample_slice, slice_problem, walk_order
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
-from ldpipe.sections import Section
+from ldpipe.core.nhim.batched import run_tasks
+from ldpipe.core.nhim.refinement import refine_by_fates_task
+from ldpipe.core.nhim.sampling import SamplingSettings, predict, sample_family, sample_slice, slice_problem, walk_order
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
+from ldpipe.core.sections import Section
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.nhim_sampling import run_nhim_sampling
 from ldpipe.stages.parameters import parameters_from_config
@@ -202,7 +202,7 @@ def small_study(tmp_path_factory):
 
 def test_batched_fates_agree_with_exit_fates_both_ways(bc_base):
     # Independent method: the batched fates run backward trajectories forward from (q, -p) (time
-    # reversal), ldpipe.nhim_points.exit_fates runs the engine backward; same sides, same exit times.
+    # reversal), ldpipe.core.nhim.exit_fates runs the engine backward; same sides, same exit times.
     problem = slice_problem(bc_base, {"y": 5.3, "z": 2.65, "py": 0.0}, 1, np.array([10.29, -0.08]),
                             np.array([0.1, 0.1]), 11)
     points = np.random.default_rng(3).uniform([10.19, -0.18], [10.39, 0.02], size=(30, 2))

@@ -7,9 +7,9 @@ from scipy.integrate import solve_ivp
 from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
-from ldpipe.flow import FlowSettings, integrate
-from ldpipe.poincare_sections import poincare_dataset
-from ldpipe.sections import Section
+from ldpipe.core.trajectories import FlowSettings, integrate
+from ldpipe.core.orbits.poincare import poincare_dataset
+from ldpipe.core.sections import Section
 from ldpipe.stages import poincare as poincare_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
@@ -208,8 +208,8 @@ def test_without_a_section_trajectories_run_to_the_end(barbanis):
 
 def test_a_trajectory_does_not_depend_on_its_batch(barbanis):
     # Invariant of the block layout: every lane has its own step size and events, so a trajectory
-    # integrated alone (a block of ldpipe.flow.SMALL_LANES lanes) or among many (blocks of
-    # ldpipe.flow.LANES, refilled as lanes finish) gives the same bits, forward and backward.
+    # integrated alone (a block of ldpipe.core.trajectories.SMALL_LANES lanes) or among many (blocks of
+    # ldpipe.core.trajectories.LANES, refilled as lanes finish) gives the same bits, forward and backward.
     states = section_at(barbanis, 0.125, time=1.0).initial_state.values
     for duration in (100.0, -100.0):
         times = np.linspace(0.0, duration, 33)

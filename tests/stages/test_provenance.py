@@ -35,7 +35,7 @@ def test_ld_stage_depends_on_the_engine_the_saddle_selection_and_the_contracts()
 
 
 def test_orbit_stages_depend_on_the_engine_only_where_they_integrate_with_it():
-    # Poincaré sections and manifolds integrate on the engine's DOP853 step (ldpipe.flow), so an
+    # Poincaré sections and manifolds integrate on the engine's DOP853 step (ldpipe.core.trajectories), so an
     # engine edit reruns them; the periodic orbits use scipy's variational integration, so it does not.
     assert not any(name.startswith("engine/") for name in names("ldpipe.stages.upo"))
     for stage in ("ldpipe.stages.upo", "ldpipe.stages.manifolds", "ldpipe.stages.poincare"):

@@ -7,7 +7,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.parameters import parameters_from_config
@@ -72,7 +72,7 @@ def test_saddle_linearization_matches_closed_form(barbanis):
 
 def test_closure_within_the_asked_tolerance(bottom, barbanis):
     # The definition of a periodic orbit: ||x(T) - x(0)|| below the corrector's tolerance, re-measured here.
-    from ldpipe.variational import propagate
+    from ldpipe.core.variational import propagate
 
     _, orbits = bottom
     for de, orbit in orbits.items():

@@ -12,8 +12,8 @@ from scipy.integrate import solve_ivp
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
-from ldpipe.flow import FlowSettings, integrate
-from ldpipe.ld_grid import resolve_ld_map
+from ldpipe.core.trajectories import FlowSettings, integrate
+from ldpipe.core.maps.grid import resolve_ld_map
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
 from ldpipe.stages.parameters import parameters_from_config

@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from ldpipe.engine import LDSettings
-from ldpipe.nhim_points import make_slice_problem
-from ldpipe.sections import Section
+from ldpipe.core.nhim import make_slice_problem
+from ldpipe.core.sections import Section
 
 # Barbanis 2 DoF: V = x^2/2 + wy2 y^2/2 + delta x y^2 (omega_x = 1, omega_y = 1.1, delta = -0.11).
 WY2 = 1.1**2

@@ -11,7 +11,7 @@ flux integral ∫ δ(E − H) δ(s) ṡ θ(ṡ) w dq dp the (z, p_z) integral th
 because the oscillator's phase-space area below E_z is the ellipse π √(2 E_z) · √(2 E_z)/ω_z =
 2π E_z/ω_z, so its density of states is 2π/ω_z, and Φ_2(E_2) = 0 for E_2 ≤ E_s. Φ_2, the 2 DoF
 reactive flux, is the action ∮ p·dq of the Lyapunov orbit of the in-plane centre mode at E_2 (MacKay
-1990; ldpipe.saddle_transport.flux). In e = E_2 − E_s it is analytic (Lyapunov's theorem) and ~2πe/ω, so the
+1990; ldpipe.core.transport.flux). In e = E_2 − E_s it is analytic (Lyapunov's theorem) and ~2πe/ω, so the
 E_z integral is done by Gauss–Legendre on a few orbit energies; the orbits come from ldpipe's
 differential corrector (scipy's DOP853), in seconds.
 """
@@ -22,8 +22,8 @@ import math
 
 import numpy as np
 
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
-from ldpipe.saddle_transport import orbit_action
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle, sample_orbit
+from ldpipe.core.transport import orbit_action
 
 
 def decoupled_reactive_flux(system, saddle, excess: float, omega_z: float, *, nodes: int = 6,

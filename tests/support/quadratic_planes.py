@@ -16,7 +16,7 @@ recrossings by construction:
 
 * **tilted**: through the saddle with unit normal n = cos α â + sin α b̂. Its one-way flux is the
   volume of its allowed (u, p_u) region, 2π ∫ (ΔE − uᵀKu/2)₊ d²u = 2π² ΔE² / √det K, K the Hessian
-  restricted to the plane (ldpipe.saddle_transport.plane's integral for a quadratic V). K's eigenvalues
+  restricted to the plane (ldpipe.core.transport.plane's integral for a quadratic V). K's eigenvalues
   are ω_2² and ω_1² cos²α − λ² sin²α (positive while tan α < ω_1/λ), so the one-way flux exceeds
   the reactive flux by the factor ω_1 / √(ω_1² cos²α − λ² sin²α). A reactive trajectory recrosses
   where the b oscillation outruns a's drift (|sin α ḃ| > cos α ȧ), so weights −1, 0 and +1 all occur.
@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ldpipe.saddle_transport import DividingPlane
+from ldpipe.core.transport import DividingPlane
 from support.quadratic_saddle import LAM, OM1, OM2, rotation
 
 # The name, with support.quadratic_saddle.spec(), under which tests/transport/test_flux_3dof.py
@@ -109,7 +109,7 @@ class ExactlySampled:
     """A plane through the saddle whose allowed region, the ellipsoid {|p_u|²/2 + uᵀKu/2 ≤ ΔE}, is sampled
     and measured in closed form (uniform in the unit 4-ball, mapped linearly; volume 2π² ΔE²/√det K).
 
-    It has what :func:`ldpipe.saddle_transport.reactive_flux_monte_carlo` asks of a surface, without the plane's
+    It has what :func:`ldpipe.core.transport.reactive_flux_monte_carlo` asks of a surface, without the plane's
     numerical extent and quadrature (tens of ms a call): for many short runs of the estimator.
     """
 

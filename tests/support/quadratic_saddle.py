@@ -2,7 +2,7 @@
 
 V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 with (a, b, c) = R (x, y, z), R a fixed rotation (so the plane
 is no coordinate plane), E_c = 0. At excess ΔE the plane a = 0 carries the one-way flux
-(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.saddle_transport.plane), and every crossing is reactive: a(t)
+(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.core.transport.plane), and every crossing is reactive: a(t)
 is monotone through 0, uncoupled from b and c. Used by tests/transport (library and stage).
 """
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ldpipe.critical_points import equilibria_dataset, linear_analysis, locate_equilibria, numeric_equilibria
+from ldpipe.core.equilibria.potential import equilibria_dataset, linear_analysis, locate_equilibria, numeric_equilibria
 from ldpipe.systems import make_system
 
 WX, WY, DELTA = 1.0, 1.1, -0.11

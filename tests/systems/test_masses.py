@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 
 from ldpipe.config import validate_config
-from ldpipe.critical_points import linear_analysis
+from ldpipe.core.equilibria.potential import linear_analysis
 from ldpipe.errors import ConfigError
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
-from ldpipe.sections import Section, section_states
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
+from ldpipe.core.sections import Section, section_states
 from ldpipe.systems import make_system
 from support.workflow import documented_yaml
 

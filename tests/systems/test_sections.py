@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from ldpipe.critical_points import equilibria_dataset, select_saddle
+from ldpipe.core.equilibria.potential import equilibria_dataset, select_saddle
 from ldpipe.errors import ConfigError
-from ldpipe.sections import Section, section_states
+from ldpipe.core.sections import Section, section_states
 from ldpipe.systems import make_system
 
 

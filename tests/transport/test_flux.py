@@ -19,11 +19,11 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe.flow import FlowSettings
-from ldpipe.invariant_manifolds import ManifoldSettings, manifold_dataset
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.core.trajectories import FlowSettings
+from ldpipe.core.orbits.manifolds import ManifoldSettings, manifold_dataset
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import (
+from ldpipe.core.transport import (
     DividingLine, closed_curve_area, orbit_action, reactive_flux_monte_carlo, well_area, well_shell_volume,
 )
 
@@ -130,7 +130,7 @@ def barbanis_orbit(barbanis):
 
 def test_barbanis_action_equals_island_area_and_reactive_flux(barbanis, barbanis_orbit):
     """Three independent computations of the flux at ΔE = 0.5 over the bottom saddle."""
-    from ldpipe.variational import sample
+    from ldpipe.core.variational import sample
 
     orbit, energy, position = barbanis_orbit
     times = np.linspace(0.0, orbit.period, 129)

@@ -2,7 +2,7 @@
 
 Quadratic saddle (support.quadratic_saddle) V = −λ² a²/2 + ω_1² b²/2 + ω_2² c²/2 in rotated
 coordinates (a, b, c) = R (x, y, z), E_c = 0, excess ΔE: the plane a = 0 carries the one-way flux
-(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.saddle_transport.plane), every crossing of it is reactive (a(t)
+(2π)² ΔE² / (2 ω_1 ω_2) (derived in ldpipe.core.transport.plane), every crossing of it is reactive (a(t)
 is monotone through 0, uncoupled), and a uniform sample of the allowed (u, p_u) 4-volume has uniform
 mode energies (e_1, e_2) on the triangle e_1 + e_2 ≤ ΔE (the volume element is (2π)² de_1 de_2 /
 (ω_1 ω_2)): Pr(e_1 + e_2 ≤ ΔE/2) = 1/4 and Pr(e_1 ≤ ΔE/2) = 3/4. Planes with recrossings, and the
@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from ldpipe.flow import FlowSettings
+from ldpipe.core.trajectories import FlowSettings
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import DividingPlane, reactive_flux_monte_carlo
+from ldpipe.core.transport import DividingPlane, reactive_flux_monte_carlo
 from support import quadratic_saddle as quadratic
 from support.decoupled_flux import decoupled_reactive_flux
 from support.quadratic_saddle import OM1, OM2
@@ -107,7 +107,7 @@ def test_barbanis_contopoulos_flux_tends_to_the_harmonic_value(bc_saddle):
 
     V is cubic, so on the plane V = E_c + (ω_1² v_1² + ω_2² v_2²)/2 + c(v) exactly, c the cubic part
     (``_anharmonic_series``). With v = √ΔE r (√2 cos θ/ω_1, √2 sin θ/ω_2) the flux 2π ∫ (E − V)₊ d²v
-    (ldpipe.saddle_transport.plane) is the harmonic flux 2π²ΔE²/(ω_1ω_2) times G = ⟨4 ∫ (1 − r² − s r³)₊ r dr⟩_θ,
+    (ldpipe.core.transport.plane) is the harmonic flux 2π²ΔE²/(ω_1ω_2) times G = ⟨4 ∫ (1 − r² − s r³)₊ r dr⟩_θ,
     s = √ΔE c(θ), c(θ) = c at r = 1. The n-th s-derivative of the integral at 0 is, for n ≥ 2, ½ (d/dx)^{n−2}
     x^{3n/2} at x = r² = 1 (it integrates the (n−2)-th derivative of δ(1 − x)); odd n cancel between θ
     and θ + π (c is odd), so the n = 2k term is 4 · ½ (3k)!/(k+2)! ⟨c^{2k}⟩ ΔE^k/(2k)!: a_k = 1, 5/2, 42/5, 33.

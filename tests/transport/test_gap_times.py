@@ -3,7 +3,7 @@
 Independent values: for a well of shell volume V whose dividing lines carry one-way flux Φ (their
 areas, closed-form quadrature), the flux-weighted entering ensemble's gap times τ and the fraction
 F(T) of the well's microcanonical ensemble that has left by T satisfy V F(T) = Φ E[min(τ, T)] for
-every T (ldpipe.saddle_transport.survival derives it from time-reversal symmetry). Both sides come from
+every T (ldpipe.core.transport.survival derives it from time-reversal symmetry). Both sides come from
 separate ensembles (one drawn on the lines, one in the well) with separate random numbers.
 """
 
@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe.flow import FlowSettings
-from ldpipe.saddle_transport import DividingLine, entering_states, exit_times, gap_times, sample_well, well_shell_volume
+from ldpipe.core.trajectories import FlowSettings
+from ldpipe.core.transport import DividingLine, entering_states, exit_times, gap_times, sample_well, well_shell_volume
 
 EXCESS = 2.25
 FLOW = FlowSettings(rtol=1e-9, atol=1e-9, escape_radius=30.0)
@@ -56,7 +56,7 @@ def test_gap_times_and_survival_satisfy_the_flux_volume_identity(barbanis, well)
 
 
 def test_truncated_mean_refuses_a_horizon_beyond_the_integration():
-    from ldpipe.saddle_transport import GapTimes
+    from ldpipe.core.transport import GapTimes
 
     gaps = GapTimes(np.array([1.0, np.inf]), 2.0, 5.0)
     assert gaps.truncated_mean(5.0)[0] == pytest.approx(3.0)  # (1 + 5) / 2

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from ldpipe.flow import FlowSettings
+from ldpipe.core.trajectories import FlowSettings
 from ldpipe.systems import make_system
-from ldpipe.saddle_transport import reactive_flux_monte_carlo
-from ldpipe.saddle_transport.flux import classify
+from ldpipe.core.transport import reactive_flux_monte_carlo
+from ldpipe.core.transport.flux import classify
 from support import quadratic_planes as planes
 from support import quadratic_saddle as quadratic
 

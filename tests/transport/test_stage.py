@@ -118,7 +118,7 @@ def test_tst_rate_is_total_flux_over_well_volume(files):
 def test_survival_initial_slope_is_the_tst_rate(files):
     """The stage's two survival numbers against its TST rate (flux from the action, volume from the
     polar quadrature): the initial slope must equal it (to the lines' recrossing flux and the entries
-    that leave within t0, both far below its error; ldpipe.saddle_transport.survival); the curve starts at
+    that leave within t0, both far below its error; ldpipe.core.transport.survival); the curve starts at
     1 and falls."""
     _, _, _, path = files
     data = open_stage_file(path, stage=TRANSPORT)
@@ -131,7 +131,7 @@ def test_survival_initial_slope_is_the_tst_rate(files):
 
 
 def test_gap_times_and_survival_satisfy_the_flux_volume_identity(files):
-    """Both sides of Φ E[min(τ, T)] = V (1 − P(T)) (exact; derived in ldpipe.saddle_transport.survival), each
+    """Both sides of Φ E[min(τ, T)] = V (1 − P(T)) (exact; derived in ldpipe.core.transport.survival), each
     from its own ensemble, agree within 4 combined standard errors; Φ is the two lines' one-way flux,
     twice one line's by the y → −y symmetry, and above the total reactive flux (recrossings)."""
     _, _, _, path = files

@@ -4,7 +4,7 @@ Independent values: the TST rate k = (total flux out) / (shell volume) from the 
 (spectral quadrature) and the well's area (polar quadrature), against the direct dynamics of an
 ensemble drawn uniformly on the shell and integrated until it crosses a dividing line. For t below
 the quickest crossing of the well the fraction that has left is exactly k t (see
-ldpipe.saddle_transport.survival). Also: the sampler is uniform in configuration (a Monte Carlo area check)
+ldpipe.core.transport.survival). Also: the sampler is uniform in configuration (a Monte Carlo area check)
 and the energy of every sample is E.
 """
 
@@ -13,12 +13,12 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe.flow import FlowSettings
-from ldpipe.lyapunov_orbits import CorrectorSettings, LyapunovFamily, linearize_saddle
-from ldpipe.saddle_transport import (
+from ldpipe.core.trajectories import FlowSettings
+from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
+from ldpipe.core.transport import (
     DividingLine, decay_rate, exit_times, initial_slope, orbit_action, sample_well, survival, well_shell_volume,
 )
-from ldpipe.variational import sample
+from ldpipe.core.variational import sample
 
 EXCESS = 2.25
 

@@ -29,7 +29,7 @@ import yaml
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, write_stage_file
-from ldpipe.critical_points import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibria_dataset
 from ldpipe.errors import ConfigError, StageFileError
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import compute_ld_map, run_ld_gather

@@ -1,8 +1,13 @@
 # Figures: one rule per entry under `figures:` in the configuration, named after it, so that
 # `snakemake fig3` builds that figure and only the stages it draws. The helpers are library
 # functions (ldpipe.stages.figures), tested there.
-from ldpipe.stages.figures import figure_animation_output, figure_input_files, figure_memory_mb, figure_outputs
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.stages.figures import (
+    figure_animation_output,
+    figure_input_files,
+    figure_memory_mb,
+    figure_outputs,
+    figure_parameters,
+)
 
 
 report: "../report/workflow.rst"
@@ -32,7 +37,7 @@ for _figure in FIGURES:
             pdf=figure_outputs(_figure, RESULTS)["pdf"],
             **figure_animation_output(config, _figure, RESULTS),
         params:
-            figure=parameters_from_config(config, "figures", _figure),
+            figure=figure_parameters(config, _figure),
         log:
             f"{RESULTS}/logs/figures/{_figure}.log",
         benchmark:

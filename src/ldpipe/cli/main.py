@@ -12,7 +12,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .. import __version__
+from .._version import __version__
 from ..config import load_config, validate_config
 from ..engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
 from ..engine.integrands import ARCLENGTH

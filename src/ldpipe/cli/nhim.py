@@ -24,7 +24,7 @@ EXAMPLES = """\
 
 
 def _refinement(args: argparse.Namespace) -> dict:
-    from ..nhim_points import RefinementSettings
+    from ..core.nhim import RefinementSettings
 
     if args.config is not None:
         refinement = dict(load_config(args.config)["nhim"]["refinement"])

@@ -4,6 +4,7 @@ caption the report can render. :func:`ldpipe.config.validate_config` runs them.
 
 from __future__ import annotations
 
+import copy
 import io
 
 from ..errors import ConfigError
@@ -20,6 +21,27 @@ FIGURE_REQUIRED = {
     "ld_ftle": ("ld_maps",),
     "ld_animation": ("ld_maps",),
 }
+
+#: The settings of each kind (besides 'kind' and 'caption'); other keys of an entry are ignored.
+KIND_SETTINGS = {
+    "potential": ("system", "plane", "fixed", "saddle_near", "energies", "points", "levels", "surface",
+                  "potential_range"),
+    "section_maps": ("poincare", "ld_maps", "manifold_curves", "descriptor", "color_percentiles", "color_limits",
+                     "point_size"),
+    "ld_slices": ("ld_maps", "slices", "slice_through_orbit", "orbit", "configuration", "descriptor",
+                  "color_percentiles", "color_limits", "view"),
+    "orbit_family": ("family", "energies", "manifolds", "configuration", "view3d_axes", "view3d_limits",
+                     "trajectories_per_branch", "view"),
+    "nhim_sample": ("sampling", "orbits", "projections", "view"),
+    "ld_ftle": ("ld_maps", "descriptor", "color_percentiles"),
+    "ld_animation": ("ld_maps", "descriptor", "color_percentiles", "fps"),
+}
+
+
+def figure_settings(config: dict, name: str) -> dict:
+    """The settings of figure ``name`` that its kind uses, defaults filled (a validated config)."""
+    spec = config["figures"][name]
+    return {key: copy.deepcopy(spec[key]) for key in ("kind", *KIND_SETTINGS[spec["kind"]]) if key in spec}
 
 
 

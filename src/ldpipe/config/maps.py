@@ -9,7 +9,7 @@ checks every configuration module shares (an interval, names of other entries) a
 from __future__ import annotations
 
 from ..errors import ConfigError
-from ..ftle import VARIATIONAL
+from ..core.maps.ftle import VARIATIONAL
 from ..systems import is_vector_field, system_coordinates, system_phase_coordinates
 
 

@@ -43,7 +43,7 @@ def check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system:
     index = phase.index(surface["coordinate"]) - len(coordinates)
     matrix = kinetic_matrix(system, coordinates, system_key)
     if index >= 0 and matrix is not None and sum(v != 0.0 for v in matrix[index]) > 1:
-        # the integrator locates crossings of M^-1 p's components (ldpipe.flow): p_i alone only if M's row i is diagonal
+        # the integrator locates crossings of M^-1 p's components (ldpipe.core.trajectories): p_i alone only if M's row i is diagonal
         raise ConfigError(
             f"config key '{key}.coordinate': crossings of the momentum {surface['coordinate']} are located for "
             f"diagonal masses only, and {system_key}.mass_matrix couples it to other momenta; use a coordinate"

@@ -17,7 +17,7 @@ Modules, one job each:
 - :mod:`~ldpipe.engine.quadrature` — Gauss rules of the LD quadrature;
 - :mod:`~ldpipe.engine.templates` — the compiled code as source templates: the LD integral over
   a step (cusps of |v|^p included), region exit and escape events, the fixed-step schemes,
-  the block driver (lane refill, step control), and the driver of :mod:`ldpipe.flow` (samples,
+  the block driver (lane refill, step control), and the driver of :mod:`ldpipe.core.trajectories` (samples,
   section crossings, escapes) on the same DOP853 step;
 - :mod:`~ldpipe.engine.codegen` — joins the system's kernel source, the compile-time constants
   and the templates into one module, which imports the LD quadrature from common modules shared

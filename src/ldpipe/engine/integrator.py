@@ -48,7 +48,7 @@ def build_runner(system, scheme: str, lanes: int, order: int | None = None, entr
     """The kernel ``entry`` of ``scheme`` for ``system`` (compiled lazily or loaded from disk).
 
     ``process(states, start, stop, ...)`` (the LD driver) and ``flow_process`` (the driver of
-    :mod:`ldpipe.flow`) integrate trajectories start..stop-1 with one block of lanes and write
+    :mod:`ldpipe.core.trajectories`) integrate trajectories start..stop-1 with one block of lanes and write
     their results; they release the GIL, so units run in parallel threads.
     """
     return getattr(load_engine(system, scheme, lanes, order, entry), entry)

@@ -32,9 +32,9 @@ from .integrator import kept_runner
 TEMPLATES = ("events", "step_control", "flow_status", "vector_field_driver")
 LAYERS = COMMON_LAYERS[:1]  # the quadrature
 NC = 8  # coefficients of the dense output (degree 7) and of its derivative
-#: The driver functions of the generated module: LDs, and section crossings (ldpipe.flow).
+#: The driver functions of the generated module: LDs, and section crossings (ldpipe.core.trajectories).
 ENTRIES = ("vector_field_process", "vector_field_crossings")
-#: The flow map's driver (ldpipe.flow.flow_map), in the module with its template appended.
+#: The flow map's driver (ldpipe.core.trajectories.flow_map), in the module with its template appended.
 ENDPOINTS = "vector_field_endpoints"
 KERNELS = ("rhs",)
 

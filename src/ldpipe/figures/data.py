@@ -16,9 +16,9 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from ..critical_points import select_saddle
+from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError
-from ..sections import Section, section_states
+from ..core.sections import Section, section_states
 from ..systems import System, make_system
 
 #: The LD fields a figure may draw: forward plus backward (the paper's maps), or one direction.
@@ -44,7 +44,7 @@ class LDMap:
     parameters : dict
         The stage parameters the map was computed with (section spec, system_spec ...).
     section : Section
-        The section, resolved from ``parameters`` (see :meth:`ldpipe.sections.Section.from_spec`).
+        The section, resolved from ``parameters`` (see :meth:`ldpipe.core.sections.Section.from_spec`).
     """
 
     name: str
@@ -286,7 +286,7 @@ def potential_on_plane(system: System, axes: tuple[str, str], ranges, points: in
 def saddles(path: str | Path, near: list[float] | None = None
             ) -> tuple[np.ndarray, np.ndarray, float, tuple[str, ...], dict]:
     """Index-1 saddles of an ``equilibria`` file: positions (k, n_dof), the one nearest ``near``
-    (:func:`ldpipe.critical_points.select_saddle`) and its critical energy, the coordinate names, and
+    (:func:`ldpipe.core.equilibria.potential.select_saddle`) and its critical energy, the coordinate names, and
     the stage parameters (with the system's spec)."""
     dataset = open_stage_file(path, stage=EQUILIBRIA, variables=("position", "saddle_equilibrium", "critical_energy"))
     indices = dataset.saddle_equilibrium.values

@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..logs import get_logger
-from ..sections import fixed_values
+from ..core.sections import fixed_values
 from ..systems import make_system
 from . import style
 from .data import potential_on_plane, saddles

@@ -17,7 +17,7 @@ import xarray as xr
 from ..io.contracts import POINCARE
 from ..io.datafile import input_name, open_stage_file, stage_parameters
 from ..logs import get_logger
-from ..sections import Section
+from ..core.sections import Section
 from ..systems import make_system
 from . import style
 from .data import allowed_mask, load_ld_map, load_manifold_curves

@@ -7,7 +7,7 @@ map of the NHIM ladders, its grid sizes and refinement tolerances. One netCDF fi
 measurement (dimensions ``map``, ``setting``, ``direction``, ``point``, ``quantile``;
 ``orbit_setting``; ``nhim_grid``, ``nhim_method``, ``nhim_refinement``) with the machine and
 its load in the attributes, and Markdown tables summarize it. The science is in
-:mod:`ldpipe.accuracy`.
+:mod:`ldpipe.core.accuracy`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numba
 import numpy as np
 import xarray as xr
 
-from ..accuracy import (
+from ..core.accuracy import (
     QUANTILES, CorrectorStep, IntegratorStep, RepeatRule, compute_orbit, corrector_ladder, integrator_ladder,
     ld_ladder_dataset, load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset,
     sample_indices, same_number, warm_up,
@@ -27,13 +27,13 @@ from ..accuracy import (
 from ..engine.codegen import engine_compiled, engine_name
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
-from ..critical_points import select_saddle
+from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError, StageFileError
-from ..ld_grid import ld_grid_dataset
+from ..core.maps.grid import ld_grid_dataset
 from ..logs import get_logger
-from ..nhim_points import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
-from ..lyapunov_orbits import CorrectionFailed, linearize_saddle
-from ..sections import section_states
+from ..core.nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
+from ..core.orbits.periodic import CorrectionFailed, linearize_saddle
+from ..core.sections import section_states
 from ..systems import make_system
 from .ld import resolve_map
 

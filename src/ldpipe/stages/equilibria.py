@@ -6,8 +6,8 @@ from pathlib import Path
 
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA
 from ..io.datafile import write_stage_file
-from ..critical_points import equilibria_dataset
-from ..flow_equilibria import vector_field_equilibria_dataset
+from ..core.equilibria.potential import equilibria_dataset
+from ..core.equilibria.flow import vector_field_equilibria_dataset
 from ..logs import get_logger
 from ..systems import make_system
 from .parameters import parameters_from_config

@@ -3,8 +3,8 @@
 An entry names a figure ``kind`` and the stage outputs it draws (LD maps, Poincaré sections,
 manifold sets, a periodic-orbit family, a system's equilibria). :func:`figure_input_files`
 lists exactly those files, so asking Snakemake for one figure runs only the stages it needs;
-its parameters (:mod:`ldpipe.stages.parameters`) are the settings that apply to the kind
-(:func:`figure_settings`, so only they rerun it) and the text of its caption
+its parameters (:func:`figure_parameters`) are the settings that apply to the kind
+(:func:`ldpipe.config.figures.figure_settings`, so only they rerun it) and the text of its caption
 (:func:`figure_caption`, the parameters actually used, for the report); :func:`run_figure` draws
 it and writes a PNG and a PDF.
 """
@@ -17,33 +17,14 @@ from pathlib import Path
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
 from ..logs import get_logger
+from ..config.figures import KIND_SETTINGS
 from .parameters import parameters_from_config
 
 log = get_logger(__name__)
 
-#: The settings of each kind (besides 'kind' and 'caption'); other keys of an entry are ignored.
-KIND_SETTINGS = {
-    "potential": ("system", "plane", "fixed", "saddle_near", "energies", "points", "levels", "surface",
-                  "potential_range"),
-    "section_maps": ("poincare", "ld_maps", "manifold_curves", "descriptor", "color_percentiles", "color_limits",
-                     "point_size"),
-    "ld_slices": ("ld_maps", "slices", "slice_through_orbit", "orbit", "configuration", "descriptor",
-                  "color_percentiles", "color_limits", "view"),
-    "orbit_family": ("family", "energies", "manifolds", "configuration", "view3d_axes", "view3d_limits",
-                     "trajectories_per_branch", "view"),
-    "nhim_sample": ("sampling", "orbits", "projections", "view"),
-    "ld_ftle": ("ld_maps", "descriptor", "color_percentiles"),
-    "ld_animation": ("ld_maps", "descriptor", "color_percentiles", "fps"),
-}
 #: Kinds that also write an animated GIF beside the PNG and PDF.
 ANIMATED = ("ld_animation",)
 FORMATS = ("png", "pdf")
-
-
-def figure_settings(config: dict, name: str) -> dict:
-    """The settings of figure ``name`` that its kind uses, defaults filled (a validated config)."""
-    spec = config["figures"][name]
-    return {key: copy.deepcopy(spec[key]) for key in ("kind", *KIND_SETTINGS[spec["kind"]]) if key in spec}
 
 
 def figure_input_files(config: dict, name: str, results: str = "results") -> dict[str, list[str]]:
@@ -149,7 +130,7 @@ def ld_map_caption(config: dict, map_name: str) -> str:
 
 def _start_text(parameters: dict) -> str:
     """A map's start time, or its start times (a list or a range)."""
-    from ..ld_grid import map_start_times  # here: ld_grid brings the engine, which a figure job does not use
+    from ..core.maps.grid import map_start_times  # here: ld_grid brings the engine, which a figure job does not use
 
     starts = map_start_times(parameters)
     if starts is None:
@@ -273,6 +254,12 @@ def figure_caption(config: dict, name: str) -> dict:
 
 # ----------------------------------------------------------------------------- drawing
 
+def figure_parameters(config: dict, name: str) -> dict:
+    """The parameters of figure ``name`` as its rule passes them (:func:`parameters_from_config`'s,
+    which are what the drawing reads, with the caption the report prints)."""
+    return {**parameters_from_config(config, "figures", name), "caption": figure_caption(config, name)}
+
+
 def _as_list(value) -> list[str]:
     if value is None:
         return []
@@ -340,7 +327,7 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     Parameters
     ----------
     figure_name, kind, settings, caption
-        As ``parameters_from_config(config, "figures", name)`` gives them (the caption is for the report only).
+        As :func:`figure_parameters` gives them (the caption is for the report only).
     inputs : dict
         Input files by role ('equilibria', 'poincare', 'ld_maps', 'manifolds', 'upo', 'nhim_sampling'), as
         :func:`figure_input_files` lists them; other roles are ignored.

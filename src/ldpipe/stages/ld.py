@@ -19,11 +19,11 @@ from ..io.datafile import MANAGED_ATTRIBUTES, open_stage_file, stage_parameters,
 from ..engine import LDSettings
 from ..engine.settings import engine_escape_radius
 from ..engine.integrands import descriptor_attribute, is_arclength
-from ..critical_points import select_saddle
-from ..ld_adaptive import RefineSettings, adaptive_ld_dataset
-from ..ld_symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
-from ..ftle import VARIATIONAL
-from ..ld_grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
+from ..core.equilibria.potential import select_saddle
+from ..core.maps.adaptive import RefineSettings, adaptive_ld_dataset
+from ..core.maps.symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
+from ..core.maps.ftle import VARIATIONAL
+from ..core.maps.grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
                        start_time_band, tile_rows)
 from ..errors import ConfigError
 from ..logs import get_logger
@@ -34,7 +34,7 @@ log = get_logger(__name__)
 
 def resolve_map(parameters: dict, equilibria: xr.Dataset | None) -> tuple:
     """The system, section, engine settings and energies a map's parameters describe, at the saddle
-    its ``saddle_near`` selects in the equilibria file (see :func:`ldpipe.ld_grid.resolve_ld_map`).
+    its ``saddle_near`` selects in the equilibria file (see :func:`ldpipe.core.maps.grid.resolve_ld_map`).
 
     ``equilibria`` None: a map of a vector-field system, which has no energy and no saddle to select.
     """
@@ -134,7 +134,7 @@ def compute_ld_map(
         where, settings.tau, parameters["time"], settings.scheme,
     )
     ftle = parameters.get("ftle", False)
-    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.ld_adaptive); never an FTLE map
+    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
         refine = RefineSettings.from_config(parameters["refine"])
         dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
                                       show_progress=show_progress, t0=info["t0"])
@@ -157,7 +157,7 @@ def compute_ld_map(
 
 def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
     """The reversing symmetry whose mirror gives the map's backward fields
-    (:mod:`ldpipe.ld_symmetry`), as its ``backward_by_symmetry`` key asks: ``auto`` (left out)
+    (:mod:`ldpipe.core.maps.symmetry`), as its ``backward_by_symmetry`` key asks: ``auto`` (left out)
     where one is found, ``true`` required (ConfigError naming the key if none), ``false`` never."""
     setting = parameters.get(SETTING_KEY, AUTO)
     if setting is False:
@@ -271,7 +271,7 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
 
 
 def note_mirrored_tiles(joined: xr.Dataset, datasets: list[xr.Dataset]) -> None:
-    """The gathered map's record of mirrored backward fields (:func:`ldpipe.ld_grid.mirror_attributes`)
+    """The gathered map's record of mirrored backward fields (:func:`ldpipe.core.maps.grid.mirror_attributes`)
     when only some tiles were mirrored (a tile whose grid states were not exactly mirrored integrates
     backward)."""
     mirrored = [i for i, d in enumerate(datasets) if "backward_fields" in d.attrs]

@@ -15,9 +15,9 @@ import numpy as np
 from ..io.contracts import MANIFOLDS, UPO
 from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError, StageFileError
-from ..flow import FlowSettings
+from ..core.trajectories import FlowSettings
 from ..logs import get_logger
-from ..invariant_manifolds import ManifoldSettings, manifold_dataset
+from ..core.orbits.manifolds import ManifoldSettings, manifold_dataset
 from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)

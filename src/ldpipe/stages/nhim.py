@@ -12,7 +12,7 @@ family's periodic orbit at the slice's energy, for higher DoF the closest
 approach of each Lyapunov orbit to the section. The validation
 (:mod:`ldpipe.stages.nhim_validation`) turns the studies into
 tables and fails when a point is too far from its reference. The science of a slice is
-:func:`ldpipe.nhim_points.study_map_slice`; this module reads the maps and orbit files and writes the
+:func:`ldpipe.core.nhim.study_map_slice`; this module reads the maps and orbit files and writes the
 study file.
 """
 
@@ -26,9 +26,9 @@ import xarray as xr
 from ..io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError
-from ..ld_grid import resolve_ld_map
+from ..core.maps.grid import resolve_ld_map
 from ..logs import get_logger
-from ..nhim_points import ReferenceOrbit, RefinementSettings, SliceProblem, make_slice_problem, study_map_slice
+from ..core.nhim import ReferenceOrbit, RefinementSettings, SliceProblem, make_slice_problem, study_map_slice
 from . import ld as ld_stage
 
 log = get_logger(__name__)
@@ -88,7 +88,7 @@ def _study_dataset(records: list[dict], system_phase: tuple[str, ...]) -> xr.Dat
         if name.endswith("wall_time"):
             dataset[name].attrs["units"] = units["wall_time"]
     dataset["refined_point"].attrs["long_name"] = "NHIM point refined by bisection on forward and backward fates"
-    dataset["detected_point"].attrs["long_name"] = "grid point of largest min(F / F_ridge, B / B_ridge) (ldpipe.nhim_points.nhim_score)"
+    dataset["detected_point"].attrs["long_name"] = "grid point of largest min(F / F_ridge, B / B_ridge) (ldpipe.core.nhim.nhim_score)"
     dataset["argmax_sum_point"].attrs["long_name"] = "grid point of largest ld_forward + ld_backward (naive)"
     dataset["zoom_point"].attrs["long_name"] = "NHIM point refined by zoomed re-gridding of both LDs"
     dataset["reference_point"].attrs["long_name"] = (

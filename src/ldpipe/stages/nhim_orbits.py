@@ -1,26 +1,26 @@
 """NHIM orbit validation stage: slices through points of Lyapunov orbits, every crossing found and refined.
 
 A Lyapunov orbit lies on the NHIM, so a slice that fixes every coordinate but its two axes and
-one solved momentum at the values of an orbit point (:func:`ldpipe.nhim_points.point_slice`) has a NHIM
+one solved momentum at the values of an orbit point (:func:`ldpipe.core.nhim.point_slice`) has a NHIM
 point exactly there. For each family under ``orbits``, each energy, each of ``phases`` points
 along the orbit and each slice kind, the stage searches the window around the orbit point for
-every crossing (:func:`ldpipe.nhim_points.find_every_crossing`, fates on a ``points`` x ``points`` grid)
+every crossing (:func:`ldpipe.core.nhim.find_every_crossing`, fates on a ``points`` x ``points`` grid)
 and records per slice a status:
 
 * ``ok``: a refined crossing within ``tolerance`` of the orbit point;
 * ``degenerate:solved_momentum_vanishes``: the solved momentum vanishes (the slice's energy
-  boundary, :func:`ldpipe.nhim_points.boundary_distance`) closer to the orbit point than
+  boundary, :func:`ldpipe.core.nhim.boundary_distance`) closer to the orbit point than
   ``boundary_cells`` grid cells, as at a turning point of the orbit; not searched;
 * ``degenerate:tangent``: the slice's transversality to the NHIM (from the orbit's monodromy
-  matrix, :func:`ldpipe.nhim_points.slice_transversality`) is below ``min_transversality``; searched,
+  matrix, :func:`ldpipe.core.nhim.slice_transversality`) is below ``min_transversality``; searched,
   its crossings recorded, not checked;
 * ``fail:no_crossing``, ``fail:not_converged``, ``fail:missed``: no candidate in the window; no
   candidate refined; crossings refined but none within the tolerance.
 
 The reference (the orbit point) comes from the periodic-orbit corrector, not from LDs or fates.
-:func:`ldpipe.nhim_points.validate_orbit_slice` searches and classifies one slice; this module reads the
+:func:`ldpipe.core.nhim.validate_orbit_slice` searches and classifies one slice; this module reads the
 orbit files, computes each orbit point's monodromy matrix, passes the slices through the points of one
-orbit together (:func:`ldpipe.nhim_points.validate_orbit_slices`, which refines their candidates in
+orbit together (:func:`ldpipe.core.nhim.validate_orbit_slices`, which refines their candidates in
 shared engine calls) and writes the study file.
 The validation stage (:mod:`ldpipe.stages.nhim_validation`) writes the table and fails the run on
 any ``fail:``. Refined crossings are in their own table (dimension ``crossing``); a degenerate or
@@ -37,12 +37,12 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, NHIM_ORBITS, UPO
 from ..io.datafile import open_stage_file, write_stage_file
-from ..critical_points import select_saddle
+from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError
-from ..ld_grid import resolve_ld_map
+from ..core.maps.grid import resolve_ld_map
 from ..logs import get_logger
-from ..nhim_points import RefinementSettings, validate_orbit_slices
-from ..variational import propagate
+from ..core.nhim import RefinementSettings, validate_orbit_slices
+from ..core.variational import propagate
 
 log = get_logger(__name__)
 

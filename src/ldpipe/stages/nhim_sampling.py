@@ -5,7 +5,7 @@ LD map whose section, energy, saddle region, tau and integrator every slice keep
 the map itself is not computed), a grid of the section's fixed values (``fixed``: a range and a
 number of points per fixed coordinate), the signs of the solved momentum, and how each slice's
 point is looked for (``window``, ``seed_points``, ``min_angle``, ``min_momentum``); the refinement
-is ``nhim.refinement``'s. :func:`ldpipe.nhim_points.sampling.sample_family` does the science; this module
+is ``nhim.refinement``'s. :func:`ldpipe.core.nhim.sampling.sample_family` does the science; this module
 writes the study file: every slice with its status (and the reason for a degenerate one), and every
 point (non-degenerate slices only) as a full phase-space state with its uncertainty, energy
 residual, residence times and detection evidence.
@@ -23,8 +23,8 @@ from ..io.contracts import EQUILIBRIA, NHIM_SAMPLING
 from ..io.datafile import open_stage_file, write_stage_file
 from ..errors import ConfigError
 from ..logs import get_logger
-from ..nhim_points import Cost, RefinementSettings, make_slice_problem
-from ..nhim_points.sampling import STATUS, SamplingSettings, SliceSample, sample_family
+from ..core.nhim import Cost, RefinementSettings, make_slice_problem
+from ..core.nhim.sampling import STATUS, SamplingSettings, SliceSample, sample_family
 from . import ld as ld_stage
 
 log = get_logger(__name__)
@@ -78,7 +78,7 @@ def _dataset(samples: list[SliceSample], names: list[str], phase: tuple[str, ...
             "manifold_angle": ("point", per_point("angle"),
                                {"long_name": "angle between the stable and unstable curves", "units": "rad"}),
             "detected_point": (("point", "axis"), per_point("detected_point", width=2),
-                               {"long_name": "grid point of the detection window chosen by ldpipe.nhim_points.nhim_score"}),
+                               {"long_name": "grid point of the detection window chosen by ldpipe.core.nhim.nhim_score"}),
             "detected_score": ("point", per_point("detected_score")),
             "detected_ld_forward": ("point", per_point("detected_ld_forward")),
             "detected_ld_backward": ("point", per_point("detected_ld_backward")),
@@ -127,7 +127,7 @@ def run_nhim_sampling(
     signs : list of {+1, -1}
         Signs of the solved momentum.
     sampling, refinement : dict
-        :class:`ldpipe.nhim_points.sampling.SamplingSettings` and :class:`ldpipe.nhim_points.RefinementSettings` keywords.
+        :class:`ldpipe.core.nhim.sampling.SamplingSettings` and :class:`ldpipe.core.nhim.RefinementSettings` keywords.
     equilibria : path
         The system's equilibria file (the saddle the base map's ``saddle_near`` selects).
     """

@@ -2,7 +2,7 @@
 
 A study is declared under ``normal_form:`` in the configuration: a system, its saddle
 (``saddle_near``, default the lowest), energies, the order and the form (``full`` or ``partial``).
-It writes, at each energy, the flux over the saddle (:func:`ldpipe.normal_form.flux`: the action of
+It writes, at each energy, the flux over the saddle (:func:`ldpipe.core.normal_form.flux`: the action of
 the Lyapunov orbit in 2 DoF, (2π)² times an area of the centre actions in 3 DoF) at every even
 order, its truncation error (the change from the order below), the harmonic estimate and the NHIM
 points in phase space; the smallest divisor met at each degree; the normal form's terms in the
@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..critical_points import select_saddle, well_and_frequencies
+from ..core.equilibria.potential import select_saddle, well_and_frequencies
 from ..io.contracts import EQUILIBRIA, NORMAL_FORM, SADDLE_FLUX, TRANSPORT
 from ..io.datafile import open_stage_file, write_stage_file
 from ..logs import get_logger
-from ..normal_form import system_normal_form
-from ..normal_form.study import flux_table, nhim_samples
+from ..core.normal_form import system_normal_form
+from ..core.normal_form.study import flux_table, nhim_samples
 from ..systems import make_system
-from ..saddle_transport import harmonic_flux
+from ..core.transport import harmonic_flux
 from .upo import target_energies
 
 log = get_logger(__name__)

@@ -15,10 +15,10 @@ the command line and tests.
 from __future__ import annotations
 
 import copy
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from ..config.figures import figure_settings
 from ..systems import equilibrium_box, system_coordinates, system_spec
 
 
@@ -163,13 +163,9 @@ def _nhim_sampling(config: dict, study: str, entry: dict) -> dict:
 
 
 def _figure(config: dict, name: str, entry: dict) -> dict:
-    # The figure stage is looked up by name, not imported: every stage imports this module, and
-    # an import statement here would make each stage depend on the whole figure stack (the rerun
-    # trigger of ldpipe.io.provenance reads import statements), so that editing a drawing would
-    # rerun the equilibria.
-    figures = importlib.import_module(f"{__package__}.figures")
-    return {"figure_name": name, "kind": entry["kind"], "settings": figures.figure_settings(config, name),
-            "caption": figures.figure_caption(config, name)}
+    # The settings the drawing reads; the caption, which the report alone prints, is added by
+    # ldpipe.stages.figures.figure_parameters (it reads other stages' parameters from here).
+    return {"figure_name": name, "kind": entry["kind"], "settings": figure_settings(config, name)}
 
 
 def _accuracy(config: dict, _: None, entry: dict) -> dict:

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 from ..engine.codegen import engine_name
 from ..engine.settings import IntegratorSettings, integrator_ladder
-from ..ld_grid import ld_map_settings, map_start_times
+from ..core.maps.grid import ld_map_settings, map_start_times
 from .parameters import parameters_from_config
 
 
 def ld_map_tiles(config: dict, map_name: str) -> int:
     """How many tiles the map is split into: bands of rows (never more than its rows), for each
-    start time of a map with several (:func:`ldpipe.ld_grid.map_start_times`)."""
+    start time of a map with several (:func:`ldpipe.core.maps.grid.map_start_times`)."""
     spec = config["ld_maps"][map_name]
     parameters = parameters_from_config(config, "ld", map_name)
     rows = parameters["section"]["axes"][0]["points"]

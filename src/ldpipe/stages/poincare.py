@@ -15,12 +15,12 @@ import numba
 
 from ..io.contracts import EQUILIBRIA, POINCARE
 from ..io.datafile import open_stage_file, write_stage_file
-from ..critical_points import select_saddle
+from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError
-from ..flow import FlowSettings
+from ..core.trajectories import FlowSettings
 from ..logs import get_logger
-from ..poincare_sections import poincare_dataset
-from ..sections import Section
+from ..core.orbits.poincare import poincare_dataset
+from ..core.sections import Section
 from ..systems import make_system
 
 log = get_logger(__name__)

@@ -4,16 +4,16 @@ A study is declared under ``saddle_flux:`` in the configuration: a system, its s
 (``saddle_near``, default the lowest) and energies. At each energy it writes
 
 * ``flux_monte_carlo`` ± ``flux_monte_carlo_stderr``: the reactive flux through the surface through
-  the saddle normal to its unstable direction (a line in 2 DoF, :class:`ldpipe.saddle_transport.DividingLine`;
-  a plane in 3 DoF, :class:`ldpipe.saddle_transport.DividingPlane`) by
-  :func:`ldpipe.saddle_transport.reactive_flux_monte_carlo`, with the samples classified
+  the saddle normal to its unstable direction (a line in 2 DoF, :class:`ldpipe.core.transport.DividingLine`;
+  a plane in 3 DoF, :class:`ldpipe.core.transport.DividingPlane`) by
+  :func:`ldpipe.core.transport.reactive_flux_monte_carlo`, with the samples classified
   (``monte_carlo_reactive``, ``_antireactive``, ``_nonreactive``, ``_undecided``);
 * ``flux_dividing_surface``: the surface's one-way flux (recrossings counted every time; quadrature),
   an upper bound of the reactive flux;
 * the surface's normal points away from the minimum nearest the saddle (reactive: from that well to
   the products); a system without a minimum is warned about, and the eigenvector's sign kept;
 * ``flux_harmonic``: the quadratic saddle's flux (2π)^{n−1} ΔE^{n−1} / ((n−1)! ∏ ω_i)
-  (:func:`ldpipe.saddle_transport.harmonic_flux`), ω_i the centre frequencies from the equilibria file,
+  (:func:`ldpipe.core.transport.harmonic_flux`), ω_i the centre frequencies from the equilibria file,
   which the flux approaches as ΔE → 0.
 
 Unlike the ``transport`` stage it needs no periodic orbit, so it runs where a family has none (3 DoF).
@@ -29,12 +29,12 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, SADDLE_FLUX
 from ..io.datafile import open_stage_file, write_stage_file
-from ..critical_points import select_saddle, well_and_frequencies
+from ..core.equilibria.potential import select_saddle, well_and_frequencies
 from ..errors import ConfigError
-from ..flow import FlowSettings
+from ..core.trajectories import FlowSettings
 from ..logs import get_logger
 from ..systems import make_system
-from ..saddle_transport import DividingLine, DividingPlane, harmonic_flux, reactive_flux_monte_carlo
+from ..core.transport import DividingLine, DividingPlane, harmonic_flux, reactive_flux_monte_carlo
 from .upo import target_energies
 
 log = get_logger(__name__)

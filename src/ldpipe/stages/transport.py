@@ -4,19 +4,19 @@ A study is declared under ``transport:`` in the configuration: a periodic-orbit 
 2 DoF system (``orbits``) and which of its target energies (``energies``). For each energy
 it writes
 
-* ``flux_action``: ∮ p·dq of the family's orbit (:func:`ldpipe.saddle_transport.orbit_action`);
+* ``flux_action``: ∮ p·dq of the family's orbit (:func:`ldpipe.core.transport.orbit_action`);
 * ``flux_island_area``: ∮ p_x dx of the first cut of the inward stable and unstable tubes with
-  the section (:func:`ldpipe.saddle_transport.closed_curve_area`), from cuts this stage computes with
+  the section (:func:`ldpipe.core.transport.closed_curve_area`), from cuts this stage computes with
   ``island.points`` trajectories (the manifold stage's sets have other energies and are not
   needed); ``flux_island_area_half`` is the same from every other point, a measure of the
   quadrature's convergence, and ``flux_island_area_polygon`` the shoelace area for comparison;
 * ``flux_monte_carlo`` and ``flux_monte_carlo_stderr``: the reactive flux through the straight
-  dividing line at the saddle (:func:`ldpipe.saddle_transport.reactive_flux_monte_carlo`), with
+  dividing line at the saddle (:func:`ldpipe.core.transport.reactive_flux_monte_carlo`), with
   ``flux_dividing_line``, the line's one-way flux that counts recrossings;
 * ``flux_harmonic``: the saddle's linear estimate 2π ΔE / ω, ω its centre frequency (from the
   equilibria file);
 * ``well_volume``: the energy-shell volume of the well (2π times the area of the allowed well cut off
-  by the dividing lines of every index-1 saddle, :func:`ldpipe.saddle_transport.well_shell_volume`),
+  by the dividing lines of every index-1 saddle, :func:`ldpipe.core.transport.well_shell_volume`),
   ``flux_other_saddles`` (± ``flux_other_saddles_stderr``): the Monte Carlo reactive flux over the
   other saddles, and ``rate_tst`` = (``flux_action`` + ``flux_other_saddles``) / ``well_volume``, the
   microcanonical transition-state rate;
@@ -26,13 +26,13 @@ it writes
   ``survival.decay_window`` in units of 1/rate_tst) and the curve ``survival_probability`` at
   ``survival_time``;
 * gap times of a flux-weighted ensemble entering the well through the dividing lines, followed to
-  the survival curve's horizon T (:func:`ldpipe.saddle_transport.gap_times`): their survival
+  the survival curve's horizon T (:func:`ldpipe.core.transport.gap_times`): their survival
   ``gap_time_survival`` at ``survival_time``, and the exact identity Φ E[min(τ, T)] = V (1 − P(T))
   as its two sides, ``left_volume_gap_times`` and ``left_volume_survival`` (± ``_stderr``), with
   ``flux_dividing_lines`` = Φ, the lines' one-way flux; a violation beyond 4 standard errors is
   logged as a warning (``gap_identity_deviation`` records it in standard errors).
 
-:func:`ldpipe.saddle_transport.transport_at_energy` computes them; this module reads the family and
+:func:`ldpipe.core.transport.transport_at_energy` computes them; this module reads the family and
 equilibria files and writes the study's file.
 """
 
@@ -45,12 +45,12 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, TRANSPORT, UPO
 from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
-from ..critical_points import well_and_frequencies
+from ..core.equilibria.potential import well_and_frequencies
 from ..errors import ConfigError, StageFileError
 from ..logs import get_logger
-from ..invariant_manifolds import MANIFOLDS
+from ..core.orbits.manifolds import MANIFOLDS
 from ..systems import make_system, require_hamiltonian
-from ..saddle_transport import LyapunovOrbit, harmonic_flux, transport_at_energy
+from ..core.transport import LyapunovOrbit, harmonic_flux, transport_at_energy
 from .manifolds import select_orbit
 
 log = get_logger(__name__)

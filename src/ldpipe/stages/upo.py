@@ -4,7 +4,7 @@ A family is declared under ``periodic_orbits:`` in the configuration (see the
 schema): the system, the saddle (nearest ``saddle_near``), the centre mode, and
 the target energies (excess over the saddle's E_c, or total). The family is
 continued from the linearization up to the highest target, and the orbit at
-each target is found by bracketing and correction (:mod:`ldpipe.lyapunov_orbits`).
+each target is found by bracketing and correction (:mod:`ldpipe.core.orbits.periodic`).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ import xarray as xr
 
 from ..io.contracts import EQUILIBRIA, UPO
 from ..io.datafile import open_stage_file, write_stage_file
-from ..critical_points import select_saddle
+from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError
 from ..logs import get_logger
-from ..lyapunov_orbits import (
+from ..core.orbits.periodic import (
     CorrectionFailed, CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle, sample_orbit,
 )
 from ..systems import make_system, require_hamiltonian

@@ -28,7 +28,7 @@ the engine as one module, the common templates in place of the imports (the text
 split, for tools that edit it: ``benchmarks/profile_engine.py``).
 
 Two drivers can be assembled on the same step: ``process`` (the LD driver, ``driver.py``) and
-``flow_process`` (samples, section crossings and escapes for :mod:`ldpipe.flow`,
+``flow_process`` (samples, section crossings and escapes for :mod:`ldpipe.core.trajectories`,
 ``flow_driver.py``, which loads lanes with ``driver.py``'s ``load_lane``); both take the step
 control of ``step_control.py``. ``DRIVERS`` lists the templates each needs.
 

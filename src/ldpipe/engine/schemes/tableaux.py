@@ -1,7 +1,7 @@
 """Coefficients of the stepping schemes, and the dense-output maps derived from them.
 
 Nothing here is compiled: these are plain numpy arrays (and floats) that the code
-generators (:mod:`ldpipe.engine.schemes`; :mod:`ldpipe.flow` runs the engine's DOP853) write into the
+generators (:mod:`ldpipe.engine.schemes`; :mod:`ldpipe.core.trajectories` runs the engine's DOP853) write into the
 kernels as literals.
 
 DOP853

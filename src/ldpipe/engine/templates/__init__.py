@@ -34,10 +34,10 @@ argument-type signature, and a literal start value gives it one more.
   ``qpoly``); DOP853 is generated with its tableau as literals by :mod:`ldpipe.engine.schemes.dop853`;
 - ``driver.py`` — ``process``, the block driver that the thread pool runs, and the lane
   handling the flow driver shares (``load_lane``, ``workspace_views``, ``set_lane_steps``);
-- ``flow_driver.py`` — ``flow_process``, the driver of :func:`ldpipe.flow.integrate` (samples,
+- ``flow_driver.py`` — ``flow_process``, the driver of :func:`ldpipe.core.trajectories.integrate` (samples,
   section crossings and escapes from the step's dense output), on ``driver.py``'s lanes;
 - ``vector_field_driver.py`` — the drivers of a general flow dx/dt = f(x, t) (first-order
   DOP853, LDs and section crossings), assembled by :mod:`ldpipe.engine.vector_field`;
-- ``flow_status.py`` — the outcome codes of both flow drivers; :mod:`ldpipe.flow` imports it as
+- ``flow_status.py`` — the outcome codes of both flow drivers; :mod:`ldpipe.core.trajectories` imports it as
   is, so the codes have one home.
 """

@@ -1,4 +1,4 @@
-"""Template: ``flow_process``, the block driver of :func:`ldpipe.flow.integrate`.
+"""Template: ``flow_process``, the block driver of :func:`ldpipe.core.trajectories.integrate`.
 
 ``flow_process(states, start, stop, ...)`` integrates trajectories start..stop-1 with one
 block of LANES lanes, on the same step attempt as the LD driver (``attempt``: DOP853 in

@@ -1,7 +1,7 @@
-"""Template: how a trajectory of :func:`ldpipe.flow.integrate` ended, the drivers' ``o_status``.
+"""Template: how a trajectory of :func:`ldpipe.core.trajectories.integrate` ended, the drivers' ``o_status``.
 
 Constants only, so that the flow drivers (``flow_driver.py``, ``vector_field_driver.py``'s
-``vector_field_crossings``) and :mod:`ldpipe.flow`, which imports this module as is, read the
+``vector_field_crossings``) and :mod:`ldpipe.core.trajectories`, which imports this module as is, read the
 same codes.
 """
 

@@ -242,7 +242,7 @@ def vector_field_crossings(
     """Crossings of the surface x[sec_index] = sec_value, increasing (sec_direction +1) or
     decreasing (-1) in forward time, by trajectories start..stop-1 from t0 over |t - t0| <= tau.
 
-    As ``ldpipe.flow``'s Hamiltonian driver: a crossing is a sign change of x_i - value between
+    As ``ldpipe.core.trajectories``'s Hamiltonian driver: a crossing is a sign change of x_i - value between
     the ends of an accepted step, located on the step's dense output (``refine_root``); the
     trajectory stops at the last crossing kept, at the escape radius (located as the LD's), or
     on a step-size underflow. Times are signed, from t0: direction * |t - t0|. Outcomes

@@ -1,0 +1,1 @@
+"""Equilibria: of a potential (saddles, wells, spectra) and of a general flow."""

@@ -1,0 +1,90 @@
+"""Equilibria of an autonomous vector field dx/dt = f(x) in a box, and their eigenvalues.
+
+A general flow has no energy and no Hessian: its equilibria are the roots of f, found by the
+same multi-start search as the Hamiltonian's (``equilibria.roots_in_box`` over f and the
+compiled Jacobian Df), and its linear analysis is the spectrum of Df there. The type counts the
+eigenvalues with positive and negative real part (the unstable and stable dimensions): a
+``sink``, a ``source``, a ``saddle`` (both), or ``non-hyperbolic`` where an eigenvalue's real
+part is zero to the tolerance. A time-dependent field has no fixed equilibria and is refused.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from .potential import box_bounds, roots_in_box, spectrum_variables
+from ...errors import ConfigError
+
+
+def vector_field_equilibria(system, lower: np.ndarray, upper: np.ndarray, seeds_per_axis: int = 9,
+                            tolerance: float = 1e-10) -> np.ndarray:
+    """Roots of f in the box, shape (k, n_state), sorted, with Df as the Jacobian (see
+    :func:`ldpipe.core.equilibria.potential.roots_in_box` for the seeds, the acceptance test and the merge)."""
+    return roots_in_box(system.vector_field, system.jacobian, lower, upper, seeds_per_axis, tolerance)
+
+
+def classify_flow(eigenvalues: np.ndarray, tolerance: float) -> tuple[str, int, int]:
+    """(type, unstable dimension, stable dimension) from the Jacobian's eigenvalues."""
+    scale = max(1.0, float(np.max(np.abs(eigenvalues)))) if len(eigenvalues) else 1.0
+    unstable = int(np.sum(eigenvalues.real > tolerance * scale))
+    stable = int(np.sum(eigenvalues.real < -tolerance * scale))
+    if unstable + stable < len(eigenvalues):
+        return "non-hyperbolic", unstable, stable
+    if unstable and stable:
+        return "saddle", unstable, stable
+    return ("source" if unstable else "sink"), unstable, stable
+
+
+def vector_field_equilibria_dataset(system, box: dict[str, list[float]], seeds_per_axis: int = 9,
+                                    tolerance: float = 1e-10, key: str | None = None) -> xr.Dataset:
+    """The equilibrium stage's result for an autonomous vector field (contract FLOW_EQUILIBRIA).
+
+    Modes are ordered by decreasing real part of the eigenvalue (then by imaginary part);
+    eigenvectors have unit norm, phased so that their largest component is real and positive.
+    """
+    if system.time_dependent:
+        raise ConfigError(
+            f"config key '{key or f'systems.{system.name}'}': system {system.name!r} is a time-dependent vector "
+            "field; it has no fixed equilibria (the equilibrium stage applies to autonomous fields)"
+        )
+    lower, upper = box_bounds(system, box)
+    positions = vector_field_equilibria(system, lower, upper, seeds_per_axis, tolerance)
+    n = system.n_state
+    values = np.zeros((len(positions), n), dtype=complex)
+    vectors = np.zeros((len(positions), n, n), dtype=complex)
+    kinds, unstable, stable = [], [], []
+    for index, x in enumerate(positions):
+        eigenvalues, eigenvectors = np.linalg.eig(system.jacobian(x))
+        order = np.lexsort((-eigenvalues.imag, -eigenvalues.real))
+        for mode, column in enumerate(order):
+            vector = eigenvectors[:, column].astype(complex)
+            vector /= np.linalg.norm(vector)
+            pivot = vector[np.argmax(np.abs(vector))]
+            vectors[index, mode] = vector * np.conj(pivot) / abs(pivot)
+            values[index, mode] = eigenvalues[column]
+        kind, u, s = classify_flow(values[index], tolerance)
+        kinds.append(kind)
+        unstable.append(u)
+        stable.append(s)
+    dataset = xr.Dataset(
+        {
+            "position": (("equilibrium", "coordinate"), positions.reshape(-1, n), {"long_name": "equilibrium (a root of f)"}),
+            "type": (("equilibrium",), np.array(kinds, dtype=object), {"long_name": "type of equilibrium"}),
+            "unstable_dimension": (("equilibrium",), np.array(unstable, dtype=np.int32),
+                                   {"long_name": "number of Jacobian eigenvalues with positive real part"}),
+            "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32),
+                                 {"long_name": "number of Jacobian eigenvalues with negative real part"}),
+            **spectrum_variables(values, vectors),
+        },
+        coords={
+            "coordinate": ("coordinate", np.array(system.coordinates, dtype=object)),
+            "phase": ("phase", np.array(system.coordinates, dtype=object)),
+            "mode": ("mode", np.arange(n, dtype=np.int32)),
+        },
+    )
+    dataset.attrs.update({"search_method": "numeric", "search_numeric_found": len(positions),
+                          "system": system.name, "system_description": system.description,
+                          "classification_tolerance": tolerance,
+                          "mode_order": "decreasing real part of the eigenvalue, then decreasing imaginary part"})
+    return dataset

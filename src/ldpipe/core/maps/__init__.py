@@ -1,0 +1,1 @@
+"""Lagrangian-descriptor and FTLE maps: grids, adaptive sampling, reversing symmetries."""

@@ -1,0 +1,233 @@
+"""One slice of a NHIM study, as the stages' files record it.
+
+* :func:`study_map_slice`: a slice of an LD map: its NHIM point detected on the grid, refined by
+  fates and by zoomed re-gridding, the residence evidence, and the distance of each point from the
+  reference (the periodic orbit's crossing of a 2 DoF section; the closest sample of a Lyapunov
+  orbit for higher DoF).
+* :func:`validate_orbit_slice`: a slice through a point of a periodic orbit, which lies on the
+  NHIM: every crossing in the window around the point, refined, and the slice's status (the
+  orbit point found, degenerate with a reason, or failed) against that exact point.
+
+The stages read the maps and orbit files and write the records; this module does no I/O.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+
+import numpy as np
+
+from ...engine import LDSettings
+from ...errors import ConfigError
+from ...logs import get_logger
+from ...systems import System
+from .crossings import SliceCrossings, find_crossings_together
+from .detection import detect_global_argmax, detect_nhim_cell
+from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
+from .fates import RefinementFailed, RefinementSettings
+from .refinement import ld_at_points, refine_by_fates, refine_by_ld_zoom
+from .slices import SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality
+
+log = get_logger(__name__)
+
+#: A periodic orbit at a slice's energy: its state at t = 0, its period, and its samples over one
+#: period (shape (s, 2 n_dof)), as a family's file holds them.
+ReferenceOrbit = tuple[np.ndarray, float, np.ndarray]
+
+
+def study_map_slice(
+    problem: SliceProblem, ld_forward: np.ndarray, ld_backward: np.ndarray, allowed: np.ndarray,
+    axes: tuple[np.ndarray, np.ndarray], reference_orbits: Mapping[str, ReferenceOrbit | None],
+    settings: RefinementSettings, zoom: bool = True,
+) -> dict:
+    """Detection, both refinements, evidence and reference comparison of one LD map's slice, as a flat record.
+
+    Parameters
+    ----------
+    ld_forward, ld_backward, allowed : ndarray, shape (n_a, n_b)
+        The map's fields on the section's grid, ``axes`` its coordinates.
+    reference_orbits : mapping of family name to ReferenceOrbit or None
+        Each reference family's orbit at the slice's energy, None where the family has none. For a
+        2 DoF section the first family's orbit is the reference and must exist (its crossing of the
+        section is exact); for higher DoF the family whose orbit comes closest to the section is.
+    zoom : bool
+        Also refine by zoomed re-gridding (otherwise its record is the detected point, not converged).
+
+    Returns
+    -------
+    dict
+        Named as the NHIM study file's variables (``map`` is the slice's name).
+    """
+    record: dict = {"map": problem.name, "axis_names": list(problem.section.axes), "energy": problem.energy,
+                    "excess_energy": problem.excess_energy, "grid_spacing": problem.spacing}
+    detected = detect_nhim_cell(ld_forward, ld_backward, allowed, axes)
+    naive = detect_global_argmax(ld_forward, ld_backward, allowed, axes)
+    i, j = detected.index
+    record.update(detected_point=detected.point, detected_score=detected.score, argmax_sum_point=naive.point,
+                  detected_grid_ld_forward=float(ld_forward[i, j]), detected_grid_ld_backward=float(ld_backward[i, j]))
+    fates = refine_by_fates(problem, detected.point, settings)
+    record.update(refined_point=fates.point, refined_uncertainty=fates.uncertainty, refined_iterations=fates.iterations,
+                  refined_trajectories=fates.cost.trajectories, refined_time_units=fates.cost.time_units,
+                  refined_steps=fates.cost.steps, refined_wall_time=fates.cost.wall_time, manifold_angle=fates.angle)
+    log.info("%s: detected %s (score %.3f), refined by fates to %s (+- %.2g, %d iterations, %d trajectories, %.2f s)",
+             problem.name, detected.point, detected.score, fates.point, fates.uncertainty, fates.iterations,
+             fates.cost.trajectories, fates.cost.wall_time)
+    record["zoom_converged"] = False
+    record.update(zoom_point=detected.point, zoom_uncertainty=0.0, zoom_iterations=0, zoom_trajectories=0,
+                  zoom_time_units=0.0, zoom_wall_time=0.0)
+    if zoom:
+        try:
+            z = refine_by_ld_zoom(problem, detected.point, settings)
+            record.update(zoom_converged=True, zoom_point=z.point, zoom_uncertainty=z.uncertainty,
+                          zoom_iterations=z.iterations, zoom_trajectories=z.cost.trajectories,
+                          zoom_time_units=z.cost.time_units, zoom_wall_time=z.cost.wall_time)
+            log.info("%s: zoomed re-gridding to %s (%d iterations), %.3g from the fate refinement", problem.name,
+                     z.point, z.iterations, np.linalg.norm(z.point - fates.point))
+        except RefinementFailed as error:
+            log.warning("%s: zoomed re-gridding failed (%s); the fate refinement stands", problem.name, error)
+    record["refined_state"] = section_point_states(problem, fates.point[None, :])[0][0]
+    tight = dataclasses.replace(problem.ld_settings, scheme="dop853", rtol=settings.rtol, atol=settings.atol)
+    values = ld_at_points(problem, np.vstack([detected.point, fates.point]), tight)
+    for name, array in values.items():
+        record[f"detected_{name}"] = float(array[0])
+        record[f"refined_{name}"] = float(array[1])
+    evidence = residence_evidence(problem, fates.point, settings)
+    record.update(evidence)
+    record.update(reference_kind="none", reference_family="", reference_point=np.zeros(2), reference_residual=0.0)
+    if problem.system.n_dof == 2 and reference_orbits:
+        family, orbit = next(iter(reference_orbits.items()))
+        if orbit is None:
+            raise ConfigError(f"family {family} has no orbit at E = {problem.energy:.12g} "
+                              f"(dE = {problem.excess_energy:.6g}) of slice {problem.name}; add the energy to the family")
+        state, period, _ = orbit
+        record.update(reference_kind="orbit_crossing", reference_family=family,
+                      reference_point=orbit_section_crossing(problem, state, period))
+    elif reference_orbits:
+        best = None
+        for family, orbit in reference_orbits.items():
+            if orbit is None:
+                continue
+            residual, point = orbit_section_residual(problem, orbit[2])
+            if best is None or residual < best[0]:
+                best = (residual, point, family)
+        if best is not None:
+            record.update(reference_kind="closest_orbit_sample", reference_family=best[2], reference_point=best[1],
+                          reference_residual=best[0])
+    reference = record["reference_point"]
+    for name in ("refined", "zoom", "detected", "argmax_sum"):
+        record[f"distance_{name}"] = (float(np.linalg.norm(record[f"{name}_point"] - reference))
+                                      if record["reference_kind"] != "none" else 0.0)
+    record["distance_zoom_to_refined"] = float(np.linalg.norm(record["zoom_point"] - fates.point))
+    log.info("%s: reference %s (%s): distance refined %.3g, detected %.3g, argmax of F + B %.3g; residence %.2f, "
+             "%.2f, neighbours at most %.2f", problem.name, record["reference_kind"], record["reference_family"],
+             record["distance_refined"], record["distance_detected"], record["distance_argmax_sum"],
+             record["residence_forward"], record["residence_backward"], record["neighbour_residence_max"])
+    return record
+
+
+def validate_orbit_slice(
+    system: System, state: np.ndarray, axes: tuple[str, str], monodromy: np.ndarray, *, family: str, energy: float,
+    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
+    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
+) -> tuple[dict, list[dict]]:
+    """Every NHIM crossing of the slice through an orbit point, and the slice's status against that point.
+
+    The slice (:func:`point_slice`) has ``axes`` and a ``points`` x ``points`` window of half-width
+    ``half_width`` centred on ``state``, a point of a periodic orbit of ``family`` at ``energy``
+    whose monodromy matrix started there is ``monodromy``. Its status is ``ok`` (a refined crossing
+    within ``tolerance`` of the orbit point), ``degenerate:solved_momentum_vanishes`` (the energy
+    boundary within ``boundary_cells`` grid cells; not searched), ``degenerate:tangent``
+    (transversality below ``min_transversality``; crossings recorded, not checked), or
+    ``fail:no_crossing``, ``fail:not_converged``, ``fail:missed``; ``reason`` says why.
+
+    Returns
+    -------
+    row : dict
+        The slice's record, named as the orbit validation file's ``slice`` variables.
+    crossings : list of dict
+        Its refined crossings inside the window: ``point``, ``uncertainty``, ``angle``, and
+        ``distance`` from the orbit point.
+    """
+    ((row, crossings),) = validate_orbit_slices(
+        system, [(state, axes, monodromy)], family=family, energy=energy, critical_energy=critical_energy,
+        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width, points=points,
+        boundary_cells=boundary_cells, min_transversality=min_transversality, tolerance=tolerance)
+    return row, crossings
+
+
+def validate_orbit_slices(
+    system: System, slices: list[tuple[np.ndarray, tuple[str, str], np.ndarray]], *, family: str, energy: float,
+    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
+    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
+) -> list[tuple[dict, list[dict]]]:
+    """:func:`validate_orbit_slice` of each ``(state, axes, monodromy)`` of ``slices`` (points of one orbit
+    of ``family`` at ``energy``), in order; the searched slices of one pair of axes and solved momentum
+    refine their candidates together (:func:`ldpipe.core.nhim.find_crossings_together`)."""
+    phase = system.phase_coordinates
+    prepared, families = [], {}
+    for state, axes, monodromy in slices:
+        section = point_slice(system, state, tuple(axes), half_width, points)
+        centre = np.array([state[phase.index(a)] for a in axes])
+        momentum = float(state[phase.index(section.solve)])
+        name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
+        row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
+               "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
+               "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
+               "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
+        boundary = boundary_distance(system, section, state)
+        reach = boundary_cells * 2 * half_width / (points - 1)
+        row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
+        if boundary < reach:
+            row.update(status="degenerate:solved_momentum_vanishes", reason=(
+                f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
+                f"{boundary_cells:g} grid cells ({reach:.3g})"))
+            prepared.append((row, None))
+            continue
+        row["transversality"] = slice_transversality(system, section, state, monodromy)
+        problem = make_slice_problem(name, system, section, energy, critical_energy, saddle, ld_settings)
+        families.setdefault((tuple(section.axes), section.solve), []).append(problem)
+        prepared.append((row, problem))
+    found = {}
+    for problems in families.values():
+        found.update(zip(map(id, problems), find_crossings_together(problems, settings)))
+    return [(row, []) if problem is None else _orbit_slice_outcome(row, found[id(problem)], tolerance, min_transversality)
+            for row, problem in prepared]
+
+
+def _orbit_slice_outcome(row: dict, found: SliceCrossings, tolerance: float,
+                         min_transversality: float) -> tuple[dict, list[dict]]:
+    """The searched slice's record completed from its crossings, and the crossings inside the window."""
+    centre = row["orbit_point"]
+    statuses = [c.status for c in found.crossings]
+    row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
+               tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,
+               trajectories=found.cost.trajectories, wall_time=found.cost.wall_time)
+    crossings = [{"point": crossing.refined.point, "uncertainty": crossing.refined.uncertainty,
+                  "angle": crossing.refined.angle, "distance": float(np.linalg.norm(crossing.refined.point - centre))}
+                 for crossing in found.crossings if crossing.status == "refined"]
+    if crossings:
+        nearest = min(crossings, key=lambda c: c["distance"])
+        row.update(distance=nearest["distance"], uncertainty=nearest["uncertainty"])
+    if row["transversality"] < min_transversality:
+        row.update(status="degenerate:tangent", reason=(
+            f"transversality {row['transversality']:.3g} < min_transversality {min_transversality:g}; "
+            f"{row['crossings']} crossing(s) of {row['candidates']} candidate(s) recorded, not checked"))
+    elif not statuses:
+        row.update(status="fail:no_crossing", reason=(
+            f"no grid cell crossed by both manifold curves in the window ({found.forward_cells} crossed by W^s, "
+            f"{found.backward_cells} by W^u)"))
+    elif not crossings:
+        messages = "; ".join(c.message for c in found.crossings if c.message)
+        row.update(status="fail:not_converged", reason=f"{len(statuses)} candidate(s), none refined: {messages}")
+    elif row["distance"] > tolerance:
+        row.update(status="fail:missed", reason=(
+            f"{len(crossings)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
+            f"{tolerance:g}"))
+    else:
+        notes = [f"{len(crossings)} crossings in the window"] if len(crossings) > 1 else []
+        if row["not_converged"] or row["tangent_candidates"]:
+            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
+                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
+        row.update(status="ok", reason="; ".join(notes))
+    return row, crossings

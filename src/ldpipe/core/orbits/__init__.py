@@ -1,0 +1,1 @@
+"""Periodic orbits, their invariant manifolds, and Poincaré sections."""

@@ -1,0 +1,241 @@
+"""Many trajectories at once, with samples, section crossings and escapes, on the engine's DOP853.
+
+Each trajectory is integrated by the engine's DOP853 step (:mod:`ldpipe.engine.schemes.dop853`:
+Dormand-Prince 8(5,3) in Nyström form, scipy's error norm, per-trajectory step control),
+blocks of trajectories side by side, by the driver ``flow_process``
+(``ldpipe/engine/templates/flow_driver.py``). Along the way it
+
+* records the state at requested times, from the step's dense output (the DOP853
+  interpolant of degree 7; steps are not shortened for samples),
+* records crossings of a surface q_i = c (or p_i = c) in a chosen direction, located on the
+  same dense output to machine precision (so a crossing is as accurate as the integration),
+* stops, flagged *escaped*, where a coordinate's magnitude first exceeds the escape radius
+  (located on the dense output, as the LD engine does), and at the last crossing wanted.
+
+The compiled code is assembled by :mod:`ldpipe.engine.codegen` per system and cached on disk
+(:mod:`ldpipe.jitcache`), so later processes reuse the machine code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..engine.integrator import get_runner, run_units
+from ..engine.kinetic import to_engine_states, to_momenta
+from ..engine.settings import DEFAULT_ESCAPE_RADIUS, engine_escape_radius
+from ..engine.templates import flow_status
+from ..systems import System
+
+# How a trajectory ended (``Trajectories.status``): the drivers' own codes, read from their template.
+COMPLETED = flow_status.FLOW_COMPLETED
+ESCAPED = flow_status.FLOW_ESCAPED
+CROSSINGS_FULL = flow_status.FLOW_CROSSINGS_FULL
+STEP_UNDERFLOW = flow_status.FLOW_STEP_UNDERFLOW
+STATUS_MEANINGS = flow_status.FLOW_STATUS_MEANINGS
+STATUS_VALUES = np.array([COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW], dtype=np.int8)  # CF flag_values
+# Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
+# (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
+# spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
+# 0.5-0.75x at 32 (one thread; benchmarks in the commit messages). A batch of at most
+# SMALL_LANES trajectories (NHIM bisection rounds) runs in a block of that many lanes, whose
+# attempts cost a third as much as 32 lanes'; that variant is compiled only when used.
+LANES = 32
+SMALL_LANES = 4
+
+
+@dataclass(frozen=True)
+class FlowSettings:
+    """DOP853 tolerances, escape radius (on every coordinate) and a cap on steps per trajectory."""
+
+    rtol: float = 1e-10
+    atol: float = 1e-10
+    escape_radius: float = DEFAULT_ESCAPE_RADIUS
+    max_steps: int = 10_000_000
+
+
+@dataclass
+class Trajectories:
+    """What :func:`integrate` returns, for ``k`` trajectories.
+
+    ``samples`` (k, s, 2n) at ``sample_times`` (after an early end, the state where the
+    trajectory stopped; ``sample_count`` says how many are real), ``crossings`` (k, c, 2n)
+    at ``crossing_times`` (k, c), ``crossing_count`` (k), ``status`` (k; see
+    ``STATUS_MEANINGS``), ``final_time`` (k: the duration, or where the trajectory stopped:
+    at the escape radius, at the last crossing wanted, or the last accepted step before a
+    step-size underflow), ``steps`` (k: step attempts, accepted and rejected).
+    """
+
+    sample_times: np.ndarray
+    samples: np.ndarray
+    sample_count: np.ndarray
+    crossings: np.ndarray
+    crossing_times: np.ndarray
+    crossing_count: np.ndarray
+    status: np.ndarray
+    final_time: np.ndarray
+    steps: np.ndarray
+
+
+def integrate(
+    system: System,
+    states: np.ndarray,
+    duration: float,
+    settings: FlowSettings,
+    *,
+    sample_times: np.ndarray | None = None,
+    section: tuple[str, float, int] | None = None,
+    max_crossings: int = 0,
+    threads: int | None = None,
+    t0: float = 0.0,
+) -> Trajectories:
+    """Integrate every row of ``states`` for ``duration`` (negative: backward in time).
+
+    A vector-field system (:class:`ldpipe.systems.VectorFieldSystem`) runs from the start time
+    ``t0`` on its own driver (``vector_field_crossings``, first-order DOP853), with crossings
+    and escapes as here but no samples; a Hamiltonian is autonomous and takes t0 = 0 only.
+
+    ``sample_times`` lie between 0 and ``duration`` (same sign), ordered from 0.
+    ``section`` is (phase coordinate, value, direction): crossings where the
+    coordinate passes ``value`` increasing (+1) or decreasing (-1) *in forward
+    time*, whichever way the integration runs; at most ``max_crossings`` are kept
+    and the trajectory stops at the last (status ``crossings_full``).
+    """
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if not getattr(system, "hamiltonian", True):
+        if sample_times is not None and len(sample_times):
+            raise ValueError(f"sample_times: system {system.name!r} is a vector field; its flow records crossings only")
+        return _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, float(t0))
+    if t0 != 0.0:
+        raise ValueError(f"t0: system {system.name!r} is autonomous (a Hamiltonian); give 0")
+    count, m = states.shape
+    if m != 2 * system.n_dof:
+        raise ValueError(f"states have {m} columns; {system.name} has {2 * system.n_dof} phase coordinates")
+    sample_times = np.zeros(0) if sample_times is None else np.ascontiguousarray(sample_times, dtype=np.float64)
+    if len(sample_times) and (np.any(np.diff(np.abs(sample_times)) < 0) or np.any(sample_times * duration < 0)
+                              or abs(sample_times[-1]) > abs(duration)):
+        raise ValueError("sample_times must run from 0 towards duration, within it")
+    index, value, direction, max_crossings = _section_arguments(section, system.phase_coordinates, max_crossings)
+    if index >= system.n_dof and system.mass_matrix is not None:
+        # The driver carries v = M^-1 p (ldpipe.engine.kinetic). With diagonal masses p_i = m_i v_i,
+        # so p_i = c is v_i = c / m_i, crossed the same way; otherwise p_i mixes every v.
+        name = system.phase_coordinates[index]
+        row = system.mass[index - system.n_dof]
+        if np.count_nonzero(row) != 1:
+            raise ValueError(
+                f"section {name} = {value}: crossings of a momentum are located for diagonal masses only; "
+                f"{system.name}'s kinetic matrix couples {name} to other momenta (use a coordinate section)"
+            )
+        value = value / row[index - system.n_dof]
+    samples = np.zeros((count, len(sample_times), m))
+    crossings = np.zeros((count, max_crossings, m))
+    crossing_times = np.zeros((count, max_crossings))
+    status = np.zeros(count, dtype=np.int64)
+    n_cross = np.zeros(count, dtype=np.int64)
+    n_samples = np.zeros(count, dtype=np.int64)
+    final_time = np.zeros(count)
+    steps = np.zeros(count, dtype=np.int64)
+    if count == 0:
+        return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time,
+                            steps)
+    threads = _thread_count(threads)
+    lanes = SMALL_LANES if count <= SMALL_LANES else LANES
+    # Units of at most a block (fewer trajectories when a block each would leave a thread idle),
+    # or ~8 per thread for load balance, up to 16 blocks (as the LD engine).
+    unit = max(min(lanes, -(-count // threads)), min(16 * lanes, count // (8 * threads)))
+    runner = get_runner(system, "dop853", lanes, entry="flow_process")
+    args = (
+        1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol, settings.escape_radius,
+        settings.max_steps, np.abs(sample_times), index, float(value), float(direction),
+    )
+    outputs = (samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
+    # With masses the driver carries (q, M^-1 p) (ldpipe.engine.kinetic); results are in (q, p).
+    run_units(runner, to_engine_states(system, states), unit, args, outputs, threads)
+    to_momenta(system, samples)
+    to_momenta(system, crossings)
+    final_time *= 1.0 if duration >= 0 else -1.0
+    return Trajectories(sample_times, samples, n_samples, crossings, crossing_times, n_cross, status, final_time, steps)
+
+
+def _section_arguments(section, coordinates, max_crossings: int) -> tuple[int, float, int, int]:
+    """The drivers' (index, value, direction, max_crossings) of ``section`` = (name, value,
+    direction) over the state's ``coordinates``; without a section, no crossings."""
+    if section is None:
+        return 0, 0.0, 1, 0
+    name, value, direction = section
+    return coordinates.index(name), value, direction, max_crossings
+
+
+def _thread_count(threads: int | None) -> int:
+    """``threads`` within numba's pool, or all of it."""
+    import numba  # here: the engine's runners load numba too; a job that integrates nothing never does
+
+    return min(threads, numba.config.NUMBA_NUM_THREADS) if threads else numba.get_num_threads()
+
+
+def _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, t0) -> Trajectories:
+    """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring), the
+    escape radius raised as the LD engine raises it (:func:`engine_escape_radius`)."""
+    from ..engine.vector_field import get_vector_field_runner
+
+    count, m = states.shape
+    if m != system.n_state:
+        raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
+    index, value, direction, max_crossings = _section_arguments(section, system.coordinates, max_crossings)
+    crossings = np.zeros((count, max_crossings, m))
+    crossing_times = np.zeros((count, max_crossings))
+    n_cross = np.zeros(count, dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    final_time = np.zeros(count)
+    steps = np.zeros(count, dtype=np.int64)
+    if count:
+        threads = _thread_count(threads)
+        runner = get_vector_field_runner(system, "vector_field_crossings")
+        args = (t0, 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
+                engine_escape_radius(system, settings.escape_radius), settings.max_steps, index, float(value),
+                float(direction))
+        outputs = (crossings, crossing_times, n_cross, status, final_time, steps)
+        with system.time_window(t0, t0 + float(duration)):
+            run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
+    return Trajectories(np.zeros(0), np.zeros((count, 0, m)), np.zeros(count, dtype=np.int64), crossings,
+                        crossing_times, n_cross, status, final_time, steps)
+
+
+class FlowMap(NamedTuple):
+    """What :func:`flow_map` returns for ``k`` trajectories: ``end_state`` (k, n) where each is
+    after the duration (or stopped), ``status`` (k; ``STATUS_MEANINGS``), ``final_time`` (k,
+    signed: the duration, or where it stopped) and ``steps`` (k, step attempts)."""
+
+    end_state: np.ndarray
+    status: np.ndarray
+    final_time: np.ndarray
+    steps: np.ndarray
+
+
+def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings, *, t0: float = 0.0,
+             threads: int | None = None) -> FlowMap:
+    """Where each row of ``states`` is after ``duration`` (negative: backward) from ``t0``, of a
+    vector-field system, by the LD engine's steps without its LD (``vector_field_endpoints``):
+    the end states equal :func:`ldpipe.engine.compute_ld`'s bit for bit at the same tolerances.
+    The escape radius is raised as the LD engine raises it (:func:`engine_escape_radius`)."""
+    from ..engine.vector_field import ENDPOINTS, get_vector_field_runner
+
+    if getattr(system, "hamiltonian", True):
+        raise ValueError(f"system {system.name!r}: the flow map alone is of vector-field systems; a Hamiltonian's "
+                         "end states are integrate()'s samples at the duration")
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    count, m = states.shape
+    if m != system.n_state:
+        raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
+    outputs = (np.zeros((count, m)), np.zeros(count, dtype=np.int64), np.zeros(count), np.zeros(count, dtype=np.int64))
+    if count:
+        threads = _thread_count(threads)
+        runner = get_vector_field_runner(system, ENDPOINTS)
+        args = (float(t0), 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
+                engine_escape_radius(system, settings.escape_radius), settings.max_steps)
+        with system.time_window(t0, t0 + float(duration)):
+            run_units(runner, states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+    end, status, elapsed, steps = outputs
+    return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)
