@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 
-from ldpipe import flow
+from ldpipe.core import trajectories
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.engine.codegen import engine_source
 from ldpipe.systems import make_system
@@ -125,8 +125,8 @@ def test_flow_samples_and_momentum_crossings_with_masses(oscillator):
     # at x = +A, every period 2 pi sqrt(m / k) = 4 pi.
     state = np.array([[1.0, 0.3, 2.0, 0.0]])
     period = 2.0 * math.pi * math.sqrt(MASSES[0] / STIFFNESS[0])
-    settings = flow.FlowSettings(rtol=1e-12, atol=1e-12)
-    run = flow.integrate(oscillator, state, 2.5 * period, settings, sample_times=np.array([0.0, 1.3, 7.7]),
+    settings = trajectories.FlowSettings(rtol=1e-12, atol=1e-12)
+    run = trajectories.integrate(oscillator, state, 2.5 * period, settings, sample_times=np.array([0.0, 1.3, 7.7]),
                          section=("px", 0.0, -1), max_crossings=2)
     for s, t in zip(run.samples[0], (0.0, 1.3, 7.7)):
         assert np.max(np.abs(s - exact_state(state[0], t))) < 1e-10

@@ -11,7 +11,7 @@ import pytest
 import xarray as xr
 
 from ldpipe.io import contracts
-from ldpipe import accuracy
+from ldpipe.core import accuracy
 from ldpipe.core.accuracy import (
     CorrectorStep, IntegratorStep, closure_error, corrector_ladder, finite_quantiles, integrator_ladder,
     ld_ladder_dataset, orbit_ladder_dataset, relative_error, sample_indices,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe import nhim_points as nhim
+from ldpipe.core import nhim
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings

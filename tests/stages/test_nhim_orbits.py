@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe import nhim_points as nhim
+from ldpipe.core import nhim
 from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file

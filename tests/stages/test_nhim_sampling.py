@@ -22,7 +22,7 @@ from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
-from ldpipe import nhim_points as nhim
+from ldpipe.core import nhim
 from ldpipe.core.nhim.batched import run_tasks
 from ldpipe.core.nhim.refinement import refine_by_fates_task
 from ldpipe.core.nhim.sampling import SamplingSettings, predict, sample_family, sample_slice, slice_problem, walk_order
