@@ -35,7 +35,7 @@ import ldpipe.core.accuracy.orbit_ladder as orbit_ladder  # noqa: E402
 import ldpipe.stages.accuracy as stage  # noqa: E402
 from ldpipe.config import validate_config  # noqa: E402
 from ldpipe.engine import compute_ld  # noqa: E402
-from ldpipe.stages.parameters import parameters_from_config  # noqa: E402
+from ldpipe.config.parameters import parameters_from_config  # noqa: E402
 
 RECORDS: list[dict] = []
 

@@ -48,8 +48,8 @@ from ldpipe.figures.style import color_limits  # noqa: E402
 from ldpipe.io.contracts import EQUILIBRIA  # noqa: E402
 from ldpipe.io.datafile import open_stage_file  # noqa: E402
 from ldpipe.stages import equilibria as equilibria_stage  # noqa: E402
-from ldpipe.stages.ld import compute_ld_map  # noqa: E402
-from ldpipe.stages.parameters import parameters_from_config  # noqa: E402
+from ldpipe.core.maps.assembly import compute_ld_map  # noqa: E402
+from ldpipe.config.parameters import parameters_from_config  # noqa: E402
 
 LEVELS = 256  # matplotlib's colormaps (viridis) have 256 colours
 PERCENTILES = (5.0, 99.9)  # the figures' default color_percentiles

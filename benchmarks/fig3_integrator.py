@@ -42,8 +42,8 @@ from ldpipe.config import load_config  # noqa: E402
 from ldpipe.io.contracts import EQUILIBRIA  # noqa: E402
 from ldpipe.io.datafile import open_stage_file  # noqa: E402
 from ldpipe.stages import equilibria as equilibria_stage  # noqa: E402
-from ldpipe.stages.ld import compute_ld_map  # noqa: E402
-from ldpipe.stages.parameters import parameters_from_config  # noqa: E402
+from ldpipe.core.maps.assembly import compute_ld_map  # noqa: E402
+from ldpipe.config.parameters import parameters_from_config  # noqa: E402
 
 MAPS = ("fig3_dE-0.125", "fig3_dE0.000", "fig3_dE0.125")
 

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from ldpipe.config.loading import load_config
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.plan import nhim_orbit_inputs
 
 NHIM_STUDIES = {"nhim3": "barbanis_contopoulos_3dof", "nhim2": "barbanis_2dof"}

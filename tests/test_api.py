@@ -24,7 +24,7 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.logs import log_to
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.manifolds import run_manifolds
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from support.henon_heiles import HENON_HEILES, hh_slice
 from support.stage_files import assert_same_file
@@ -223,7 +223,7 @@ def test_accessor_draws_the_map_on_the_given_axes(hh_config, hh_map, tmp_path):
 def test_a_flow_map_without_its_ld_is_returned_as_the_stage_computes_it(tmp_path):
     # ld: false files hold the flow map and the FTLE under the flow_map contract; the API returns the
     # file of the single-tile stage computation (compute_ld_map), its variables bit for bit
-    from ldpipe.stages.ld import compute_ld_map
+    from ldpipe.core.maps.assembly import compute_ld_map
     from support.gridded import write_velocity_file
 
     grid = np.linspace(0.0, 4.0, 5)

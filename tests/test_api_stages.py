@@ -28,7 +28,7 @@ from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.stages.saddle_flux import run_saddle_flux
 from ldpipe.stages.transport import run_transport

@@ -156,7 +156,7 @@ def test_every_layer_is_populated_as_the_architecture_says():
 
 
 def test_the_walk_sees_static_relative_and_dynamic_imports():
-    assert "ldpipe.core.maps.grid" in {m for m, _, _ in imports("ldpipe.stages.ld")}
+    assert "ldpipe.core.maps.assembly" in {m for m, _, _ in imports("ldpipe.stages.ld")}
     assert "ldpipe.io.contracts" in {m for m, _, _ in imports("ldpipe.figures.nhim")}
     # the accessor's drawing module is a constant handed to import_module
     assert ("ldpipe.figures.dataset", "import_module") in {(m, how) for m, _, how in imports("ldpipe.accessor")}

@@ -18,8 +18,9 @@ from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
 from ldpipe.io.contracts import FLOW_MAP
 from ldpipe.io.datafile import open_stage_file
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, run_ld_tile
+from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import double_gyre_velocity
 from support.gridded import write_velocity_file
 

@@ -18,8 +18,9 @@ from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
 from ldpipe.core.maps.ftle import complete_neighbourhood, ftle
 from ldpipe.io.datafile import open_stage_file
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, run_ld_tile
+from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import DOUBLE_GYRE, double_gyre_field
 
 LAM = 0.8  # the linear saddle of tests/engine/test_vector_field.py (same kernel: its engine is compiled once)

@@ -16,8 +16,8 @@ RUN = textwrap.dedent("""
     import resource, sys
     resource.setrlimit(resource.RLIMIT_AS, ({cap} * 2**20, {cap} * 2**20))
     from ldpipe.config import validate_config
-    from ldpipe.stages.ld import compute_ld_map
-    from ldpipe.stages.parameters import parameters_from_config
+    from ldpipe.core.maps.assembly import compute_ld_map
+    from ldpipe.config.parameters import parameters_from_config
     config = validate_config({{
         "systems": {{"big": {{"velocity_data": {{"path": sys.argv[1], "window": {{"x": [0, 60], "y": [0, 60]}}}}}}}},
         "ld_maps": {{"m": {{"system": "big", "t0": 5.0, "tau": 3.0, "p": 0.5,

@@ -23,8 +23,8 @@ import xarray as xr
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import VelocityDataSystem, make_system
 from support.double_gyre import sampled_gyre_errors
 from support.gridded import assert_quadratic_field_ld, quadratic_field, write_velocity_file, write_velocity_file_3d

@@ -23,8 +23,8 @@ from scipy.integrate import quad
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.gridded import write_velocity_file
 

@@ -15,9 +15,10 @@ from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.figures import run_figure
-from ldpipe.stages.ld import compute_ld_map, run_ld_map
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import double_gyre_velocity
 from support.gridded import write_velocity_file
 

@@ -21,8 +21,8 @@ import pytest
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.bickley_jet import BICKLEY_JET, bickley_velocity
 from support.double_gyre import sampled_gyre_errors

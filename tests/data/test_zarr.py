@@ -9,8 +9,8 @@ import numpy as np
 import xarray as xr
 
 from ldpipe.config import validate_config
-from ldpipe.stages.ld import compute_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import double_gyre_velocity
 from support.gridded import write_velocity_file
 

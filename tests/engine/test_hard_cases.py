@@ -32,14 +32,15 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
-from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.core.maps.grid import ld_grid_dataset
 from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.core.sections import Section
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, run_ld_tile
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from ldpipe.core.variational import sample
 from support.barbanis import BOTTOM_REGION, DELTA, E_C, PAPER_Q_S, WY2, escaping_states
@@ -60,7 +61,7 @@ def barbanis_energy(state):
 
 @pytest.fixture(scope="module")
 def barbanis_equilibria(barbanis):
-    return equilibria_dataset(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]})
+    return equilibrium_table(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]})
 
 
 # --- finite-time blow-up ----------------------------------------------------------------------

@@ -12,7 +12,7 @@ from ldpipe.figures.normal_form import draw_normal_form
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.normal_form import run_normal_form
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from support import quadratic_saddle as quadratic
 
 

@@ -23,7 +23,7 @@ from ldpipe.errors import ConfigError
 from ldpipe.core.orbits.periodic import BrakeOrbit, linearize_saddle
 from ldpipe.stages import accuracy as accuracy_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.plan import ladder_engines
 
 # The closed-form M_p of the uncoupled oscillators (Beta functions) of the `oscillator` fixture,

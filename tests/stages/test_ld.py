@@ -8,10 +8,11 @@ from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, stage_parameters, write_stage_file
 from ldpipe.io.filediff import compare_files
-from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.errors import ConfigError
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_map, run_ld_tile, write_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, run_ld_map, run_ld_tile, write_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.henon_heiles import HENON_HEILES, HH_ENERGY, hh_slice
 from support.workflow import ROOT
@@ -40,7 +41,7 @@ def small_config(**overrides):
 
 @pytest.fixture(scope="module")
 def equilibria(barbanis):
-    return equilibria_dataset(barbanis, BOX)
+    return equilibrium_table(barbanis, BOX)
 
 
 def test_tiles_gathered_equal_the_untiled_map(tmp_path, equilibria):
@@ -172,7 +173,7 @@ def test_map_with_a_solved_position_records_it_like_a_momentum(tmp_path):
     config = validate_config({"systems": {"henon_heiles": dict(HENON_HEILES)}, "ld_maps": {"m": hh_slice()}})
     system = make_system("henon_heiles", dict(HENON_HEILES))
     parameters = parameters_from_config(config, "ld", "m")
-    dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
+    dataset = compute_ld_map(parameters, equilibrium_table(system, BOX), show_progress=False)
     path = write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False)
     stored = open_stage_file(path, stage="ld_grid")
     allowed = stored.allowed.values.astype(bool)
@@ -245,7 +246,7 @@ def test_map_with_masses_solves_momenta_with_them_and_records_them(tmp_path):
     config = validate_config({"systems": {"barbanis_m8": spec}, "ld_maps": {"m": ld_map}})
     system = make_system("barbanis_m8", spec)
     parameters = parameters_from_config(config, "ld", "m")
-    dataset = compute_ld_map(parameters, equilibria_dataset(system, BOX), show_progress=False)
+    dataset = compute_ld_map(parameters, equilibrium_table(system, BOX), show_progress=False)
     stored = open_stage_file(write_ld_map(dataset, parameters, tmp_path / "m.nc", tile_file=False), stage="ld_grid")
     assert stored.attrs["mass_matrix"] == "[[8.0, 0.0], [0.0, 8.0]]"
     assert stage_parameters(stored)["system_spec"]["masses"] == {"x": 8.0, "y": 8.0}

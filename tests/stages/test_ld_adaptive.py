@@ -10,13 +10,14 @@ from ldpipe.core import nhim
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.engine import LDSettings
-from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.core.maps.adaptive import RefineSettings, adaptive_ld_dataset, refine_band
 from ldpipe.core.maps.grid import ld_grid_dataset
 from ldpipe.core.sections import Section
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, write_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, write_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.closed_forms import WX, WY, harmonic_ld
 
@@ -215,7 +216,7 @@ def small_config(points: int = 129, tiles: int = 1, refine: dict | None = None):
 
 @pytest.fixture(scope="module")
 def equilibria(barbanis):
-    return equilibria_dataset(barbanis, BOX)
+    return equilibrium_table(barbanis, BOX)
 
 
 @pytest.fixture(scope="module")

@@ -10,14 +10,15 @@ import pytest
 import xarray as xr
 
 from ldpipe.config import validate_config
-from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.engine import LDSettings
 from ldpipe.errors import ConfigError
 from ldpipe.core.maps.grid import ld_grid_dataset
 from ldpipe.core.maps.symmetry import ReversingSymmetry, map_mirror, mirror_mismatch, reversing_symmetries
 from ldpipe.core.sections import Section
-from ldpipe.stages.ld import compute_ld_map, note_mirrored_tiles, run_ld_gather, write_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map, note_mirrored_tiles
+from ldpipe.stages.ld import run_ld_gather, write_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from support.barbanis import E_C
 from support.henon_heiles import HENON_HEILES
@@ -147,7 +148,7 @@ def fig3_config(**entries):
 
 @pytest.fixture(scope="module")
 def equilibria(barbanis):
-    return equilibria_dataset(barbanis, BOX)
+    return equilibrium_table(barbanis, BOX)
 
 
 def test_stage_mirrors_each_tile_and_the_key_turns_it_off(tmp_path, equilibria):

@@ -15,7 +15,7 @@ from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linea
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.systems import make_system
 from ldpipe.core.variational import propagate
 

@@ -25,8 +25,9 @@ from ldpipe.core.sections import Section, section_states
 from ldpipe.stages import nhim as nhim_stage
 from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.ld import compute_ld_map, write_ld_map
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import write_ld_map
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.plan import nhim_study_inputs
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system

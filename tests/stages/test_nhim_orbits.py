@@ -22,7 +22,7 @@ from ldpipe.stages import nhim_validation
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
 from ldpipe.stages.plan import nhim_orbit_inputs
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.systems import make_system
 from ldpipe.core.variational import propagate

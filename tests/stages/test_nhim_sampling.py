@@ -30,7 +30,7 @@ from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linea
 from ldpipe.core.sections import Section
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.nhim_sampling import run_nhim_sampling
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.upo import run_upo
 from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system

@@ -12,7 +12,7 @@ from ldpipe.core.orbits.poincare import poincare_dataset
 from ldpipe.core.sections import Section
 from ldpipe.stages import poincare as poincare_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 
 EC = 15.125  # paper: critical energy of the Barbanis saddles
 GRID = Section(axes=("x", "px"), ranges=((-5.5, 5.5), (-5.5, 5.5)), shape=(7, 7), fixed={"y": 0.0}, solve="py")

@@ -10,7 +10,7 @@ from ldpipe.errors import ConfigError
 from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, floquet_multipliers, linearize_saddle
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from support.lindstedt import REMAINDER, barbanis_contopoulos_saddle, barbanis_saddle, period_energy_slope
 
 SETTINGS = CorrectorSettings(tolerance=1e-10, rtol=1e-13, atol=1e-13)

@@ -15,8 +15,9 @@ from ldpipe.errors import ConfigError
 from ldpipe.core.trajectories import FlowSettings, integrate
 from ldpipe.core.maps.grid import resolve_ld_map
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather, run_ld_tile
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather, run_ld_tile
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.systems import make_system
 from support.closed_forms import linear_saddle_ld

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ldpipe.core.equilibria.potential import equilibria_dataset, linear_analysis, locate_equilibria, numeric_equilibria
+from ldpipe.core.equilibria.potential import equilibrium_table, linear_analysis, locate_equilibria, numeric_equilibria
 from ldpipe.systems import make_system
 
 WX, WY, DELTA = 1.0, 1.1, -0.11
@@ -58,7 +58,7 @@ def test_barbanis_contopoulos_equilibria_match_paper(barbanis_contopoulos):
 
 
 def test_types_and_critical_energy_in_dataset(barbanis):
-    dataset = equilibria_dataset(barbanis, BOX_2DOF)
+    dataset = equilibrium_table(barbanis, BOX_2DOF)
     kinds = dict(zip(map(tuple, np.round(dataset.position.values, 6)), dataset.type.values))
     assert kinds[(0.0, 0.0)] == "minimum"
     assert kinds[(5.5, 7.071068)] == kinds[(5.5, -7.071068)] == "index-1 saddle"
@@ -148,7 +148,7 @@ def test_3dof_jacobian_sign_erratum(barbanis_contopoulos):
 
 
 def test_3dof_saddle_is_saddle_centre_centre(barbanis_contopoulos):
-    dataset = equilibria_dataset(barbanis_contopoulos, BOX_3DOF)
+    dataset = equilibrium_table(barbanis_contopoulos, BOX_3DOF)
     saddle = int(dataset.saddle_equilibrium.values[0])
     real = dataset.eigenvalue_real.values[saddle]
     imag = dataset.eigenvalue_imag.values[saddle]
@@ -166,7 +166,7 @@ def test_formula_system_equilibria_found_numerically():
     system = make_system(
         "hh", {"formula": "(x**2 + y**2)/2 + x**2*y - y**3/3", "coordinates": ["x", "y"]}
     )
-    dataset = equilibria_dataset(system, {"x": [-2, 2], "y": [-2, 2]}, seeds_per_axis=7)
+    dataset = equilibrium_table(system, {"x": [-2, 2], "y": [-2, 2]}, seeds_per_axis=7)
     expected = {(0.0, 0.0), (0.0, 1.0), (0.866025, -0.5), (-0.866025, -0.5)}
     assert set(map(tuple, np.round(dataset.position.values, 6) + 0.0)) == expected
     assert sorted(dataset.type.values) == ["index-1 saddle"] * 3 + ["minimum"]

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ldpipe.core.equilibria.potential import equilibria_dataset, select_saddle
+from ldpipe.core.equilibria.potential import equilibrium_table, select_saddle
 from ldpipe.errors import ConfigError
 from ldpipe.core.sections import Section, section_states
 from ldpipe.systems import make_system
@@ -95,7 +95,7 @@ def spec(fixed, *, solve="py", sign=1, axes=(("x", (4.5, 6.5), 21), ("px", (-1.0
 
 @pytest.fixture(scope="module")
 def barbanis_equilibria(barbanis):
-    return equilibria_dataset(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]})
+    return equilibrium_table(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]})
 
 
 @pytest.mark.parametrize("near, y_sign", [([5.5, 7.0], 1), ([5.0, -6.0], -1)])

@@ -10,7 +10,7 @@ import pytest
 from docutils.core import publish_parts
 
 from ldpipe.config import load_config
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from support.workflow import ROOT
 
 

@@ -20,7 +20,7 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.saddle_flux import draw_saddle_flux
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.saddle_flux import run_saddle_flux
 from ldpipe.systems import make_system
 from support import quadratic_saddle as quadratic

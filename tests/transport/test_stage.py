@@ -21,7 +21,7 @@ from ldpipe.figures.transport import draw_transport
 from ldpipe.stages import transport as transport_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.config.parameters import parameters_from_config
 from support.lindstedt import REMAINDER, barbanis_saddle, period_energy_slope
 
 EXCESS = [0.125, 2.25]

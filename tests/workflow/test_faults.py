@@ -29,11 +29,12 @@ import yaml
 from ldpipe.cli import main
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file, write_stage_file
-from ldpipe.core.equilibria.potential import equilibria_dataset
+from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.errors import ConfigError, StageFileError
 from ldpipe.stages.equilibria import run_equilibria
-from ldpipe.stages.ld import compute_ld_map, run_ld_gather
-from ldpipe.stages.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.stages.ld import run_ld_gather
+from ldpipe.config.parameters import parameters_from_config
 from support.workflow import copy_workflow, job_counts, run_snakemake
 
 PYTHON = sys.executable
@@ -331,7 +332,7 @@ def test_killed_job_leaves_no_output_and_the_rerun_redoes_only_it(tmp_path, barb
     assert code == 0, log
     data = open_stage_file(tmp_path / target, stage="ld_grid")
     fresh = compute_ld_map(parameters_from_config(config, "ld", "tiny"),
-                           equilibria_dataset(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}), show_progress=False)
+                           equilibrium_table(barbanis, {"x": [-20.0, 20.0], "y": [-20.0, 20.0]}), show_progress=False)
     for name in fresh.data_vars:
         np.testing.assert_array_equal(data[name].values, fresh[name].values, err_msg=name)
     assert data.allowed.values.any() and data.attrs["tiles"] == 2

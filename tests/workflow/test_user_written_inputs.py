@@ -111,7 +111,7 @@ def test_an_energy_below_the_whole_section_warns_and_a_figure_of_it_is_refused(t
     out = tmp_path / "empty.nc"
     # V >= 0 on y = 0 (V = x^2/2): at E = -100 no point is allowed (closed form).
     assert main([*SMALL_MAP, "--energy", "-100", "-o", str(out)]) == 0
-    assert "WARNING ldpipe.stages.ld: map cli: no point of the section is energetically allowed at E = -100" in (
+    assert "WARNING ldpipe.core.maps.assembly: map cli: no point of the section is energetically allowed at E = -100" in (
         capsys.readouterr().err)
     dataset = open_stage_file(out, stage="ld_grid")
     assert dataset.attrs["allowed_points"] == 0 and not dataset.allowed.values.any()

@@ -7,7 +7,7 @@ try:
     from ldpipe.config import validate_config
     from ldpipe.errors import ConfigError
     from ldpipe.io.provenance import code_digest
-    from ldpipe.stages.parameters import parameters_from_config
+    from ldpipe.config.parameters import parameters_from_config
     from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_tiles, nhim_orbit_inputs,
                                     nhim_sampling_system, nhim_study_inputs)
     from ldpipe.systems import has_equilibria, is_vector_field

@@ -77,7 +77,7 @@ def _system_config(args: argparse.Namespace) -> dict:
 
 def _run_equilibria(args: argparse.Namespace) -> None:
     from ..stages.equilibria import run_equilibria
-    from ..stages.parameters import parameters_from_config
+    from ..config.parameters import parameters_from_config
 
     config = _system_config(args)
     with log_to(None):
@@ -169,7 +169,7 @@ def _run_ld(args: argparse.Namespace) -> None:
     from ..stages import equilibria as equilibria_stage
     from ..stages.ld import run_ld_map
     from ..stages.plan import ld_map_tiles
-    from ..stages.parameters import parameters_from_config
+    from ..config.parameters import parameters_from_config
 
     if args.map is not None:
         if args.config is None:

@@ -16,7 +16,7 @@ from ..config import load_config
 from ..errors import ConfigError
 from ..logs import log_to
 from ..stages.equilibria import equilibria_file
-from ..stages.parameters import parameters_from_config
+from ..config.parameters import parameters_from_config
 from ..systems import is_vector_field
 
 EXAMPLES = """\

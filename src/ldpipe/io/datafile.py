@@ -22,7 +22,7 @@ import xarray as xr
 
 from .._version import __version__
 from ..errors import StageFileError
-from .contracts import StageFile
+from .contracts import CONTRACTS, StageFile
 
 ENGINE = "netcdf4"
 CONVENTIONS = "CF-1.10"
@@ -54,10 +54,10 @@ def git_commit() -> str:
     return commit + ("-dirty" if dirty else "")
 
 
-def _check_finite(dataset: xr.Dataset, path: Path) -> None:
+def _check_finite(dataset: xr.Dataset, where) -> None:
     for name, variable in dataset.variables.items():
         if np.issubdtype(variable.dtype, np.floating) and not np.all(np.isfinite(variable.values)):
-            raise ValueError(f"{path}: variable {name!r} holds NaN or inf; refusing to write it")
+            raise ValueError(f"{where}: variable {name!r} holds NaN or inf; refusing to write it")
 
 
 def _json_default(value):
@@ -70,21 +70,15 @@ def _json_default(value):
     raise TypeError(f"cannot record {type(value).__name__} in the parameters attribute")
 
 
-def write_stage_file(
-    dataset: xr.Dataset, path: str | os.PathLike, *, stage: str | StageFile, title: str, parameters: dict
-) -> Path:
-    """Write ``dataset`` to ``path`` with ldpipe's conventions, atomically, as a file of ``stage``
-    (its contract, or a bare stage name).
-
-    The file is written to a temporary name in the same folder and renamed into
-    place only once complete, so a job killed mid-write never leaves a file
-    under the final name. Floating-point data must be finite. Numeric variables are compressed
-    (``COMPRESSION``), except in a contract's intermediate files.
+def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, parameters: dict) -> xr.Dataset:
+    """``dataset`` as the file of ``stage`` (its contract, or a bare stage name) holds it and
+    :func:`open_stage_file` reads it back: ldpipe's global attributes (the parameters as JSON, the
+    version, the commit), flags kept as booleans with their CF flag attributes, text as fixed-width
+    strings. Every library function of a stage product returns its Dataset through this, so the
+    Python API hands back, in memory, what the pipeline writes. Floating-point data must be finite.
     """
-    path = Path(path)
-    compression = {} if isinstance(stage, StageFile) and stage.intermediate else COMPRESSION
     stage = stage.stage if isinstance(stage, StageFile) else stage
-    _check_finite(dataset, path)
+    _check_finite(dataset, f"the {stage!r} stage's data")
     dataset = dataset.copy()
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     command = " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]) if sys.argv else "python"
@@ -100,15 +94,44 @@ def write_stage_file(
             "parameters": json.dumps(parameters, sort_keys=True, default=_json_default),
         }
     )
+    for variable in dataset.data_vars.values():
+        if variable.dtype.kind == "b":  # netCDF has no bool type: the file keeps 0/1 bytes and says what they mean
+            variable.attrs.setdefault("flag_values", np.array([0, 1], dtype=np.int8))
+            variable.attrs.setdefault("flag_meanings", "false true")
+    text = {name: variable.astype(str) for name, variable in dataset.variables.items()
+            if variable.dtype.kind == "O" and all(isinstance(v, str) for v in variable.values.flat)}
+    # as xarray reads a file's strings back
+    dataset = dataset.assign_coords({name: v for name, v in text.items() if name in dataset.coords})
+    return dataset.assign({name: v for name, v in text.items() if name not in dataset.coords})
+
+
+def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str | StageFile | None = None,
+                     title: str | None = None, parameters: dict | None = None) -> Path:
+    """Write a stage file to ``path``, atomically: ``dataset`` as a stage product's function
+    returned it (:func:`stage_dataset`), or, given ``stage``, ``title`` and ``parameters``, made
+    one here.
+
+    The file is written to a temporary name in the same folder and renamed into
+    place only once complete, so a job killed mid-write never leaves a file
+    under the final name. Numeric variables are compressed (``COMPRESSION``), except in a
+    contract's intermediate files.
+    """
+    path = Path(path)
+    if stage is not None:
+        dataset = stage_dataset(dataset, stage=stage, title=title, parameters=parameters)
+    elif STAGE_ATTRIBUTE not in dataset.attrs:
+        raise ValueError(f"{path}: the dataset is not a stage product (no {STAGE_ATTRIBUTE!r} attribute); "
+                         "give stage, title and parameters")
+    _check_finite(dataset, path)
+    contract = CONTRACTS.get(dataset.attrs[STAGE_ATTRIBUTE])
+    compression = {} if contract is not None and contract.intermediate else COMPRESSION
+    dataset = dataset.copy()
     encoding = {}
     for name, variable in dataset.data_vars.items():
         if variable.dtype.kind in "fiub":
             encoding[name] = dict(compression)  # replaces what the variable carries from a file it was read from
-            # netCDF has no bool type: keep 0/1 bytes and say what they mean.
             if variable.dtype.kind == "b":
                 dataset[name] = variable.astype(np.int8)
-                dataset[name].attrs.setdefault("flag_values", np.array([0, 1], dtype=np.int8))
-                dataset[name].attrs.setdefault("flag_meanings", "false true")
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:

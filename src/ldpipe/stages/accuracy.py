@@ -35,7 +35,7 @@ from ..core.nhim import RefinementSettings, detect_nhim_cell, make_slice_problem
 from ..core.orbits.periodic import CorrectionFailed, linearize_saddle
 from ..core.sections import section_states
 from ..systems import make_system
-from .ld import resolve_map
+from ..core.maps.assembly import resolve_map
 
 log = get_logger(__name__)
 

@@ -11,14 +11,13 @@ it and writes a PNG and a PDF.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
 from ..logs import get_logger
 from ..config.figures import KIND_SETTINGS
-from .parameters import parameters_from_config
+from ..config.parameters import parameters_from_config
 
 log = get_logger(__name__)
 

@@ -29,7 +29,7 @@ from ..errors import ConfigError
 from ..core.maps.grid import resolve_ld_map
 from ..logs import get_logger
 from ..core.nhim import ReferenceOrbit, RefinementSettings, SliceProblem, make_slice_problem, study_map_slice
-from . import ld as ld_stage
+from ..core.maps import assembly
 
 log = get_logger(__name__)
 
@@ -143,7 +143,7 @@ def run_nhim_study(
             raise ValueError(f"study {study}: derived slices need the system's equilibria file")
         eq = open_stage_file(equilibria, stage=EQUILIBRIA)
         for parameters in derived:
-            sources.append((ld_stage.compute_ld_map(parameters, eq, show_progress=False), parameters))
+            sources.append((assembly.compute_ld_map(parameters, eq, show_progress=False), parameters))
     if not sources:
         raise ConfigError(f"config key 'nhim.studies.{study}': no slices (give 'maps' or 'derived')")
     for data, parameters in sources:

@@ -25,7 +25,7 @@ from ..errors import ConfigError
 from ..logs import get_logger
 from ..core.nhim import Cost, RefinementSettings, make_slice_problem
 from ..core.nhim.sampling import STATUS, SamplingSettings, SliceSample, sample_family
-from . import ld as ld_stage
+from ..core.maps import assembly
 
 log = get_logger(__name__)
 
@@ -136,7 +136,7 @@ def run_nhim_sampling(
     if threads:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     key = f"nhim_sampling.{study}"
-    system, section, ld_settings, info = ld_stage.resolve_map(base_map, open_stage_file(equilibria, stage=EQUILIBRIA))
+    system, section, ld_settings, info = assembly.resolve_map(base_map, open_stage_file(equilibria, stage=EQUILIBRIA))
     if set(fixed) != set(section.fixed):
         raise ConfigError(f"config key '{key}.fixed': expected exactly the fixed coordinates {sorted(section.fixed)} "
                           f"of map {base_map['map_name']}'s section, got {sorted(fixed)}")

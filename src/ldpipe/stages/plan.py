@@ -11,7 +11,7 @@ from __future__ import annotations
 from ..engine.codegen import engine_name
 from ..engine.settings import IntegratorSettings, integrator_ladder
 from ..core.maps.grid import ld_map_settings, map_start_times
-from .parameters import parameters_from_config
+from ..config.parameters import parameters_from_config
 
 
 def ld_map_tiles(config: dict, map_name: str) -> int:

@@ -36,7 +36,7 @@ def classify_flow(eigenvalues: np.ndarray, tolerance: float) -> tuple[str, int, 
     return ("source" if unstable else "sink"), unstable, stable
 
 
-def vector_field_equilibria_dataset(system, box: dict[str, list[float]], seeds_per_axis: int = 9,
+def flow_equilibrium_table(system, box: dict[str, list[float]], seeds_per_axis: int = 9,
                                     tolerance: float = 1e-10, key: str | None = None) -> xr.Dataset:
     """The equilibrium stage's result for an autonomous vector field (contract FLOW_EQUILIBRIA).
 

@@ -214,7 +214,7 @@ def spectrum_variables(eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> dic
     }
 
 
-def equilibria_dataset(
+def equilibrium_table(
     system: System,
     box: dict[str, list[float]],
     seeds_per_axis: int = 9,

@@ -73,7 +73,7 @@ from tqdm import tqdm
 
 from ...engine import LDSettings
 from ...jitcache import njit_functions
-from .grid import MAP_FIELDS, integrate_points, ld_map_dataset
+from .grid import MAP_FIELDS, integrate_points, fields_dataset
 from ...logs import get_logger, progress_output
 from ..sections import Section, section_states
 from ...systems import System
@@ -400,7 +400,7 @@ def adaptive_ld_dataset(
                  for direction, label in directions}
     inside = slice(rows.start - first, rows.stop - first)
     fields = {name: band.fields[name][inside] for band in bands.values() for name in band.fields}
-    dataset = ld_map_dataset(system, section, fields, allowed[inside], None if solved is None else solved[inside], rows)
+    dataset = fields_dataset(system, section, fields, allowed[inside], None if solved is None else solved[inside], rows)
     for label, band in bands.items():
         dataset[f"computed_{label}"] = (section.axes, band.computed[inside],
                                         {"long_name": f"{label} trajectory integrated here (elsewhere allowed "

@@ -34,7 +34,7 @@ CHUNK = 1 << 15
 #: ``stop_flags``: land, the data's edge), with what they say.
 STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
               "left_data": "stopped at the edge of the data (or of its window)"}
-#: The per-direction result fields an LD map holds (``fields`` of :func:`ld_map_dataset`: NAME_forward, NAME_backward).
+#: The per-direction result fields an LD map holds (``fields`` of :func:`fields_dataset`: NAME_forward, NAME_backward).
 MAP_FIELDS = ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")
 
 
@@ -270,10 +270,10 @@ def ld_grid_dataset(
                 end[allowed] = result.end_state
                 ends[label] = end
     if mirror is None:
-        return ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+        return fields_dataset(system, section, fields, allowed, solved, rows, ends)
     for name in [key for key in fields if key.endswith("_forward")]:
         fields[name[: -len("forward")] + "backward"] = np.ascontiguousarray(mirror.mirror(fields[name]))
-    dataset = ld_map_dataset(system, section, fields, allowed, solved, rows, ends)
+    dataset = fields_dataset(system, section, fields, allowed, solved, rows, ends)
     dataset.attrs.update(mirror_attributes(mirror))
     return dataset
 
@@ -307,7 +307,7 @@ def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.n
     return None
 
 
-def ld_map_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,
+def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,
                    solved: np.ndarray | None, rows: slice, ends: dict[str, np.ndarray] | None = None) -> xr.Dataset:
     """The LD map's Dataset from its per-direction fields on the grid (the band ``rows`` of it):
     ``fields`` maps NAME_forward, NAME_backward (NAME in :data:`MAP_FIELDS`, and the stop flags of

@@ -18,7 +18,7 @@ import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..config.figures import figure_settings
+from .figures import figure_settings
 from ..systems import equilibrium_box, system_coordinates, system_spec
 
 

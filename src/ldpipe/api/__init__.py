@@ -1,0 +1,34 @@
+"""ldpipe in a notebook: one function per stage, whose keyword arguments are the configuration's keys.
+
+A ``config.yaml`` entry and a call say the same thing::
+
+    ld_maps:
+      hh:
+        system: henon_heiles
+        section: {axes: [...], fixed: {px: 0.0}, solve: x, root: largest}
+        energy: {total: 0.125}
+        tau: 2.0
+
+    hh = ldpipe.system(name="henon_heiles", formula="(x**2 + y**2)/2 + x**2*y - y**3/3", coordinates=["x", "y"])
+    m = ldpipe.ld_map(hh, name="hh", section=ldpipe.section(...), energy=0.125, tau=2.0)
+
+Where an entry names another entry (a map's ``system``, a manifold set's ``orbits``) the call
+takes that object or Dataset instead. Each call builds the configuration the entry would sit in,
+validates it with the configuration's own schema and rules (so a bad argument gets the message a
+bad key gets, naming the argument), and calls the library function of the stage's product (:mod:`ldpipe.core`, as the stage
+Snakemake and the command line run does) in memory: the Dataset returned equals, data and
+attributes, the file the pipeline writes for the same entry (but for ``history``, which says when
+and how a file was written).
+"""
+
+from .files import open_dataset, plot
+from .fluxes import saddle_flux, transport
+from .invariant_sets import nhim
+from .maps import ld_map
+from .orbits import manifolds, periodic_orbits, poincare
+from .systems import equilibria, section, system
+
+__all__ = [
+    "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "periodic_orbits", "plot", "poincare",
+    "saddle_flux", "section", "system", "transport",
+]

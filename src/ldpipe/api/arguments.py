@@ -1,0 +1,127 @@
+"""What every function of the Python API shares: a call's keyword arguments made the
+configuration entry they stand for, validated by the configuration's own rules, with errors that
+name the argument where the configuration would name the key."""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import re
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import xarray as xr
+
+from ..config import validate_config
+from ..config.parameters import parameters_from_config
+from ..errors import ConfigError
+from ..io.contracts import EQUILIBRIA, MANIFOLDS, POINCARE, SADDLE_FLUX, TRANSPORT, UPO
+from ..io.datafile import open_stage_file, stage_parameters
+from ..stages.manifolds import run_manifolds
+from ..stages.poincare import run_poincare
+from ..stages.saddle_flux import run_saddle_flux
+from ..stages.transport import run_transport
+from ..stages.upo import run_upo
+from ..systems import System, VectorFieldSystem, VelocityDataSystem
+
+AnySystem = System | VectorFieldSystem | VelocityDataSystem
+
+#: Each stage's function (the one Snakemake's script and the command line call) and its file's contract.
+RUNS = {
+    "upo": (run_upo, UPO),
+    "manifolds": (run_manifolds, MANIFOLDS),
+    "poincare": (run_poincare, POINCARE),
+    "saddle_flux": (run_saddle_flux, SADDLE_FLUX),
+    "transport": (run_transport, TRANSPORT),
+}
+
+
+@contextlib.contextmanager
+def arguments_of(function: str, key: str) -> Iterator[None]:
+    """Turn a ConfigError about the entry at config key ``key`` into one about the arguments of
+    ``ldpipe.<function>``: the same message, naming the argument where it named the key."""
+    try:
+        yield
+    except ConfigError as error:
+        text = str(error).replace("invalid configuration:", "invalid arguments:")
+        text = re.sub(rf"config key '{re.escape(key)}\.([^']*)'", r"argument '\1'", text)
+        text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]); allowed keys are",
+                      r"unknown arguments \1; allowed are", text)
+        text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
+        raise ConfigError(f"ldpipe.{function}: {text}") from None
+
+
+def energy_shorthand(spec: dict) -> dict:
+    """``energy=0.2`` for ``energy={"total": 0.2}``, ``energies=[...]`` for ``{"total": [...]}``:
+    a bare number is a total energy (an excess one is always written ``{"excess": ...}``)."""
+    spec = dict(spec)
+    if isinstance(spec.get("energy"), (int, float)) and not isinstance(spec["energy"], bool):
+        spec["energy"] = {"total": spec["energy"]}
+    if isinstance(spec.get("energies"), (list, tuple)):
+        spec["energies"] = {"total": list(spec["energies"])}
+    return spec
+
+
+def system_entry(system: AnySystem) -> dict:
+    if not isinstance(system, (System, VectorFieldSystem, VelocityDataSystem)):
+        raise ConfigError(f"expected a system (from ldpipe.system), got {type(system).__name__}")
+    return copy.deepcopy(system.spec)
+
+
+def system_config(system: AnySystem) -> dict:
+    """The configuration holding ``system`` alone, as its entry."""
+    return {"systems": {system.name: system_entry(system)}}
+
+
+def entry_parameters(entry: dict, config: dict, section: str, name: str, stage: str) -> tuple[dict, dict]:
+    """The validated configuration holding ``entry`` as ``section``'s entry ``name`` beside
+    ``config`` (defaults filled), and ``stage``'s parameters from it (call it inside
+    :func:`arguments_of`, so that a ConfigError names the arguments)."""
+    config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
+    return config, parameters_from_config(config, stage, name)
+
+
+def run_stage(function: str, stage: str, section: str, name: str, entry: dict, config: dict,
+               inputs: Callable[[dict], dict]) -> xr.Dataset:
+    """Run ``stage`` on ``entry``, put under ``section`` of ``config`` as the entry ``name``: the
+    configuration validated (defaults filled), the stage's parameters taken from it, and its
+    ``run_*`` function (:data:`RUNS`) given them and ``inputs(config)`` (the files it reads, threads
+    ...), writing into a scratch folder; returns the file it wrote, read back. A ConfigError names
+    the arguments of ``ldpipe.<function>``."""
+    run, contract = RUNS[stage]
+    with arguments_of(function, f"{section}.{name}"):
+        config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
+        parameters = parameters_from_config(config, stage, name)
+        with tempfile.TemporaryDirectory() as scratch:
+            path = run(**parameters, **inputs(config), output=Path(scratch) / f"{stage}.nc")
+            return open_stage_file(path, stage=contract)
+
+
+def family_config(orbits: xr.Dataset) -> tuple[str, dict]:
+    """The configuration a family file was computed from (its system and its entry), from the
+    parameters it records."""
+    orbits = open_stage_file(orbits, stage=UPO)
+    recorded = stage_parameters(orbits)
+    family, system_name = recorded["family"], recorded["system_name"]
+    entry = {k: v for k, v in recorded.items() if k not in ("family", "system_name", "system_spec")}
+    return family, {"systems": {system_name: recorded["system_spec"]},
+                    "periodic_orbits": {family: {"system": system_name, **entry}}}
+
+
+def family_equilibria(orbits: xr.Dataset, given: xr.Dataset | None) -> xr.Dataset:
+    """The equilibria given for a family's study, checked to be of the family's system (its spec
+    as both files record it; the name a system goes by does not change its equilibria); required,
+    since the family's file does not record the system's equilibrium-search settings that would
+    find them again. A ConfigError here names the argument (``arguments_of`` adds the function)."""
+    if given is None:
+        raise ConfigError("argument 'equilibria': required: give the equilibria of the family's system "
+                          "(ldpipe.equilibria(system), found with the system's own 'equilibria' settings); "
+                          "a family's file does not record those settings, so they cannot be found again here")
+    family = stage_parameters(open_stage_file(orbits, stage=UPO))
+    recorded = stage_parameters(open_stage_file(given, stage=EQUILIBRIA))
+    if recorded["system_spec"] != family["system_spec"]:
+        raise ConfigError(f"argument 'equilibria': equilibria of system {recorded['system_name']!r} "
+                          f"{recorded['system_spec']}, but the family is of {family['system_name']!r} "
+                          f"{family['system_spec']}")
+    return given

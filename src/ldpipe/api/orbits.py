@@ -1,0 +1,105 @@
+"""Periodic orbits, their manifolds and Poincaré sections in the Python API."""
+
+from __future__ import annotations
+
+import xarray as xr
+
+from .systems import equilibria_input
+from .arguments import AnySystem, energy_shorthand, family_config, run_stage, system_config
+
+def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.Dataset | None = None,
+                    **spec) -> xr.Dataset:
+    """A Lyapunov family of periodic orbits at target energies (the UPO stage), from a
+    ``periodic_orbits:`` entry.
+
+    Parameters
+    ----------
+    system : System
+        The family's Hamiltonian system.
+    name : str
+        The family's name, recorded in the file (default ``"family"``).
+    equilibria : xarray.Dataset, optional
+        The system's equilibria (default computed now).
+    **spec
+        The entry's keys: ``energies`` (``{"excess": [...]}``, ``{"total": [...]}``, or a list of
+        total energies), ``saddle_near``, ``mode``, ``energy_tolerance``, ...
+
+    Returns
+    -------
+    xarray.Dataset
+        The family's file (contract ``upo``): each orbit's period, trajectory, Floquet multipliers ...
+
+    Examples
+    --------
+    >>> import ldpipe
+    >>> b = ldpipe.system(builtin="barbanis_2dof")
+    >>> orbits = ldpipe.periodic_orbits(b, name="bottom", energies={"excess": [0.125]})  # doctest: +SKIP
+    """
+    entry = {"system": system.name, **energy_shorthand(spec)}
+    return run_stage("periodic_orbits", "upo", "periodic_orbits", name, entry, system_config(system),
+                      lambda _: {"equilibria": equilibria_input(system, equilibria)})
+
+
+def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | None = None, **spec) -> xr.Dataset:
+    """The stable and unstable manifolds of one orbit of a family, cut by a section (the
+    manifolds stage), from a ``manifolds:`` entry.
+
+    Parameters
+    ----------
+    orbits : xarray.Dataset
+        The family (:func:`periodic_orbits`; the entry's ``orbits`` name replaced by it).
+    name : str
+        The entry's name (default ``"manifolds"``).
+    threads : int, optional
+        Threads (default every core).
+    **spec
+        The entry's keys: ``energy`` (which orbit: one of the family's target energies), ``section``
+        (the surface), ``tau``, ``points``, ``displacement``, ...
+
+    Returns
+    -------
+    xarray.Dataset
+        The manifolds' file (contract ``manifolds``).
+
+    Examples
+    --------
+    >>> m = ldpipe.manifolds(orbits, energy={"excess": 0.125}, tau=10.0)  # doctest: +SKIP
+    """
+    family, config = family_config(orbits)
+    entry = {"orbits": family, **energy_shorthand(spec)}
+    return run_stage("manifolds", "manifolds", "manifolds", name, entry, config,
+                      lambda _: {"upo": orbits, "threads": threads})
+
+
+def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset | None = None,
+             threads: int | None = None, **spec) -> xr.Dataset:
+    """A Poincaré surface of section from a grid of initial conditions (the Poincaré stage), from
+    a ``poincare_sections:`` entry.
+
+    Parameters
+    ----------
+    system : System or VectorFieldSystem
+        The section's system.
+    name : str
+        The entry's name (default ``"section"``).
+    equilibria : xarray.Dataset, optional
+        The system's equilibria (default computed now; none for a vector field).
+    threads : int, optional
+        Threads (default every core).
+    **spec
+        The entry's keys: ``initial_conditions`` (see :func:`section`), ``section`` (the surface),
+        ``energy`` (or a number for a total energy), ``final_time``, ``saddle_near``, ...
+
+    Returns
+    -------
+    xarray.Dataset
+        The section's file (contract ``poincare``).
+
+    Examples
+    --------
+    >>> p = ldpipe.poincare(b, initial_conditions=ldpipe.section(x=(4.8, 6.0, 10), px=(-0.6, 0.6, 10),
+    ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
+    """
+    entry = {"system": system.name, **energy_shorthand(spec)}
+    return run_stage("poincare", "poincare", "poincare_sections", name, entry, system_config(system),
+                      lambda _: {"equilibria": equilibria_input(system, equilibria), "threads": threads})

@@ -1,0 +1,136 @@
+"""The systems of the Python API, and the sections and equilibria of them."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Sequence
+
+import xarray as xr
+
+from ..config import validate_config
+from ..config.parameters import parameters_from_config
+from ..core.equilibria.study import equilibria_dataset
+from ..errors import ConfigError
+from ..systems import make_system, system_spec
+from .arguments import AnySystem, arguments_of, system_entry
+
+#: The keys of a section block besides its axes (:func:`section`).
+SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
+
+
+def system(*, name: str | None = None, **spec) -> AnySystem:
+    """A model system, from the keys of a ``systems:`` entry.
+
+    Parameters
+    ----------
+    name : str, optional
+        The entry's name (recorded in every file); default the built-in's name, else ``"system"``.
+    **spec
+        The entry's keys: ``builtin`` (with ``parameters`` overriding the paper's values), or
+        ``formula`` (a potential V(q)) or ``vector_field`` (dx/dt = f(x, t)) with ``coordinates``,
+        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables);
+        ``parameters``, ``masses`` or ``mass_matrix``, ``equilibria`` (the equilibrium search).
+
+    Returns
+    -------
+    System, VectorFieldSystem or VelocityDataSystem
+        The compiled system; its ``spec`` is the validated entry, defaults filled in.
+
+    Raises
+    ------
+    ConfigError
+        naming the argument, as the configuration names a bad key.
+
+    Examples
+    --------
+    >>> import ldpipe
+    >>> hh = ldpipe.system(name="henon_heiles", formula="(x**2 + y**2)/2 + x**2*y - y**3/3",
+    ...                    coordinates=["x", "y"])
+    >>> hh.coordinates
+    ('x', 'y')
+    """
+    name = name or spec.get("builtin") or "system"
+    with arguments_of("system", f"systems.{name}"):
+        config = validate_config({"systems": {name: copy.deepcopy(spec)}})
+        built = make_system(name, system_spec(config, name))
+    return dataclasses.replace(built, spec=config["systems"][name])
+
+
+def section(*, fixed: dict | None = None, solve: str | None = None, sign: int | None = None,
+            root: str | dict | None = None, search: Sequence[float] | None = None,
+            **axes: tuple[float, float, int]) -> dict:
+    """A section block (``ld_maps.*.section``, ``poincare_sections.*.initial_conditions``) in one call.
+
+    Parameters
+    ----------
+    **axes : (low, high, points)
+        The two axes, in order: ``y=(-0.45, 0.8, 41)`` is ``{name: y, range: [-0.45, 0.8], points: 41}``.
+    fixed : dict, optional
+        The fixed coordinates (a number, or ``"saddle"`` for the saddle's value).
+    solve, sign, root, search : optional
+        The coordinate solved from the energy, and how (the section block's keys of those names).
+
+    Returns
+    -------
+    dict
+        What an entry's ``section`` block holds (validated with the entry that takes it).
+
+    Examples
+    --------
+    >>> import ldpipe
+    >>> ldpipe.section(y=(-0.45, 0.8, 41), py=(-0.5, 0.5, 41), fixed={"px": 0.0}, solve="x", root="largest")
+    ... # doctest: +NORMALIZE_WHITESPACE
+    {'axes': [{'name': 'y', 'range': [-0.45, 0.8], 'points': 41}, {'name': 'py', 'range': [-0.5, 0.5], 'points': 41}],
+     'fixed': {'px': 0.0}, 'solve': 'x', 'root': 'largest'}
+    """
+    block: dict = {"axes": []}
+    for axis, value in axes.items():
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            raise ConfigError(f"ldpipe.section: argument {axis!r}: expected (low, high, points), got {value!r}")
+        low, high, points = value
+        block["axes"].append({"name": axis, "range": [low, high], "points": points})
+    options = {"fixed": fixed, "solve": solve, "sign": sign, "root": root,
+               "search": list(search) if search is not None else None}
+    block.update({key: value for key, value in options.items() if value is not None})
+    block.setdefault("fixed", {})
+    return block
+
+
+def equilibria(system: AnySystem, **spec) -> xr.Dataset:
+    """Every equilibrium of ``system`` in a box, with its energy, spectrum and type (the equilibria stage).
+
+    Parameters
+    ----------
+    system : System or VectorFieldSystem
+        From :func:`system`.
+    **spec
+        Keys of the system entry's ``equilibria`` block, overriding the system's own: ``box``
+        (an interval per coordinate), ``default_interval``, ``seeds_per_axis``, ``tolerance``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The stage file (contract ``equilibria``, or ``flow_equilibria`` for a vector field).
+
+    Examples
+    --------
+    >>> import ldpipe
+    >>> eq = ldpipe.equilibria(ldpipe.system(builtin="barbanis_2dof"))  # doctest: +SKIP
+    >>> list(eq.type.values)  # doctest: +SKIP
+    ['minimum', 'index-1 saddle', ...]
+    """
+    entry = system_entry(system)
+    entry["equilibria"] = {**entry.get("equilibria", {}), **spec}
+    with arguments_of("equilibria", f"systems.{system.name}.equilibria"):
+        config = validate_config({"systems": {system.name: entry}})
+        return equilibria_dataset(parameters_from_config(config, "equilibria", system.name))
+
+
+def equilibria_input(system: AnySystem, given: xr.Dataset | None) -> xr.Dataset | None:
+    """The equilibria a stage reads: those given, none for a vector field, else computed now."""
+    if given is not None:
+        return given
+    if not system.hamiltonian:
+        return None
+    return equilibria(system)
