@@ -1,8 +1,8 @@
 """Every file and every ``ldpipe`` name the documentation writes exists.
 
 Modules move and get renamed; a page that still names the old place sends a reader nowhere. This
-reads the README, the changelog and every Markdown page of docs/ (as a reader gets them, no Sphinx
-build and no engine) and checks:
+reads the README, the changelog, the benchmarks' index and every Markdown page of docs/ (as a
+reader gets them, no Sphinx build and no engine) and checks:
 
 - every link target (``[text](target)``, and the paths of ``{include}`` and ``{figure}``) exists,
   resolved from the page's folder as GitHub and the site resolve it;
@@ -33,7 +33,8 @@ import pytest
 
 from support.workflow import DOCUMENTATION, ROOT
 
-PAGES = {**DOCUMENTATION, "CHANGELOG.md": (ROOT / "CHANGELOG.md").read_text()}
+#: What a user reads, the changelog the site includes, and the benchmarks' index the pages point to
+PAGES = {**DOCUMENTATION, **{name: (ROOT / name).read_text() for name in ("CHANGELOG.md", "benchmarks/README.md")}}
 
 #: The folders running ldpipe writes into (the workflow's results, the built site, caches).
 GENERATED = tuple(line.strip().lstrip("/") for line in (ROOT / ".gitignore").read_text().splitlines()
@@ -168,6 +169,13 @@ def unresolved(pages: dict[str, str]) -> list[str]:
                 found += [f"{where}: no module or attribute ldpipe.{n}" for n in _short_names(span.group(2))
                           if not _imports(f"ldpipe.{n}")]
     return found
+
+
+def test_the_benchmarks_index_lists_every_benchmark_script():
+    """One line per script in benchmarks/README.md, so a new benchmark is found with its results."""
+    index = PAGES["benchmarks/README.md"]
+    missing = [p.name for p in sorted((ROOT / "benchmarks").glob("*.py")) if f"`{p.name}`" not in index]
+    assert not missing, f"benchmarks/README.md does not list {missing}"
 
 
 def test_every_path_and_ldpipe_name_in_the_documentation_resolves():
