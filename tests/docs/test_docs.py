@@ -1,7 +1,7 @@
 """The documentation site as a reader gets it.
 
 - It builds with warnings as errors, by the development page's command run verbatim in a copy of
-  docs/ (with the CHANGELOG it includes), and every gallery example runs while it builds, at a
+  docs/ (with the README and the CHANGELOG it includes), and every gallery example runs while it builds, at a
   small size (``LDPIPE_EXAMPLE_POINTS``); each example's page shows its pictures and its runtime.
 - In headless Chromium the gallery page's pictures load (``naturalWidth > 0``) and are drawn: a
   screenshot differs from the same page with the images hidden.
@@ -39,7 +39,8 @@ def site(tmp_path_factory):
     command with the running environment as ``.venv``."""
     workdir = tmp_path_factory.mktemp("docs")
     shutil.copytree(ROOT / "docs", workdir / "docs", ignore=shutil.ignore_patterns(*BUILT, "sg_execution_times.rst"))
-    shutil.copy(ROOT / "CHANGELOG.md", workdir / "CHANGELOG.md")
+    for included in ("README.md", "CHANGELOG.md"):  # the front page and the changelog include them
+        shutil.copy(ROOT / included, workdir / included)
     (workdir / ".venv").symlink_to(Path(sys.prefix))
     environment = {**os.environ, "LDPIPE_EXAMPLE_POINTS": SMALL, "MPLBACKEND": "Agg"}
     built = subprocess.run(["bash", "-c", BUILD_DOCS], cwd=workdir, env=environment, capture_output=True, text=True,
@@ -215,3 +216,16 @@ def test_the_readme_is_a_front_door():
     assert (ROOT / pictures[0]).stat().st_size < 200_000  # a small PNG
     for link in re.findall(r"\]\(((?:docs|benchmarks)/[^)#]+|CHANGELOG\.md)\)", readme):
         assert (ROOT / link).is_file(), f"the README links to {link}, which is not there"
+
+
+def test_the_site_front_page_includes_the_readme_introduction_rather_than_repeating_it():
+    """The introduction is written once, in the README (what GitHub shows), between two markers;
+    docs/index.md includes that part, so the two front pages cannot drift apart."""
+    readme, index = DOCUMENTATION["README.md"], DOCUMENTATION["docs/index.md"]
+    start, end = "<!-- introduction-start -->", "<!-- introduction-end -->"
+    assert readme.count(start) == readme.count(end) == 1 and readme.index(start) < readme.index(end)
+    include = re.search(r"^```\{include\} \.\./README\.md\n(.*?)^```", index, flags=re.S | re.M)
+    assert include and f":start-after: {start}" in include.group(1) and f":end-before: {end}" in include.group(1)
+    introduction = readme.split(start)[1].split(end)[0]
+    first_words = " ".join(introduction.split()[:8])
+    assert first_words not in " ".join(index.split()), "docs/index.md repeats the README's introduction"
