@@ -196,8 +196,8 @@ def test_every_path_and_ldpipe_name_in_the_documentation_resolves():
     ("[the engine](engine.md), [lost](lost.md#top)", ["link to lost.md#top"]),
     ("`ldpipe.io.contracts.StageFile`, `ldpipe.nhim`, ds.ldpipe.plot()", []),
     ("`ldpipe.io.contract`", ["no module or attribute ldpipe.io.contract"]),
-    ("`ld_grid.resolve_ld_map(parameters)`, `io.datafile`, `config.yaml`, `np.sqrt`", []),
-    ("`critical_points.well_and_frequency`", ["no module or attribute ldpipe.core.equilibria.potential.well_and_frequency"]),
+    ("`core.maps.grid.resolve_ld_map(parameters)`, `io.datafile`, `config.yaml`, `np.sqrt`", []),
+    ("`core.equilibria.potential.well_and_frequency`", ["no module or attribute ldpipe.core.equilibria.potential.well_and_frequency"]),
     ("`ldpipe.io.contracts.StageFil`", ["no module or attribute ldpipe.io.contracts.StageFil"]),
     ("`results/{system}/equilibria.nc`, `stages/NAME.py`, `.venv/bin/python`, `docs/_build/html`", []),
 ])
