@@ -57,7 +57,7 @@ from .stages.poincare import run_poincare
 from .stages.saddle_flux import run_saddle_flux
 from .stages.transport import run_transport
 from .stages.upo import run_upo
-from .systems import System, VectorFieldSystem, VelocityDataSystem, make_system, system_spec
+from .systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem, make_system, system_spec
 
 __all__ = [
     "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "periodic_orbits", "plot", "poincare",
@@ -107,7 +107,7 @@ def _energy_shorthand(spec: dict) -> dict:
 
 
 def _system_entry(system: AnySystem) -> dict:
-    if not isinstance(system, (System, VectorFieldSystem, VelocityDataSystem)):
+    if not isinstance(system, SYSTEM_CLASSES):
         raise ConfigError(f"expected a system (from ldpipe.system), got {type(system).__name__}")
     return copy.deepcopy(system.spec)
 

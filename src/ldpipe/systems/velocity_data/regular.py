@@ -169,6 +169,8 @@ class VelocityDataSystem:
 
     hamiltonian: ClassVar[bool] = False
     time_dependent: ClassVar[bool] = True
+    #: Land and the data's edge stop trajectories: :meth:`stop_flags` says which, :meth:`stop_lines` where.
+    has_stop_flags: ClassVar[bool] = True
 
     @property
     def engine_name(self) -> str:
