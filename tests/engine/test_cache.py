@@ -121,7 +121,7 @@ def test_generated_module_defines_every_name_it_uses(barbanis, scheme, entry):
 def test_kernel_source_may_not_shadow_engine_names(barbanis):
     # A kernel constant named like an engine constant would silently change one or the other.
     system = SimpleNamespace(name="clash", n_dof=2, kernel_source=barbanis.kernel_source + "\nLANES = 3\n",
-                             mass_matrix=None)
+                             mass_matrix=None, hamiltonian=True)
     with pytest.raises(ValueError, match="LANES"):
         engine_source(system, "dop853", 8)
 

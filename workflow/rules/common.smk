@@ -10,7 +10,7 @@ try:
     from ldpipe.config.parameters import parameters_from_config
     from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_tiles, nhim_orbit_inputs,
                                     nhim_sampling_system, nhim_study_inputs)
-    from ldpipe.systems import has_equilibria, is_vector_field
+    from ldpipe.systems import has_equilibria, is_vector_field, system_data_files
 except ImportError as error:
     raise WorkflowError(
         f"cannot import ldpipe ({error}); install it first (see README.md: pip install -e .)"
@@ -102,8 +102,7 @@ def ld_equilibria_file(wildcards):
 
 def ld_velocity_data_file(wildcards):
     """The dataset of a map's velocity-data system (made by a rule if it is the example's); none otherwise."""
-    spec = config["systems"][config["ld_maps"][wildcards.map]["system"]]
-    return [spec["velocity_data"]["path"]] if "velocity_data" in spec else []
+    return system_data_files(config["systems"][config["ld_maps"][wildcards.map]["system"]])
 
 
 def ld_tile_files(wildcards):

@@ -23,7 +23,7 @@ from ..stages.poincare import run_poincare
 from ..stages.saddle_flux import run_saddle_flux
 from ..stages.transport import run_transport
 from ..stages.upo import run_upo
-from ..systems import System, VectorFieldSystem, VelocityDataSystem
+from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
 
@@ -64,7 +64,7 @@ def energy_shorthand(spec: dict) -> dict:
 
 
 def system_entry(system: AnySystem) -> dict:
-    if not isinstance(system, (System, VectorFieldSystem, VelocityDataSystem)):
+    if not isinstance(system, SYSTEM_CLASSES):
         raise ConfigError(f"expected a system (from ldpipe.system), got {type(system).__name__}")
     return copy.deepcopy(system.spec)
 

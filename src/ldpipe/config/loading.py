@@ -18,7 +18,8 @@ import jsonschema
 import yaml
 
 from ..errors import ConfigError
-from ..systems import check_builtin_parameters, system_coordinates
+from ..systems import SYSTEM_KINDS, system_coordinates, system_kind
+from ..systems.kinds import kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .figures import check_figures
 from .maps import check_interval, check_ld_maps
@@ -103,20 +104,31 @@ def _describe(error: jsonschema.ValidationError) -> str:
         extra = sorted(set(error.instance) - set(allowed))
         return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}; allowed keys are {allowed}"
     if error.validator == "oneOf" and error.absolute_path and "systems" in error.absolute_path:
-        return (
-            f"config key {_key(error.absolute_path)!r}: a system needs exactly one of 'builtin', "
-            "'formula' or 'vector_field' (a formula or vector field also needs 'coordinates')"
-        )
+        return f"config key {_key(error.absolute_path)!r}: a system needs exactly one of {_kinds_requirement()}"
     allowed = _allowed(error.schema)
     return f"config key {_key(error.absolute_path)!r}: {error.message}" + (f" (allowed: {allowed})" if allowed else "")
+
+
+def _kinds_requirement() -> str:
+    """The registered kinds and the keys each needs or refuses besides its own, for a message."""
+    needs = {}
+    for kind in SYSTEM_KINDS.values():
+        for extra in kind.required[1:]:
+            needs.setdefault(extra, []).append(kind.noun)
+    refuses = {}
+    for kind in SYSTEM_KINDS.values():
+        for key in kind.excluded:
+            refuses.setdefault(key, []).append(kind.noun)
+    notes = [f"{' or '.join(nouns)} also needs '{key}'" for key, nouns in needs.items()]
+    notes += [f"{' or '.join(nouns)} takes no '{key}'" for key, nouns in refuses.items()]
+    return kinds_text() + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def _check_semantics(config: dict) -> None:
     """Rules a JSON schema cannot say: intervals ordered, box keys are coordinates."""
     for name, spec in config["systems"].items():
         coordinates = system_coordinates(spec)
-        if "builtin" in spec:
-            check_builtin_parameters(spec["builtin"], spec["parameters"], f"systems.{name}")
+        system_kind(spec).check(spec, f"systems.{name}")
         kinetic_matrix(spec, coordinates, f"systems.{name}")
         equilibria = spec["equilibria"]
         check_interval(equilibria["default_interval"], f"systems.{name}.equilibria.default_interval")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
-from ..systems import is_vector_field, system_coordinates, system_phase_coordinates
+from ..systems import is_vector_field, on_sphere, system_coordinates, system_kind, system_phase_coordinates
 
 
 def check_interval(value, key: str) -> None:
@@ -54,11 +54,10 @@ def check_ld_maps(config: dict) -> None:
         axes = [axis["name"] for axis in spec["section"]["axes"]]
         for index, axis in enumerate(spec["section"]["axes"]):
             check_interval(axis["range"], f"{key}.section.axes.{index}.range")
-        if "velocity_data" in system and spec.get("refine") is not None:
+        if system_kind(system).stop_flags and spec.get("refine") is not None:
             raise ConfigError(f"config key '{key}.refine': an adaptive map refines on the fates of region exits and "
                               "escapes, not on land or the data's edge; give refine: null for a velocity-data map")
-        data = system.get("velocity_data", {})
-        if spec.get("ftle") and "w" in data and data.get("coordinates") == "sphere":
+        if spec.get("ftle") and on_sphere(system) and len(coordinates) == 3:
             raise ConfigError(f"config key '{key}.ftle': the FTLE of 3-D data on the sphere would mix degrees of arc "
                               "with the vertical coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
@@ -103,9 +102,10 @@ def check_variational_ftle(spec: dict, key: str, system: dict) -> None:
     """``ftle: variational`` integrates the variational equations of a vector field given by formulas."""
     if spec.get("ftle") != VARIATIONAL:
         return
-    if "velocity_data" in system:
+    kind = system_kind(system)
+    if not kind.formulas:
         raise ConfigError(f"config key '{key}.ftle': the variational FTLE needs the Jacobian of a vector field given by "
-                          f"formulas; system {spec['system']!r} is velocity data: give ftle: true (differences over "
+                          f"formulas; system {spec['system']!r} is {kind.noun}: give ftle: true (differences over "
                           "the grid)")
     if not is_vector_field(system):
         raise ConfigError(f"config key '{key}.ftle': the variational FTLE is of a vector field's map; on the energy "

@@ -93,7 +93,7 @@ class Section:
             number nor ``'saddle'`` (or is ``'saddle'`` with no saddle given), or the
             coordinates do not split the phase space (:meth:`check`).
         """
-        hamiltonian = getattr(system, "hamiltonian", True)
+        hamiltonian = system.hamiltonian
         missing = [name for name in ("axes", "solve") if name not in spec and (hamiltonian or name != "solve")]
         if missing:
             raise ConfigError(f"config key {key!r}: lacks {missing}; a section needs 'axes' and 'solve'")
@@ -139,7 +139,7 @@ class Section:
     def check(self, system: System, key: str = "section") -> None:
         """Raise ConfigError unless axes, fixed and solved coordinates split the phase space."""
         phase = system.phase_coordinates
-        if not getattr(system, "hamiltonian", True):
+        if not system.hamiltonian:
             self._check_flow(system, key)
             return
         named = [*self.axes, *self.fixed, self.solve]
@@ -277,7 +277,7 @@ def section_states(
         The solved coordinate (0 where not allowed); None for a vector field (nothing solved).
     """
     section.check(system)
-    if not getattr(system, "hamiltonian", True):
+    if not system.hamiltonian:
         return _flow_states(system, section, rows)
     n = system.n_dof
     phase = system.phase_coordinates

@@ -104,7 +104,7 @@ def integrate(
     and the trajectory stops at the last (status ``crossings_full``).
     """
     states = np.ascontiguousarray(states, dtype=np.float64)
-    if not getattr(system, "hamiltonian", True):
+    if not system.hamiltonian:
         if sample_times is not None and len(sample_times):
             raise ValueError(f"sample_times: system {system.name!r} is a vector field; its flow records crossings only")
         return _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, float(t0))
@@ -222,7 +222,7 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
     The escape radius is raised as the LD engine raises it (:func:`engine_escape_radius`)."""
     from ..engine.vector_field import ENDPOINTS, get_vector_field_runner
 
-    if getattr(system, "hamiltonian", True):
+    if system.hamiltonian:
         raise ValueError(f"system {system.name!r}: the flow map alone is of vector-field systems; a Hamiltonian's "
                          "end states are integrate()'s samples at the duration")
     states = np.ascontiguousarray(states, dtype=np.float64)

@@ -106,7 +106,7 @@ def compute_ld(
     t0 = float(t0)
     if not math.isfinite(t0):
         raise ValueError(f"t0: expected a finite start time, got {t0!r}")
-    if not getattr(system, "hamiltonian", True):
+    if not system.hamiltonian:
         return _compute_vector_field_ld(system, initial_states, direction, settings, t0)
     if t0 != 0.0:
         raise ValueError(f"t0: system {system.name!r} is autonomous (a Hamiltonian); a start time {t0!r} changes nothing, give 0")

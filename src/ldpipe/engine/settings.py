@@ -35,9 +35,9 @@ DEFAULT_ESCAPE_RADIUS = 100.0
 
 def engine_escape_radius(system, radius: float) -> float:
     """The escape radius the engine uses for ``system``: ``radius``, raised to the system's
-    ``coordinate_bound`` if it has one. Velocity data bound their trajectories themselves (land,
+    ``coordinate_bound`` (0 for most). Velocity data bound their trajectories themselves (land,
     the data's edge), so coordinates in metres or longitudes beyond 100 are never an escape."""
-    return max(radius, getattr(system, "coordinate_bound", 0.0))
+    return max(radius, system.coordinate_bound)
 
 
 def _number(name: str, value, *, positive: bool = True) -> float:

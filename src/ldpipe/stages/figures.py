@@ -18,6 +18,7 @@ from ..errors import ConfigError
 from ..logs import get_logger
 from ..config.figures import KIND_SETTINGS
 from ..config.parameters import parameters_from_config
+from ..systems import system_kind
 
 log = get_logger(__name__)
 
@@ -169,12 +170,13 @@ def _system_caption(config: dict, system: str) -> str:
     spec = config["systems"][system]
     parameters = ", ".join(f"{k} = {_number(v)}" for k, v in spec.get("parameters", {}).items())
     # '**' and '*' would be emphasis markup in the report: write powers and products as ^ and ·.
-    formula = spec.get("formula", "").replace("**", "^").replace("*", "·")
-    what = f"built-in {spec['builtin']}" if "builtin" in spec else f"V = {formula}"
-    if "vector_field" in spec:
-        what = "vector field " + ", ".join(f"d{c}/dt = {str(f).replace('**', '^').replace('*', '·')}"
-                                           for c, f in spec["vector_field"].items())
+    what = system_kind(spec).caption(spec).replace("**", "^").replace("*", "·")
     return f"{system}: {what}" + (f" with {parameters}" if parameters else "")
+
+
+def _formula_flow(spec: dict) -> bool:
+    kind = system_kind(spec)
+    return kind.formulas and not kind.hamiltonian
 
 
 def _sampling_caption(config: dict, study: str) -> str:
@@ -209,8 +211,9 @@ def figure_caption(config: dict, name: str) -> dict:
     if kind == "section_maps":
         lines += ["Poincaré section " + _poincare_caption(config, p) for p in spec.get("poincare", [])]
         lines += ["LD map " + ld_map_caption(config, m) for m in spec["ld_maps"]]
+        # the formulas of each flow given by formulas, once per figure (velocity data have none to state)
         flows = sorted({config["ld_maps"][m]["system"] for m in spec["ld_maps"]
-                        if "vector_field" in config["systems"][config["ld_maps"][m]["system"]]})
+                        if _formula_flow(config["systems"][config["ld_maps"][m]["system"]])})
         lines += ["system " + _system_caption(config, system) for system in flows]
         for map_name, sets in spec.get("manifold_curves", {}).items():
             lines += [f"manifold curves on {map_name}: " + _manifold_caption(config, s) for s in sets]

@@ -1,4 +1,7 @@
-"""Model systems declared as data: a built-in name or a formula, with parameters.
+"""Model systems declared as data: a built-in name, a formula, a vector field or velocity data.
+
+An entry's kind is the one key of :data:`~ldpipe.systems.kinds.SYSTEM_KINDS` it has; everything
+here asks the kind's record, never the entry's keys.
 
 >>> system = make_system("barbanis_2dof", {"builtin": "barbanis_2dof"})
 >>> system.coordinates
@@ -8,34 +11,29 @@
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from functools import lru_cache
 
 from ..errors import ConfigError
 from .base import Kernels, System
-from .builtin import BUILTINS, make_builtin
-from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field, require_hamiltonian
-from .kinetic import kinetic_matrix
-from .velocity_data import VelocityDataSystem, make_velocity_data_system, velocity_data_coordinates
+from .builtin import BUILTINS
+from .kinds import SYSTEM_KINDS, SystemKind, check_builtin_parameters, require_hamiltonian, system_kind
+from .model import DataFlowModel, FlowModel, HamiltonianModel, SystemModel
+from .vector_field import VectorFieldSystem
+from .velocity_data import VelocityDataSystem
 
 __all__ = [
-    "BUILTINS", "Kernels", "System", "VectorFieldSystem", "VelocityDataSystem", "check_builtin_parameters", "equilibrium_box", "make_system", "system_coordinates",
-    "has_equilibria", "is_vector_field", "on_sphere", "require_hamiltonian", "system_from_config", "system_phase_coordinates", "system_spec",
+    "BUILTINS", "DataFlowModel", "FlowModel", "HamiltonianModel", "Kernels", "SYSTEM_CLASSES", "SYSTEM_KINDS", "System",
+    "SystemKind", "SystemModel", "VectorFieldSystem", "VelocityDataSystem", "check_builtin_parameters",
+    "equilibrium_box", "has_equilibria", "is_vector_field", "make_system", "on_sphere", "require_hamiltonian",
+    "system_coordinates", "system_data_files", "system_from_config", "system_kind", "system_phase_coordinates",
+    "system_spec",
 ]
 
-
-def check_builtin_parameters(builtin: str, parameters: dict, key: str) -> None:
-    """Reject parameter names the built-in ``builtin`` does not have."""
-    defaults = BUILTINS[builtin]["defaults"]
-    unknown = set(parameters) - set(defaults)
-    if unknown:
-        raise ConfigError(
-            f"config key '{key}.parameters': unknown parameters {sorted(unknown)} for {builtin}; "
-            f"allowed are {sorted(defaults)}"
-        )
+#: Every class a system may be of, over the registered kinds.
+SYSTEM_CLASSES: tuple[type, ...] = tuple(dict.fromkeys(c for kind in SYSTEM_KINDS.values() for c in kind.classes))
 
 
-def make_system(name: str, spec: dict, key: str | None = None) -> System | VectorFieldSystem:
+def make_system(name: str, spec: dict, key: str | None = None) -> SystemModel:
     """Build (and compile) the system described by one ``systems:`` entry of the config.
 
     Parameters
@@ -45,8 +43,10 @@ def make_system(name: str, spec: dict, key: str | None = None) -> System | Vecto
     spec : dict
         Either ``{"builtin": NAME, "parameters": {...}}`` (parameters override the
         paper's values), ``{"formula": "...", "coordinates": [...], "parameters": {...}}`` (a
-        potential) or ``{"vector_field": {coordinate: "..."}, "coordinates": [...], "parameters":
-        {...}}`` (a general flow dx/dt = f(x, t), see :mod:`ldpipe.systems.vector_field`).
+        potential), ``{"vector_field": {coordinate: "..."}, "coordinates": [...], "parameters":
+        {...}}`` (a general flow dx/dt = f(x, t), see :mod:`ldpipe.systems.vector_field`) or
+        ``{"velocity_data": {"path": ..., ...}}`` (see :mod:`ldpipe.systems.velocity_data`): one
+        of :data:`~ldpipe.systems.kinds.SYSTEM_KINDS`.
     key : str, optional
         Where the entry sits in the configuration, for error messages.
     """
@@ -55,41 +55,14 @@ def make_system(name: str, spec: dict, key: str | None = None) -> System | Vecto
 
 
 @lru_cache(maxsize=32)
-def _make_system_cached(name: str, spec_json: str, key: str) -> System | VectorFieldSystem:
+def _make_system_cached(name: str, spec_json: str, key: str) -> SystemModel:
     spec = json.loads(spec_json)
     parameters = spec.get("parameters") or {}
     for parameter, value in parameters.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"config key '{key}.parameters.{parameter}': expected a number, got {value!r}")
     parameters = {k: float(v) for k, v in parameters.items()}
-    if sum(kind in spec for kind in ("builtin", "formula", "vector_field", "velocity_data")) != 1:
-        raise ConfigError(f"config key '{key}': give exactly one of 'builtin', 'formula', 'vector_field' or 'velocity_data'")
-    if "velocity_data" in spec:
-        return make_velocity_data_system(name, spec, key)
-    if "builtin" in spec:
-        builtin = spec["builtin"]
-        if builtin not in BUILTINS:
-            raise ConfigError(f"config key '{key}.builtin': unknown system {builtin!r}; expected one of {sorted(BUILTINS)}")
-        check_builtin_parameters(builtin, parameters, key)
-        mass_matrix = kinetic_matrix(spec, BUILTINS[builtin]["coordinates"], key)
-        system = make_builtin(name, builtin, {**BUILTINS[builtin]["defaults"], **parameters}, spec)
-        return system if mass_matrix is None else replace(system, mass_matrix=mass_matrix)
-    coordinates = spec.get("coordinates")
-    if not coordinates or not all(isinstance(c, str) and c.isidentifier() for c in coordinates):
-        raise ConfigError(f"config key '{key}.coordinates': expected a list of coordinate names, got {coordinates!r}")
-    if len(set(coordinates)) != len(coordinates):
-        raise ConfigError(f"config key '{key}.coordinates': names repeat in {coordinates!r}")
-    if "vector_field" in spec:
-        given = [k for k in ("masses", "mass_matrix") if k in spec]
-        if given:
-            raise ConfigError(f"config key '{key}.{given[0]}': a vector field has no kinetic energy to give masses to; "
-                              "write them into its formulas")
-        return make_vector_field_system(name, spec["vector_field"], tuple(coordinates), parameters, spec, key)
-    from .formula import make_formula_system  # here: sympy, which no other kind of system needs
-
-    mass_matrix = kinetic_matrix(spec, tuple(coordinates), key)
-    system = make_formula_system(name, spec["formula"], tuple(coordinates), parameters, spec, key)
-    return system if mass_matrix is None else replace(system, mass_matrix=mass_matrix)
+    return system_kind(spec, key).build(name, spec, parameters, key)
 
 
 def system_from_config(config: dict, name: str) -> System:
@@ -113,38 +86,33 @@ def system_spec(config: dict, name: str) -> dict:
 
 
 def is_vector_field(spec: dict) -> bool:
-    """Whether a ``systems:`` entry is a general vector field (no Hamiltonian): formulas or velocity data."""
-    return "vector_field" in spec or "velocity_data" in spec
+    """Whether a ``systems:`` entry is a general flow (no Hamiltonian): formulas or velocity data."""
+    return not system_kind(spec).hamiltonian
 
 
 def has_equilibria(name: str, spec: dict) -> bool:
     """Whether the equilibrium stage applies to system ``name``: every Hamiltonian, and a vector
     field that does not depend on the time (a time-dependent flow has no fixed equilibria)."""
-    if not is_vector_field(spec):
-        return True
-    if "velocity_data" in spec:  # data depend on time
-        return False
-    parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
-    fields = parse_vector_field(spec["vector_field"], tuple(spec["coordinates"]), parameters, f"systems.{name}")
-    return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
+    return system_kind(spec).has_equilibria(name, spec)
 
 
 def on_sphere(spec: dict) -> bool:
     """Whether a ``systems:`` entry's state is longitude and latitude on the sphere (velocity data)."""
-    return spec.get("velocity_data", {}).get("coordinates") == "sphere"
+    return system_kind(spec).on_sphere(spec)
 
 
 def system_phase_coordinates(spec: dict) -> tuple[str, ...]:
     """The phase-space names of a ``systems:`` entry: (q..., p...) of a Hamiltonian, a vector
     field's state variables."""
-    coordinates = system_coordinates(spec)
-    return coordinates if is_vector_field(spec) else coordinates + tuple("p" + c for c in coordinates)
+    return system_kind(spec).phase_coordinates(spec)
 
 
 def system_coordinates(spec: dict) -> tuple[str, ...]:
-    """The coordinate names of a ``systems:`` entry (a built-in's, or the formula's or vector field's list)."""
-    if "builtin" in spec:
-        return BUILTINS[spec["builtin"]]["coordinates"]
-    if "velocity_data" in spec:
-        return velocity_data_coordinates(spec["velocity_data"])
-    return tuple(spec["coordinates"])
+    """The coordinate names of a ``systems:`` entry (a built-in's, the list of a formula or vector
+    field, the grid's axes of velocity data), nothing read or compiled."""
+    return system_kind(spec).coordinates(spec)
+
+
+def system_data_files(spec: dict) -> list[str]:
+    """The files a ``systems:`` entry's system reads (velocity data's dataset; none for formulas)."""
+    return system_kind(spec).data_files(spec)

@@ -90,6 +90,10 @@ class System:
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
+    #: Its trajectories are bounded by the escape radius alone.
+    coordinate_bound: ClassVar[float] = 0.0
+    #: Nothing but the region and the escape radius stops a trajectory (no land, no data's edge).
+    has_stop_flags: ClassVar[bool] = False
 
     @property
     def n_dof(self) -> int:
@@ -102,6 +106,13 @@ class System:
     @property
     def phase_coordinates(self) -> tuple[str, ...]:
         return self.coordinates + self.momenta
+
+    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
+        """The LD is in the units of the phase space, which a system does not name: None."""
+        return None
+
+    def check_times(self, start: float, end: float, key: str | None = None) -> None:
+        """An autonomous Hamiltonian holds at every time: nothing to refuse."""
 
     def potential(self, q: np.ndarray) -> float:
         return float(self.kernels.potential(np.ascontiguousarray(q, dtype=np.float64)))

@@ -167,7 +167,7 @@ def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
         mirror, reason = None, "the map is variable-time (only fixed-time maps are mirrored)"
     elif parameters.get("refine") is not None or parameters.get("ftle", False) or not parameters.get("ld", True):
         mirror, reason = None, "the map is adaptive or keeps its flow map (only a full LD map's fields are mirrored)"
-    elif not getattr(system, "hamiltonian", True):
+    elif not system.hamiltonian:
         mirror, reason = None, f"system {system.name!r} is a vector field (no Hamiltonian's reversing symmetry)"
     else:
         mirror, reason = map_mirror(system, section)
@@ -182,7 +182,7 @@ def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
 def add_ld_units(dataset: xr.Dataset, system, p) -> None:
     """The LD variables' ``units``, where the system names them (velocity data on the sphere: km
     for the arc length, the data's velocity units for M_p); other maps' LDs are in their state's units."""
-    units = system.ld_units(is_arclength(p), p) if hasattr(system, "ld_units") else None
+    units = system.ld_units(is_arclength(p), p)
     if units:
         for name in ("ld_forward", "ld_backward"):
             if name in dataset:

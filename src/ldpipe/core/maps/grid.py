@@ -97,7 +97,7 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
     system = make_system(parameters["system_name"], parameters["system_spec"])
     key = f"ld_maps.{parameters['map_name']}"
     section = Section.from_spec(parameters["section"], system, saddle, key=f"{key}.section")
-    hamiltonian = getattr(system, "hamiltonian", True)
+    hamiltonian = system.hamiltonian
     t0 = parameters.get("t0", 0.0)
     if hamiltonian:
         if "energy" not in parameters:
@@ -130,8 +130,7 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
             get_scheme(settings.scheme).check_system(system)
         except ValueError as error:
             raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
-    if hasattr(system, "check_times"):  # velocity data: the window must lie in the data's times
-        system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")
+    system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")  # data: in their times
     info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": excess,
             "saddle": [] if saddle is None else np.asarray(saddle).tolist(), "t0": float(t0)}
     return system, section, settings, info
@@ -195,7 +194,7 @@ def locate_stops(system, states: np.ndarray, end_states: np.ndarray, direction: 
 
 
 def _long_name(name: str, system=None) -> str:
-    if system is not None and not getattr(system, "hamiltonian", True):
+    if system is not None and not system.hamiltonian:
         return f"state variable {name}"
     return f"momentum conjugate to {name[1:]}" if name.startswith("p") and len(name) > 1 else f"coordinate {name}"
 
@@ -248,7 +247,7 @@ def ld_grid_dataset(
             else:
                 results = _flow_map_fields(result)
             flags = {}
-            if hasattr(system, "stop_flags"):  # velocity data: land and the data's edge stop trajectories
+            if system.has_stop_flags:  # velocity data: land and the data's edge stop trajectories
                 flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
                 stopped = np.flatnonzero(flags["on_land"] | flags["left_data"])
                 if len(stopped):  # the time each stopped, where its crossing was found
@@ -292,7 +291,7 @@ def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.n
                     keeps_flow_map: bool) -> MapMirror | None:
     """``mirror`` if it gives this band's backward fields, None (integrate both ways) if the grid's
     states are not mirrored to its tolerance; ValueError where it does not apply at all."""
-    if keeps_flow_map or hasattr(system, "stop_flags"):
+    if keeps_flow_map or system.has_stop_flags:
         raise ValueError("mirror: only an LD map's own fields are mirrored; a map that keeps its flow map, "
                          "or of a system with stop flags, integrates both ways")
     if mirror.mirrored[0] and (rows.start, rows.stop) != (0, all_rows):

@@ -162,7 +162,7 @@ def reversing_symmetries(system) -> list[ReversingSymmetry]:
     V(s q) = V(q) proved symbolically from its formula and M^-1 invariant. Always includes time
     reversal (s = +1) for a natural Hamiltonian with a formula; none for a vector field or a
     system without a formula."""
-    if not getattr(system, "hamiltonian", True) or not system.formula:
+    if not system.hamiltonian or not system.formula:
         return []
     signs = _even_signs(system.formula, tuple(system.coordinates), tuple(sorted(system.parameters.items())))
     return [ReversingSymmetry(s) for s in signs if _kinetic_invariant(system, s)]

@@ -77,7 +77,7 @@ class Scheme:
         :func:`ldpipe.engine.schemes.scheme_source` calls it before :meth:`source`; a scheme
         without ``general_flow`` refuses a vector-field system here.
         """
-        if not getattr(system, "hamiltonian", True) and not self.general_flow:
+        if not system.hamiltonian and not self.general_flow:
             able = [s.name for s in _registered() if s.general_flow]
             raise ValueError(
                 f"scheme {self.name!r} cannot integrate system {system.name!r}: it is a general vector field "

@@ -1,5 +1,5 @@
 # Kernel template of a velocity-data system on a rectilinear grid (ldpipe.systems.
-# velocity_data_rectilinear): every axis (x, y, z of 3-D data, time) given by its node values,
+# velocity_data.rectilinear): every axis (x, y, z of 3-D data, time) given by its node values,
 # spaced as they come, each increasing. A line GRID_DIMS = 2 (u, v on (t, y, x)) or 3 (u, v, w
 # on (t, z, y, x)) is put in front of this text.
 #
@@ -18,7 +18,7 @@
 # uniform kernel's (gridded_velocity.py). The cell is found by bisection on the node values
 # (O(log n)); the product of the axes' weights is the interpolant (tensor product).
 #
-# The bound buffer (ldpipe.systems.velocity_data_rectilinear.read_rectilinear_window): a header
+# The bound buffer (ldpipe.systems.velocity_data.rectilinear.read_rectilinear_window): a header
 # of GRID_HEADER values (nt, nz (1 in 2-D), ny, nx, sphere (0 or 1), radius, velocity_scale,
 # vertical_scale), the padded node values of x (nx + 2), y (ny + 2), z (nz + 2, 3-D only) and
 # t (nt + 2), u, v (and w) on the padded grid (nt + 2, pz, ny + 2, nx + 2) with pz = nz + 2 (1 in

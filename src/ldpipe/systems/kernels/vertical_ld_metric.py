@@ -1,5 +1,5 @@
 # The closing section of the flow engine of 3-D velocity data on the sphere (ldpipe.systems.
-# velocity_data_rectilinear, appended after kernels/sphere_ld_metric.py): the state is (lon, lat,
+# velocity_data.rectilinear, appended after kernels/sphere_ld_metric.py): the state is (lon, lat,
 # z), and that section leaves the third component of VC as dz/dt in z units per time unit. This
 # one rebinds ``dense`` to convert it to the vertical speed in the units of the data's u (header
 # value 8: metres per z unit; 6: velocity_scale, metres per time unit per unit of u), so M_p sums

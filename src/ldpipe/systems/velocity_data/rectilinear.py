@@ -3,7 +3,7 @@
 A ``velocity_data`` entry whose file has an axis that is not uniform (x, y, z or time: ocean
 depth levels, latitudes of a Mercator grid), or that names a vertical velocity ``w`` on
 (time, z, y, x), is served by this module's system: the same checks, land, edges, windows and
-stop flags as :mod:`ldpipe.systems.velocity_data` (whose regular 2-D grids keep their own
+stop flags as :mod:`.regular` (whose regular 2-D grids keep their own
 kernel), with every axis given by its node values and interpolated by the non-uniform cubic of
 ``kernels/rectilinear_velocity.py`` (its header derives the weights: third order, exact for
 degree <= 2 in each variable, Keys' cubic convolution on equal spacings).
@@ -22,9 +22,13 @@ from importlib import resources
 
 import numpy as np
 
-from ..jitcache import njit_functions
-from . import data_pointer, kernels
-from .velocity_data import DataSource, VelocityDataSystem, at_least_three_nodes, fill_land, sphere_ld_metric_source
+from ...jitcache import njit_functions
+from .. import kernels
+from .regular import VelocityDataSystem
+from .source import DataSource, at_least_three_nodes, fill_land, sphere_ld_metric_source
+
+# data_pointer (llvmlite and numba) is imported where a kernel is made: a velocity-data entry is
+# read for its coordinates (planning, figures) without it.
 
 #: The rectilinear kernel's header length (its GRID_HEADER).
 GRID_HEADER = 16
@@ -35,6 +39,8 @@ ROLE_NAMES = {"x": "x", "y": "y", "z": "z", "t": "time"}
 def rectilinear_kernel_source(dims: int) -> str:
     """The rectilinear kernel's text for ``dims`` = 2 (u, v) or 3 (u, v, w), with the pointer
     module's digest (its code is inlined into the kernel)."""
+    from .. import data_pointer
+
     text = resources.files(kernels).joinpath("rectilinear_velocity.py").read_text()
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\nGRID_DIMS = {dims}\n" + text
 
@@ -233,7 +239,7 @@ class RectilinearVelocitySystem(VelocityDataSystem):
 
 
 def make_rectilinear_system(name: str, source: DataSource, window: dict | None, spec: dict) -> RectilinearVelocitySystem:
-    """The system of a checked rectilinear ``source`` (:func:`ldpipe.systems.velocity_data.open_source`)."""
+    """The system of a checked rectilinear ``source`` (:func:`.source.open_source`)."""
     dims = 3 if source.w else 2
     text = rectilinear_kernel_source(dims)
     (rhs,) = njit_functions(text, ("rhs",), f"velocity_data_rectilinear{dims}")

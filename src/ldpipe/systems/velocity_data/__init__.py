@@ -1,0 +1,66 @@
+"""Systems given by gridded velocity data: ocean or atmosphere currents from a netCDF file.
+
+A ``systems:`` entry ``{"velocity_data": {"path": "currents.nc", "u": "u", "v": "v", "x": "x",
+"y": "y", "time": "time", "coordinates": "plane"}}`` names a CF dataset and its variables: the
+velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing. A regular grid
+(every axis uniform) makes a system of :mod:`.regular`; an uneven axis, or 3-D data (``w`` on
+(time, z, y, x)), one of :mod:`.rectilinear`; both read the dataset that :mod:`.source` opened and
+checked. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
+as eastward and northward velocities, with the Earth's radius ``earth_radius`` (metres).
+
+The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
+are converted from their units (``m/s``, ``km/day``, ...) to coordinate units per time unit
+(on the sphere, to degrees per time unit). The velocity between grid nodes is the cubic
+convolution of ``kernels/gridded_velocity.py`` (cubic in space and time), compiled into the
+flow engine like a formula's right-hand side; its data reach the compiled code through
+:mod:`ldpipe.systems.data_pointer`, so one compiled engine serves every dataset.
+
+Only the window an engine call needs is read (xarray opens the file lazily): the times covering
+[t0, t0 +- tau] with the stencil's neighbours, over the spatial ``window`` if given (else the
+whole grid). Land (missing values) and the grid's edge are boundaries: a trajectory stops on
+reaching a cell with a land node, or the edge, and :meth:`VelocityDataSystem.stop_flags` says
+which; a window that leaves the data's times is refused, naming both ranges.
+
+On the sphere a longitude grid all round it (:func:`.source.seam_grid`) has no edge: the window read
+is the ring with its first column repeated at its end, padded with the real columns across the
+seam (the kernel's stencil then wraps, the kernel unchanged), and a spatial window may cross the
+seam. The LD is taken in km and the data's velocity units, by the engine section
+``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`).
+"""
+
+from __future__ import annotations
+
+from ...errors import ConfigError
+from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
+from .regular import DataWindow, VelocityDataSystem, make_regular_system
+from .source import DataSource, open_source, velocity_data_coordinates
+
+__all__ = ["DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
+           "open_source", "velocity_data_coordinates"]
+
+
+def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:
+    """The system of a ``velocity_data`` entry: its file checked, its window checked against the
+    grid, the regular or the rectilinear grid's system."""
+    entry = spec["velocity_data"]
+    if not isinstance(entry, dict):
+        raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
+    source = open_source(entry, f"{key}.velocity_data")
+    coordinates = (source.x, source.y)
+    window = entry.get("window")
+    if window is not None:
+        if sorted(set(window) - {source.z}) != sorted(coordinates):
+            raise ConfigError(f"config key '{key}.velocity_data.window': expected an interval for each of "
+                              f"{list(coordinates)}{f' (and optionally {source.z!r})' if source.z else ''}, "
+                              f"got {sorted(window)}")
+        for coordinate, (low, high) in window.items():
+            # a global grid's window may cross the seam, written either way round (east from low to high)
+            if not low < high and not (source.x_global and coordinate == coordinates[0]):
+                raise ConfigError(f"config key '{key}.velocity_data.window.{coordinate}': expected an interval "
+                                  f"[low, high] with low < high, got {[low, high]}" + (
+                                      " (a window across the dateline of a regional grid: write its longitudes "
+                                      "in the grid's convention, e.g. [170, 190])" if source.sphere
+                                      and coordinate == coordinates[0] else ""))
+    if source.nodes is not None:  # a non-uniform axis, or 3-D: the rectilinear kernel
+        return make_rectilinear_system(name, source, window, spec)
+    return make_regular_system(name, source, window, spec)

@@ -1,0 +1,314 @@
+"""The dataset of a ``velocity_data`` entry: opened, its variables, grid and units checked.
+
+:func:`open_source` reads the entry against its file (nothing but the coordinates is read) into a
+:class:`DataSource`, which both grids' systems use (:mod:`.regular`, :mod:`.rectilinear`); with it
+live what they share: the stencil's least window (:func:`at_least_three_nodes`), land given its
+nearest water's values (:func:`fill_land`) and the sphere's LD metric section
+(:func:`sphere_ld_metric_source`).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ...errors import ConfigError
+from .. import kernels
+
+# scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
+# coordinates (planning, figures) without it.
+
+#: Defaults of a ``velocity_data`` entry.
+DEFAULTS = {"u": "u", "v": "v", "time": "time", "coordinates": "plane", "earth_radius": 6371000.0}
+PLANE_AXES = ("x", "y")
+SPHERE_AXES = ("lon", "lat")
+#: The vertical coordinate's default name of 3-D data (given ``w``), on the plane and on the sphere.
+VERTICAL_AXIS = {False: "z", True: "depth"}
+LENGTHS = {"m": 1.0, "meter": 1.0, "metre": 1.0, "meters": 1.0, "metres": 1.0, "km": 1000.0, "cm": 0.01}
+TIMES = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "min": 60.0, "minute": 60.0, "minutes": 60.0,
+         "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0, "d": 86400.0, "day": 86400.0, "days": 86400.0}
+
+
+def sphere_ld_metric_source(radius_at: int, scale_at: int) -> str:
+    """The engine section that takes a sphere map's LD in km and velocity units
+    (``kernels/sphere_ld_metric.py``), for a kernel whose header holds the radius and
+    velocity_scale at these indices."""
+    text = resources.files(kernels).joinpath("sphere_ld_metric.py").read_text()
+    return text.replace("LD_RADIUS_AT", str(radius_at)).replace("LD_SCALE_AT", str(scale_at))
+
+
+def velocity_units_match(units: str) -> re.Match | None:
+    """``units`` read as a length per time (``m/s``, ``m s-1``, ``m s^-1``): groups length, time (2 or 3)."""
+    return re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", units.strip().replace("**", "^"))
+
+
+def parse_velocity_units(units: str, key: str) -> tuple[float, float]:
+    """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``, ``km/day``)."""
+    match = velocity_units_match(units)
+    if not match or match.group(1) not in LENGTHS or (match.group(2) or match.group(3)) not in TIMES:
+        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood; expected a length per time, "
+                          f"e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
+    return LENGTHS[match.group(1)], TIMES[match.group(2) or match.group(3)]
+
+
+def time_unit_seconds(units: str | None) -> float | None:
+    """Seconds per unit of a time coordinate (``days since ...``, ``hours``, ``s``), None if not given."""
+    if not units:
+        return None
+    word = units.strip().split()[0]
+    return TIMES.get(word)
+
+
+#: Spacings within this fraction of their mean make an axis uniform (a regular grid, served by
+#: the uniform kernel); wider spread makes the grid rectilinear (:mod:`.rectilinear`).
+UNIFORM_RTOL = 1e-6
+
+
+def increasing_axis(values: np.ndarray, name: str, key: str) -> np.ndarray:
+    """The values of a coordinate, which must be one-dimensional, increasing, with at least 3 values."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 1 or len(values) < 3:
+        raise ConfigError(f"config key '{key}': coordinate {name!r} must be one-dimensional with at least 3 values, "
+                          f"got shape {values.shape}")
+    steps = np.diff(values)
+    if not np.all(steps > 0):
+        raise ConfigError(f"config key '{key}': coordinate {name!r} is not monotonic increasing "
+                          f"(first decrease at index {int(np.argmax(steps <= 0)) + 1}); the grid must be sorted")
+    return values
+
+
+def is_uniform(values: np.ndarray) -> bool:
+    """Whether an increasing axis's spacings all lie within :data:`UNIFORM_RTOL` of their mean."""
+    steps = np.diff(values)
+    return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
+
+
+def open_dataset(path: str) -> xr.Dataset:
+    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily."""
+    if path.rstrip("/").endswith(".zarr"):
+        return xr.open_zarr(path, decode_times=False)
+    return xr.open_dataset(path, decode_times=False)
+
+
+@dataclass(frozen=True)
+class DataSource:
+    """A dataset's variables and grid, checked, nothing read but the coordinates.
+
+    A regular 2-D grid is ``x_grid``, ``y_grid``, ``t_grid`` (first, spacing, count) and ``nodes``
+    None. A rectilinear grid (an axis not uniform, or 3-D data with ``w`` on (time, z, y, x)) has
+    ``nodes``: every axis's values, (x, y, time) or (x, y, z, time); its ``*_grid`` hold the first
+    value, the mean spacing and the count.
+    """
+
+    path: str
+    u: str
+    v: str
+    x: str
+    y: str
+    time: str
+    x_grid: tuple[float, float, int]  # first, spacing, count
+    y_grid: tuple[float, float, int]
+    t_grid: tuple[float, float, int]
+    velocity_scale: float
+    sphere: bool
+    radius: float
+    mask: str | None = None  # a (y, x) variable, 0 on land (besides missing velocities); (z, y, x) in 3-D
+    w: str | None = None  # the upward velocity of 3-D data
+    z: str | None = None  # its vertical coordinate
+    vertical_scale: float = 0.0  # dz/dt per unit of w: the units' ratio, negative when z is positive down
+    z_metres: float = 1.0  # metres per unit of z (3-D data)
+    velocity_units: str = ""  # as the file writes them (u's units)
+    time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
+    x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
+    nodes: tuple[tuple[float, ...], ...] | None = None
+
+    def open(self) -> xr.Dataset:
+        return open_dataset(self.path)
+
+    def axis_values(self, which: str) -> np.ndarray:
+        if self.nodes is not None:
+            return np.array(self.nodes[self.axis_names.index(which)])
+        first, step, count = getattr(self, f"{which}_grid")
+        return first + step * np.arange(count)
+
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        """The grid's axes by their roles: x, y, (z,) t."""
+        return ("x", "y", "z", "t") if self.w else ("x", "y", "t")
+
+    @property
+    def time_range(self) -> tuple[float, float]:
+        if self.nodes is not None:
+            return self.nodes[-1][0], self.nodes[-1][-1]
+        first, step, count = self.t_grid
+        return first, first + step * (count - 1)
+
+
+def vertical_sign(entry: dict, dataset: xr.Dataset, key: str) -> float:
+    """+1 if the vertical coordinate z grows upward, -1 if downward (a depth): the entry's
+    ``positive``, else the coordinate's CF ``positive`` attribute; w is the upward velocity."""
+    positive = entry.get("positive") or dataset[entry["z"]].attrs.get("positive")
+    positive = positive.lower() if isinstance(positive, str) else positive  # CF allows "Up", "DOWN"
+    if positive not in ("up", "down"):
+        raise ConfigError(f"config key '{key}.positive': the vertical coordinate {entry['z']!r} says neither "
+                          f"positive: up nor positive: down (got {positive!r}); give positive: up (a height) or "
+                          "down (a depth) in the entry or as the coordinate's CF attribute")
+    return 1.0 if positive == "up" else -1.0
+
+
+def length_of(units: str | None, name: str, key: str, default: float) -> float:
+    """Metres per unit of a coordinate with ``units`` (``default`` when it has none)."""
+    if units and units not in LENGTHS:
+        raise ConfigError(f"config key '{key}': coordinate units {units!r} of {name!r} not a length in {sorted(LENGTHS)}")
+    return LENGTHS[units] if units else default
+
+
+def open_source(spec: dict, key: str) -> DataSource:
+    """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units."""
+    entry = {**DEFAULTS, **spec}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
+    if unknown:
+        raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
+    sphere = entry["coordinates"] == "sphere"
+    if entry["coordinates"] not in ("plane", "sphere"):
+        raise ConfigError(f"config key '{key}.coordinates': expected 'plane' or 'sphere', got {entry['coordinates']!r}")
+    axes = SPHERE_AXES if sphere else PLANE_AXES
+    entry.setdefault("x", axes[0])
+    entry.setdefault("y", axes[1])
+    three_d = "w" in entry
+    if three_d:
+        entry.setdefault("z", VERTICAL_AXIS[sphere])
+    path = entry.get("path")
+    if not path or not Path(path).exists():
+        raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
+    velocities = ("u", "v", "w") if three_d else ("u", "v")
+    axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
+    with open_dataset(str(path)) as dataset:
+        for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
+            name = entry[role]
+            if name not in dataset.variables:
+                raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
+                                  f"{sorted(map(str, dataset.variables))})")
+        nodes = {role: increasing_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
+        expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
+        scales = []
+        for role in velocities:
+            variable = dataset[entry[role]]
+            if tuple(variable.dims) != expected:
+                raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
+                                  f"{tuple(variable.dims)}; expected {expected}")
+            units = variable.attrs.get("units")
+            if not units:
+                raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has no 'units' attribute; "
+                                  "a velocity needs its units (e.g. 'm/s')")
+            scales.append(parse_velocity_units(units, f"{key}.{role}"))
+        if scales[0] != scales[1]:
+            raise ConfigError(f"config key '{key}.v': u and v have different units")
+        mask = entry.get("mask")
+        if mask and tuple(dataset[mask].dims) != expected[1:]:
+            raise ConfigError(f"config key '{key}.mask': variable {mask!r} has dimensions "
+                              f"{tuple(dataset[mask].dims)}; expected {expected[1:]}")
+        metres, seconds = scales[0]
+        time_coordinate_units = dataset[entry["time"]].attrs.get("units")
+        data_seconds = time_unit_seconds(time_coordinate_units) or seconds
+        velocity_units = str(dataset[entry["u"]].attrs["units"]).strip()
+        if time_unit_seconds(time_coordinate_units):
+            time_units = time_coordinate_units.strip().split()[0]
+        else:
+            match = velocity_units_match(velocity_units)
+            time_units = match.group(2) or match.group(3)
+        if sphere:
+            length = 1.0  # the kernel divides by the radius in metres
+        else:
+            length = length_of(dataset[entry["x"]].attrs.get("units"), entry["x"], f"{key}.x", metres)
+        vertical_scale = 0.0
+        z_length = 1.0
+        if three_d:
+            w_metres, w_seconds = scales[2]
+            z_length = length_of(dataset[entry["z"]].attrs.get("units"), entry["z"], f"{key}.z", w_metres)
+            vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
+    grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
+    regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
+    x_global = False
+    if sphere and regular:  # the seam is joined on the uniform kernel's grids only
+        grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
+    return DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
+                      x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
+                      velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
+                      radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
+                      vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
+                      x_global=x_global,
+                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
+
+
+#: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or
+#: none with the first column repeated) and still be taken as global: float32 coordinates at 1/12
+#: degree miss by ~4e-4 spacings.
+SEAM_TOLERANCE = 1e-3
+
+
+def seam_grid(grid: tuple[float, float, int], name: str, key: str) -> tuple[tuple[float, float, int], bool]:
+    """A longitude grid (first, spacing, count) and whether it goes all round the sphere.
+
+    Global: the gap from the last node round to the first (360 - (count - 1) spacing) is one
+    spacing, within :data:`SEAM_TOLERANCE` spacings; the spacing is then taken as 360 / count, so
+    the seam's cell is as wide as every other. A last column that repeats the first (gap 0) is
+    global too, without that column (never read). Refused (ConfigError naming the coordinate):
+    more than 360 degrees, and a gap shorter than a spacing (a spacing that does not divide 360:
+    neither an edge nor a cell). A gap longer than a spacing is a regional grid's edge.
+    """
+    first, step, count = grid
+    gap = 360.0 - step * (count - 1)
+    slack = SEAM_TOLERANCE * step
+    if abs(gap - step) <= slack:
+        return (first, 360.0 / count, count), True
+    if abs(gap) <= slack:
+        return (first, 360.0 / (count - 1), count - 1), True
+    if gap < 0.0:
+        raise ConfigError(f"config key '{key}': longitude coordinate {name!r} covers {360.0 - gap:.12g} degrees, "
+                          "more than the sphere's 360; give each longitude once (a repeated first column may close it)")
+    if gap < step:
+        raise ConfigError(f"config key '{key}': longitude coordinate {name!r} covers the sphere but for a gap of "
+                          f"{gap:.12g} degrees, less than its spacing {step:.12g}: its spacing does not divide 360, "
+                          "so the seam is neither a grid cell nor an edge; give a global grid with 360 / spacing "
+                          "columns, or a regional one with a gap of more than a spacing")
+    return grid, False
+
+
+def at_least_three_nodes(a: int, b: int, count: int) -> tuple[int, int]:
+    """The node range [a, b] of an axis of ``count`` nodes widened to 3 nodes (the kernels' least), upward first."""
+    while b - a < 2:
+        if b < count - 1:
+            b += 1
+        else:
+            a -= 1
+    return a, b
+
+
+def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:
+    """``values`` (time, y, x), or (time, z, y, x), with each land node (``land``: the space axes)
+    given its nearest water node's value (nearest in grid indices): the stencils of water cells by
+    the coast then see the flow continued, not a wall of zeros (a trajectory still stops on
+    entering a cell with a land node)."""
+    if not land.any():
+        return values
+    if land.all():
+        return np.zeros_like(values)
+    from scipy import ndimage
+
+    nearest = ndimage.distance_transform_edt(land, return_distances=False, return_indices=True)
+    return values[(slice(None), *nearest)]
+
+
+def velocity_data_coordinates(entry: dict) -> tuple[str, ...]:
+    """The state variables' names of a ``velocity_data`` entry (its x and y coordinates, and z
+    for 3-D data: an entry with ``w``), file unread."""
+    sphere = entry.get("coordinates", DEFAULTS["coordinates"]) == "sphere"
+    axes = SPHERE_AXES if sphere else PLANE_AXES
+    horizontal = (entry.get("x", axes[0]), entry.get("y", axes[1]))
+    return horizontal + (entry.get("z", VERTICAL_AXIS[sphere]),) if "w" in entry else horizontal
