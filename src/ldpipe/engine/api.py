@@ -11,7 +11,7 @@ from .integrator import get_runner, run_units
 from .integrands import integrand_for
 from .kinetic import to_engine_states, to_momenta
 from .quadrature import folded_jacobi_rule, legendre_rule
-from .schemes import get_scheme
+from .schemes import check_scheme, get_scheme
 from .settings import LDSettings, engine_escape_radius
 
 
@@ -201,7 +201,7 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
 
     from .vector_field import get_vector_field_runner
 
-    get_scheme(settings.scheme).check_system(system)
+    check_scheme(get_scheme(settings.scheme), system)
     n = system.n_state
     states = np.ascontiguousarray(initial_states, dtype=np.float64)
     if states.ndim == 1 and states.shape[0] == n:

@@ -17,7 +17,7 @@ import xarray as xr
 from tqdm import tqdm
 
 from ...engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
-from ...engine.schemes import get_scheme
+from ...engine.schemes import check_scheme, get_scheme
 from ...errors import ConfigError
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
@@ -127,7 +127,7 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
     settings = ld_map_settings(parameters, lower, upper)
     if not hamiltonian:
         try:
-            get_scheme(settings.scheme).check_system(system)
+            check_scheme(get_scheme(settings.scheme), system)
         except ValueError as error:
             raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
     system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")  # data: in their times

@@ -21,7 +21,7 @@ import yaml
 
 from ...errors import ConfigError, LdpipeError
 from ...systems import BUILTINS, make_system, system_spec
-from ..schemes import SCHEMES
+from ..schemes import SCHEMES, check_scheme
 from ..settings import LDSettings
 from ..vector_field import vector_field_modules
 from . import DRIVERS, engine_modules
@@ -78,7 +78,7 @@ def dumped_source(args: argparse.Namespace) -> str:
     system = dumped_system(args.system, args.config)
     try:
         if not system.hamiltonian:
-            settings.record.check_system(system)  # only the schemes of general flows take one
+            check_scheme(settings.record, system)  # only the schemes of general flows take one
             return vector_field_modules(system).listing()
         return engine_modules(system, args.scheme, settings.lanes, settings.order, args.entry).listing()
     except ValueError as error:  # the scheme cannot integrate the system (the message names both)

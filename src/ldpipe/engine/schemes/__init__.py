@@ -47,8 +47,21 @@ def scheme_source(scheme: str, system, lanes: int, order: int | None = None) -> 
     system without a formula; ConfigError for a term with no Taylor recurrence, such as Abs's sign).
     """
     record = get_scheme(scheme)
-    record.check_system(system)
+    check_scheme(record, system)
     return record.source(system, lanes, order)
 
 
-__all__ = ["AdaptiveScheme", "FixedStepScheme", "SCHEMES", "Scheme", "get_scheme", "scheme_source"]
+def check_scheme(record: Scheme, system) -> None:
+    """Raise ValueError, saying why, if scheme ``record`` cannot integrate ``system``: a general
+    vector field (no Hamiltonian) only with the schemes of general flows, which it names, and
+    whatever the scheme itself refuses (:meth:`Scheme.check_system`)."""
+    if not system.hamiltonian and not record.general_flow:
+        able = [s.name for s in SCHEMES.values() if s.general_flow]
+        raise ValueError(
+            f"scheme {record.name!r} cannot integrate system {system.name!r}: it is a general vector field "
+            f"(no Hamiltonian), which only the schemes {able} integrate"
+        )
+    record.check_system(system)
+
+
+__all__ = ["AdaptiveScheme", "FixedStepScheme", "SCHEMES", "Scheme", "check_scheme", "get_scheme", "scheme_source"]

@@ -72,17 +72,9 @@ class Scheme:
         raise NotImplementedError
 
     def check_system(self, system) -> None:
-        """Raise ValueError, saying why, if the scheme cannot integrate ``system`` (the default: it can).
-
-        :func:`ldpipe.engine.schemes.scheme_source` calls it before :meth:`source`; a scheme
-        without ``general_flow`` refuses a vector-field system here.
-        """
-        if not system.hamiltonian and not self.general_flow:
-            able = [s.name for s in _registered() if s.general_flow]
-            raise ValueError(
-                f"scheme {self.name!r} cannot integrate system {system.name!r}: it is a general vector field "
-                f"(no Hamiltonian), which only the schemes {able} integrate"
-            )
+        """Raise ValueError, saying why, if the scheme cannot integrate ``system`` for a reason of
+        its own (the default: none). Whether it takes a general flow at all is the registry's
+        check, :func:`ldpipe.engine.schemes.check_scheme`, which calls this."""
 
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         """The compiled parts of the scheme for ``system`` and ``lanes`` lanes."""
@@ -98,12 +90,6 @@ class Scheme:
         the ``order`` of a scheme compiled per order (``taylor13``). Schemes whose records return the
         same variant share one module (the same source text)."""
         return self.name if order is None else f"{self.name}{order}"
-
-
-def _registered():
-    from . import SCHEMES  # the registry imports this module
-
-    return SCHEMES.values()
 
 
 @dataclass(frozen=True)
