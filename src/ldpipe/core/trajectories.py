@@ -36,12 +36,10 @@ CROSSINGS_FULL = flow_status.FLOW_CROSSINGS_FULL
 STEP_UNDERFLOW = flow_status.FLOW_STEP_UNDERFLOW
 STATUS_MEANINGS = flow_status.FLOW_STATUS_MEANINGS
 STATUS_VALUES = np.array([COMPLETED, ESCAPED, CROSSINGS_FULL, STEP_UNDERFLOW], dtype=np.int8)  # CF flag_values
-# Trajectories advanced side by side in one block. A step attempt has a fixed cost per call
-# (~3 us measured, mostly numba reshaping workspace slices for the kernel) that wider blocks
-# spread: 52 Poincaré trajectories to T = 1500 took 1.3-1.5x main's time at 8 lanes,
-# 0.5-0.75x at 32 (one thread; benchmarks in the commit messages). A batch of at most
-# SMALL_LANES trajectories (NHIM bisection rounds) runs in a block of that many lanes, whose
-# attempts cost a third as much as 32 lanes'; that variant is compiled only when used.
+# Trajectories advanced side by side in one block: a step attempt has a fixed cost per call
+# (mostly numba reshaping workspace slices for the kernel) that wider blocks spread. A batch of
+# at most SMALL_LANES trajectories (NHIM bisection rounds) runs in a block of that many lanes,
+# whose attempts cost a fraction of 32 lanes'; that variant is compiled only when used.
 LANES = 32
 SMALL_LANES = 4
 
