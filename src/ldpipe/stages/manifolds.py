@@ -17,7 +17,7 @@ from ..io.datafile import input_name, open_stage_file, stage_parameters, write_s
 from ..errors import ConfigError, StageFileError
 from ..core.trajectories import FlowSettings
 from ..logs import get_logger
-from ..core.orbits.manifolds import ManifoldSettings, manifold_dataset
+from ..core.orbits.manifolds import ManifoldSettings, globalized_manifolds
 from ..systems import make_system, require_hamiltonian
 
 log = get_logger(__name__)
@@ -61,7 +61,7 @@ def run_manifolds(*, output: str | Path, upo: str | Path, threads: int | None = 
     period = float(data.period.values[index])
     log.info("%s: orbit %d of %s, dE = %.6g, period %.12g", parameters["name"], index, upo,
              float(data.excess_energy.values[index]), period)
-    dataset = manifold_dataset(system, initial_state, period, settings, flow, threads=threads)
+    dataset = globalized_manifolds(system, initial_state, period, settings, flow, threads=threads)
     dataset.attrs.update({
         "family": data.attrs["family"], "system": system.name, "excess_energy": float(data.excess_energy.values[index]),
         "critical_energy": float(data.attrs["critical_energy"]), "rtol": flow.rtol, "atol": flow.atol,

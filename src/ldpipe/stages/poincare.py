@@ -19,7 +19,7 @@ from ..core.equilibria.potential import select_saddle
 from ..errors import ConfigError
 from ..core.trajectories import FlowSettings
 from ..logs import get_logger
-from ..core.orbits.poincare import poincare_dataset
+from ..core.orbits.poincare import section_crossings
 from ..core.sections import Section
 from ..systems import make_system
 
@@ -67,7 +67,7 @@ def _poincare(key: str, system, energy, critical_energy, t0: float, threads, par
     flow = FlowSettings(rtol=integrator["rtol"], atol=integrator["atol"], escape_radius=integrator["escape_radius"])
     where = f"E = {energy:.12g}" if energy is not None else f"t0 = {t0:g}"
     log.info("%s: %s at %s, T = %g", parameters["name"], system.name, where, parameters["time"])
-    dataset = poincare_dataset(
+    dataset = section_crossings(
         system, grid, energy, section=(section["coordinate"], section["value"], section["direction"]),
         time=parameters["time"], max_crossings=parameters["max_crossings"], flow=flow,
         threads=threads or numba.get_num_threads(), t0=t0,

@@ -83,7 +83,7 @@ def start_states(
             "starts": starts}
 
 
-def manifold_dataset(
+def globalized_manifolds(
     system: System,
     initial_state: np.ndarray,
     period: float,

@@ -19,7 +19,7 @@ from ..sections import Section, section_states
 from ...systems import System
 
 
-def poincare_dataset(
+def section_crossings(
     system: System,
     initial_conditions: Section,
     energy: float | None,
