@@ -1,4 +1,5 @@
-"""The Python API's Poincaré, saddle-flux, transport and NHIM calls against the stage functions.
+"""The Python API's Poincaré (Hamiltonian and vector field), saddle-flux, transport and NHIM calls
+against the stage functions.
 
 The expected values are the pipeline's own files: each stage's ``run_*`` function (the one
 Snakemake's script calls) given ``parameters_from_config`` of the same configuration entry and
@@ -106,6 +107,22 @@ def test_poincare_equals_the_stage_functions_file(pipeline):
                           equilibria=pipeline["equilibria"], output=pipeline["folder"] / "p.nc")
     barbanis = ldpipe.system(**BARBANIS)
     assert_same_file(ldpipe.poincare(barbanis, name="p", **without(POINCARE, "system")), ldpipe.open_dataset(stored))
+
+
+def test_poincare_of_a_vector_field_equals_the_stage_functions_file(tmp_path):
+    # no equilibria on either side: a vector field has no energy, its trajectories start at t0
+    # (tests/stages/test_vector_field_stages.py's oscillator section)
+    oscillator = {"vector_field": {"x": "y", "y": "-x"}, "coordinates": ["x", "y"]}
+    section = {"system": "osc", "t0": 0.7, "time": 20.0, "max_crossings": 10,
+               "initial_conditions": {"axes": [{"name": "x", "range": [0.2, 0.6], "points": 3},
+                                               {"name": "y", "range": [-0.4, 0.4], "points": 3}]},
+               "section": {"coordinate": "y", "value": 0.0, "direction": -1}}
+    config = validate_config({"systems": {"osc": oscillator}, "poincare_sections": {"p": section}})
+    stored = run_poincare(**parameters_from_config(config, "poincare", "p"), equilibria=None,
+                          output=tmp_path / "p.nc")
+    result = ldpipe.poincare(ldpipe.system(name="osc", **oscillator), name="p", **without(section, "system"))
+    assert result.attrs["t0"] == 0.7 and "energy" not in result.attrs
+    assert_same_file(result, ldpipe.open_dataset(stored))
 
 
 def test_saddle_flux_equals_the_stage_functions_file(pipeline):

@@ -10,7 +10,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.core.trajectories import FlowSettings, integrate
-from ldpipe.core.orbits.manifolds import ManifoldSettings, manifold_dataset, start_states
+from ldpipe.core.orbits.manifolds import ManifoldSettings, globalized_manifolds, start_states
 from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.stages import manifolds as manifold_stage
 from ldpipe.stages import upo as upo_stage
@@ -36,13 +36,13 @@ def orbit_at(system, y_sign, excess=EXCESS):
 @pytest.fixture(scope="module")
 def bottom(barbanis):
     orbit = orbit_at(barbanis, -1)
-    return orbit, manifold_dataset(barbanis, orbit.initial_state, orbit.period, SETTINGS, FLOW)
+    return orbit, globalized_manifolds(barbanis, orbit.initial_state, orbit.period, SETTINGS, FLOW)
 
 
 @pytest.fixture(scope="module")
 def top(barbanis):
     orbit = orbit_at(barbanis, +1)
-    return orbit, manifold_dataset(barbanis, orbit.initial_state, orbit.period, SETTINGS, FLOW)
+    return orbit, globalized_manifolds(barbanis, orbit.initial_state, orbit.period, SETTINGS, FLOW)
 
 
 def test_points_start_within_epsilon_of_the_orbit(bottom):
@@ -222,7 +222,7 @@ def test_manifolds_with_equal_masses(barbanis, bottom):
     assert orbit.period == pytest.approx(np.sqrt(8.0) * unit_orbit.period, rel=1e-10)
     # the same motion sqrt(8) times slower: the unit-mass test's time span scaled to reach the section
     settings = replace(SETTINGS, time=np.sqrt(8.0) * SETTINGS.time)
-    data = manifold_dataset(massive, orbit.initial_state, orbit.period, settings, FLOW)
+    data = globalized_manifolds(massive, orbit.initial_state, orbit.period, settings, FLOW)
     lam = data.attrs["unstable_multiplier"]
     assert lam == pytest.approx(unit_data.attrs["unstable_multiplier"], rel=1e-7)
     start = start_states(massive, orbit.initial_state, orbit.period, settings)

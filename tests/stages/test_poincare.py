@@ -8,7 +8,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.core.trajectories import FlowSettings, integrate
-from ldpipe.core.orbits.poincare import poincare_dataset
+from ldpipe.core.orbits.poincare import section_crossings
 from ldpipe.core.sections import Section
 from ldpipe.stages import poincare as poincare_stage
 from ldpipe.stages.equilibria import run_equilibria
@@ -20,7 +20,7 @@ FLOW = FlowSettings(rtol=1e-10, atol=1e-10, escape_radius=30.0)
 
 
 def section_at(system, excess, time=150.0):
-    return poincare_dataset(system, GRID, EC + excess, section=("y", 0.0, 1), time=time, max_crossings=100, flow=FLOW)
+    return section_crossings(system, GRID, EC + excess, section=("y", 0.0, 1), time=time, max_crossings=100, flow=FLOW)
 
 
 @pytest.mark.parametrize("excess", [-0.125, 0.0, 0.125])

@@ -15,12 +15,12 @@ def names(module):
 def test_equilibrium_stage_depends_on_what_it_imports_only():
     sources = names("ldpipe.stages.equilibria")
     # What it imports, directly or through other modules, and the packages' __init__ files.
-    for expected in ("critical_points.py", "io/datafile.py", "systems/builtin.py", "systems/formula.py",
+    for expected in ("core/equilibria/potential.py", "io/datafile.py", "systems/builtin.py", "systems/formula.py",
                      "systems/base.py", "jitcache.py", "stages/__init__.py", "__init__.py"):
         assert expected in sources, expected
     # Not the engine or the LD grid: editing those must not rerun the equilibria.
     assert not any(name.startswith("engine/") for name in sources)
-    assert "ld_grid.py" not in sources and "sections.py" not in sources
+    assert "core/maps/grid.py" not in sources and "core/sections.py" not in sources
     # Nor the configuration's validation (which knows the engine's schemes): a stage reads the
     # system entry through ldpipe.systems.
     assert not any(name.startswith("config/") for name in sources)
@@ -28,7 +28,8 @@ def test_equilibrium_stage_depends_on_what_it_imports_only():
 
 def test_ld_stage_depends_on_the_engine_the_saddle_selection_and_the_contracts():
     sources = names("ldpipe.stages.ld")
-    assert {"ld_grid.py", "sections.py", "critical_points.py", "io/contracts.py", "engine/__init__.py", "engine/api.py"} <= sources
+    assert {"core/maps/grid.py", "core/sections.py", "core/equilibria/potential.py", "io/contracts.py", "engine/__init__.py",
+            "engine/api.py"} <= sources
     # It reads the equilibria file through the file's contract, not through the stage that wrote it.
     assert "stages/equilibria.py" not in sources
     assert not any(name.startswith("cli/") for name in sources)
@@ -41,9 +42,9 @@ def test_orbit_stages_depend_on_the_engine_only_where_they_integrate_with_it():
     for stage in ("ldpipe.stages.upo", "ldpipe.stages.manifolds", "ldpipe.stages.poincare"):
         sources = names(stage)
         assert "io/contracts.py" in sources, stage
-        assert "ld_grid.py" not in sources and "stages/ld.py" not in sources, stage
+        assert "core/maps/grid.py" not in sources and "stages/ld.py" not in sources, stage
     for stage in ("ldpipe.stages.manifolds", "ldpipe.stages.poincare"):
-        assert {"flow.py", "engine/templates/flow_driver.py"} <= names(stage), stage
+        assert {"core/trajectories.py", "engine/templates/flow_driver.py"} <= names(stage), stage
 
 def test_code_generation_templates_count_as_sources():
     # The engine's templates and the built-in kernels are read as text and compiled, never

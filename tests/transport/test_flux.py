@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from ldpipe.core.trajectories import FlowSettings
-from ldpipe.core.orbits.manifolds import ManifoldSettings, manifold_dataset
+from ldpipe.core.orbits.manifolds import ManifoldSettings, globalized_manifolds
 from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
 from ldpipe.systems import make_system
 from ldpipe.core.transport import (
@@ -139,9 +139,9 @@ def test_barbanis_action_equals_island_area_and_reactive_flux(barbanis, barbanis
     # An independent form of the action for H = |p|²/2 + V: q̇ = p, so ∮ p·dq = ∫ |p|² dt.
     assert action == pytest.approx(np.sum(states[:-1, 2:] ** 2) * orbit.period / 128, rel=1e-12)
 
-    cut = manifold_dataset(barbanis, orbit.initial_state, orbit.period,
-                           ManifoldSettings(points=32, time=25.0, samples=2, crossings=1),
-                           FlowSettings(rtol=1e-12, atol=1e-12, escape_radius=30.0))
+    cut = globalized_manifolds(barbanis, orbit.initial_state, orbit.period,
+                               ManifoldSettings(points=32, time=25.0, samples=2, crossings=1),
+                               FlowSettings(rtol=1e-12, atol=1e-12, escape_radius=30.0))
     for k in range(2):  # stable, unstable
         valid = cut.section_valid.values[k, 0, 0]
         assert valid.all()

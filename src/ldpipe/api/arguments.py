@@ -16,22 +16,16 @@ import xarray as xr
 from ..config import validate_config
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, MANIFOLDS, POINCARE, SADDLE_FLUX, TRANSPORT, UPO
+from ..io.contracts import EQUILIBRIA, SADDLE_FLUX, TRANSPORT, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from ..stages.manifolds import run_manifolds
-from ..stages.poincare import run_poincare
 from ..stages.saddle_flux import run_saddle_flux
 from ..stages.transport import run_transport
-from ..stages.upo import run_upo
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
 
 #: Each stage's function (the one Snakemake's script and the command line call) and its file's contract.
 RUNS = {
-    "upo": (run_upo, UPO),
-    "manifolds": (run_manifolds, MANIFOLDS),
-    "poincare": (run_poincare, POINCARE),
     "saddle_flux": (run_saddle_flux, SADDLE_FLUX),
     "transport": (run_transport, TRANSPORT),
 }

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import xarray as xr
 
+from ..core.orbits.family import periodic_orbits_dataset
+from ..core.orbits.manifolds import manifolds_dataset
+from ..core.orbits.poincare import poincare_dataset
 from .systems import equilibria_input
-from .arguments import AnySystem, energy_shorthand, family_config, run_stage, system_config
+from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, system_config
 
 def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.Dataset | None = None,
                     **spec) -> xr.Dataset:
@@ -36,8 +39,9 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
     >>> orbits = ldpipe.periodic_orbits(b, name="bottom", energies={"excess": [0.125]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    return run_stage("periodic_orbits", "upo", "periodic_orbits", name, entry, system_config(system),
-                      lambda _: {"equilibria": equilibria_input(system, equilibria)})
+    with arguments_of("periodic_orbits", f"periodic_orbits.{name}"):
+        _, parameters = entry_parameters(entry, system_config(system), "periodic_orbits", name, "upo")
+        return periodic_orbits_dataset(parameters, equilibria_input(system, equilibria))
 
 
 def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | None = None, **spec) -> xr.Dataset:
@@ -67,8 +71,9 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
     """
     family, config = family_config(orbits)
     entry = {"orbits": family, **energy_shorthand(spec)}
-    return run_stage("manifolds", "manifolds", "manifolds", name, entry, config,
-                      lambda _: {"upo": orbits, "threads": threads})
+    with arguments_of("manifolds", f"manifolds.{name}"):
+        _, parameters = entry_parameters(entry, config, "manifolds", name, "manifolds")
+        return manifolds_dataset(parameters, orbits, threads=threads)
 
 
 def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset | None = None,
@@ -101,5 +106,6 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
     ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    return run_stage("poincare", "poincare", "poincare_sections", name, entry, system_config(system),
-                      lambda _: {"equilibria": equilibria_input(system, equilibria), "threads": threads})
+    with arguments_of("poincare", f"poincare_sections.{name}"):
+        _, parameters = entry_parameters(entry, system_config(system), "poincare_sections", name, "poincare")
+        return poincare_dataset(parameters, equilibria_input(system, equilibria), threads=threads)

@@ -26,7 +26,7 @@ from ..core.normal_form import system_normal_form
 from ..core.normal_form.study import flux_table, nhim_samples
 from ..systems import make_system
 from ..core.transport import harmonic_flux
-from .upo import target_energies
+from ..core.orbits.family import target_energies
 
 log = get_logger(__name__)
 

@@ -35,7 +35,7 @@ from ..core.trajectories import FlowSettings
 from ..logs import get_logger
 from ..systems import make_system
 from ..core.transport import DividingLine, DividingPlane, harmonic_flux, reactive_flux_monte_carlo
-from .upo import target_energies
+from ..core.orbits.family import target_energies
 
 log = get_logger(__name__)
 

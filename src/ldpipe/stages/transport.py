@@ -51,7 +51,7 @@ from ..logs import get_logger
 from ..core.orbits.manifolds import MANIFOLDS
 from ..systems import make_system, require_hamiltonian
 from ..core.transport import LyapunovOrbit, harmonic_flux, transport_at_energy
-from .manifolds import select_orbit
+from ..core.orbits.family import select_orbit
 
 log = get_logger(__name__)
 

@@ -12,19 +12,33 @@ order of the orbit phase t_j / T, are the curves where the tubes cut the section
 Branches: *inward* is the side whose displacement points, in configuration
 space, against the saddle's position vector (towards the origin, where the
 wells of the built-in systems are), *outward* the other.
+
+A manifold set is declared under ``manifolds:`` in the configuration: the periodic-orbit family
+it grows from (``orbits``) and which of that family's target energies (``energy``), the number of
+points along the orbit, the displacement epsilon, the integration time and the surface of
+section. :func:`manifolds_dataset` is its stage file; :func:`globalized_manifolds` the
+trajectories and cuts of any orbit.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
 from ..trajectories import ESCAPED, STATUS_MEANINGS, STATUS_VALUES, FlowSettings, integrate
+from .family import select_orbit
 from .periodic import floquet_multipliers
-from ...systems import System
+from ...errors import ConfigError, StageFileError
+from ...io import contracts
+from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
+from ...logs import get_logger
+from ...systems import System, make_system, require_hamiltonian
 from ..variational import sample
+
+log = get_logger(__name__)
 
 MANIFOLDS = ("stable", "unstable")
 BRANCHES = ("inward", "outward")
@@ -83,7 +97,7 @@ def start_states(
             "starts": starts}
 
 
-def manifold_dataset(
+def globalized_manifolds(
     system: System,
     initial_state: np.ndarray,
     period: float,
@@ -163,3 +177,47 @@ def manifold_dataset(
         "colors": "stable cyan, unstable magenta (the paper's Fig. 3(f))",
     })
     return data
+
+
+def manifolds_dataset(parameters: dict, orbits: str | os.PathLike | xr.Dataset, *,
+                      threads: int | None = None) -> xr.Dataset:
+    """Both manifolds of one orbit of a family, globalized and cut by the section, as the
+    manifolds stage's file holds them: ``parameters`` are the stage's
+    (:func:`ldpipe.config.parameters.parameters_from_config`), ``orbits`` the family's file or
+    Dataset (:func:`ldpipe.core.orbits.family.periodic_orbits_dataset`), of which the orbit at
+    the entry's ``energy`` is taken; ``threads`` of the engine (default every core)."""
+    key = f"manifolds.{parameters['name']}"
+    data = open_stage_file(orbits, stage=contracts.UPO)
+    if stage_parameters(data)["system_name"] != parameters["system_name"]:
+        raise StageFileError(f"{input_name(orbits)}: orbits of system {data.attrs['system']!r}, "
+                             f"expected {parameters['system_name']!r}")
+    index = select_orbit(data, parameters["energy"], key, orbits)
+    system = make_system(parameters["system_name"], parameters["system_spec"])
+    require_hamiltonian(system, "the manifolds of a periodic orbit", key=f"{key}.orbits")
+    section = parameters["section"]
+    if section["coordinate"] not in system.phase_coordinates:
+        raise ConfigError(f"config key '{key}.section.coordinate': {section['coordinate']!r} is not one of "
+                          f"{list(system.phase_coordinates)}")
+    integrator = parameters["integrator"]
+    settings = ManifoldSettings(
+        points=parameters["points"], displacement=parameters["displacement"], time=parameters["time"],
+        samples=parameters["samples"], section=(section["coordinate"], section["value"], section["direction"]),
+        crossings=parameters["crossings"],
+        # the orbit and its transition matrices integrated at the tolerances the family was computed with
+        orbit_rtol=float(data.attrs["rtol"]), orbit_atol=float(data.attrs["atol"]),
+    )
+    flow = FlowSettings(rtol=integrator["rtol"], atol=integrator["atol"], escape_radius=integrator["escape_radius"])
+    initial_state = data.initial_state.values[index]
+    period = float(data.period.values[index])
+    log.info("%s: orbit %d of %s, dE = %.6g, period %.12g", parameters["name"], index, input_name(orbits),
+             float(data.excess_energy.values[index]), period)
+    dataset = globalized_manifolds(system, initial_state, period, settings, flow, threads=threads)
+    dataset.attrs.update({
+        "family": data.attrs["family"], "system": system.name, "excess_energy": float(data.excess_energy.values[index]),
+        "critical_energy": float(data.attrs["critical_energy"]), "rtol": flow.rtol, "atol": flow.atol,
+        "escape_radius": flow.escape_radius, **system.kinetic_attributes(),
+    })
+    log.info("unstable multiplier %.12g; %d of %d trajectories escaped", dataset.attrs["unstable_multiplier"],
+             int(dataset.escaped.sum()), dataset.escaped.size)
+    title = f"Stable and unstable manifolds of {data.attrs['family']} at dE = {dataset.attrs['excess_energy']:.6g}"
+    return stage_dataset(dataset, stage=contracts.MANIFOLDS, title=title, parameters=parameters)

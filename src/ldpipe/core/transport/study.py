@@ -31,7 +31,7 @@ import numpy as np
 from ...errors import ConfigError
 from ..trajectories import FlowSettings
 from ...logs import get_logger
-from ..orbits.manifolds import MANIFOLDS, ManifoldSettings, manifold_dataset
+from ..orbits.manifolds import MANIFOLDS, ManifoldSettings, globalized_manifolds
 from ...systems import System
 from .flux import DividingLine, MonteCarloFlux, closed_curve_area, orbit_action, reactive_flux_monte_carlo
 from .gap_times import gap_times
@@ -116,8 +116,8 @@ def reactive_islands(system: System, orbit: LyapunovOrbit, island: dict, *, thre
     points = island["points"]
     curves = np.empty((2, points, 2 * system.n_dof))
     area, area_half, area_polygon = (np.empty(2) for _ in range(3))
-    cut = manifold_dataset(system, orbit.initial_state, orbit.period, settings, FlowSettings(**island["integrator"]),
-                           threads=threads)
+    cut = globalized_manifolds(system, orbit.initial_state, orbit.period, settings,
+                               FlowSettings(**island["integrator"]), threads=threads)
     for k, manifold in enumerate(MANIFOLDS):
         valid = cut.section_valid.values[k, 0, 0]
         if not valid.all():
