@@ -21,7 +21,7 @@ from ..logs import log_to
 from ..systems import BUILTINS, is_vector_field
 from ..text import short_number
 from . import nhim, orbits
-from .options import finite_float, number
+from .options import equilibria_file, finite_float, number
 
 EPILOG = """\
 examples:
@@ -166,7 +166,6 @@ def _solve_options(args: argparse.Namespace) -> dict:
 
 
 def _run_ld(args: argparse.Namespace) -> None:
-    from ..stages import equilibria as equilibria_stage
     from ..stages.ld import run_ld_map
     from ..stages.plan import ld_map_tiles
     from ..config.parameters import parameters_from_config
@@ -201,7 +200,7 @@ def _run_ld(args: argparse.Namespace) -> None:
         if is_vector_field(config["systems"][parameters["system_name"]]):
             equilibria = None  # a vector field's map has no energy and no saddle
         else:
-            equilibria = equilibria_stage.equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+            equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
         run_ld_map(**parameters, equilibria=equilibria, tiles=ld_map_tiles(config, args.map), threads=args.threads,
                    show_progress=not args.quiet, output=args.output)
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from ..config import load_config
 from ..errors import ConfigError
 from ..logs import log_to
-from ..stages.equilibria import equilibria_file
+from .options import equilibria_file
 from ..config.parameters import parameters_from_config
 from ..systems import is_vector_field
 

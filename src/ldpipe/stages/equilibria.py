@@ -4,21 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..config.parameters import parameters_from_config
 from ..core.equilibria.study import equilibria_dataset
 from ..io.datafile import write_stage_file
 from ..logs import get_logger
 
 log = get_logger(__name__)
-
-
-def equilibria_file(config: dict, system_name: str, given: str | Path | None, scratch: Path) -> Path:
-    """The equilibria file ``given``, or one computed now into the folder ``scratch`` (for the CLI,
-    whose later stages read the equilibria from a file as their Snakemake rules do)."""
-    if given is not None:
-        return Path(given)
-    parameters = parameters_from_config(config, "equilibria", system_name)
-    return run_equilibria(**parameters, output=Path(scratch) / f"{system_name}_equilibria.nc")
 
 
 def run_equilibria(
