@@ -3,17 +3,15 @@
 from __future__ import annotations
 
 import copy
-import tempfile
 from collections.abc import Sequence
-from pathlib import Path
 
 import xarray as xr
 
 from ..config import validate_config
+from ..core.nhim.study import nhim_study_dataset
 from ..errors import ConfigError
-from ..io.contracts import LD_GRID, NHIM, UPO
+from ..io.contracts import LD_GRID, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from ..stages.nhim import run_nhim_study
 from .arguments import arguments_of
 
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
@@ -53,8 +51,6 @@ def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequen
         config = validate_config({"systems": {recorded["system_name"]: copy.deepcopy(recorded["system_spec"])},
                                   "nhim": {"refinement": dict(refinement)}})
         families = [stage_parameters(open_stage_file(orbits, stage=UPO))["family"] for orbits in references]
-        with tempfile.TemporaryDirectory() as scratch:
-            path = run_nhim_study(study=study, refinement=config["nhim"]["refinement"], maps=list(maps),
-                                  references=families, reference_files=list(references), threads=threads,
-                                  output=Path(scratch) / "nhim.nc")
-            return open_stage_file(path, stage=NHIM)
+        # the parameters config.parameters gives a study of these maps and families
+        parameters = {"study": study, "refinement": config["nhim"]["refinement"], "references": families}
+        return nhim_study_dataset(parameters, list(maps), list(references), threads=threads)

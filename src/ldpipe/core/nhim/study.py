@@ -1,5 +1,7 @@
-"""One slice of a NHIM study, as the stages' files record it.
+"""NHIM studies as the stages' files record them.
 
+* :func:`nhim_study_dataset`: the NHIM study stage's product, every slice of a study (LD maps
+  given, or derived slices computed here) by :func:`study_map_slice`, as its file holds it.
 * :func:`study_map_slice`: a slice of an LD map: its NHIM point detected on the grid, refined by
   fates and by zoomed re-gridding, the residence evidence, and the distance of each point from the
   reference (the periodic orbit's crossing of a 2 DoF section; the closest sample of a Lyapunov
@@ -8,20 +10,27 @@
   NHIM: every crossing in the window around the point, refined, and the slice's status (the
   orbit point found, degenerate with a reason, or failed) against that exact point.
 
-The stages read the maps and orbit files and write the records; this module does no I/O.
+The slice functions take arrays and return records; :func:`nhim_study_dataset` reads its input
+files (or Datasets) through :func:`ldpipe.io.datafile.open_stage_file` and writes nothing.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import os
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+import xarray as xr
 
 from ...engine import LDSettings
 from ...errors import ConfigError
+from ...io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
+from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
 from ...logs import get_logger
 from ...systems import System
+from ..maps.assembly import compute_ld_map
+from ..maps.grid import resolve_ld_map
 from .crossings import SliceCrossings, find_crossings_together
 from .detection import detect_global_argmax, detect_nhim_cell
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
@@ -124,6 +133,132 @@ def study_map_slice(
              record["distance_refined"], record["distance_detected"], record["distance_argmax_sum"],
              record["residence_forward"], record["residence_backward"], record["neighbour_residence_max"])
     return record
+
+
+#: A stage file: its path, or the Dataset itself (as the Python API gives it).
+StageInput = str | os.PathLike | xr.Dataset
+
+
+def nhim_study_dataset(parameters: dict, maps: Sequence[StageInput] = (), references: Sequence[StageInput] = (),
+                       equilibria: StageInput | None = None, *, threads: int | None = None) -> xr.Dataset:
+    """Detect and refine the NHIM point of every slice of a study: the NHIM study stage's file (contract NHIM).
+
+    Parameters
+    ----------
+    parameters : dict
+        The stage's (``parameters_from_config(config, "nhim", study)``): ``study``, ``refinement``
+        (the ``nhim.refinement`` section), ``references`` (periodic-orbit family names) and
+        ``derived`` (map parameters of slices computed here; optional).
+    maps : sequence of path or xarray.Dataset
+        LD map files (stage ``ld_grid``), variable-time.
+    references : sequence of path or xarray.Dataset
+        The families' files (stage ``upo``), in the order of ``parameters["references"]``.
+    equilibria : path or xarray.Dataset, optional
+        The system's equilibria, which derived slices need.
+    threads : int, optional
+        Threads of the engine (default every core).
+    """
+    if threads:
+        import numba  # here, where the engine runs
+
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    study, refinement, derived = parameters["study"], parameters["refinement"], parameters.get("derived")
+    zoom = refinement.get("zoom", True)
+    settings = RefinementSettings(**{k: v for k, v in refinement.items() if k != "zoom"})
+    references = dict(zip(parameters.get("references", ()), references))
+    families = {family: open_stage_file(path, stage=UPO) for family, path in references.items()}
+    records = []
+    phase = None
+    sources = []
+    for path in maps:
+        data = open_stage_file(path, stage=LD_GRID, only=True)
+        sources.append((data, stage_parameters(data)))
+    if derived:
+        if equilibria is None:
+            raise ValueError(f"study {study}: derived slices need the system's equilibria file")
+        eq = open_stage_file(equilibria, stage=EQUILIBRIA)
+        for map_parameters in derived:
+            sources.append((compute_ld_map(map_parameters, eq, show_progress=False), map_parameters))
+    if not sources:
+        raise ConfigError(f"config key 'nhim.studies.{study}': no slices (give 'maps' or 'derived')")
+    for data, map_parameters in sources:
+        problem = _problem_from_map(data, map_parameters)
+        if phase is None:
+            phase = problem.system.phase_coordinates
+        elif phase != problem.system.phase_coordinates:
+            raise ConfigError(f"config key 'nhim.studies.{study}': slices of different systems; one system per study")
+        axes = (data[problem.section.axes[0]].values, data[problem.section.axes[1]].values)
+        reference_orbits = {family: _orbit_at_energy(orbits, problem.energy) for family, orbits in families.items()}
+        records.append(study_map_slice(problem, data.ld_forward.values, data.ld_backward.values,
+                                       data.allowed.values.astype(bool), axes, reference_orbits, settings, zoom=zoom))
+    dataset = _study_dataset(records, phase)
+    dataset.attrs.update(problem.system.kinetic_attributes())
+    dataset.attrs.update({f"refinement_{k}": (int(v) if isinstance(v, bool) else v) for k, v in refinement.items()})
+    dataset.attrs["study"] = study
+    recorded = {"study": study, "refinement": refinement, "maps": [input_name(m) for m in maps],
+                "derived": derived or [], "references": {family: input_name(f) for family, f in references.items()}}
+    return stage_dataset(dataset, stage=NHIM, title=f"NHIM points of study {study}", parameters=recorded)
+
+
+def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
+    """The slice problem of an LD map file (or an in-memory map): its recorded parameters, resolved
+    at the saddle the map records it was computed at, exactly as the LD stage resolved them."""
+    saddle = np.asarray(dataset.attrs["saddle_position"], dtype=np.float64)
+    system, section, settings, info = resolve_ld_map(parameters, saddle, float(dataset.attrs["critical_energy"]))
+    if section.shape != tuple(dataset.sizes[axis] for axis in section.axes):
+        raise ValueError(f"LD map {parameters['map_name']}: grid {dict(dataset.sizes)} is not its section's {section.shape}")
+    if not settings.variable_time:
+        raise ConfigError(f"LD map {parameters['map_name']}: NHIM detection needs a variable-time map with a saddle "
+                          f"region; this one is {parameters['time']} time")
+    return make_slice_problem(parameters["map_name"], system, section, info["energy"], info["critical_energy"],
+                              saddle, settings)
+
+
+def _orbit_at_energy(data: xr.Dataset, energy: float) -> ReferenceOrbit | None:
+    """(initial state, period, samples) of the orbit of a UPO file at ``energy``, or None."""
+    match = np.flatnonzero(np.abs(data.energy.values - energy) <= 1e-9 * max(1.0, abs(energy)))
+    if not len(match):
+        return None
+    i = int(match[0])
+    return data.initial_state.values[i], float(data.period.values[i]), data.trajectory.values[i]
+
+
+def _study_dataset(records: list[dict], system_phase: tuple[str, ...]) -> xr.Dataset:
+    slices = [r["map"] for r in records]
+    variables = {}
+    units = {"wall_time": "s"}
+    for key in records[0]:
+        if key in ("map",):
+            continue
+        values = [r[key] for r in records]
+        if key == "axis_names":
+            variables[key] = (("slice", "axis"), np.array(values, dtype=str))
+        elif key == "refined_state":
+            variables[key] = (("slice", "phase"), np.array(values, dtype=np.float64),
+                              {"long_name": "phase-space state of the refined point (solved momentum from the energy)"})
+        elif np.ndim(values[0]) == 1:
+            variables[key] = (("slice", "axis"), np.array(values, dtype=np.float64))
+        elif isinstance(values[0], str):
+            variables[key] = ("slice", np.array(values, dtype=str))
+        elif isinstance(values[0], (bool, np.bool_)):
+            variables[key] = ("slice", np.array(values, dtype=bool))
+        elif isinstance(values[0], (int, np.integer)):
+            variables[key] = ("slice", np.array(values, dtype=np.int64))
+        else:
+            variables[key] = ("slice", np.array(values, dtype=np.float64))
+    dataset = xr.Dataset(variables, coords={"slice": slices, "axis": [0, 1], "phase": list(system_phase)})
+    for name in dataset.data_vars:
+        if name.endswith("wall_time"):
+            dataset[name].attrs["units"] = units["wall_time"]
+    dataset["refined_point"].attrs["long_name"] = "NHIM point refined by bisection on forward and backward fates"
+    dataset["detected_point"].attrs["long_name"] = "grid point of largest min(F / F_ridge, B / B_ridge) (ldpipe.core.nhim.nhim_score)"
+    dataset["argmax_sum_point"].attrs["long_name"] = "grid point of largest ld_forward + ld_backward (naive)"
+    dataset["zoom_point"].attrs["long_name"] = "NHIM point refined by zoomed re-gridding of both LDs"
+    dataset["reference_point"].attrs["long_name"] = (
+        "orbit_crossing: the periodic orbit's crossing of the section; closest_orbit_sample: the Lyapunov orbit "
+        "sample closest to the section (reference_residual away from it)")
+    dataset.attrs["phase_coordinates"] = " ".join(system_phase)
+    return dataset
 
 
 def validate_orbit_slice(
