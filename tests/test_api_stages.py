@@ -14,7 +14,9 @@ both sides, the API as the Datasets ``ldpipe.open_dataset`` reads, so that each 
 one API call. The systems and settings are those other tests compile: Barbanis'
 section of tests/stages/test_poincare.py, the quadratic 3 DoF saddle of
 tests/transport/test_saddle_flux.py, Barbanis' bottom family of tests/transport/test_stage.py (on
-smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window).
+smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window),
+which is also the base map of the orbit validation (slices through points of the bottom family's
+orbit, as tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows).
 """
 
 import json
@@ -28,6 +30,7 @@ from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
+from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.stages.saddle_flux import run_saddle_flux
@@ -67,6 +70,9 @@ NHIM_MAP = {
 }
 #: Both keys differ from the schema's defaults (1e-8, zoom on): the user's values must reach the stage.
 REFINEMENT = {"tolerance": 1e-9, "zoom": False}
+#: Slices through two points of the bottom family's orbit (phases 0 and 1/2), both kinds, on 15 x 15 windows.
+ORBIT_VALIDATION = {"base_map": "k-7.0", "orbits": ["bottom"], "energies": {"excess": [0.125]}, "phases": 2,
+                    "slices": [["x", "px"], ["y", "py"]], "half_width": 0.2, "points": 15}
 
 
 def without(entry: dict, key: str) -> dict:
@@ -85,7 +91,8 @@ def pipeline(tmp_path_factory):
         "periodic_orbits": {"bottom": dict(FAMILY)},
         "transport": {"t": dict(TRANSPORT)},
         "ld_maps": {"k-7.0": dict(NHIM_MAP)},
-        "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}}},
+        "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}},
+                 "orbit_validation": {"o": dict(ORBIT_VALIDATION)}},
     })
     equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
                                 output=folder / "eq.nc")
@@ -171,3 +178,35 @@ def test_nhim_equals_the_stage_functions_file_but_for_the_inputs_names(pipeline)
     assert recorded["references"] == {"bottom": f"(in memory) {orbits.attrs['title']}"}
     assert_same_file(result, stored, inputs=("maps", "references"))
     assert list(stored.slice.values) == ["k-7.0"]
+
+
+def test_orbit_validation_equals_the_stage_functions_file(pipeline):
+    stored = ldpipe.open_dataset(run_nhim_orbit_validation(
+        **parameters_from_config(pipeline["config"], "nhim_orbits", "o"), orbit_files=[pipeline["upo"]],
+        equilibria=pipeline["equilibria"], output=pipeline["folder"] / "o.nc"))
+    orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
+    ld_map = ldpipe.open_dataset(pipeline["map"])
+    arguments = {k: v for k, v in ORBIT_VALIDATION.items() if k not in ("base_map", "orbits")}
+    result = ldpipe.orbit_validation(orbits, study="o", base_map=ld_map, equilibria=equilibria,
+                                     refinement=REFINEMENT, **arguments)
+    assert_same_file(result, stored)
+    # both kinds of slice at both points: searched or degenerate, each with its status
+    assert stored.sizes["slice"] == 4 and all(str(status) for status in stored.status.values)
+    assert json.loads(stored.attrs["parameters"])["refinement"]["tolerance"] == REFINEMENT["tolerance"]
+
+
+def test_orbit_validation_names_its_arguments(pipeline):
+    orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
+    ld_map = ldpipe.open_dataset(pipeline["map"])
+    with pytest.raises(ConfigError, match=r"^ldpipe.orbit_validation: argument 'equilibria': required"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, energies={"excess": [0.125]})
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'points'.*odd"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, equilibria=equilibria, energies={"excess": [0.125]},
+                                points=16)
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'refinement.tolerance'"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, equilibria=equilibria, energies={"excess": [0.125]},
+                                refinement={"tolerance": "small"})
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'base_map.tau'"):
+        ldpipe.orbit_validation(orbits, base_map={**without(NHIM_MAP, "system"), "tau": -1.0}, equilibria=equilibria,
+                                energies={"excess": [0.125]})
+

@@ -1,4 +1,5 @@
-"""NHIM studies as the stages' files record them.
+"""NHIM studies of LD maps, as the NHIM study stage's file records them (slices through points of
+periodic orbits: :mod:`.orbit_slices`).
 
 * :func:`nhim_study_dataset`: the NHIM study stage's product, every slice of a study (LD maps
   given, or derived slices computed here) by :func:`study_map_slice`, as its file holds it.
@@ -6,9 +7,6 @@
   fates and by zoomed re-gridding, the residence evidence, and the distance of each point from the
   reference (the periodic orbit's crossing of a 2 DoF section; the closest sample of a Lyapunov
   orbit for higher DoF).
-* :func:`validate_orbit_slice`: a slice through a point of a periodic orbit, which lies on the
-  NHIM: every crossing in the window around the point, refined, and the slice's status (the
-  orbit point found, degenerate with a reason, or failed) against that exact point.
 
 The slice functions take arrays and return records; :func:`nhim_study_dataset` reads its input
 files (or Datasets) through :func:`ldpipe.io.datafile.open_stage_file` and writes nothing.
@@ -23,20 +21,17 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
-from ...engine import LDSettings
 from ...errors import ConfigError
 from ...io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
 from ...logs import get_logger
-from ...systems import System
 from ..maps.assembly import compute_ld_map
 from ..maps.grid import resolve_ld_map
-from .crossings import SliceCrossings, find_crossings_together
 from .detection import detect_global_argmax, detect_nhim_cell
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
 from .fates import RefinementFailed, RefinementSettings
 from .refinement import ld_at_points, refine_by_fates, refine_by_ld_zoom
-from .slices import SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality
+from .slices import SliceProblem, make_slice_problem, section_point_states
 
 log = get_logger(__name__)
 
@@ -259,110 +254,3 @@ def _study_dataset(records: list[dict], system_phase: tuple[str, ...]) -> xr.Dat
         "sample closest to the section (reference_residual away from it)")
     dataset.attrs["phase_coordinates"] = " ".join(system_phase)
     return dataset
-
-
-def validate_orbit_slice(
-    system: System, state: np.ndarray, axes: tuple[str, str], monodromy: np.ndarray, *, family: str, energy: float,
-    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
-    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
-) -> tuple[dict, list[dict]]:
-    """Every NHIM crossing of the slice through an orbit point, and the slice's status against that point.
-
-    The slice (:func:`point_slice`) has ``axes`` and a ``points`` x ``points`` window of half-width
-    ``half_width`` centred on ``state``, a point of a periodic orbit of ``family`` at ``energy``
-    whose monodromy matrix started there is ``monodromy``. Its status is ``ok`` (a refined crossing
-    within ``tolerance`` of the orbit point), ``degenerate:solved_momentum_vanishes`` (the energy
-    boundary within ``boundary_cells`` grid cells; not searched), ``degenerate:tangent``
-    (transversality below ``min_transversality``; crossings recorded, not checked), or
-    ``fail:no_crossing``, ``fail:not_converged``, ``fail:missed``; ``reason`` says why.
-
-    Returns
-    -------
-    row : dict
-        The slice's record, named as the orbit validation file's ``slice`` variables.
-    crossings : list of dict
-        Its refined crossings inside the window: ``point``, ``uncertainty``, ``angle``, and
-        ``distance`` from the orbit point.
-    """
-    ((row, crossings),) = validate_orbit_slices(
-        system, [(state, axes, monodromy)], family=family, energy=energy, critical_energy=critical_energy,
-        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width, points=points,
-        boundary_cells=boundary_cells, min_transversality=min_transversality, tolerance=tolerance)
-    return row, crossings
-
-
-def validate_orbit_slices(
-    system: System, slices: list[tuple[np.ndarray, tuple[str, str], np.ndarray]], *, family: str, energy: float,
-    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
-    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
-) -> list[tuple[dict, list[dict]]]:
-    """:func:`validate_orbit_slice` of each ``(state, axes, monodromy)`` of ``slices`` (points of one orbit
-    of ``family`` at ``energy``), in order; the searched slices of one pair of axes and solved momentum
-    refine their candidates together (:func:`ldpipe.core.nhim.find_crossings_together`)."""
-    phase = system.phase_coordinates
-    prepared, families = [], {}
-    for state, axes, monodromy in slices:
-        section = point_slice(system, state, tuple(axes), half_width, points)
-        centre = np.array([state[phase.index(a)] for a in axes])
-        momentum = float(state[phase.index(section.solve)])
-        name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
-        row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
-               "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
-               "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
-               "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
-        boundary = boundary_distance(system, section, state)
-        reach = boundary_cells * 2 * half_width / (points - 1)
-        row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
-        if boundary < reach:
-            row.update(status="degenerate:solved_momentum_vanishes", reason=(
-                f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
-                f"{boundary_cells:g} grid cells ({reach:.3g})"))
-            prepared.append((row, None))
-            continue
-        row["transversality"] = slice_transversality(system, section, state, monodromy)
-        problem = make_slice_problem(name, system, section, energy, critical_energy, saddle, ld_settings)
-        families.setdefault((tuple(section.axes), section.solve), []).append(problem)
-        prepared.append((row, problem))
-    found = {}
-    for problems in families.values():
-        found.update(zip(map(id, problems), find_crossings_together(problems, settings)))
-    return [(row, []) if problem is None else _orbit_slice_outcome(row, found[id(problem)], tolerance, min_transversality)
-            for row, problem in prepared]
-
-
-def _orbit_slice_outcome(row: dict, found: SliceCrossings, tolerance: float,
-                         min_transversality: float) -> tuple[dict, list[dict]]:
-    """The searched slice's record completed from its crossings, and the crossings inside the window."""
-    centre = row["orbit_point"]
-    statuses = [c.status for c in found.crossings]
-    row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
-               tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,
-               trajectories=found.cost.trajectories, wall_time=found.cost.wall_time)
-    crossings = [{"point": crossing.refined.point, "uncertainty": crossing.refined.uncertainty,
-                  "angle": crossing.refined.angle, "distance": float(np.linalg.norm(crossing.refined.point - centre))}
-                 for crossing in found.crossings if crossing.status == "refined"]
-    if crossings:
-        nearest = min(crossings, key=lambda c: c["distance"])
-        row.update(distance=nearest["distance"], uncertainty=nearest["uncertainty"])
-    if row["transversality"] < min_transversality:
-        row.update(status="degenerate:tangent", reason=(
-            f"transversality {row['transversality']:.3g} < min_transversality {min_transversality:g}; "
-            f"{row['crossings']} crossing(s) of {row['candidates']} candidate(s) recorded, not checked"))
-    elif not statuses:
-        row.update(status="fail:no_crossing", reason=(
-            f"no grid cell crossed by both manifold curves in the window ({found.forward_cells} crossed by W^s, "
-            f"{found.backward_cells} by W^u)"))
-    elif not crossings:
-        messages = "; ".join(c.message for c in found.crossings if c.message)
-        row.update(status="fail:not_converged", reason=f"{len(statuses)} candidate(s), none refined: {messages}")
-    elif row["distance"] > tolerance:
-        row.update(status="fail:missed", reason=(
-            f"{len(crossings)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
-            f"{tolerance:g}"))
-    else:
-        notes = [f"{len(crossings)} crossings in the window"] if len(crossings) > 1 else []
-        if row["not_converged"] or row["tangent_candidates"]:
-            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
-                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
-        row.update(status="ok", reason="; ".join(notes))
-    return row, crossings
