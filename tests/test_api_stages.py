@@ -16,7 +16,8 @@ section of tests/stages/test_poincare.py, the quadratic 3 DoF saddle of
 tests/transport/test_saddle_flux.py, Barbanis' bottom family of tests/transport/test_stage.py (on
 smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window),
 which is also the base map of the orbit validation (slices through points of the bottom family's
-orbit, as tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows).
+orbit, as tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows) and of the NHIM
+sampling (its slices y = -7.02 and -6.98, each meeting the orbit).
 """
 
 import json
@@ -31,6 +32,7 @@ from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
 from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
+from ldpipe.stages.nhim_sampling import run_nhim_sampling
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.stages.saddle_flux import run_saddle_flux
@@ -73,6 +75,8 @@ REFINEMENT = {"tolerance": 1e-9, "zoom": False}
 #: Slices through two points of the bottom family's orbit (phases 0 and 1/2), both kinds, on 15 x 15 windows.
 ORBIT_VALIDATION = {"base_map": "k-7.0", "orbits": ["bottom"], "energies": {"excess": [0.125]}, "phases": 2,
                     "slices": [["x", "px"], ["y", "py"]], "half_width": 0.2, "points": 15}
+#: Two slices y = const of the map's section (every other key of the map kept), seeded on 21 x 21 points.
+NHIM_SAMPLING = {"base_map": "base_map", "fixed": {"y": {"range": [-7.02, -6.98], "points": 2}}, "seed_points": 21}
 
 
 def without(entry: dict, key: str) -> dict:
@@ -90,9 +94,11 @@ def pipeline(tmp_path_factory):
         "saddle_flux": {"q": dict(SADDLE_FLUX)},
         "periodic_orbits": {"bottom": dict(FAMILY)},
         "transport": {"t": dict(TRANSPORT)},
-        "ld_maps": {"k-7.0": dict(NHIM_MAP)},
+        # the sampling's base map, under the name the API gives a map passed by its keys (never computed)
+        "ld_maps": {"k-7.0": dict(NHIM_MAP), "base_map": dict(NHIM_MAP)},
         "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}},
                  "orbit_validation": {"o": dict(ORBIT_VALIDATION)}},
+        "nhim_sampling": {"ns": dict(NHIM_SAMPLING)},
     })
     equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
                                 output=folder / "eq.nc")
@@ -210,3 +216,17 @@ def test_orbit_validation_names_its_arguments(pipeline):
         ldpipe.orbit_validation(orbits, base_map={**without(NHIM_MAP, "system"), "tau": -1.0}, equilibria=equilibria,
                                 energies={"excess": [0.125]})
 
+
+def test_nhim_sampling_equals_the_stage_functions_file(pipeline):
+    stored = ldpipe.open_dataset(run_nhim_sampling(
+        **parameters_from_config(pipeline["config"], "nhim_sampling", "ns"), equilibria=pipeline["equilibria"],
+        output=pipeline["folder"] / "ns.nc"))
+    barbanis = ldpipe.system(**BARBANIS)
+    result = ldpipe.nhim_sampling(barbanis, study="ns", base_map=without(NHIM_MAP, "system"),
+                                  equilibria=ldpipe.open_dataset(pipeline["equilibria"]), refinement=REFINEMENT,
+                                  **without(NHIM_SAMPLING, "base_map"))
+    # the run's measured time is an attribute here: the one value that cannot be the same twice
+    for dataset in (result, stored):
+        assert dataset.attrs.pop("wall_time") > 0
+    assert_same_file(result, stored)
+    assert stored.sizes["slice"] == 2 and stored.sizes["point"] == 2  # both slices meet the orbit

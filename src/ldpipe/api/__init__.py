@@ -23,12 +23,12 @@ and how a file was written).
 
 from .files import open_dataset, plot
 from .fluxes import saddle_flux, transport
-from .invariant_sets import nhim, orbit_validation
+from .invariant_sets import nhim, nhim_sampling, orbit_validation
 from .maps import ld_map
 from .orbits import manifolds, periodic_orbits, poincare
 from .systems import equilibria, section, system
 
 __all__ = [
-    "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "orbit_validation",
+    "equilibria", "ld_map", "manifolds", "nhim", "nhim_sampling", "open_dataset", "orbit_validation",
     "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
 ]

@@ -1,4 +1,5 @@
-"""NHIM studies in the Python API: points of LD maps, slices through periodic-orbit points."""
+"""NHIM studies in the Python API: points of LD maps, slices through periodic-orbit points, the
+NHIM sampled over a family of slices."""
 
 from __future__ import annotations
 
@@ -10,11 +11,13 @@ import xarray as xr
 from ..config import validate_config
 from ..config.parameters import parameters_from_config
 from ..core.nhim.orbit_slices import orbit_validation_dataset
+from ..core.nhim.sampling import nhim_sampling_dataset
 from ..core.nhim.study import nhim_study_dataset
 from ..errors import ConfigError
 from ..io.contracts import LD_GRID, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from .arguments import arguments_of, energy_shorthand, family_config, family_equilibria
+from .arguments import AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, system_config
+from .systems import equilibria_input
 
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
          threads: int | None = None, **refinement) -> xr.Dataset:
@@ -170,3 +173,60 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
         return orbit_validation_dataset(parameters_from_config(config, "nhim_orbits", study), families, equilibria,
                                         threads=threads)
 
+
+def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Dataset | dict,
+                  equilibria: xr.Dataset | None = None, refinement: dict | None = None, threads: int | None = None,
+                  **spec) -> xr.Dataset:
+    """Points of the NHIM over a family of slices, found by continuation from slice to slice and
+    refined (the NHIM sampling stage), from an ``nhim_sampling:`` entry.
+
+    Parameters
+    ----------
+    system : System
+        The study's Hamiltonian system.
+    study : str
+        The study's name, recorded in the file (default ``"study"``).
+    base_map : xarray.Dataset or dict
+        The variable-time map whose section (axes, solved momentum), energy, saddle region, tau, p
+        and integrator every slice keeps (the entry's ``base_map`` name replaced): an LD map
+        (:func:`ld_map`), or the keys of an ``ld_maps`` entry (the map is never computed),
+        recorded as the map ``base_map``.
+    equilibria : xarray.Dataset, optional
+        The system's equilibria (:func:`equilibria`), where the saddle is read; default computed
+        now with the system's ``equilibria`` settings, as the pipeline does.
+    refinement : dict, optional
+        Keys of the configuration's ``nhim.refinement`` block (``tolerance``, ``rtol``, ...).
+    threads : int, optional
+        Threads (default every core).
+    **spec
+        The entry's keys: ``fixed`` (for every fixed coordinate of the base map's section,
+        ``{"range": [low, high], "points": n}``), ``signs``, ``window``, ``seed_points``,
+        ``min_angle``, ``min_momentum``, ``batch``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The study's file (contract ``nhim_sampling``): every slice with its ``status`` (and the
+        ``reason`` of a degenerate one), every point as a phase-space ``state``.
+
+    Raises
+    ------
+    ConfigError
+        naming the argument, with the message a bad key of the entry gets.
+
+    Examples
+    --------
+    >>> bc = ldpipe.system(builtin="barbanis_contopoulos_3dof")
+    >>> points = ldpipe.nhim_sampling(bc, base_map=fig5_map, fixed={"y": {"range": [5.0, 5.6], "points": 5},
+    ...                               "z": {"range": [2.65, 2.65], "points": 1},
+    ...                               "py": {"range": [0.0, 0.0], "points": 1}})  # doctest: +SKIP
+    """
+    config = system_config(system)
+    refinement = _refinement("nhim_sampling", refinement, config)
+    map_name, map_entry = _base_map_entry("nhim_sampling", base_map, config, system.name)
+    entry = {"base_map": map_name, **copy.deepcopy(spec)}
+    with arguments_of("nhim_sampling", f"nhim_sampling.{study}"):
+        config = validate_config({**config, "ld_maps": {map_name: map_entry}, "nhim": {"refinement": refinement},
+                                  "nhim_sampling": {study: entry}})
+        return nhim_sampling_dataset(parameters_from_config(config, "nhim_sampling", study),
+                                     equilibria_input(system, equilibria), threads=threads)
