@@ -22,11 +22,13 @@ sampling (its slices y = -7.02 and -6.98, each meeting the orbit).
 
 import json
 
+import numpy as np
 import pytest
 
 import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
+from ldpipe.stages.accuracy import run_accuracy_cost
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
@@ -39,7 +41,7 @@ from ldpipe.stages.saddle_flux import run_saddle_flux
 from ldpipe.stages.transport import run_transport
 from ldpipe.stages.upo import run_upo
 from support import quadratic_saddle as quadratic
-from support.stage_files import assert_same_file
+from support.stage_files import assert_same_file, wall_times
 
 BARBANIS = {"builtin": "barbanis_2dof"}
 #: tests/stages/test_poincare.py's stage section.
@@ -75,6 +77,10 @@ REFINEMENT = {"tolerance": 1e-9, "zoom": False}
 #: Slices through two points of the bottom family's orbit (phases 0 and 1/2), both kinds, on 15 x 15 windows.
 ORBIT_VALIDATION = {"base_map": "k-7.0", "orbits": ["bottom"], "energies": {"excess": [0.125]}, "phases": 2,
                     "slices": [["x", "px"], ["y", "py"]], "half_width": 0.2, "points": 15}
+#: The accuracy ladders on the same map and family, each as short as the schema allows, timed once.
+ACCURACY = {"ld": {"maps": ["k-7.0"], "points": 32, "repeats": 1, "ladder": {"dop853": {"rtol": [1e-6, 1e-8]}}},
+            "upo": {"family": "bottom", "tolerance": [1e-10], "rtol": [1e-13], "repeats": 1},
+            "nhim": {"map": "k-7.0", "grid_points": [12], "refinement_grid": 12, "tolerance": [1e-4]}}
 #: Two slices y = const of the map's section (every other key of the map kept), seeded on 21 x 21 points.
 NHIM_SAMPLING = {"base_map": "base_map", "fixed": {"y": {"range": [-7.02, -6.98], "points": 2}}, "seed_points": 21}
 
@@ -99,6 +105,7 @@ def pipeline(tmp_path_factory):
         "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}},
                  "orbit_validation": {"o": dict(ORBIT_VALIDATION)}},
         "nhim_sampling": {"ns": dict(NHIM_SAMPLING)},
+        "accuracy_cost": ACCURACY,
     })
     equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
                                 output=folder / "eq.nc")
@@ -230,3 +237,32 @@ def test_nhim_sampling_equals_the_stage_functions_file(pipeline):
         assert dataset.attrs.pop("wall_time") > 0
     assert_same_file(result, stored)
     assert stored.sizes["slice"] == 2 and stored.sizes["point"] == 2  # both slices meet the orbit
+
+
+#: What the accuracy measurement measures besides its wall times, never the same twice: CPU times,
+#: rates from the times, the load average, the reference orbit's time (an attribute).
+MEASURED = ("cpu_time", "throughput", "throughput_per_core", "map_wall_time_estimate")
+MEASURED_ATTRIBUTES = ("load_average_before", "load_average_after", "orbit_reference_wall_time")
+
+
+def test_accuracy_cost_equals_the_stage_functions_file_but_for_what_it_measures(pipeline):
+    stored = ldpipe.open_dataset(run_accuracy_cost(
+        **parameters_from_config(pipeline["config"], "accuracy"), equilibria=[pipeline["equilibria"]],
+        output=pipeline["folder"] / "accuracy.nc", table=pipeline["folder"] / "accuracy.md", threads=1))
+    ld_map, orbits = ldpipe.open_dataset(pipeline["map"]), ldpipe.open_dataset(pipeline["upo"])
+    result = ldpipe.accuracy_cost(equilibria=ldpipe.open_dataset(pipeline["equilibria"]), threads=1,
+                                  ld={**ACCURACY["ld"], "maps": [ld_map]}, upo={**ACCURACY["upo"], "family": orbits},
+                                  nhim={**ACCURACY["nhim"], "map": ld_map}, refinement=REFINEMENT)
+    for dataset in (result, stored):
+        for name in MEASURED:
+            assert np.all(dataset[name].values >= 0), name
+            dataset[name].values[...] = 0.0
+        for name in MEASURED_ATTRIBUTES:
+            dataset.attrs[name] = np.zeros_like(dataset.attrs[name])
+    # some of its wall times have no units (assert_same_file asks for them): compared here, then left out
+    assert wall_times(result) == wall_times(stored)
+    for name in wall_times(stored):
+        assert result[name].dims == stored[name].dims and result[name].attrs == stored[name].attrs, name
+        assert np.all(result[name].values >= 0) and np.all(stored[name].values >= 0), name
+    assert_same_file(result.drop_vars(wall_times(result)), stored.drop_vars(wall_times(stored)))
+    assert stored.sizes["setting"] == 2 and stored.sizes["orbit_setting"] == 1 and stored.sizes["nhim_grid"] == 1

@@ -90,7 +90,7 @@ def _base_map_entry(function: str, base_map: xr.Dataset | dict, config: dict, sy
     return name, entry
 
 
-def _refinement(function: str, refinement: dict | None, config: dict) -> dict:
+def refinement_argument(function: str, refinement: dict | None, config: dict) -> dict:
     """The ``nhim.refinement`` block, validated (a bad key names the argument 'refinement.KEY')."""
     refinement = copy.deepcopy(refinement or {})
     with arguments_of(function, "nhim"):
@@ -164,7 +164,7 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
     (system_name,) = config["systems"]
     with arguments_of("orbit_validation", f"nhim.orbit_validation.{study}"):
         equilibria = family_equilibria(families[0], equilibria)
-    refinement = _refinement("orbit_validation", refinement, config)
+    refinement = refinement_argument("orbit_validation", refinement, config)
     map_name, map_entry = _base_map_entry("orbit_validation", base_map, config, system_name)
     entry = {"base_map": map_name, "orbits": list(config["periodic_orbits"]), **energy_shorthand(spec)}
     with arguments_of("orbit_validation", f"nhim.orbit_validation.{study}"):
@@ -222,7 +222,7 @@ def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Datas
     ...                               "py": {"range": [0.0, 0.0], "points": 1}})  # doctest: +SKIP
     """
     config = system_config(system)
-    refinement = _refinement("nhim_sampling", refinement, config)
+    refinement = refinement_argument("nhim_sampling", refinement, config)
     map_name, map_entry = _base_map_entry("nhim_sampling", base_map, config, system.name)
     entry = {"base_map": map_name, **copy.deepcopy(spec)}
     with arguments_of("nhim_sampling", f"nhim_sampling.{study}"):
