@@ -1,6 +1,6 @@
 """Where the accuracy_cost stage's time goes: each part of its measurement, in CPU and wall seconds.
 
-Runs the stage's measurement (``ldpipe.stages.accuracy.accuracy_dataset``) on the paper
+Runs the stage's measurement (``ldpipe.core.accuracy.measurement.accuracy_dataset``) on the paper
 configuration's ``accuracy_cost`` section as the workflow job does (the same threads), with every
 timed engine run, warm-up, reference, reference check, orbit ladder and NHIM ladder recorded as
 it happens: each repeat of each rung separately, so the spread of the repeats is seen too.
@@ -31,6 +31,7 @@ import numba  # noqa: E402
 import yaml  # noqa: E402
 
 import ldpipe.core.accuracy.ld_ladder as ld_ladder  # noqa: E402
+import ldpipe.core.accuracy.measurement as measurement  # noqa: E402
 import ldpipe.core.accuracy.orbit_ladder as orbit_ladder  # noqa: E402
 import ldpipe.stages.accuracy as stage  # noqa: E402
 from ldpipe.config import validate_config  # noqa: E402
@@ -104,28 +105,28 @@ def main() -> None:
 
     ld_ladder.timed_ld = recorded_timed_ld
     wrap(ld_ladder, "warm_up", "warm-up", lambda system, states, settings: settings.scheme)
-    original_map = stage._map_dataset
+    original_map = measurement._map_dataset
 
     def map_dataset(name, *a, **k):
         CURRENT["map"] = name
         with part("map total", name):
             return original_map(name, *a, **k)
 
-    stage._map_dataset = map_dataset
-    wrap(stage, "orbit_accuracy_dataset", "orbit total")
+    measurement._map_dataset = map_dataset
+    wrap(measurement, "orbit_accuracy_dataset", "orbit total")
     wrap(orbit_ladder, "timed_orbit", "orbit rung", lambda *a, **k: f"{a[4].label}")
     wrap(orbit_ladder, "closure_error", "orbit closure check", lambda system, orbit, rtol: f"rtol {rtol:g}")
-    wrap(stage, "nhim_accuracy_dataset", "nhim total")
-    wrap(stage, "compute_orbit", "nhim reference orbit")
-    wrap(stage, "nhim_grid_dataset", "nhim grid ladder")
-    wrap(stage, "ld_grid_dataset", "nhim refinement start grid")
-    wrap(stage, "nhim_refinement_dataset", "nhim refinement ladder")
+    wrap(measurement, "nhim_accuracy_dataset", "nhim total")
+    wrap(measurement, "compute_orbit", "nhim reference orbit")
+    wrap(measurement, "nhim_grid_dataset", "nhim grid ladder")
+    wrap(measurement, "ld_grid_dataset", "nhim refinement start grid")
+    wrap(measurement, "nhim_refinement_dataset", "nhim refinement ladder")
 
     load_before = os.getloadavg()
     setup_cpu, setup_wall = time.process_time() - T0_CPU, time.perf_counter() - T0_WALL
     RECORDS.append({"part": "imports", "label": "", "repeat": 0, "cpu": setup_cpu, "wall": setup_wall})
     with part("accuracy_dataset total"):
-        data = stage.accuracy_dataset(params["ld"], params["upo"], params["nhim"], [args.equilibria])
+        data = measurement.accuracy_dataset(params["ld"], params["upo"], params["nhim"], [args.equilibria])
     with part("table"):
         stage.accuracy_table(data)
     load_after = os.getloadavg()

@@ -15,27 +15,34 @@ both sides, the API as the Datasets ``ldpipe.open_dataset`` reads, so that each 
 one API call. The systems and settings are those other tests compile: Barbanis'
 section of tests/stages/test_poincare.py, the quadratic 3 DoF saddle of
 tests/transport/test_saddle_flux.py, Barbanis' bottom family of tests/transport/test_stage.py (on
-smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window).
+smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window),
+which is also the base map of the orbit validation (slices through points of the bottom family's
+orbit, as tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows) and of the NHIM
+sampling (its slices y = -7.02 and -6.98, each meeting the orbit).
 """
 
 import json
 
+import numpy as np
 import pytest
 
 import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
+from ldpipe.stages.accuracy import run_accuracy_cost
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.ld import run_ld_map
 from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
+from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
+from ldpipe.stages.nhim_sampling import run_nhim_sampling
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.stages.saddle_flux import run_saddle_flux
 from ldpipe.stages.transport import run_transport
 from ldpipe.stages.upo import run_upo
 from support import quadratic_saddle as quadratic
-from support.stage_files import assert_same_file
+from support.stage_files import assert_same_file, wall_times
 
 BARBANIS = {"builtin": "barbanis_2dof"}
 #: tests/stages/test_poincare.py's stage section.
@@ -68,6 +75,15 @@ NHIM_MAP = {
 }
 #: Both keys differ from the schema's defaults (1e-8, zoom on): the user's values must reach the stage.
 REFINEMENT = {"tolerance": 1e-9, "zoom": False}
+#: Slices through two points of the bottom family's orbit (phases 0 and 1/2), both kinds, on 15 x 15 windows.
+ORBIT_VALIDATION = {"base_map": "k-7.0", "orbits": ["bottom"], "energies": {"excess": [0.125]}, "phases": 2,
+                    "slices": [["x", "px"], ["y", "py"]], "half_width": 0.2, "points": 15}
+#: The accuracy ladders on the same map and family, each as short as the schema allows, timed once.
+ACCURACY = {"ld": {"maps": ["k-7.0"], "points": 32, "repeats": 1, "ladder": {"dop853": {"rtol": [1e-6, 1e-8]}}},
+            "upo": {"family": "bottom", "tolerance": [1e-10], "rtol": [1e-13], "repeats": 1},
+            "nhim": {"map": "k-7.0", "grid_points": [12], "refinement_grid": 12, "tolerance": [1e-4]}}
+#: Two slices y = const of the map's section (every other key of the map kept), seeded on 21 x 21 points.
+NHIM_SAMPLING = {"base_map": "base_map", "fixed": {"y": {"range": [-7.02, -6.98], "points": 2}}, "seed_points": 21}
 
 
 def without(entry: dict, key: str) -> dict:
@@ -85,8 +101,12 @@ def pipeline(tmp_path_factory):
         "saddle_flux": {"q": dict(SADDLE_FLUX)},
         "periodic_orbits": {"bottom": dict(FAMILY)},
         "transport": {"t": dict(TRANSPORT)},
-        "ld_maps": {"k-7.0": dict(NHIM_MAP)},
-        "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}}},
+        # the sampling's base map, under the name the API gives a map passed by its keys (never computed)
+        "ld_maps": {"k-7.0": dict(NHIM_MAP), "base_map": dict(NHIM_MAP)},
+        "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}},
+                 "orbit_validation": {"o": dict(ORBIT_VALIDATION)}},
+        "nhim_sampling": {"ns": dict(NHIM_SAMPLING)},
+        "accuracy_cost": ACCURACY,
     })
     equilibria = run_equilibria(**parameters_from_config(config, "equilibria", "barbanis_2dof"),
                                 output=folder / "eq.nc")
@@ -188,3 +208,78 @@ def test_nhim_equals_the_stage_functions_file_but_for_the_inputs_names(pipeline)
     assert recorded["references"] == {"bottom": f"(in memory) {orbits.attrs['title']}"}
     assert_same_file(result, stored, inputs=("maps", "references"))
     assert list(stored.slice.values) == ["k-7.0"]
+
+
+def test_orbit_validation_equals_the_stage_functions_file(pipeline):
+    stored = ldpipe.open_dataset(run_nhim_orbit_validation(
+        **parameters_from_config(pipeline["config"], "nhim_orbits", "o"), orbit_files=[pipeline["upo"]],
+        equilibria=pipeline["equilibria"], output=pipeline["folder"] / "o.nc"))
+    orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
+    ld_map = ldpipe.open_dataset(pipeline["map"])
+    arguments = {k: v for k, v in ORBIT_VALIDATION.items() if k not in ("base_map", "orbits")}
+    result = ldpipe.orbit_validation(orbits, study="o", base_map=ld_map, equilibria=equilibria,
+                                     refinement=REFINEMENT, **arguments)
+    assert_same_file(result, stored)
+    # both kinds of slice at both points: searched or degenerate, each with its status
+    assert stored.sizes["slice"] == 4 and all(str(status) for status in stored.status.values)
+    assert json.loads(stored.attrs["parameters"])["refinement"]["tolerance"] == REFINEMENT["tolerance"]
+
+
+def test_orbit_validation_names_its_arguments(pipeline):
+    orbits, equilibria = ldpipe.open_dataset(pipeline["upo"]), ldpipe.open_dataset(pipeline["equilibria"])
+    ld_map = ldpipe.open_dataset(pipeline["map"])
+    with pytest.raises(ConfigError, match=r"^ldpipe.orbit_validation: argument 'equilibria': required"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, energies={"excess": [0.125]})
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'points'.*odd"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, equilibria=equilibria, energies={"excess": [0.125]},
+                                points=16)
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'refinement.tolerance'"):
+        ldpipe.orbit_validation(orbits, base_map=ld_map, equilibria=equilibria, energies={"excess": [0.125]},
+                                refinement={"tolerance": "small"})
+    with pytest.raises(ConfigError, match=r"(?s)^ldpipe.orbit_validation: .*argument 'base_map.tau'"):
+        ldpipe.orbit_validation(orbits, base_map={**without(NHIM_MAP, "system"), "tau": -1.0}, equilibria=equilibria,
+                                energies={"excess": [0.125]})
+
+
+def test_nhim_sampling_equals_the_stage_functions_file(pipeline):
+    stored = ldpipe.open_dataset(run_nhim_sampling(
+        **parameters_from_config(pipeline["config"], "nhim_sampling", "ns"), equilibria=pipeline["equilibria"],
+        output=pipeline["folder"] / "ns.nc"))
+    barbanis = ldpipe.system(**BARBANIS)
+    result = ldpipe.nhim_sampling(barbanis, study="ns", base_map=without(NHIM_MAP, "system"),
+                                  equilibria=ldpipe.open_dataset(pipeline["equilibria"]), refinement=REFINEMENT,
+                                  **without(NHIM_SAMPLING, "base_map"))
+    # the run's measured time is an attribute here: the one value that cannot be the same twice
+    for dataset in (result, stored):
+        assert dataset.attrs.pop("wall_time") > 0
+    assert_same_file(result, stored)
+    assert stored.sizes["slice"] == 2 and stored.sizes["point"] == 2  # both slices meet the orbit
+
+
+#: What the accuracy measurement measures besides its wall times, never the same twice: CPU times,
+#: rates from the times, the load average, the reference orbit's time (an attribute).
+MEASURED = ("cpu_time", "throughput", "throughput_per_core", "map_wall_time_estimate")
+MEASURED_ATTRIBUTES = ("load_average_before", "load_average_after", "orbit_reference_wall_time")
+
+
+def test_accuracy_cost_equals_the_stage_functions_file_but_for_what_it_measures(pipeline):
+    stored = ldpipe.open_dataset(run_accuracy_cost(
+        **parameters_from_config(pipeline["config"], "accuracy"), equilibria=[pipeline["equilibria"]],
+        output=pipeline["folder"] / "accuracy.nc", table=pipeline["folder"] / "accuracy.md", threads=1))
+    ld_map, orbits = ldpipe.open_dataset(pipeline["map"]), ldpipe.open_dataset(pipeline["upo"])
+    result = ldpipe.accuracy_cost(equilibria=ldpipe.open_dataset(pipeline["equilibria"]), threads=1,
+                                  ld={**ACCURACY["ld"], "maps": [ld_map]}, upo={**ACCURACY["upo"], "family": orbits},
+                                  nhim={**ACCURACY["nhim"], "map": ld_map}, refinement=REFINEMENT)
+    for dataset in (result, stored):
+        for name in MEASURED:
+            assert np.all(dataset[name].values >= 0), name
+            dataset[name].values[...] = 0.0
+        for name in MEASURED_ATTRIBUTES:
+            dataset.attrs[name] = np.zeros_like(dataset.attrs[name])
+    # some of its wall times have no units (assert_same_file asks for them): compared here, then left out
+    assert wall_times(result) == wall_times(stored)
+    for name in wall_times(stored):
+        assert result[name].dims == stored[name].dims and result[name].attrs == stored[name].attrs, name
+        assert np.all(result[name].values >= 0) and np.all(stored[name].values >= 0), name
+    assert_same_file(result.drop_vars(wall_times(result)), stored.drop_vars(wall_times(stored)))
+    assert stored.sizes["setting"] == 2 and stored.sizes["orbit_setting"] == 1 and stored.sizes["nhim_grid"] == 1

@@ -12,6 +12,7 @@ import xarray as xr
 
 from ldpipe.io import contracts
 from ldpipe.core import accuracy
+from ldpipe.core.accuracy import measurement
 from ldpipe.core.accuracy import (
     CorrectorStep, IntegratorStep, closure_error, corrector_ladder, finite_quantiles, integrator_ladder,
     ld_ladder_dataset, orbit_ladder_dataset, relative_error, sample_indices,
@@ -309,16 +310,16 @@ def test_nhim_ladders_take_the_orbit_ladders_reference_orbit_only_where_it_is_th
     config = small_config(upo={"family": "bottom", "tolerance": [1e-10], "rtol": [1e-13], "repeats": 1},
                           nhim={"map": "slice", "grid_points": [24], "refinement_grid": 24, "tolerance": [1e-4]})
     parameters = parameters_from_config(config, "accuracy")
-    found = accuracy_stage._equilibria_by_system([equilibria_file])
-    own = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found)
-    orbits = accuracy_stage.orbit_accuracy_dataset(parameters["upo"], found)
+    found = measurement.equilibria_by_system([equilibria_file])
+    own = measurement.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found)
+    orbits = measurement.orbit_accuracy_dataset(parameters["upo"], found)
     computed = []
-    monkeypatch.setattr(accuracy_stage, "compute_orbit",
+    monkeypatch.setattr(measurement, "compute_orbit",
                         lambda *a, **k: computed.append(1) or accuracy.compute_orbit(*a, **k))
-    taken = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, orbits)
+    taken = measurement.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, orbits)
     assert computed == [] and np.array_equal(taken.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
     elsewhere = orbits.assign_attrs(orbit_target_energy=orbits.attrs["orbit_target_energy"] + 0.01)
-    again = accuracy_stage.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, elsewhere)
+    again = measurement.nhim_accuracy_dataset(parameters["nhim"], parameters["upo"], found, elsewhere)
     assert computed == [1] and np.array_equal(again.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
 
 
@@ -347,7 +348,7 @@ def test_config_errors_name_the_key():
 def test_dataset_joins_maps_of_different_sample_sizes():
     # A map with fewer allowed points than asked is padded with zeros, flagged by point_used.
     one = xr.Dataset({"v": ("point", [1.0, 2.0])}, coords={"point": [0, 1]})
-    padded = accuracy_stage._pad_points(one, 4)
+    padded = measurement._pad_points(one, 4)
     assert padded.v.values.tolist() == [1.0, 2.0, 0.0, 0.0]
     assert padded.point_used.values.tolist() == [True, True, False, False]
 

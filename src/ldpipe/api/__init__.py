@@ -23,12 +23,13 @@ and how a file was written).
 
 from .files import open_dataset, plot
 from .fluxes import saddle_flux, transport
-from .invariant_sets import nhim
+from .invariant_sets import nhim, nhim_sampling, orbit_validation
 from .maps import ld_map
+from .measurements import accuracy_cost
 from .orbits import manifolds, periodic_orbits, poincare
 from .systems import equilibria, section, system
 
 __all__ = [
-    "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "periodic_orbits", "plot", "poincare",
-    "saddle_flux", "section", "system", "transport",
+    "accuracy_cost", "equilibria", "ld_map", "manifolds", "nhim", "nhim_sampling", "open_dataset", "orbit_validation",
+    "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
 ]

@@ -7,255 +7,26 @@ map of the NHIM ladders, its grid sizes and refinement tolerances. One netCDF fi
 measurement (dimensions ``map``, ``setting``, ``direction``, ``point``, ``quantile``;
 ``orbit_setting``; ``nhim_grid``, ``nhim_method``, ``nhim_refinement``) with the machine and
 its load in the attributes, and Markdown tables summarize it. The science is in
-:mod:`ldpipe.core.accuracy`.
+:mod:`ldpipe.core.accuracy`, the file's Dataset :func:`ldpipe.core.accuracy.measurement.accuracy_cost_dataset`;
+this module writes it and its tables, and compiles the ladder's engines in jobs of their own.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
-import numba
 import numpy as np
 import xarray as xr
 
-from ..core.accuracy import (
-    QUANTILES, CorrectorStep, IntegratorStep, RepeatRule, compute_orbit, corrector_ladder, integrator_ladder,
-    ld_ladder_dataset, load_average, machine_attributes, nhim_grid_dataset, nhim_refinement_dataset, orbit_ladder_dataset,
-    sample_indices, same_number, warm_up,
-)
-from ..engine.codegen import engine_compiled, engine_name
-from ..io.contracts import ACCURACY_COST, EQUILIBRIA
-from ..io.datafile import open_stage_file, write_stage_file
-from ..core.equilibria.potential import select_saddle
-from ..errors import ConfigError, StageFileError
-from ..core.maps.grid import ld_grid_dataset
-from ..logs import get_logger
-from ..core.nhim import RefinementSettings, detect_nhim_cell, make_slice_problem, orbit_section_crossing
-from ..core.orbits.periodic import CorrectionFailed, linearize_saddle
-from ..core.sections import section_states
-from ..systems import make_system
+from ..core.accuracy import IntegratorStep, RepeatRule, warm_up
+from ..core.accuracy.measurement import accuracy_cost_dataset, equilibria_by_system, equilibria_for
 from ..core.maps.assembly import resolve_map
+from ..core.sections import section_states
+from ..engine.codegen import engine_compiled, engine_name
+from ..io.datafile import write_stage_file
+from ..logs import get_logger
 
 log = get_logger(__name__)
-
-#: Why the LD reference is trusted, recorded in the file (measured with ldpipe.testing.reference_ld,
-#: an independent LD: scipy DOP853 at 1e-13, every velocity zero crossing located, Gauss–Jacobi
-#: rules on the pieces; see README "What accuracy costs").
-REFERENCE_VALIDATION = (
-    "sym6 at dt 0.005 against ldpipe.testing.reference_ld (independent: scipy DOP853 rtol 1e-13, located velocity zero "
-    "crossings, Gauss-Jacobi rules): relative LD difference median 6e-14, max 4e-12 on 57 non-escaping points of "
-    "fig3_dE0.125 (fixed time, tau 50), median 4e-14, max 3e-13 on 300 points of fig4_k-7.0 (variable time). "
-    "dop853 at rtol 1e-13 was the worse reference (max 4e-10 and 5e-11 on the same points). "
-    "Each run stores the reference's agreement with reference_check (default: half the step) as "
-    "reference_check_quantile; errors below it are not resolved."
-)
-
-
-def _equilibria_by_system(paths: list[str | Path]) -> dict[str, xr.Dataset]:
-    found = {}
-    for path in paths:
-        data = open_stage_file(path, stage=EQUILIBRIA)
-        found[str(data.attrs.get("system", ""))] = data
-    return found
-
-
-def _equilibria_for(found: dict, system: str, key: str) -> xr.Dataset:
-    if system not in found:
-        raise StageFileError(f"{key}: needs the equilibria file of system {system!r}; got files of {sorted(found)}")
-    return found[system]
-
-
-def _map_dataset(name: str, parameters: dict, equilibria: xr.Dataset, ld: dict, steps, reference, check) -> xr.Dataset:
-    """The ladder measured on a sample of one map's allowed grid points."""
-    system, section, settings, info = resolve_map(parameters, equilibria)
-    states, allowed, _ = section_states(system, section, info["energy"])
-    if len(states) == 0:
-        raise ConfigError(f"config key 'accuracy_cost.ld.maps': map {name!r} has no energetically allowed point")
-    chosen = sample_indices(len(states), ld["points"], ld["seed"], multiple_of=settings.lanes)
-    grid_index = np.argwhere(allowed)[chosen]  # C order of the grid, as section_states orders the states
-    log.info("map %s: %d of %d allowed points sampled (grid %s), %s time, tau %g", name, len(chosen), len(states),
-             section.shape, parameters["time"], settings.tau)
-    data = ld_ladder_dataset(system, states[chosen], settings, steps, reference, check, repeats=ld["repeats"],
-                              repeat_budget=ld["repeat_budget"])
-    n = len(chosen)
-    default = np.array([step.matches(settings) for step in steps])
-    if not default.any():
-        log.warning("map %s: its integrator setting (%s) is not on the ladder; no point is marked default",
-                    name, settings.scheme)
-    data["is_default"] = ("setting", default, {"long_name": "the map's own integrator setting"})
-    data["map_wall_time_estimate"] = data.wall_time * len(states) / n
-    data["map_wall_time_estimate"].attrs.update({
-        "units": "s", "long_name": "wall time of the whole map (every allowed grid point, forward and backward) "
-                                   "at the sample's time per point"})
-    data["sample_index"] = (("point", "grid_axis"), grid_index, {"long_name": "grid indices of the sampled point"})
-    data["sample_state"] = (("point", "phase_index"), states[chosen], {"long_name": "the sampled initial state"})
-    scalars = {
-        "allowed_points": len(states), "sampled_points": n, "grid_points": int(np.prod(section.shape)),
-        "energy": info["energy"], "excess_energy": info["excess_energy"], "tau": settings.tau,
-        "variable_time": settings.variable_time,
-        "reference_wall_time": data.attrs.pop("reference_wall_time"),
-        "reference_check_wall_time": data.attrs.pop("reference_check_wall_time"),
-        "reference_escapes": data.attrs.pop("reference_escapes"),
-    }
-    for key, value in scalars.items():
-        data[key] = value
-    data["phase_names"] = ("phase_index", list(system.phase_coordinates))
-    data.attrs.clear()
-    return data
-
-
-def _pad_points(data: xr.Dataset, size: int) -> xr.Dataset:
-    """Pad the point dimension to ``size`` with zeros, marking the real points in ``point_used``."""
-    used = np.zeros(size, dtype=bool)
-    used[: data.sizes["point"]] = True
-    padded = data.reindex(point=np.arange(size), fill_value=0)
-    padded["point_used"] = ("point", used, {"long_name": "the point is a sampled point (the rest is padding, 0)"})
-    return padded
-
-
-def ld_accuracy_dataset(ld: dict, equilibria: dict[str, xr.Dataset]) -> xr.Dataset:
-    """The LD ladder on every configured map, joined along ``map``."""
-    steps = integrator_ladder(ld["ladder"])
-    reference = IntegratorStep.from_spec(ld["reference"])
-    check = IntegratorStep.from_spec(ld["reference_check"])
-    datasets = []
-    for name, parameters in ld["maps"].items():
-        data = _equilibria_for(equilibria, parameters["system_name"], f"accuracy_cost.ld.maps ({name})")
-        datasets.append(_map_dataset(name, parameters, data, ld, steps, reference, check))
-    size = max(d.sizes["point"] for d in datasets)
-    phases = max(d.sizes["phase_index"] for d in datasets)
-    datasets = [_pad_points(d, size).reindex(phase_index=np.arange(phases), fill_value=0) for d in datasets]
-    joined = xr.concat(datasets, dim="map", data_vars="all", coords="minimal", compat="equals", join="exact")
-    joined = joined.assign_coords(map=list(ld["maps"]))
-    joined.attrs.update({
-        "reference": reference.label, "reference_check": check.label, "reference_validation": REFERENCE_VALIDATION,
-        "repeats": ld["repeats"], "repeat_budget": ld["repeat_budget"], "sample_seed": ld["seed"],
-    })
-    return joined
-
-
-def orbit_accuracy_dataset(orbit: dict, equilibria: dict[str, xr.Dataset]) -> xr.Dataset:
-    """The corrector ladder on the family's orbit at the configured energy."""
-    family = orbit["family"]
-    key = "accuracy_cost.upo"
-    system = make_system(family["system_name"], family["system_spec"])
-    data = _equilibria_for(equilibria, family["system_name"], f"{key}.family ({family['family']})")
-    position, critical_energy = select_saddle(data, family.get("saddle_near"))
-    saddle = linearize_saddle(system, position)
-    energy_spec = orbit["energy"]
-    energy = energy_spec["total"] if "total" in energy_spec else critical_energy + energy_spec["excess"]
-    if energy < critical_energy:
-        raise ConfigError(f"config key '{key}.energy': {energy_spec} is below the saddle's E_c {critical_energy:.12g}")
-    steps = corrector_ladder(orbit["tolerance"], orbit["rtol"], orbit["energy_tolerance_ratio"])
-    ref = orbit["reference"]
-    reference = CorrectorStep(ref["tolerance"], ref["energy_tolerance"], ref["rtol"], ref["rtol"])
-    log.info("orbit ladder: family %s, centre mode %d, E = %.12g (dE = %.6g), %d settings", family["family"],
-             family["center_mode"], energy, energy - critical_energy, len(steps))
-    result = orbit_ladder_dataset(
-        system, saddle, family["center_mode"], energy, steps, reference, continuation=family["continuation"],
-        check_rtol=orbit["check_rtol"], repeats=orbit["repeats"],
-        repeat_budget=orbit["repeat_budget"], max_iterations=family["max_iterations"],
-    )
-    default = [same_number(s.tolerance, family["tolerance"]) and same_number(s.rtol, family["integrator"]["rtol"])
-               for s in steps]
-    result["orbit_is_default"] = ("orbit_setting", np.array(default, dtype=bool),
-                                  {"long_name": "the family's own correction tolerance and integrator rtol"})
-    result.attrs.update({"orbit_family": family["family"], "orbit_excess_energy": energy - critical_energy})
-    return result
-
-
-def _reference_orbit_of(orbit_ladder: xr.Dataset | None, parameters: dict, family: dict, energy: float):
-    """(initial state, period) of the orbit ladder's reference orbit if it is the NHIM's (same system,
-    saddle, settings and energy: the same computation, so the same numbers); else None."""
-    if orbit_ladder is None or "orbit_reference_period" not in orbit_ladder.attrs:
-        return None
-    same = (parameters["system_name"] == family["system_name"] and parameters["system_spec"] == family["system_spec"]
-            and orbit_ladder.attrs["orbit_target_energy"] == energy)
-    if not same:
-        return None
-    return orbit_ladder.attrs["orbit_reference_initial_state"], orbit_ladder.attrs["orbit_reference_period"]
-
-
-def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Dataset],
-                          orbit_ladder: xr.Dataset | None = None) -> xr.Dataset:
-    """The NHIM ladders on one variable-time map: grid resolution -> detection error, refinement
-    tolerance -> location error, both against the crossing of the tight reference orbit.
-
-    ``orbit_ladder``: the orbit ladder's dataset (:func:`orbit_accuracy_dataset`), whose reference
-    orbit is taken where it is the same orbit (same system and energy) instead of computed again.
-    """
-    parameters = nhim["map"]
-    name = parameters["map_name"]
-    key = "accuracy_cost.nhim"
-    data = _equilibria_for(equilibria, parameters["system_name"], f"{key}.map ({name})")
-    system, section, settings, info = resolve_map(parameters, data)
-    problem = make_slice_problem(name, system, section, info["energy"], info["critical_energy"],
-                                 np.asarray(info["saddle"]), settings)
-    family = upo["family"]
-    ref = upo["reference"]
-    reference = CorrectorStep(ref["tolerance"], ref["energy_tolerance"], ref["rtol"], ref["rtol"])
-    known = _reference_orbit_of(orbit_ladder, parameters, family, info["energy"])
-    if known is None:
-        orbit_position, _ = select_saddle(data, family.get("saddle_near"))
-        try:
-            orbit, _ = compute_orbit(system, linearize_saddle(system, orbit_position), family["center_mode"],
-                                     info["energy"], reference, family["continuation"], family["max_iterations"])
-        except CorrectionFailed as error:
-            raise ConfigError(f"config key '{key}': no reference orbit of family {family['family']!r} at the energy "
-                              f"of map {name!r}: {error}") from None
-        known = orbit.initial_state, orbit.period
-    initial_state, period = known
-    crossing = orbit_section_crossing(problem, initial_state, period, rtol=upo["check_rtol"], atol=upo["check_rtol"])
-    log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, period, crossing)
-    grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"], repeats=nhim["repeats"],
-                              repeat_budget=nhim["repeat_budget"])
-    start = dataclasses.replace(section, shape=(nhim["refinement_grid"], nhim["refinement_grid"]))
-    start_problem = dataclasses.replace(problem, section=start)
-    grid = ld_grid_dataset(system, start, info["energy"], settings)
-    axes = (grid[start.axes[0]].values, grid[start.axes[1]].values)
-    guess = detect_nhim_cell(grid.ld_forward.values, grid.ld_backward.values, grid.allowed.values, axes).point
-    refinements = nhim_refinement_dataset(
-        start_problem, guess, crossing, nhim["tolerance"], RefinementSettings(**nhim["refinement"]),
-        precision_ratio=nhim["precision_ratio"], repeats=nhim["repeats"], repeat_budget=nhim["repeat_budget"],
-    )
-    result = xr.merge([grids, refinements], compat="no_conflicts", join="outer", combine_attrs="drop")
-    result["nhim_grid_is_default"] = ("nhim_grid", np.array([p == section.shape[0] for p in nhim["grid_points"]]),
-                                      {"long_name": "the map's own grid"})
-    result["nhim_refinement_is_default"] = (
-        "nhim_refinement", np.array([same_number(t, nhim["refinement"]["tolerance"]) for t in nhim["tolerance"]]),
-        {"long_name": "the configured refinement tolerance (nhim.refinement.tolerance)"})
-    result.attrs.update({
-        "nhim_map": name, "nhim_crossing": crossing, "nhim_axes": list(section.axes),
-        "nhim_refinement_grid": nhim["refinement_grid"], "nhim_refinement_start": guess,
-        "nhim_refinement_start_error": float(np.linalg.norm(guess - crossing)),
-        "nhim_precision_ratio": nhim["precision_ratio"], "nhim_repeats": nhim["repeats"],
-        "nhim_repeat_budget": nhim["repeat_budget"],
-    })
-    return result
-
-
-def accuracy_dataset(ld: dict, upo: dict, nhim: dict, equilibria: list[str | Path]) -> xr.Dataset:
-    """Every measurement of the stage, with the machine and its load before and after."""
-    found = _equilibria_by_system(equilibria)
-    machine = machine_attributes()
-    load_before = load_average()
-    parts = []
-    if ld["maps"]:
-        parts.append(ld_accuracy_dataset(ld, found))
-    orbits = orbit_accuracy_dataset(upo, found) if upo["family"] else None
-    if orbits is not None:
-        parts.append(orbits)
-    if nhim["map"]:
-        parts.append(nhim_accuracy_dataset(nhim, upo, found, orbits))
-    if not parts:
-        raise ConfigError("config key 'accuracy_cost': names no LD map (ld.maps), orbit family (upo.family) "
-                          "or NHIM map (nhim.map)")
-    data = xr.merge(parts, compat="no_conflicts", join="outer", combine_attrs="no_conflicts")
-    data.attrs.update(machine)
-    data.attrs.update({"load_average_before": load_before, "load_average_after": load_average(),
-                       "error_quantiles": np.array(QUANTILES)})
-    return data
 
 
 def _scientific(value: float) -> str:
@@ -418,8 +189,8 @@ def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map
 
     The LD ladder then loads it from numba's cache; the measurement is unchanged (it times after a warm-up).
     """
-    found = _equilibria_by_system([equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
-    data = _equilibria_for(found, map["system_name"], f"accuracy_cost.ld.maps ({map['map_name']})")
+    found = equilibria_by_system([equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
+    data = equilibria_for(found, map["system_name"], f"accuracy_cost.ld.maps ({map['map_name']})")
     system, section, settings, info = resolve_map(map, data)
     settings = IntegratorStep.from_spec(setting).apply(settings)
     name = engine_name(system.name, settings.scheme, settings.lanes, settings.order)
@@ -446,12 +217,10 @@ def run_accuracy_cost(
     nhim: dict,
     threads: int | None = None,
 ) -> Path:
-    """Measure both ladders, write the netCDF file ``output`` and the Markdown ``table``."""
-    if threads:
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    data = accuracy_dataset(ld, upo, nhim, [equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
-    path = write_stage_file(data, output, stage=ACCURACY_COST, title="Accuracy against cost of the LD engine, the "
-                            "periodic-orbit corrector and the NHIM detection", parameters={"ld": ld, "upo": upo, "nhim": nhim})
+    """Measure every ladder, write the netCDF file ``output`` and the Markdown ``table``
+    (:func:`ldpipe.core.accuracy.measurement.accuracy_cost_dataset`)."""
+    data = accuracy_cost_dataset({"ld": ld, "upo": upo, "nhim": nhim}, equilibria, threads=threads)
+    path = write_stage_file(data, output)
     table = Path(table)
     table.parent.mkdir(parents=True, exist_ok=True)
     temporary = table.with_name(f".{table.name}.tmp")

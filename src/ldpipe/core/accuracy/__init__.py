@@ -37,7 +37,9 @@ Modules, one job each (every public name is importable from this package, as bef
 - :mod:`~ldpipe.core.accuracy.timing` — how a setting is timed (repeated runs within a budget);
 - :mod:`~ldpipe.core.accuracy.ld_ladder` — the LD ladder (integrator settings, timing, errors);
 - :mod:`~ldpipe.core.accuracy.orbit_ladder` — the periodic-orbit ladder;
-- :mod:`~ldpipe.core.accuracy.nhim_ladder` — the NHIM ladders.
+- :mod:`~ldpipe.core.accuracy.nhim_ladder` — the NHIM ladders;
+- :mod:`~ldpipe.core.accuracy.measurement` — every ladder of a configuration, as the stage's file
+  holds them (:func:`~ldpipe.core.accuracy.measurement.accuracy_cost_dataset`).
 """
 
 from ...engine.settings import integrator_ladder
@@ -46,13 +48,14 @@ from .ld_ladder import (
     same_number, sample_indices, stop_reason, timed_ld, warm_up,
 )
 from .machine import cpu_model, load_average, machine_attributes
+from .measurement import accuracy_cost_dataset
 from .nhim_ladder import REFINEMENT_METHODS, nhim_grid_dataset, nhim_refinement_dataset
 from .orbit_ladder import CorrectorStep, closure_error, compute_orbit, corrector_ladder, orbit_ladder_dataset, timed_orbit
 from .timing import RepeatRule, Timed, repeat_timed
 
 __all__ = [
     "QUANTILES", "REFINEMENT_METHODS", "STOP_REASONS", "CorrectorStep", "IntegratorStep", "RepeatRule", "Timed",
-    "TimedLD", "closure_error",
+    "TimedLD", "accuracy_cost_dataset", "closure_error",
     "compute_orbit", "corrector_ladder", "cpu_model", "finite_quantiles", "integrator_ladder", "ld_ladder_dataset",
     "load_average", "machine_attributes", "nhim_grid_dataset", "nhim_refinement_dataset", "orbit_ladder_dataset",
     "relative_error", "repeat_timed", "same_number", "sample_indices", "stop_reason", "timed_ld", "timed_orbit",

@@ -30,14 +30,16 @@ crossing of the section.
   detection criterion's best point, zoom in, repeat until the grid spacing is
   below the tolerance.
 
-Every function takes plain arrays and returns plain arrays or dataclasses; the
-stage (:mod:`ldpipe.stages.nhim`) does the I/O.
+Every function takes plain arrays and returns plain arrays or dataclasses, but the stage
+products (``*_dataset``), which read their input files (or Datasets) and return the Dataset a
+stage writes.
 
 The package, by job: :mod:`.slices` (the section slice and its states), :mod:`.detection` (the
 grid cell), :mod:`.fates` (exit fates and their bisection), :mod:`.refinement` (by fates, by LD
 zoom), :mod:`.evidence` (the periodic orbit's crossing, residence times), :mod:`.crossings` (every
-crossing in a slice's window, each refined, degenerate ones recorded as such), :mod:`.study` (one
-slice of a stage's study, as its file records it: an LD map's slice, a slice through an orbit point).
+crossing in a slice's window, each refined, degenerate ones recorded as such), :mod:`.study` (an LD
+map's slices, as the NHIM study stage's file records them), :mod:`.orbit_slices` (slices through
+periodic-orbit points, as the orbit validation stage's file records them).
 """
 
 from .crossings import CROSSING_STATUS, Crossing, SliceCrossings, find_crossings_together, find_every_crossing
@@ -52,7 +54,8 @@ from .refinement import ManifoldsTangent, Refined, ld_at_points, refine_by_fates
 from .slices import (
     SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality,
 )
-from .study import ReferenceOrbit, study_map_slice, validate_orbit_slice, validate_orbit_slices
+from .orbit_slices import validate_orbit_slice, validate_orbit_slices
+from .study import ReferenceOrbit, study_map_slice
 
 __all__ = [
     "CROSSING_STATUS", "Candidate", "boundary_distance", "Crossing", "ManifoldsTangent", "SliceCrossings", "crossing_candidates",

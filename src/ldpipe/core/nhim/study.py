@@ -1,33 +1,37 @@
-"""One slice of a NHIM study, as the stages' files record it.
+"""NHIM studies of LD maps, as the NHIM study stage's file records them (slices through points of
+periodic orbits: :mod:`.orbit_slices`).
 
+* :func:`nhim_study_dataset`: the NHIM study stage's product, every slice of a study (LD maps
+  given, or derived slices computed here) by :func:`study_map_slice`, as its file holds it.
 * :func:`study_map_slice`: a slice of an LD map: its NHIM point detected on the grid, refined by
   fates and by zoomed re-gridding, the residence evidence, and the distance of each point from the
   reference (the periodic orbit's crossing of a 2 DoF section; the closest sample of a Lyapunov
   orbit for higher DoF).
-* :func:`validate_orbit_slice`: a slice through a point of a periodic orbit, which lies on the
-  NHIM: every crossing in the window around the point, refined, and the slice's status (the
-  orbit point found, degenerate with a reason, or failed) against that exact point.
 
-The stages read the maps and orbit files and write the records; this module does no I/O.
+The slice functions take arrays and return records; :func:`nhim_study_dataset` reads its input
+files (or Datasets) through :func:`ldpipe.io.datafile.open_stage_file` and writes nothing.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import os
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+import xarray as xr
 
-from ...engine import LDSettings
 from ...errors import ConfigError
+from ...io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
+from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
 from ...logs import get_logger
-from ...systems import System
-from .crossings import SliceCrossings, find_crossings_together
+from ..maps.assembly import compute_ld_map
+from ..maps.grid import resolve_ld_map
 from .detection import detect_global_argmax, detect_nhim_cell
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
 from .fates import RefinementFailed, RefinementSettings
 from .refinement import ld_at_points, refine_by_fates, refine_by_ld_zoom
-from .slices import SliceProblem, boundary_distance, make_slice_problem, point_slice, section_point_states, slice_transversality
+from .slices import SliceProblem, make_slice_problem, section_point_states
 
 log = get_logger(__name__)
 
@@ -126,108 +130,127 @@ def study_map_slice(
     return record
 
 
-def validate_orbit_slice(
-    system: System, state: np.ndarray, axes: tuple[str, str], monodromy: np.ndarray, *, family: str, energy: float,
-    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
-    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
-) -> tuple[dict, list[dict]]:
-    """Every NHIM crossing of the slice through an orbit point, and the slice's status against that point.
+#: A stage file: its path, or the Dataset itself (as the Python API gives it).
+StageInput = str | os.PathLike | xr.Dataset
 
-    The slice (:func:`point_slice`) has ``axes`` and a ``points`` x ``points`` window of half-width
-    ``half_width`` centred on ``state``, a point of a periodic orbit of ``family`` at ``energy``
-    whose monodromy matrix started there is ``monodromy``. Its status is ``ok`` (a refined crossing
-    within ``tolerance`` of the orbit point), ``degenerate:solved_momentum_vanishes`` (the energy
-    boundary within ``boundary_cells`` grid cells; not searched), ``degenerate:tangent``
-    (transversality below ``min_transversality``; crossings recorded, not checked), or
-    ``fail:no_crossing``, ``fail:not_converged``, ``fail:missed``; ``reason`` says why.
 
-    Returns
-    -------
-    row : dict
-        The slice's record, named as the orbit validation file's ``slice`` variables.
-    crossings : list of dict
-        Its refined crossings inside the window: ``point``, ``uncertainty``, ``angle``, and
-        ``distance`` from the orbit point.
+def nhim_study_dataset(parameters: dict, maps: Sequence[StageInput] = (), references: Sequence[StageInput] = (),
+                       equilibria: StageInput | None = None, *, threads: int | None = None) -> xr.Dataset:
+    """Detect and refine the NHIM point of every slice of a study: the NHIM study stage's file (contract NHIM).
+
+    Parameters
+    ----------
+    parameters : dict
+        The stage's (``parameters_from_config(config, "nhim", study)``): ``study``, ``refinement``
+        (the ``nhim.refinement`` section), ``references`` (periodic-orbit family names) and
+        ``derived`` (map parameters of slices computed here; optional).
+    maps : sequence of path or xarray.Dataset
+        LD map files (stage ``ld_grid``), variable-time.
+    references : sequence of path or xarray.Dataset
+        The families' files (stage ``upo``), in the order of ``parameters["references"]``.
+    equilibria : path or xarray.Dataset, optional
+        The system's equilibria, which derived slices need.
+    threads : int, optional
+        Threads of the engine (default every core).
     """
-    ((row, crossings),) = validate_orbit_slices(
-        system, [(state, axes, monodromy)], family=family, energy=energy, critical_energy=critical_energy,
-        saddle=saddle, ld_settings=ld_settings, settings=settings, half_width=half_width, points=points,
-        boundary_cells=boundary_cells, min_transversality=min_transversality, tolerance=tolerance)
-    return row, crossings
+    if threads:
+        import numba  # here, where the engine runs
+
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    study, refinement, derived = parameters["study"], parameters["refinement"], parameters.get("derived")
+    zoom = refinement.get("zoom", True)
+    settings = RefinementSettings(**{k: v for k, v in refinement.items() if k != "zoom"})
+    references = dict(zip(parameters.get("references", ()), references))
+    families = {family: open_stage_file(path, stage=UPO) for family, path in references.items()}
+    records = []
+    phase = None
+    sources = []
+    for path in maps:
+        data = open_stage_file(path, stage=LD_GRID, only=True)
+        sources.append((data, stage_parameters(data)))
+    if derived:
+        if equilibria is None:
+            raise ValueError(f"study {study}: derived slices need the system's equilibria file")
+        eq = open_stage_file(equilibria, stage=EQUILIBRIA)
+        for map_parameters in derived:
+            sources.append((compute_ld_map(map_parameters, eq, show_progress=False), map_parameters))
+    if not sources:
+        raise ConfigError(f"config key 'nhim.studies.{study}': no slices (give 'maps' or 'derived')")
+    for data, map_parameters in sources:
+        problem = _problem_from_map(data, map_parameters)
+        if phase is None:
+            phase = problem.system.phase_coordinates
+        elif phase != problem.system.phase_coordinates:
+            raise ConfigError(f"config key 'nhim.studies.{study}': slices of different systems; one system per study")
+        axes = (data[problem.section.axes[0]].values, data[problem.section.axes[1]].values)
+        reference_orbits = {family: _orbit_at_energy(orbits, problem.energy) for family, orbits in families.items()}
+        records.append(study_map_slice(problem, data.ld_forward.values, data.ld_backward.values,
+                                       data.allowed.values.astype(bool), axes, reference_orbits, settings, zoom=zoom))
+    dataset = _study_dataset(records, phase)
+    dataset.attrs.update(problem.system.kinetic_attributes())
+    dataset.attrs.update({f"refinement_{k}": (int(v) if isinstance(v, bool) else v) for k, v in refinement.items()})
+    dataset.attrs["study"] = study
+    recorded = {"study": study, "refinement": refinement, "maps": [input_name(m) for m in maps],
+                "derived": derived or [], "references": {family: input_name(f) for family, f in references.items()}}
+    return stage_dataset(dataset, stage=NHIM, title=f"NHIM points of study {study}", parameters=recorded)
 
 
-def validate_orbit_slices(
-    system: System, slices: list[tuple[np.ndarray, tuple[str, str], np.ndarray]], *, family: str, energy: float,
-    critical_energy: float, saddle: np.ndarray, ld_settings: LDSettings, settings: RefinementSettings,
-    half_width: float, points: int, boundary_cells: float, min_transversality: float, tolerance: float,
-) -> list[tuple[dict, list[dict]]]:
-    """:func:`validate_orbit_slice` of each ``(state, axes, monodromy)`` of ``slices`` (points of one orbit
-    of ``family`` at ``energy``), in order; the searched slices of one pair of axes and solved momentum
-    refine their candidates together (:func:`ldpipe.core.nhim.find_crossings_together`)."""
-    phase = system.phase_coordinates
-    prepared, families = [], {}
-    for state, axes, monodromy in slices:
-        section = point_slice(system, state, tuple(axes), half_width, points)
-        centre = np.array([state[phase.index(a)] for a in axes])
-        momentum = float(state[phase.index(section.solve)])
-        name = f"{family}/E{energy:.6g}/{'-'.join(axes)}@{'_'.join(f'{v:.4f}' for v in centre)}"
-        row = {"name": name, "axis_names": list(axes), "solve": section.solve, "orbit_point": centre,
-               "solved_momentum": momentum, "boundary_distance": 0.0, "transversality": 0.0, "candidates": 0, "crossings": 0, "not_converged": 0,
-               "tangent_candidates": 0, "distance": -1.0, "uncertainty": 0.0, "allowed_fraction": 0.0,
-               "trajectories": 0, "wall_time": 0.0, "status": "", "reason": ""}
-        boundary = boundary_distance(system, section, state)
-        reach = boundary_cells * 2 * half_width / (points - 1)
-        row["boundary_distance"] = min(boundary, 2 * half_width)  # finite: capped at the window's width
-        if boundary < reach:
-            row.update(status="degenerate:solved_momentum_vanishes", reason=(
-                f"{section.solve} = {momentum:.3g} vanishes {boundary:.3g} from the orbit point, within boundary_cells "
-                f"{boundary_cells:g} grid cells ({reach:.3g})"))
-            prepared.append((row, None))
+def _problem_from_map(dataset: xr.Dataset, parameters: dict) -> SliceProblem:
+    """The slice problem of an LD map file (or an in-memory map): its recorded parameters, resolved
+    at the saddle the map records it was computed at, exactly as the LD stage resolved them."""
+    saddle = np.asarray(dataset.attrs["saddle_position"], dtype=np.float64)
+    system, section, settings, info = resolve_ld_map(parameters, saddle, float(dataset.attrs["critical_energy"]))
+    if section.shape != tuple(dataset.sizes[axis] for axis in section.axes):
+        raise ValueError(f"LD map {parameters['map_name']}: grid {dict(dataset.sizes)} is not its section's {section.shape}")
+    if not settings.variable_time:
+        raise ConfigError(f"LD map {parameters['map_name']}: NHIM detection needs a variable-time map with a saddle "
+                          f"region; this one is {parameters['time']} time")
+    return make_slice_problem(parameters["map_name"], system, section, info["energy"], info["critical_energy"],
+                              saddle, settings)
+
+
+def _orbit_at_energy(data: xr.Dataset, energy: float) -> ReferenceOrbit | None:
+    """(initial state, period, samples) of the orbit of a UPO file at ``energy``, or None."""
+    match = np.flatnonzero(np.abs(data.energy.values - energy) <= 1e-9 * max(1.0, abs(energy)))
+    if not len(match):
+        return None
+    i = int(match[0])
+    return data.initial_state.values[i], float(data.period.values[i]), data.trajectory.values[i]
+
+
+def _study_dataset(records: list[dict], system_phase: tuple[str, ...]) -> xr.Dataset:
+    slices = [r["map"] for r in records]
+    variables = {}
+    units = {"wall_time": "s"}
+    for key in records[0]:
+        if key in ("map",):
             continue
-        row["transversality"] = slice_transversality(system, section, state, monodromy)
-        problem = make_slice_problem(name, system, section, energy, critical_energy, saddle, ld_settings)
-        families.setdefault((tuple(section.axes), section.solve), []).append(problem)
-        prepared.append((row, problem))
-    found = {}
-    for problems in families.values():
-        found.update(zip(map(id, problems), find_crossings_together(problems, settings)))
-    return [(row, []) if problem is None else _orbit_slice_outcome(row, found[id(problem)], tolerance, min_transversality)
-            for row, problem in prepared]
-
-
-def _orbit_slice_outcome(row: dict, found: SliceCrossings, tolerance: float,
-                         min_transversality: float) -> tuple[dict, list[dict]]:
-    """The searched slice's record completed from its crossings, and the crossings inside the window."""
-    centre = row["orbit_point"]
-    statuses = [c.status for c in found.crossings]
-    row.update(candidates=len(statuses), crossings=statuses.count("refined"), not_converged=statuses.count("not_converged"),
-               tangent_candidates=statuses.count("tangent"), allowed_fraction=found.allowed_fraction,
-               trajectories=found.cost.trajectories, wall_time=found.cost.wall_time)
-    crossings = [{"point": crossing.refined.point, "uncertainty": crossing.refined.uncertainty,
-                  "angle": crossing.refined.angle, "distance": float(np.linalg.norm(crossing.refined.point - centre))}
-                 for crossing in found.crossings if crossing.status == "refined"]
-    if crossings:
-        nearest = min(crossings, key=lambda c: c["distance"])
-        row.update(distance=nearest["distance"], uncertainty=nearest["uncertainty"])
-    if row["transversality"] < min_transversality:
-        row.update(status="degenerate:tangent", reason=(
-            f"transversality {row['transversality']:.3g} < min_transversality {min_transversality:g}; "
-            f"{row['crossings']} crossing(s) of {row['candidates']} candidate(s) recorded, not checked"))
-    elif not statuses:
-        row.update(status="fail:no_crossing", reason=(
-            f"no grid cell crossed by both manifold curves in the window ({found.forward_cells} crossed by W^s, "
-            f"{found.backward_cells} by W^u)"))
-    elif not crossings:
-        messages = "; ".join(c.message for c in found.crossings if c.message)
-        row.update(status="fail:not_converged", reason=f"{len(statuses)} candidate(s), none refined: {messages}")
-    elif row["distance"] > tolerance:
-        row.update(status="fail:missed", reason=(
-            f"{len(crossings)} crossing(s) refined, the nearest {row['distance']:.3g} from the orbit point > tolerance "
-            f"{tolerance:g}"))
-    else:
-        notes = [f"{len(crossings)} crossings in the window"] if len(crossings) > 1 else []
-        if row["not_converged"] or row["tangent_candidates"]:
-            notes.append(f"{row['not_converged'] + row['tangent_candidates']} other candidate(s) not refined: " + "; ".join(
-                c.message for c in found.crossings if c.status in ("not_converged", "tangent")))
-        row.update(status="ok", reason="; ".join(notes))
-    return row, crossings
+        values = [r[key] for r in records]
+        if key == "axis_names":
+            variables[key] = (("slice", "axis"), np.array(values, dtype=str))
+        elif key == "refined_state":
+            variables[key] = (("slice", "phase"), np.array(values, dtype=np.float64),
+                              {"long_name": "phase-space state of the refined point (solved momentum from the energy)"})
+        elif np.ndim(values[0]) == 1:
+            variables[key] = (("slice", "axis"), np.array(values, dtype=np.float64))
+        elif isinstance(values[0], str):
+            variables[key] = ("slice", np.array(values, dtype=str))
+        elif isinstance(values[0], (bool, np.bool_)):
+            variables[key] = ("slice", np.array(values, dtype=bool))
+        elif isinstance(values[0], (int, np.integer)):
+            variables[key] = ("slice", np.array(values, dtype=np.int64))
+        else:
+            variables[key] = ("slice", np.array(values, dtype=np.float64))
+    dataset = xr.Dataset(variables, coords={"slice": slices, "axis": [0, 1], "phase": list(system_phase)})
+    for name in dataset.data_vars:
+        if name.endswith("wall_time"):
+            dataset[name].attrs["units"] = units["wall_time"]
+    dataset["refined_point"].attrs["long_name"] = "NHIM point refined by bisection on forward and backward fates"
+    dataset["detected_point"].attrs["long_name"] = "grid point of largest min(F / F_ridge, B / B_ridge) (ldpipe.core.nhim.nhim_score)"
+    dataset["argmax_sum_point"].attrs["long_name"] = "grid point of largest ld_forward + ld_backward (naive)"
+    dataset["zoom_point"].attrs["long_name"] = "NHIM point refined by zoomed re-gridding of both LDs"
+    dataset["reference_point"].attrs["long_name"] = (
+        "orbit_crossing: the periodic orbit's crossing of the section; closest_orbit_sample: the Lyapunov orbit "
+        "sample closest to the section (reference_residual away from it)")
+    dataset.attrs["phase_coordinates"] = " ".join(system_phase)
+    return dataset
