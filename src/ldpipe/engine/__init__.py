@@ -35,8 +35,16 @@ from .settings import DEFAULT_ESCAPE_RADIUS, DescriptorSettings, IntegratorSetti
 
 __all__ = [
     "DEFAULT_ESCAPE_RADIUS", "DescriptorSettings", "IntegratorSettings", "LDResult", "LDSettings", "SCHEMES",
-    "StoppingRules", "compute_ld",
+    "StoppingRules", "compute_ld", "use_threads",
 ]
+
+
+def use_threads(threads: int | None) -> None:
+    """Let the engine run on ``threads`` threads, at most numba's (None or 0: leave them as they are)."""
+    if threads:
+        import numba  # here, where the engine runs: a job that only reads files never loads it
+
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
 def __getattr__(name: str):

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 import xarray as xr
 
+from ...engine import use_threads
 from ...engine.settings import integrator_ladder
 from ...errors import ConfigError, StageFileError
 from ...io.contracts import ACCURACY_COST, EQUILIBRIA
@@ -56,10 +57,7 @@ def accuracy_cost_dataset(parameters: dict, equilibria: StageInput | Sequence[St
     threads : int, optional
         Threads of the engine (default every core; recorded with the machine).
     """
-    if threads:
-        import numba  # here, where the engine runs
-
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    use_threads(threads)
     files = [equilibria] if isinstance(equilibria, (str, os.PathLike, xr.Dataset)) else list(equilibria)
     data = accuracy_dataset(parameters["ld"], parameters["upo"], parameters["nhim"], files)
     return stage_dataset(data, stage=ACCURACY_COST, title=TITLE,

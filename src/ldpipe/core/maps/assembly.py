@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ...engine import LDSettings
+from ...engine import LDSettings, use_threads
 from ...engine.integrands import descriptor_attribute, is_arclength
 from ...engine.settings import engine_escape_radius
 from ...errors import ConfigError
@@ -112,10 +112,7 @@ def compute_ld_map(
     show_progress: bool = True,
 ) -> xr.Dataset:
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
-    if threads:
-        import numba  # here, where the engine runs: a gather job reads tiles and never needs it
-
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    use_threads(threads)
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
         index, band, bands = start_time_band(starts, tile, tiles)

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 import xarray as xr
 
-from ...engine import LDSettings
+from ...engine import LDSettings, use_threads
 from ...errors import ConfigError
 from ...io.contracts import EQUILIBRIA, NHIM_ORBITS, UPO
 from ...io.datafile import open_stage_file, stage_dataset
@@ -61,10 +61,7 @@ def orbit_validation_dataset(parameters: dict, orbits: Sequence[StageInput], equ
     threads : int, optional
         Threads of the engine (default every core).
     """
-    if threads:
-        import numba  # here, where the engine runs
-
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    use_threads(threads)
     study, base_map, refinement = parameters["study"], parameters["base_map"], parameters["refinement"]
     energies, phases, slices = parameters["energies"], parameters["phases"], parameters["slices"]
     half_width, points, tolerance = parameters["half_width"], parameters["points"], parameters["tolerance"]

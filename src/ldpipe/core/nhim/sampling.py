@@ -51,6 +51,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import xarray as xr
 
+from ...engine import use_threads
 from ...errors import ConfigError
 from ...io.contracts import EQUILIBRIA, NHIM_SAMPLING
 from ...io.datafile import open_stage_file, stage_dataset
@@ -393,10 +394,7 @@ def nhim_sampling_dataset(parameters: dict, equilibria: str | os.PathLike | xr.D
     threads : int, optional
         Threads of the engine (default every core).
     """
-    if threads:
-        import numba  # here, where the engine runs
-
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    use_threads(threads)
     study, base_map, fixed, signs = parameters["study"], parameters["base_map"], parameters["fixed"], parameters["signs"]
     sampling, refinement = parameters["sampling"], parameters["refinement"]
     key = f"nhim_sampling.{study}"

@@ -21,6 +21,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
+from ...engine import use_threads
 from ...errors import ConfigError
 from ...io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
@@ -153,10 +154,7 @@ def nhim_study_dataset(parameters: dict, maps: Sequence[StageInput] = (), refere
     threads : int, optional
         Threads of the engine (default every core).
     """
-    if threads:
-        import numba  # here, where the engine runs
-
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    use_threads(threads)
     study, refinement, derived = parameters["study"], parameters["refinement"], parameters.get("derived")
     zoom = refinement.get("zoom", True)
     settings = RefinementSettings(**{k: v for k, v in refinement.items() if k != "zoom"})
