@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import xarray as xr
 
+from ..core.transport.saddle_flux import saddle_flux_dataset
 from .systems import equilibria_input
-from .arguments import AnySystem, energy_shorthand, family_config, family_equilibria, run_stage, \
-    system_config
+from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, \
+    family_equilibria, run_stage, system_config
 
 def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset | None = None,
                 threads: int | None = None, **spec) -> xr.Dataset:
@@ -36,8 +37,9 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
     >>> f = ldpipe.saddle_flux(b, energies={"excess": [0.1]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    return run_stage("saddle_flux", "saddle_flux", "saddle_flux", name, entry, system_config(system),
-                      lambda _: {"equilibria": equilibria_input(system, equilibria), "threads": threads})
+    with arguments_of("saddle_flux", f"saddle_flux.{name}"):
+        _, parameters = entry_parameters(entry, system_config(system), "saddle_flux", name, "saddle_flux")
+        return saddle_flux_dataset(parameters, equilibria_input(system, equilibria), threads=threads)
 
 
 def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dataset | None = None,
