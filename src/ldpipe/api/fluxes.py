@@ -5,9 +5,10 @@ from __future__ import annotations
 import xarray as xr
 
 from ..core.transport.saddle_flux import saddle_flux_dataset
+from ..core.transport.study import transport_dataset
 from .systems import equilibria_input
 from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, \
-    family_equilibria, run_stage, system_config
+    family_equilibria, system_config
 
 def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset | None = None,
                 threads: int | None = None, **spec) -> xr.Dataset:
@@ -82,5 +83,6 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
     """
     family, config = family_config(orbits)
     entry = {"orbits": family, **energy_shorthand(spec)}
-    return run_stage("transport", "transport", "transport", name, entry, config, lambda _: {
-        "upo": orbits, "equilibria": family_equilibria(orbits, equilibria), "threads": threads})
+    with arguments_of("transport", f"transport.{name}"):
+        _, parameters = entry_parameters(entry, config, "transport", name, "transport")
+        return transport_dataset(parameters, orbits, family_equilibria(orbits, equilibria), threads=threads)
