@@ -22,13 +22,13 @@ and how a file was written).
 """
 
 from .files import open_dataset, plot
-from .fluxes import saddle_flux, transport
+from .fluxes import normal_form, saddle_flux, transport
 from .invariant_sets import nhim
 from .maps import ld_map
 from .orbits import manifolds, periodic_orbits, poincare
 from .systems import equilibria, section, system
 
 __all__ = [
-    "equilibria", "ld_map", "manifolds", "nhim", "open_dataset", "periodic_orbits", "plot", "poincare",
-    "saddle_flux", "section", "system", "transport",
+    "equilibria", "ld_map", "manifolds", "nhim", "normal_form", "open_dataset", "periodic_orbits", "plot",
+    "poincare", "saddle_flux", "section", "system", "transport",
 ]
