@@ -1,5 +1,5 @@
-"""The Python API's Poincaré (Hamiltonian and vector field), saddle-flux, transport and NHIM calls
-against the stage functions.
+"""The Python API's Poincaré (Hamiltonian and vector field), saddle-flux, transport, normal-form and
+NHIM calls against the stage functions.
 
 The expected values are the pipeline's own files: each stage's ``run_*`` function (the one
 Snakemake's script calls) given ``parameters_from_config`` of the same configuration entry and
@@ -15,10 +15,11 @@ both sides, the API as the Datasets ``ldpipe.open_dataset`` reads, so that each 
 one API call. The systems and settings are those other tests compile: Barbanis'
 section of tests/stages/test_poincare.py, the quadratic 3 DoF saddle of
 tests/transport/test_saddle_flux.py, Barbanis' bottom family of tests/transport/test_stage.py (on
-smaller ensembles) and Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window),
-which is also the base map of the orbit validation (slices through points of the bottom family's
-orbit, as tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows) and of the NHIM
-sampling (its slices y = -7.02 and -6.98, each meeting the orbit).
+smaller ensembles), the normal forms of both saddles at tests/normal_form/test_stage.py's order and
+Fig. 4's slice y = -7 of tests/stages/test_nhim.py (on a smaller window), which is also the base
+map of the orbit validation (slices through points of the bottom family's orbit, as
+tests/stages/test_nhim_orbits.py's 2 DoF study, on smaller windows) and of the NHIM sampling (its
+slices y = -7.02 and -6.98, each meeting the orbit).
 """
 
 import json
@@ -36,6 +37,7 @@ from ldpipe.stages.plan import ld_map_tiles
 from ldpipe.stages.nhim import run_nhim_study
 from ldpipe.stages.nhim_orbits import run_nhim_orbit_validation
 from ldpipe.stages.nhim_sampling import run_nhim_sampling
+from ldpipe.stages.normal_form import run_normal_form
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.stages.poincare import run_poincare
 from ldpipe.stages.saddle_flux import run_saddle_flux
@@ -63,6 +65,15 @@ TRANSPORT = {"orbits": "bottom", "energies": {"excess": [0.125]}, "island": {"po
              "survival": {"initial_count": 200, "count": 20, "duration": 0.5, "decay_window": [0.2, 0.5],
                           "points": 10},
              "gap_times": {"count": 20}}
+#: Normal forms of the quadratic 3 DoF saddle compared with the saddle-flux study (as in
+#: tests/normal_form/test_stage.py), and of Barbanis' bottom saddle (2 DoF: one centre frequency,
+#: which its file holds as a scalar) compared with the transport study.
+NORMAL_FORMS = {
+    "nq": {"system": "quadratic", "energies": {"excess": [0.1, 1.0]}, "order": 6, "nhim_angles": 6,
+           "saddle_flux": "q"},
+    "nb": {"system": "barbanis_2dof", "saddle_near": [5.5, -7.0], "energies": {"excess": [0.125]}, "order": 6,
+           "nhim_angles": 8, "transport": "t"},
+}
 #: Fig. 4's slice y = -7 (tests/stages/test_nhim.py) on a 16 x 16 grid about its NHIM point (the
 #: orbit's crossing is (5.6025, 0.3768)), in two tiles.
 NHIM_MAP = {
@@ -101,6 +112,7 @@ def pipeline(tmp_path_factory):
         "saddle_flux": {"q": dict(SADDLE_FLUX)},
         "periodic_orbits": {"bottom": dict(FAMILY)},
         "transport": {"t": dict(TRANSPORT)},
+        "normal_form": {name: dict(entry) for name, entry in NORMAL_FORMS.items()},
         # the sampling's base map, under the name the API gives a map passed by its keys (never computed)
         "ld_maps": {"k-7.0": dict(NHIM_MAP), "base_map": dict(NHIM_MAP)},
         "nhim": {"refinement": dict(REFINEMENT), "studies": {"s": {"maps": ["k-7.0"], "reference": ["bottom"]}},
@@ -191,6 +203,40 @@ def test_transport_takes_the_familys_equilibria_and_no_others(pipeline):
                                           r"'barbanis_2dof' \{'builtin': 'barbanis_2dof', 'parameters': "
                                           r"\{'delta': -0.03\}\}, but the family is of 'barbanis_2dof'"):
         ldpipe.transport(orbits, name="t", equilibria=other, **arguments)
+
+
+def test_normal_form_equals_the_stage_functions_file(pipeline):
+    # the compared studies' files written by their stage functions and given to both sides, the
+    # API as Datasets in place of the names the entries give
+    config, folder = pipeline["config"], pipeline["folder"]
+    flux = run_saddle_flux(**parameters_from_config(config, "saddle_flux", "q"),
+                           equilibria=pipeline["quadratic_equilibria"], output=folder / "nf_q.nc")
+    transport = run_transport(**parameters_from_config(config, "transport", "t"), upo=pipeline["upo"],
+                              equilibria=pipeline["equilibria"], output=folder / "nf_t.nc")
+    quadratic_system = ldpipe.system(name="quadratic", **QUADRATIC)
+    stored = run_normal_form(**parameters_from_config(config, "normal_form", "nq"),
+                             equilibria=pipeline["quadratic_equilibria"], saddle_flux_file=flux,
+                             output=folder / "nq.nc")
+    result = ldpipe.normal_form(quadratic_system, name="nq", saddle_flux=ldpipe.open_dataset(flux),
+                                **without(without(NORMAL_FORMS["nq"], "system"), "saddle_flux"))
+    assert_same_file(result, ldpipe.open_dataset(stored))
+    assert "flux_monte_carlo" in result and "flux_orbit_action" not in result
+
+    stored = run_normal_form(**parameters_from_config(config, "normal_form", "nb"),
+                             equilibria=pipeline["equilibria"], transport_file=transport, output=folder / "nb.nc")
+    # here the equilibria given (the quadratic saddle's above found by the API with its own box)
+    result = ldpipe.normal_form(ldpipe.system(**BARBANIS), name="nb",
+                                equilibria=ldpipe.open_dataset(pipeline["equilibria"]),
+                                transport=ldpipe.open_dataset(transport),
+                                **without(without(NORMAL_FORMS["nb"], "system"), "transport"))
+    assert_same_file(result, ldpipe.open_dataset(stored))
+    assert "flux_orbit_action" in result and result.attrs["centre_frequencies"].shape == ()
+
+    # a compared study of another system is refused by argument, as the configuration refuses its key
+    with pytest.raises(ConfigError, match=r"^ldpipe.normal_form: argument 'transport': study 't' is of system "
+                                          r"'barbanis_2dof' \{.*\}, not 'quadratic' \{.*\}$"):
+        ldpipe.normal_form(quadratic_system, name="nq", transport=ldpipe.open_dataset(transport),
+                           **without(without(NORMAL_FORMS["nq"], "system"), "saddle_flux"))
 
 
 def test_nhim_equals_the_stage_functions_file_but_for_the_inputs_names(pipeline):

@@ -48,6 +48,21 @@ def test_round_trip_keeps_values_types_and_attributes(tmp_path):
         assert handle.data_model == "NETCDF4"
 
 
+def test_stage_dataset_is_the_file_read_back(tmp_path):
+    # A one-element vector attribute (the centre frequency of a 2 DoF saddle) is read back from
+    # netCDF as a scalar: the Dataset in memory must hold it so, and longer ones as vectors.
+    dataset = sample_dataset()
+    dataset.attrs.update({"one": np.array([1.5]), "two": np.array([1.0, 2.0]), "count": [3], "name": "x"})
+    dataset.energy.attrs["scale"] = np.array([2.5], dtype=np.float32)
+    product = datafile.stage_dataset(dataset, stage="probe", title="Probe file", parameters={"name": "x"})
+    assert dataset.attrs["one"].shape == (1,) and dataset.energy.attrs["scale"].shape == (1,)  # the caller's kept
+    written = open_stage_file(write_stage_file(product, tmp_path / "stage.nc"), stage="probe")
+    xr.testing.assert_identical(product, written)
+    for key in ("one", "two", "count"):
+        assert type(product.attrs[key]) is type(written.attrs[key]), key
+    assert type(product.energy.attrs["scale"]) is type(written.energy.attrs["scale"]) is np.float32
+
+
 def test_intermediate_files_are_written_uncompressed_with_the_same_values(tmp_path):
     """A contract's intermediate file (a map's tile, read once by the gather and deleted) is written
     without compression, also from data read out of a compressed file (whose variables carry that

@@ -13,19 +13,28 @@ def wall_times(dataset: xr.Dataset) -> list[str]:
     return [name for name in dataset.data_vars if name.endswith(("_seconds", "wall_time"))]
 
 
+def wall_time_attributes(dataset: xr.Dataset) -> list[str]:
+    """The global attributes that time a run (the normal form's ``normal_form_seconds``), as measured."""
+    return [name for name in dataset.attrs if name.endswith(("_seconds", "wall_time"))]
+
+
 def assert_same_file(result: xr.Dataset, stored: xr.Dataset, inputs: tuple[str, ...] = ()) -> None:
     """Data, coordinates and attributes (of the file and every variable) equal, bit for bit, and
     the same dtypes; but for ``history`` (when and how the file was written), the values of wall
-    times (their names, shapes and attributes compared) and the recorded parameters named in
-    ``inputs`` (the names of input files: a path in the pipeline, a Dataset's title in the API,
-    which the caller compares)."""
+    times (variables: their names, shapes and attributes compared; global attributes: their names
+    and types) and the recorded parameters named in ``inputs`` (the names of input files: a path
+    in the pipeline, a Dataset's title in the API, which the caller compares)."""
     result, stored = result.copy(deep=True), stored.copy(deep=True)
     assert wall_times(result) == wall_times(stored)
+    assert sorted(wall_time_attributes(result)) == sorted(wall_time_attributes(stored))
     for dataset in (result, stored):
         dataset.attrs.pop("history")
         for name in wall_times(dataset):
             assert dataset[name].attrs["units"] == "s" and np.all(dataset[name].values >= 0), name
             dataset[name].values[...] = 0.0
+        for name in wall_time_attributes(dataset):
+            assert isinstance(dataset.attrs[name], float) and dataset.attrs[name] >= 0, name
+            dataset.attrs[name] = 0.0
         parameters = json.loads(dataset.attrs["parameters"])
         for key in inputs:
             parameters.pop(key)

@@ -22,7 +22,7 @@ and how a file was written).
 """
 
 from .files import open_dataset, plot
-from .fluxes import saddle_flux, transport
+from .fluxes import normal_form, saddle_flux, transport
 from .invariant_sets import nhim, nhim_sampling, orbit_validation
 from .maps import ld_map
 from .measurements import accuracy_cost
@@ -30,6 +30,6 @@ from .orbits import manifolds, periodic_orbits, poincare
 from .systems import equilibria, section, system
 
 __all__ = [
-    "accuracy_cost", "equilibria", "ld_map", "manifolds", "nhim", "nhim_sampling", "open_dataset", "orbit_validation",
-    "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
+    "accuracy_cost", "equilibria", "ld_map", "manifolds", "nhim", "nhim_sampling", "normal_form", "open_dataset",
+    "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
 ]

@@ -7,28 +7,18 @@ from __future__ import annotations
 import contextlib
 import copy
 import re
-import tempfile
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Iterator
 
 import xarray as xr
 
 from ..config import validate_config
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, SADDLE_FLUX, TRANSPORT, UPO
+from ..io.contracts import EQUILIBRIA, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from ..stages.saddle_flux import run_saddle_flux
-from ..stages.transport import run_transport
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
-
-#: Each stage's function (the one Snakemake's script and the command line call) and its file's contract.
-RUNS = {
-    "saddle_flux": (run_saddle_flux, SADDLE_FLUX),
-    "transport": (run_transport, TRANSPORT),
-}
 
 
 @contextlib.contextmanager
@@ -74,22 +64,6 @@ def entry_parameters(entry: dict, config: dict, section: str, name: str, stage: 
     :func:`arguments_of`, so that a ConfigError names the arguments)."""
     config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
     return config, parameters_from_config(config, stage, name)
-
-
-def run_stage(function: str, stage: str, section: str, name: str, entry: dict, config: dict,
-               inputs: Callable[[dict], dict]) -> xr.Dataset:
-    """Run ``stage`` on ``entry``, put under ``section`` of ``config`` as the entry ``name``: the
-    configuration validated (defaults filled), the stage's parameters taken from it, and its
-    ``run_*`` function (:data:`RUNS`) given them and ``inputs(config)`` (the files it reads, threads
-    ...), writing into a scratch folder; returns the file it wrote, read back. A ConfigError names
-    the arguments of ``ldpipe.<function>``."""
-    run, contract = RUNS[stage]
-    with arguments_of(function, f"{section}.{name}"):
-        config = validate_config(copy.deepcopy({**config, section: {name: entry}}))
-        parameters = parameters_from_config(config, stage, name)
-        with tempfile.TemporaryDirectory() as scratch:
-            path = run(**parameters, **inputs(config), output=Path(scratch) / f"{stage}.nc")
-            return open_stage_file(path, stage=contract)
 
 
 def family_config(orbits: xr.Dataset) -> tuple[str, dict]:

@@ -70,12 +70,23 @@ def _json_default(value):
     raise TypeError(f"cannot record {type(value).__name__} in the parameters attribute")
 
 
+def _as_read_back(value):
+    """An attribute as netCDF reads it back: a one-element numeric vector comes back as its element
+    (a netCDF attribute is always a vector, and a vector of one is read as a scalar)."""
+    if isinstance(value, (np.ndarray, list, tuple)) and not isinstance(value, str):
+        array = np.asarray(value)
+        if array.size == 1 and array.ndim > 0 and array.dtype.kind in "fiu":
+            return array.reshape(-1)[0]
+    return value
+
+
 def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, parameters: dict) -> xr.Dataset:
     """``dataset`` as the file of ``stage`` (its contract, or a bare stage name) holds it and
     :func:`open_stage_file` reads it back: ldpipe's global attributes (the parameters as JSON, the
     version, the commit), flags kept as booleans with their CF flag attributes, text as fixed-width
-    strings. Every library function of a stage product returns its Dataset through this, so the
-    Python API hands back, in memory, what the pipeline writes. Floating-point data must be finite.
+    strings, one-element numeric attributes as scalars. Every library function of a stage product
+    returns its Dataset through this, so the Python API hands back, in memory, what the pipeline
+    writes. Floating-point data must be finite.
     """
     stage = stage.stage if isinstance(stage, StageFile) else stage
     _check_finite(dataset, f"the {stage!r} stage's data")
@@ -94,6 +105,9 @@ def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, pa
             "parameters": json.dumps(parameters, sort_keys=True, default=_json_default),
         }
     )
+    dataset.attrs.update({key: _as_read_back(value) for key, value in dataset.attrs.items()})
+    for variable in dataset.variables.values():
+        variable.attrs.update({key: _as_read_back(value) for key, value in variable.attrs.items()})
     for variable in dataset.data_vars.values():
         if variable.dtype.kind == "b":  # netCDF has no bool type: the file keeps 0/1 bytes and says what they mean
             variable.attrs.setdefault("flag_values", np.array([0, 1], dtype=np.int8))
