@@ -68,7 +68,7 @@ class Scheme:
         return 64
 
     def window(self, settings) -> float:
-        """Default quadrature window (see :mod:`ldpipe.engine.quadrature`), in step lengths."""
+        """Default quadrature window (``templates/block_quadrature.py``'s ``fast``), in step lengths."""
         raise NotImplementedError
 
     def check_system(self, system) -> None:
