@@ -1,7 +1,7 @@
 """Maps without their LD (``ld: false``): the flow map and its FTLE alone, by the flow driver.
 
-- The same steps as the LD engine's (``vector_field_endpoints`` shares its attempt and step
-  control), so the flow map, exit times, step counts and FTLE equal those of the map computed with
+- The same steps as the LD engine's (``vector_field_endpoints`` runs its step loop,
+  ``trajectory``), so the flow map, exit times, step counts and FTLE equal those of the map computed with
   its LD (``ftle: true``, itself checked against closed forms and scipy in test_ftle.py) bit for bit.
 - A shear flow u = 0.1 y, v = 0.05 (closed form: its flow map over T = 1 is (x + 0.1 y, y + 0.05),
   C = [[1, 0.1], [0.1, 1.01]]) gives its FTLE.

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ldpipe.engine.codegen import load_engine
-from ldpipe.engine.quadrature import legendre_rule
+from ldpipe.engine.gauss_rules import legendre_rule
 from ldpipe.systems import make_system
 
 ORDER = 18

@@ -12,7 +12,7 @@ from scipy.integrate._ivp import dop853_coefficients as scipy_dop853
 
 from ldpipe.engine.schemes import tableaux
 from ldpipe.engine.codegen import load_engine
-from ldpipe.engine.quadrature import folded_jacobi_rule, jacobi_rule, legendre_rule
+from ldpipe.engine.gauss_rules import folded_jacobi_rule, jacobi_rule, legendre_rule
 from ldpipe.engine.schemes import scheme_source
 from ldpipe.engine.schemes.dop853 import nystrom_form
 

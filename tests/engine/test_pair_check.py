@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
+from ldpipe.engine.gauss_rules import folded_jacobi_rule, legendre_rule
 from support.step_rules import rule_engine
 
 NODES = 4  # dop853's rule at rtol 1e-4 and 1e-5, where these flags are common

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.quadrature import legendre_rule
+from ldpipe.engine.gauss_rules import legendre_rule
 from support.step_integral import from_roots
 from support.step_rules import rule_engine
 

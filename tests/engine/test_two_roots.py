@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ldpipe.engine.quadrature import legendre_rule
+from ldpipe.engine.gauss_rules import legendre_rule
 from support.step_integral import from_roots, mpmath_step_integral
 from support.step_rules import integrand_kind, rule_engine, rules
 

@@ -19,7 +19,7 @@ def rule_engine():
 
 def rules(nodes: int, p: float):
     """(glx, glw, gjx, gjf): Gauss–Legendre on [0, 1] and Gauss–Jacobi for the weight x^p, folded."""
-    from ldpipe.engine.quadrature import folded_jacobi_rule, legendre_rule
+    from ldpipe.engine.gauss_rules import folded_jacobi_rule, legendre_rule
 
     glx, glw = legendre_rule(nodes)
     gjx, gjf = folded_jacobi_rule(nodes, p)

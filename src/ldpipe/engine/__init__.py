@@ -14,7 +14,8 @@ Modules, one job each:
   and what the code generator needs of a scheme;
 - :mod:`~ldpipe.engine.integrands` — the LD integrands (p = 1/2, 1, general p, arc length) and
   their registry;
-- :mod:`~ldpipe.engine.quadrature` — Gauss rules of the LD quadrature;
+- :mod:`~ldpipe.engine.gauss_rules` — the Gauss rules of the LD quadrature (the quadrature itself
+  is compiled, in the templates);
 - :mod:`~ldpipe.engine.templates` — the compiled code as source templates: the LD integral over
   a step (cusps of |v|^p included), region exit and escape events, the fixed-step schemes,
   the block driver (lane refill, step control), and the driver of :mod:`ldpipe.core.trajectories` (samples,

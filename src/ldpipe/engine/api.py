@@ -10,7 +10,7 @@ import numpy as np
 from .integrator import get_runner, run_units
 from .integrands import integrand_for
 from .kinetic import to_engine_states, to_momenta
-from .quadrature import folded_jacobi_rule, legendre_rule
+from .gauss_rules import folded_jacobi_rule, legendre_rule
 from .schemes import check_scheme, get_scheme
 from .settings import LDSettings, engine_escape_radius
 

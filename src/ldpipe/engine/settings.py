@@ -217,7 +217,7 @@ class DescriptorSettings:
         length) or 12-16 (|v|^p) for taylor; 6 for the fixed-step schemes).
     window : float or None
         The LD quadrature treats a velocity root within this many step lengths outside a step
-        as a singularity of that step (see :mod:`ldpipe.engine.quadrature`). None: the
+        as a singularity of that step (``templates/block_quadrature.py``'s ``fast``). None: the
         scheme's default (the record's ``window``: 0.1 step lengths for the adaptive schemes
         at rtol >= 1e-7, 0.2 otherwise).
     """

@@ -19,7 +19,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..io.contracts import NORMAL_FORM  # noqa: E402
-from ..io.datafile import open_stage_file  # noqa: E402
 from . import style  # noqa: E402
 
 
@@ -64,10 +63,7 @@ def normal_form_figure(data):
                 continue
             reference = _at(excess, flux, e[inside])
             deviation = v[inside] / reference - 1
-            for sign, shape in ((1, marker), (-1, "o")):
-                keep = np.sign(deviation) == sign
-                ax.plot(e[inside][keep], np.abs(deviation[keep]), shape, color=color, mfc="none", ms=8,
-                        label=f"{name}, {'above' if sign > 0 else 'below'}" if keep.any() else None)
+            style.plot_deviation(ax, e[inside], deviation, marker, color, name)
             if s is not None:
                 ax.plot(e[inside], 3 * s[inside] / reference, "_", color=color, ms=12, mew=2,
                         label=r"Monte Carlo $3\sigma$")
@@ -97,5 +93,4 @@ def normal_form_figure(data):
 
 def draw_normal_form(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Draw the figure of the normal-form file ``study`` to ``png`` (and ``pdf``)."""
-    data = open_stage_file(study, stage=NORMAL_FORM)
-    return style.save_figure(normal_form_figure(data), png, pdf)
+    return style.save_study_figure(normal_form_figure, NORMAL_FORM, study, png, pdf)

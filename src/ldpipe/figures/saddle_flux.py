@@ -18,7 +18,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..io.contracts import SADDLE_FLUX  # noqa: E402
-from ..io.datafile import open_stage_file  # noqa: E402
 from . import style  # noqa: E402
 
 
@@ -53,10 +52,7 @@ def saddle_flux_figure(data):
         deviation = {"one-way": (one_way / harmonic - 1, "+", "tab:orange"),
                      "reactive (Monte Carlo)": (mc / harmonic - 1, "x", "tab:blue")}
         for name, (value, marker, color) in deviation.items():
-            for sign, shape in ((1, marker), (-1, "o")):
-                keep = np.sign(value) == sign
-                ax.plot(excess[keep], np.abs(value[keep]), shape, color=color, mfc="none", ms=8,
-                        label=f"{name}, {'above' if sign > 0 else 'below'} harmonic" if keep.any() else None)
+            style.plot_deviation(ax, excess, value, marker, color, name, "harmonic")
         ax.plot(excess, 3 * err / harmonic, "_", color="tab:blue", ms=12, mew=2, label=r"Monte Carlo $3\sigma$")
         samples = data.monte_carlo_samples.values
         reactive = data.monte_carlo_reactive.values
@@ -74,5 +70,4 @@ def saddle_flux_figure(data):
 
 def draw_saddle_flux(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Draw the figure of the saddle-flux file ``study`` to ``png`` (and ``pdf``)."""
-    data = open_stage_file(study, stage=SADDLE_FLUX)
-    return style.save_figure(saddle_flux_figure(data), png, pdf)
+    return style.save_study_figure(saddle_flux_figure, SADDLE_FLUX, study, png, pdf)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import sys
 
@@ -25,6 +25,8 @@ if "matplotlib.pyplot" not in sys.modules:
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import Colormap  # noqa: E402
+
+from ..io.datafile import open_stage_file  # noqa: E402
 
 #: Colour map of every LD map; forbidden points (masked) are drawn in FORBIDDEN_COLOR.
 LD_COLORMAP = "viridis"
@@ -169,3 +171,20 @@ def save_figure(figure, png: str | Path, pdf: str | Path | None = None) -> list[
         written.append(path)
     plt.close(figure)
     return written
+
+
+def save_study_figure(figure_of: Callable, stage, study: str | Path, png: str | Path,
+                      pdf: str | Path | None = None) -> list[Path]:
+    """Draw ``figure_of`` the file ``study`` of ``stage`` (a :class:`~ldpipe.io.contracts.StageFile`)
+    and write it to ``png`` (and ``pdf``): the whole of a one-study figure's ``draw_*``."""
+    return save_figure(figure_of(open_stage_file(study, stage=stage)), png, pdf)
+
+
+def plot_deviation(ax, x: np.ndarray, deviation: np.ndarray, marker: str, color, name: str, reference: str = "") -> None:
+    """|deviation| against x for a log scale: ``marker`` where it is positive, hollow circles where
+    negative, labelled "``name``, above (below) ``reference``" when there are any."""
+    for sign, shape in ((1, marker), (-1, "o")):
+        keep = np.sign(deviation) == sign
+        ax.plot(x[keep], np.abs(deviation[keep]), shape, color=color, mfc="none", ms=8,
+                label=f"{name}, {'above' if sign > 0 else 'below'}{' ' + reference if reference else ''}"
+                if keep.any() else None)

@@ -21,7 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..io.contracts import TRANSPORT  # noqa: E402
-from ..io.datafile import open_stage_file, stage_parameters  # noqa: E402
+from ..io.datafile import stage_parameters  # noqa: E402
 from ..systems import make_system  # noqa: E402
 from . import style  # noqa: E402
 
@@ -147,5 +147,4 @@ def transport_figure(data):
 
 def draw_transport(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Draw the figure of the transport file ``study`` to ``png`` (and ``pdf``)."""
-    data = open_stage_file(study, stage=TRANSPORT)
-    return style.save_figure(transport_figure(data), png, pdf)
+    return style.save_study_figure(transport_figure, TRANSPORT, study, png, pdf)

@@ -12,6 +12,7 @@ The methods that pick a default from the other settings take the engine's settin
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -21,8 +22,9 @@ from ..stepping import SchemeSource
 
 
 @dataclass(frozen=True)
-class Scheme:
-    """One scheme of the LD engine.
+class Scheme(ABC):
+    """One scheme of the LD engine (abstract: a record is an instance of a subclass that gives
+    :meth:`nodes`, :meth:`window` and :meth:`source`; the others have defaults).
 
     Attributes
     ----------
@@ -59,26 +61,26 @@ class Scheme:
         """The order in use with ``settings``, when the scheme chooses it per call (else None)."""
         return None
 
+    @abstractmethod
     def nodes(self, settings) -> int:
         """Default Gauss nodes per step of the LD quadrature."""
-        raise NotImplementedError
 
     def lanes(self, settings) -> int:
         """Default trajectories per block (lanes advanced together): 64."""
         return 64
 
+    @abstractmethod
     def window(self, settings) -> float:
-        """Default quadrature window (see :mod:`ldpipe.engine.quadrature`), in step lengths."""
-        raise NotImplementedError
+        """Default quadrature window (``templates/block_quadrature.py``'s ``fast``), in step lengths."""
 
     def check_system(self, system) -> None:
         """Raise ValueError, saying why, if the scheme cannot integrate ``system`` for a reason of
         its own (the default: none). Whether it takes a general flow at all is the registry's
         check, :func:`ldpipe.engine.schemes.check_scheme`, which calls this."""
 
+    @abstractmethod
     def source(self, system, lanes: int, order: int | None = None) -> SchemeSource:
         """The compiled parts of the scheme for ``system`` and ``lanes`` lanes."""
-        raise NotImplementedError
 
     def coefficients(self) -> np.ndarray:
         """The step's run-time coefficients, which the LD driver puts at the end of the block

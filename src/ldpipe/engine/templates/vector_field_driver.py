@@ -22,6 +22,9 @@ and the outcome codes of ``flow_status.py``.
 
 FSAL = 12  # the stage evaluated at the step's end
 DENSE_STAGES = 16
+# The LD driver's outcome beside ``flow_status.py``'s: stopped at the region box's first exit
+# (or started outside it).
+LEFT_REGION = 4
 
 
 @njit(**JIT)
@@ -62,11 +65,12 @@ def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_regio
 
 
 @njit(**JIT)
-def step_buffers():
+def step_buffers(radius):
     """The scratch of a trajectory's steps: the stages K, the state xv, a stage's state xs, the
-    step's end xn, f at the starting step's trial f1, and the dense output QC, VC (one lane)."""
+    step's end xn, f at the starting step's trial f1, the dense output QC, VC (one lane), and
+    the escape box [elo, ehi] of ``radius``."""
     return (np.zeros((DENSE_STAGES, N)), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros((NC, N, 1)),
-            np.zeros((NC, N, 1)))
+            np.zeros((NC, N, 1)), np.full(N, -radius), np.full(N, radius))
 
 
 # Inlined by numba where it is called (15 times a step): the stage sums then compile in their
@@ -160,74 +164,127 @@ def beyond(xn, radius):
     return out
 
 
+@njit(**JIT)
+def trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, radius, max_steps, buffers, ld_rule,
+               section):
+    """Trajectory k of ``states`` from t0 over |t - t0| <= tau, the step loop of the three drivers:
+    (status, |t - t0| reached, step attempts, LD, exit face, crossings kept), the end state in
+    ``buffers``' xv (``step_buffers(radius)``).
+
+    What an accepted step does besides moving on is given by the arguments, each a tuple or None:
+    ``ld_rule`` = (kind, p_exp, glx, glw, gjx, gjf, window, roots), ``step_ld``'s, adds the step's
+    LD; ``section`` = (index, value, crossing sign in integration order, o_crossings,
+    o_crossing_times) records the crossings of x[index] = value in row k of the outputs, up to
+    their width, and stops at the last; the region box [lo, hi] (``has_region``) stops at its
+    first exit (status LEFT_REGION, the face in ``face``). The dense output is formed on every
+    accepted step for an LD or a section, else only on the step that passes the escape radius,
+    to locate the escape. numba compiles a function once per argument type and prunes the
+    branches of a None argument, so each driver's copy holds only its own work.
+    """
+    K, xv, xs, xn, f1, QC, VC, elo, ehi = buffers
+    if ld_rule is not None:
+        kind, p_exp, glx, glw, gjx, gjf, window, roots = ld_rule
+    if section is not None:
+        sec_index, sec_value, crossing_sign, o_crossings, o_crossing_times = section
+        max_cross = o_crossing_times.shape[1]
+    every_dense = ld_rule is not None or section is not None
+    outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs,
+                                    f1)
+    elapsed = 0.0
+    ld = 0.0
+    steps = 0
+    crossings = 0
+    face = 0
+    rejected = False
+    status = FLOW_RUNNING
+    if outcome == START_FAILED:
+        status = FLOW_STEP_UNDERFLOW
+    elif outcome == START_ESCAPED:
+        status = FLOW_ESCAPED
+    elif outcome == START_OUTSIDE_REGION:
+        status = LEFT_REGION
+        face = outside_face(xv, lo, hi)
+    while status == FLOW_RUNNING:  # a step attempt a pass
+        # The attempt and dense output are called from this loop itself: a helper around them ran
+        # 10-15 % slower, even inlined by numba (inline="always"), whose copies of its array
+        # arguments cost a reference-count pair each per attempt.
+        habs = clipped_step(habs, elapsed, tau)
+        h = direction * habs
+        t = t0 + direction * elapsed
+        err = attempt(xv, t, h, K, xs, xn, rtol, atol)
+        steps += 1
+        accepted = acceptable(xn, err)
+        if accepted:
+            escapes = beyond(xn, radius)
+            if every_dense or escapes:
+                dense(xv, t, h, K, xs, QC, VC)
+            theta = NO_EXIT  # where in the step (x units) the trajectory stops, if <= 1
+            if has_region:
+                theta, face = first_exit(QC, 0, NC, N, lo, hi)
+                if theta <= 1.0:
+                    status = LEFT_REGION
+                else:
+                    face = 0
+            if escapes:
+                theta_e = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
+                if theta_e < theta:
+                    theta = theta_e
+                    status = FLOW_ESCAPED
+                    face = 0
+            if section is not None:
+                if max_cross > 0:
+                    gp = xv[sec_index] - sec_value
+                    g = xn[sec_index] - sec_value
+                    if (crossing_sign > 0 and gp < 0.0 and g >= 0.0) or (crossing_sign < 0 and gp > 0.0 and g <= 0.0):
+                        xc = 1.0 if g == 0.0 else refine_root(QC, sec_index, 0, NC, sec_value, 0.0, 1.0, gp, g)
+                        if xc <= theta:  # (xc <= 1: on the step)
+                            for i in range(N):
+                                o_crossings[k, crossings, i] = horner(QC, i, 0, NC, xc)
+                            o_crossing_times[k, crossings] = direction * (elapsed + xc * habs)
+                            crossings += 1
+                            if crossings >= max_cross:
+                                theta = xc
+                                status = FLOW_CROSSINGS_FULL
+            if status != FLOW_RUNNING:
+                if ld_rule is not None:
+                    ld += habs * step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots)
+                elapsed += theta * habs
+                for i in range(N):
+                    xv[i] = horner(QC, i, 0, NC, theta)
+                break
+            if ld_rule is not None:
+                ld += habs * step_ld(VC, 1.0, kind, p_exp, glx, glw, gjx, gjf, window, roots)
+            commit(xv, xn, K)
+            elapsed, last = advance(elapsed, habs, tau)
+            if last:
+                status = FLOW_COMPLETED
+                break
+        habs, failed = step_after(habs, err, accepted, rejected, tau)
+        rejected = not accepted
+        if failed or steps >= max_steps:
+            status = FLOW_STEP_UNDERFLOW
+    return status, elapsed, steps, ld, face, crossings
+
+
 @njit(nogil=True, **JIT)
 def vector_field_process(
     states, start, stop, t0, direction, tau, rtol, atol, kind, p_exp,
     lo, hi, has_region, radius, max_steps, glx, glw, gjx, gjf, window,
     o_ld, o_time, o_escaped, o_left, o_steps, o_failed, o_end, o_face,
 ):  # fmt: skip
-    K, xv, xs, xn, f1, QC, VC = step_buffers()
+    buffers = step_buffers(radius)
+    xv = buffers[1]
     # component_integral's roots: at most 2 per sample interval and 1 per sample (its docstring)
     roots = np.zeros(6 * SAMPLES_PER_STEP + 16 + int(12 * window * SAMPLES_PER_STEP))
-    elo = np.full(N, -radius)
-    ehi = np.full(N, radius)
+    ld_rule = (kind, p_exp, glx, glw, gjx, gjf, window, roots)
     for k in range(start, stop):
-        outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K,
-                                        xs, f1)
-        elapsed = 0.0
-        ld = 0.0
-        steps = 0
-        rejected = False
-        failed = outcome == START_FAILED
-        escaped = outcome == START_ESCAPED
-        left = outcome == START_OUTSIDE_REGION
-        face = outside_face(xv, lo, hi) if left else 0
-        while outcome == START:  # a step attempt a pass, until the trajectory ends (break)
-            # The attempt and dense output are written out here and in vector_field_crossings: a helper
-            # around them ran 10-15 % slower, even inlined by numba (inline="always"), whose copies of
-            # its array arguments cost a reference-count pair each per attempt.
-            habs = clipped_step(habs, elapsed, tau)
-            h = direction * habs
-            t = t0 + direction * elapsed
-            err = attempt(xv, t, h, K, xs, xn, rtol, atol)
-            steps += 1
-            accepted = acceptable(xn, err)
-            if accepted:
-                dense(xv, t, h, K, xs, QC, VC)
-                theta = NO_EXIT
-                if has_region:
-                    theta, face = first_exit(QC, 0, NC, N, lo, hi)
-                    left = theta <= 1.0
-                    if not left:
-                        face = 0
-                if beyond(xn, radius):
-                    theta_e = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
-                    if theta_e < theta:
-                        theta = theta_e
-                        escaped = True
-                        left = False
-                        face = 0
-                if left or escaped:
-                    ld += habs * step_ld(VC, theta, kind, p_exp, glx, glw, gjx, gjf, window, roots)
-                    elapsed += theta * habs
-                    for i in range(N):
-                        xv[i] = horner(QC, i, 0, NC, theta)
-                    break
-                ld += habs * step_ld(VC, 1.0, kind, p_exp, glx, glw, gjx, gjf, window, roots)
-                commit(xv, xn, K)
-                elapsed, last = advance(elapsed, habs, tau)
-                if last:
-                    break
-            habs, failed = step_after(habs, err, accepted, rejected, tau)
-            rejected = not accepted
-            if failed or steps >= max_steps:
-                failed = True
-                break
+        status, elapsed, steps, ld, face, _ = trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region,
+                                                         radius, max_steps, buffers, ld_rule, None)
         o_ld[k] = ld
         o_time[k] = elapsed
-        o_escaped[k] = escaped
-        o_left[k] = left
-        o_failed[k] = failed
+        o_escaped[k] = status == FLOW_ESCAPED
+        o_left[k] = status == LEFT_REGION
+        o_failed[k] = status == FLOW_STEP_UNDERFLOW
         o_steps[k] = steps
         o_face[k] = face
         for i in range(N):
@@ -248,63 +305,15 @@ def vector_field_crossings(
     on a step-size underflow. Times are signed, from t0: direction * |t - t0|. Outcomes
     (``o_status``): the codes of ``flow_status.py``.
     """
-    K, xv, xs, xn, f1, QC, VC = step_buffers()
-    elo = np.full(N, -radius)
-    ehi = np.full(N, radius)
-    max_cross = o_crossing_times.shape[1]
-    crossing_sign = sec_direction * direction  # the sign change seen in integration order
+    buffers = step_buffers(radius)
+    elo, ehi = buffers[7], buffers[8]
+    # the sign change seen in integration order
+    section = (sec_index, sec_value, sec_direction * direction, o_crossings, o_crossing_times)
     for k in range(start, stop):
         # no region: the escape box in its place
-        outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, elo, ehi, False, elo, ehi, xv, K, xs,
-                                        f1)
-        elapsed = 0.0
-        steps = 0
-        crossings = 0
-        rejected = False
-        status = FLOW_RUNNING
-        if outcome == START_FAILED:
-            status = FLOW_STEP_UNDERFLOW
-        elif outcome == START_ESCAPED:
-            status = FLOW_ESCAPED
-        while status == FLOW_RUNNING:  # a step attempt a pass
-            habs = clipped_step(habs, elapsed, tau)
-            h = direction * habs
-            t = t0 + direction * elapsed
-            err = attempt(xv, t, h, K, xs, xn, rtol, atol)
-            steps += 1
-            accepted = acceptable(xn, err)
-            if accepted:
-                dense(xv, t, h, K, xs, QC, VC)
-                x_stop = 1.0
-                if beyond(xn, radius):
-                    x_stop = min(first_exit(QC, 0, NC, N, elo, ehi)[0], 1.0)
-                    status = FLOW_ESCAPED
-                if max_cross > 0:
-                    gp = xv[sec_index] - sec_value
-                    g = xn[sec_index] - sec_value
-                    if (crossing_sign > 0 and gp < 0.0 and g >= 0.0) or (crossing_sign < 0 and gp > 0.0 and g <= 0.0):
-                        xc = 1.0 if g == 0.0 else refine_root(QC, sec_index, 0, NC, sec_value, 0.0, 1.0, gp, g)
-                        if xc <= x_stop:
-                            for i in range(N):
-                                o_crossings[k, crossings, i] = horner(QC, i, 0, NC, xc)
-                            o_crossing_times[k, crossings] = direction * (elapsed + xc * habs)
-                            crossings += 1
-                            if crossings >= max_cross:
-                                x_stop = xc
-                                status = FLOW_CROSSINGS_FULL
-                if status != FLOW_RUNNING:
-                    elapsed += x_stop * habs
-                    break
-                commit(xv, xn, K)
-                elapsed, last = advance(elapsed, habs, tau)
-                if last:
-                    status = FLOW_COMPLETED
-                    break
-            habs, failed = step_after(habs, err, accepted, rejected, tau)
-            rejected = not accepted
-            if failed or steps >= max_steps:
-                status = FLOW_STEP_UNDERFLOW
+        status, elapsed, steps, _, _, crossings = trajectory(states, k, t0, direction, tau, rtol, atol, elo, ehi, False,
+                                                             radius, max_steps, buffers, None, section)
         o_crossing_count[k] = crossings
         o_status[k] = status
-        o_time[k] = direction * elapsed if outcome == START else 0.0  # not started: 0.0, not -0.0 backward
+        o_time[k] = direction * elapsed if steps > 0 else 0.0  # not started (no attempt): 0.0, not -0.0 backward
         o_steps[k] = steps

@@ -1,4 +1,4 @@
-"""The LD quadrature's numerical choices: the Gauss rules.
+"""The Gauss rules of the LD quadrature (Legendre, and Jacobi for the cusps), built once per order.
 
 The integrand kinds are in :mod:`ldpipe.engine.integrands`.
 
