@@ -7,6 +7,7 @@ The systems and settings are those the stage tests already compile (Hénon–Hei
 rtol 1e-8, tests/stages/test_ld.py; Barbanis' orbits and manifolds at the quick run's settings).
 """
 
+import inspect
 import subprocess
 import sys
 
@@ -238,3 +239,13 @@ def test_a_flow_map_without_its_ld_is_returned_as_the_stage_computes_it(tmp_path
     expected = compute_ld_map(parameters_from_config(config, "ld", "s"), None, show_progress=False)
     for name, variable in expected.data_vars.items():
         np.testing.assert_array_equal(flow_map[name].values, variable.values, err_msg=name)
+
+
+def test_every_api_docstring_is_whole_and_names_its_shared_arguments():
+    # The shared entries (ldpipe.api.arguments.SHARED_DOCS) are substituted at import: a placeholder
+    # left, or a function that takes `threads` with no word on it, would reach help() as it is.
+    for name in ldpipe.API:
+        function = getattr(ldpipe, name)
+        assert "%(" not in function.__doc__, name
+        if "threads" in inspect.signature(function).parameters:
+            assert "threads : int, optional" in function.__doc__, name

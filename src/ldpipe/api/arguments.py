@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import xarray as xr
 
@@ -19,6 +19,27 @@ from ..io.datafile import open_stage_file, stage_parameters
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
+
+#: What several functions' docstrings say alike, written once: ``%(NAME)s`` in a docstring, at
+#: the indentation of a numpydoc section's entry, stands for the entry NAME (:func:`shared_docs`).
+SHARED_DOCS = {
+    "equilibria": """equilibria : xarray.Dataset, optional
+        The system's equilibria (:func:`ldpipe.equilibria`), where the saddle and an excess energy
+        are read; default computed now with the system's ``equilibria`` settings, as the pipeline
+        does (none for a vector field, which has neither).""",
+    "threads": """threads : int, optional
+        Threads of the engine (default every core).""",
+    "raises": """Raises
+    ------
+    ConfigError
+        naming the argument, with the message a bad key of the entry gets.""",
+}
+
+
+def shared_docs(function: Callable) -> Callable:
+    """``function`` with the ``%(NAME)s`` of its docstring replaced by :data:`SHARED_DOCS`' entries."""
+    function.__doc__ = re.sub(r"%\((\w+)\)s", lambda match: SHARED_DOCS[match.group(1)], function.__doc__)
+    return function
 
 
 @contextlib.contextmanager

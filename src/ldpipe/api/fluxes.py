@@ -11,9 +11,13 @@ from ..errors import ConfigError
 from ..io.contracts import SADDLE_FLUX, TRANSPORT, StageFile
 from ..io.datafile import open_stage_file, stage_parameters
 from .systems import equilibria_input
-from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, \
-    family_equilibria, system_config
+from .arguments import (
+    AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, family_equilibria, shared_docs,
+    system_config,
+)
 
+
+@shared_docs
 def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset | None = None,
                 threads: int | None = None, **spec) -> xr.Dataset:
     """The reactive flux over an index-1 saddle of a 2 or 3 DoF system (the saddle-flux stage),
@@ -25,10 +29,8 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
         The system.
     name : str
         The entry's name (default ``"flux"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (default computed now).
-    threads : int, optional
-        Threads (default every core).
+    %(equilibria)s
+    %(threads)s
     **spec
         The entry's keys: ``energies``, ``saddle_near``, ``monte_carlo``, ...
 
@@ -47,6 +49,7 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
         return saddle_flux_dataset(parameters, equilibria_input(system, equilibria), threads=threads)
 
 
+@shared_docs
 def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dataset | None = None,
               threads: int | None = None, **spec) -> xr.Dataset:
     """Transport over the saddle of a 2 DoF family (the transport stage): the flux by the orbit's
@@ -63,8 +66,7 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
         equilibria stage finds them with the system's ``equilibria`` settings. The study reads the
         well, the saddle's centre frequencies and every other saddle from them, and a family's file
         does not record those settings, so they cannot be found again from ``orbits`` alone.
-    threads : int, optional
-        Threads (default every core).
+    %(threads)s
     **spec
         The entry's keys: ``energies`` (some of the family's target energies), ``island``,
         ``monte_carlo``, ``survival``, ``gap_times``.
@@ -92,6 +94,7 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
         return transport_dataset(parameters, orbits, family_equilibria(orbits, equilibria), threads=threads)
 
 
+@shared_docs
 def normal_form(system: AnySystem, *, name: str = "normal_form", equilibria: xr.Dataset | None = None,
                 transport: xr.Dataset | None = None, saddle_flux: xr.Dataset | None = None,
                 **spec) -> xr.Dataset:
@@ -105,8 +108,7 @@ def normal_form(system: AnySystem, *, name: str = "normal_form", equilibria: xr.
         The system.
     name : str
         The entry's name (default ``"normal_form"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (default computed now).
+    %(equilibria)s
     transport : xarray.Dataset, optional
         A transport study of the same system (:func:`transport`; the entry's ``transport`` name
         replaced by it), whose orbits' actions and Monte Carlo fluxes are copied in.

@@ -16,9 +16,13 @@ from ..core.nhim.study import nhim_study_dataset
 from ..errors import ConfigError
 from ..io.contracts import LD_GRID, UPO
 from ..io.datafile import open_stage_file, stage_parameters
-from .arguments import AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, system_config
+from .arguments import (
+    AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, shared_docs, system_config,
+)
 from .systems import equilibria_input
 
+
+@shared_docs
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
          threads: int | None = None, **refinement) -> xr.Dataset:
     """NHIM points of variable-time LD maps, detected and refined (the NHIM study stage).
@@ -32,8 +36,7 @@ def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequen
     references : sequence of xarray.Dataset
         Periodic-orbit families (:func:`periodic_orbits`), each with an orbit at every map's energy:
         every point is compared with its crossing of the map's section.
-    threads : int, optional
-        Threads (default every core).
+    %(threads)s
     **refinement
         Keys of the configuration's ``nhim.refinement`` block: ``tolerance``, ``rtol``, ``atol``,
         ``max_time``, ``zoom``, ...
@@ -98,6 +101,7 @@ def refinement_argument(function: str, refinement: dict | None, config: dict) ->
     return refinement
 
 
+@shared_docs
 def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = "study",
                      base_map: xr.Dataset | dict, equilibria: xr.Dataset | None = None, refinement: dict | None = None,
                      threads: int | None = None, **spec) -> xr.Dataset:
@@ -126,8 +130,7 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
         required, since a family's file does not record the system's equilibrium-search settings.
     refinement : dict, optional
         Keys of the configuration's ``nhim.refinement`` block (``tolerance``, ``rtol``, ...).
-    threads : int, optional
-        Threads (default every core).
+    %(threads)s
     **spec
         The entry's keys: ``energies`` (``{"excess": [...]}``, ``{"total": [...]}``, or a list of
         total energies), ``phases``, ``slices``, ``half_width``, ``points``, ``boundary_cells``,
@@ -139,10 +142,7 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
         The study's file (contract ``nhim_orbits``): per slice its ``status``, ``reason``,
         ``distance`` ...; the refined crossings along ``crossing``.
 
-    Raises
-    ------
-    ConfigError
-        naming the argument, with the message a bad key of the entry gets.
+    %(raises)s
 
     Examples
     --------
@@ -174,6 +174,7 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
                                         threads=threads)
 
 
+@shared_docs
 def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Dataset | dict,
                   equilibria: xr.Dataset | None = None, refinement: dict | None = None, threads: int | None = None,
                   **spec) -> xr.Dataset:
@@ -196,8 +197,7 @@ def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Datas
         now with the system's ``equilibria`` settings, as the pipeline does.
     refinement : dict, optional
         Keys of the configuration's ``nhim.refinement`` block (``tolerance``, ``rtol``, ...).
-    threads : int, optional
-        Threads (default every core).
+    %(threads)s
     **spec
         The entry's keys: ``fixed`` (for every fixed coordinate of the base map's section,
         ``{"range": [low, high], "points": n}``), ``signs``, ``window``, ``seed_points``,
@@ -209,10 +209,7 @@ def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Datas
         The study's file (contract ``nhim_sampling``): every slice with its ``status`` (and the
         ``reason`` of a degenerate one), every point as a phase-space ``state``.
 
-    Raises
-    ------
-    ConfigError
-        naming the argument, with the message a bad key of the entry gets.
+    %(raises)s
 
     Examples
     --------

@@ -7,8 +7,10 @@ import xarray as xr
 from ..core.maps.assembly import ld_map_dataset
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, system_config
+from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, shared_docs, system_config
 
+
+@shared_docs
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
            threads: int | None = None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
@@ -19,13 +21,10 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
         The map's system (the entry's ``system`` name replaced by the object).
     name : str
         The entry's name, recorded in the file (default ``"map"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (:func:`equilibria`), where the saddle and an excess energy are
-        read; default computed now with the system's ``equilibria`` settings, as the pipeline does.
+    %(equilibria)s
     progress : bool
         Show a progress bar.
-    threads : int, optional
-        Threads of the engine (default every core).
+    %(threads)s
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
@@ -38,10 +37,7 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
         with ``ld=False`` (a vector field's fixed-time map with ``ftle=True``) the flow map and
         its FTLE alone (contract ``flow_map``).
 
-    Raises
-    ------
-    ConfigError
-        naming the argument, with the message a bad key of the entry gets.
+    %(raises)s
 
     Examples
     --------

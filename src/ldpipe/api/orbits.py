@@ -8,8 +8,12 @@ from ..core.orbits.family import periodic_orbits_dataset
 from ..core.orbits.manifolds import manifolds_dataset
 from ..core.orbits.poincare import poincare_dataset
 from .systems import equilibria_input
-from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, system_config
+from .arguments import (
+    AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, shared_docs, system_config,
+)
 
+
+@shared_docs
 def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.Dataset | None = None,
                     **spec) -> xr.Dataset:
     """A Lyapunov family of periodic orbits at target energies (the UPO stage), from a
@@ -21,8 +25,7 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
         The family's Hamiltonian system.
     name : str
         The family's name, recorded in the file (default ``"family"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (default computed now).
+    %(equilibria)s
     **spec
         The entry's keys: ``energies`` (``{"excess": [...]}``, ``{"total": [...]}``, or a list of
         total energies), ``saddle_near``, ``mode``, ``energy_tolerance``, ...
@@ -44,6 +47,7 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
         return periodic_orbits_dataset(parameters, equilibria_input(system, equilibria))
 
 
+@shared_docs
 def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | None = None, **spec) -> xr.Dataset:
     """The stable and unstable manifolds of one orbit of a family, cut by a section (the
     manifolds stage), from a ``manifolds:`` entry.
@@ -54,8 +58,7 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
         The family (:func:`periodic_orbits`; the entry's ``orbits`` name replaced by it).
     name : str
         The entry's name (default ``"manifolds"``).
-    threads : int, optional
-        Threads (default every core).
+    %(threads)s
     **spec
         The entry's keys: ``energy`` (which orbit: one of the family's target energies), ``section``
         (the surface), ``tau``, ``points``, ``displacement``, ...
@@ -76,6 +79,7 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
         return manifolds_dataset(parameters, orbits, threads=threads)
 
 
+@shared_docs
 def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset | None = None,
              threads: int | None = None, **spec) -> xr.Dataset:
     """A Poincaré surface of section from a grid of initial conditions (the Poincaré stage), from
@@ -87,10 +91,8 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
         The section's system.
     name : str
         The entry's name (default ``"section"``).
-    equilibria : xarray.Dataset, optional
-        The system's equilibria (default computed now; none for a vector field).
-    threads : int, optional
-        Threads (default every core).
+    %(equilibria)s
+    %(threads)s
     **spec
         The entry's keys: ``initial_conditions`` (see :func:`section`), ``section`` (the surface),
         ``energy`` (or a number for a total energy), ``final_time``, ``saddle_near``, ...
