@@ -23,6 +23,9 @@ AnySystem = System | VectorFieldSystem | VelocityDataSystem
 #: What several functions' docstrings say alike, written once: ``%(NAME)s`` in a docstring, at
 #: the indentation of a numpydoc section's entry, stands for the entry NAME (:func:`shared_docs`).
 SHARED_DOCS = {
+    "system": """system : System, VectorFieldSystem or VelocityDataSystem
+        The entry's system, from :func:`ldpipe.system` (the entry's ``system`` name replaced by
+        the object).""",
     "equilibria": """equilibria : xarray.Dataset, optional
         The system's equilibria (:func:`ldpipe.equilibria`), where the saddle and an excess energy
         are read; default computed now with the system's ``equilibria`` settings, as the pipeline

@@ -25,8 +25,7 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
 
     Parameters
     ----------
-    system : System
-        The system.
+    %(system)s
     name : str
         The entry's name (default ``"flux"``).
     %(equilibria)s
@@ -104,8 +103,7 @@ def normal_form(system: AnySystem, *, name: str = "normal_form", equilibria: xr.
 
     Parameters
     ----------
-    system : System
-        The system.
+    %(system)s
     name : str
         The entry's name (default ``"normal_form"``).
     %(equilibria)s

@@ -183,8 +183,7 @@ def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Datas
 
     Parameters
     ----------
-    system : System
-        The study's Hamiltonian system.
+    %(system)s
     study : str
         The study's name, recorded in the file (default ``"study"``).
     base_map : xarray.Dataset or dict

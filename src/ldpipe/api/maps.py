@@ -17,8 +17,7 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
 
     Parameters
     ----------
-    system : System or VectorFieldSystem
-        The map's system (the entry's ``system`` name replaced by the object).
+    %(system)s
     name : str
         The entry's name, recorded in the file (default ``"map"``).
     %(equilibria)s

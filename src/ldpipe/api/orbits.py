@@ -21,8 +21,7 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
 
     Parameters
     ----------
-    system : System
-        The family's Hamiltonian system.
+    %(system)s
     name : str
         The family's name, recorded in the file (default ``"family"``).
     %(equilibria)s
@@ -87,8 +86,7 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
 
     Parameters
     ----------
-    system : System or VectorFieldSystem
-        The section's system.
+    %(system)s
     name : str
         The entry's name (default ``"section"``).
     %(equilibria)s
