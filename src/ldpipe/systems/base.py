@@ -29,6 +29,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ..jitcache import njit_functions
+from .model import Unbounded
 from .kinetic import inverse_of
 
 
@@ -46,7 +47,7 @@ def compile_kernels(kernel_source: str, prefix: str) -> Kernels:
 
 
 @dataclass(frozen=True)
-class System:
+class System(Unbounded):
     """A natural Hamiltonian system with compiled kernels.
 
     Parameters
@@ -90,10 +91,6 @@ class System:
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
-    #: Its trajectories are bounded by the escape radius alone.
-    coordinate_bound: ClassVar[float] = 0.0
-    #: Nothing but the region and the escape radius stops a trajectory (no land, no data's edge).
-    has_stop_flags: ClassVar[bool] = False
 
     @property
     def n_dof(self) -> int:

@@ -13,11 +13,21 @@ checks each registered class against its protocol).
 from __future__ import annotations
 
 from contextlib import AbstractContextManager
-from typing import Any, Callable, Protocol, runtime_checkable
+from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "SystemModel", "protocol_members"]
+__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "SystemModel", "Unbounded", "protocol_members"]
+
+
+class Unbounded:
+    """What a system whose trajectories nothing but the region and the escape radius stops says of
+    them (a built-in, a formula, a vector field; velocity data say otherwise)."""
+
+    #: Its trajectories are bounded by the escape radius alone.
+    coordinate_bound: ClassVar[float] = 0.0
+    #: No land, no data's edge stops a trajectory.
+    has_stop_flags: ClassVar[bool] = False
 
 
 @runtime_checkable

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
+from .model import Unbounded
 
 # sympy (through .formula) is imported where formulas are parsed or printed, not with this module:
 # the stages and the workflow's planning reach VectorFieldSystem and require_hamiltonian for
@@ -64,7 +65,7 @@ def _function_source(name: str, coordinates, outputs) -> str:
 
 
 @dataclass(frozen=True)
-class VectorFieldSystem:
+class VectorFieldSystem(Unbounded):
     """A flow dx/dt = f(x, t) with a compiled right-hand side (see the module docstring).
 
     ``coordinates`` are the names of all state variables (any number, even or odd);
@@ -85,10 +86,6 @@ class VectorFieldSystem:
     hamiltonian: ClassVar[bool] = False
     #: The LD is taken in the state's own units: the flow engine adds no metric section.
     ld_metric_source: ClassVar[str] = ""
-    #: Its trajectories are bounded by the escape radius alone.
-    coordinate_bound: ClassVar[float] = 0.0
-    #: Nothing but the region and the escape radius stops a trajectory (no land, no data's edge).
-    has_stop_flags: ClassVar[bool] = False
 
     @property
     def n_state(self) -> int:
