@@ -98,3 +98,17 @@ def test_a_caption_docutils_cannot_read_is_refused_before_anything_runs():
         validate_config(config)
     config["figures"]["fig1"]["caption"] = r"The speed \|v\| on the section."
     validate_config(config)
+
+
+@pytest.mark.parametrize("directive", [".. include:: {path}", ".. raw:: html\n   :file: {path}",
+                                       ".. csv-table:: t\n   :file: {path}", ".. raw:: html\n\n   <script>x</script>"])
+def test_a_caption_that_reads_a_file_or_pastes_html_is_refused(directive, tmp_path):
+    # A caption is text: the report's docutils would read the file into the page. The check reads
+    # the caption with file access and raw HTML off, so it neither reads the file nor lets it by.
+    secret = tmp_path / "secret.txt"
+    secret.write_text("SECRET-CONTENT")
+    config = yaml.safe_load((ROOT / "config.yaml").read_text())
+    config["figures"]["fig1"]["caption"] = "A caption.\n\n" + directive.format(path=secret)
+    with pytest.raises(ConfigError, match=r"figures\.fig1\.caption.*(disabled|deactivated)") as info:
+        validate_config(config)
+    assert "SECRET-CONTENT" not in str(info.value)

@@ -140,13 +140,19 @@ def check_figures(config: dict) -> None:
 
 def check_caption(text: str, key: str) -> None:
     """A figure's caption is reStructuredText in the report: refuse one docutils cannot read cleanly
-    (e.g. ``|v|``, a substitution reference), naming the key, before any stage runs."""
+    (e.g. ``|v|``, a substitution reference), naming the key, before any stage runs.
+
+    A caption is text, not a program: directives that read files or URLs (``include``, ``raw``
+    with ``:file:``, ``csv-table`` with ``:file:`` or ``:url:``) or paste raw HTML are refused here,
+    where docutils reads them switched off, so the report (whose docutils has them on) never
+    meets one."""
     from docutils.core import (
         publish_doctree,  # only a config with captions pays for the import
     )
 
     messages = io.StringIO()
-    publish_doctree(text, settings_overrides={"report_level": 2, "halt_level": 5, "warning_stream": messages})
+    publish_doctree(text, settings_overrides={"report_level": 2, "halt_level": 5, "warning_stream": messages,
+                                              "file_insertion_enabled": False, "raw_enabled": False})
     if messages.getvalue():
         said = " ".join(line.strip() for line in messages.getvalue().splitlines() if line.strip())
         raise ConfigError(f"config key '{key}': the caption is reStructuredText in the report and docutils "

@@ -10,25 +10,33 @@ and the kernel printer (:func:`kernel_lines`) serve vector fields too
 
 from __future__ import annotations
 
+import ast
+import math
+import operator
+
 import sympy
-from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import ConfigError
 from .base import Kernels, System, compile_kernels
+from .grammar import CHAINS, CONSTANTS, FUNCTIONS, check_formulas, shown_formula
 
-# Functions a formula may call; everything else is rejected at parse time.
-ALLOWED_FUNCTIONS = {
-    name: getattr(sympy, name)
-    for name in ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "atan", "Abs")
-}
-ALLOWED_FUNCTIONS["pi"] = sympy.pi
-# parse_expr wraps literals in these; they are all it may reach besides the names above.
-SYMPY_LITERALS = ("Integer", "Float", "Rational", "Symbol", "Function")
+# What the names a formula may call or name (ldpipe.systems.grammar) stand for.
+ALLOWED_FUNCTIONS = {name: getattr(sympy, name) for name in (*FUNCTIONS, *CONSTANTS)}
 # Names the generated kernels use themselves.
 RESERVED_NAMES = {"q", "out", "count", "j", "math", "value", "_njit", *Kernels._fields}
-ALLOWED_FUNCTIONS["E"] = sympy.E
+# A formula is parsed, never evaluated: ldpipe.systems.grammar checks its syntax tree, and only the
+# node kinds it lets through become sympy objects here. Numbers become sympy numbers as sympy's
+# own parser made them (Integer, and Float of the literal's text), and each operator is applied to
+# sympy objects as Python applied it, so a formula gives the expression, and the kernel text, it
+# always gave.
+BINARY_OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+                    ast.Div: operator.truediv, ast.Pow: operator.pow}
+UNARY_OPERATORS = {ast.UAdd: operator.pos, ast.USub: operator.neg}
+#: The largest exact number a power of exact numbers may make, in bits: 9**9**9 would take
+#: minutes and gigabytes to compute exactly.
+MAX_EXACT_BITS = 4096
 
 
 def parse_formulas(
@@ -44,7 +52,9 @@ def parse_formulas(
     ``formulas`` maps where each formula sits under the configuration entry ``key`` (e.g.
     ``"formula"``, ``"vector_field.x"``) to its text; error messages name that key. ``reserved``:
     the names the generated kernels use themselves, which no coordinate or parameter may take.
-    ``time``: the name of the time, if the formulas may use it.
+    ``time``: the name of the time, if the formulas may use it. Nothing in a formula is evaluated
+    as Python: :func:`ldpipe.systems.grammar.check_formulas` checks each one's syntax tree, and
+    the tree is built into sympy objects node by node.
     """
     clash = (set(coordinates) | set(parameters)) & (reserved | set(ALLOWED_FUNCTIONS))
     if clash:
@@ -54,40 +64,70 @@ def parse_formulas(
         raise ConfigError(
             f"config key '{key}.parameters': {sorted(overlap)} are also coordinates; a name is one or the other"
         )
+    trees = check_formulas(formulas, coordinates, parameters, key, time)
     names = (*coordinates, *parameters, *((time,) if time else ()))
     symbols = {name: sympy.Symbol(name, real=True) for name in names}
-    namespace = {**ALLOWED_FUNCTIONS, **symbols}
+    namespace = {**{name: ALLOWED_FUNCTIONS[name] for name in CONSTANTS}, **symbols}
     values = {symbols[name]: sympy.Float(value, 17) for name, value in parameters.items()}
-    expected = [f"the coordinates {list(coordinates)}", f"the parameters {sorted(parameters)}"]
-    expected += [f"the time '{time}'"] if time else []
-    expected_text = ", ".join(expected[:-1]) + " and " + expected[-1]
     expressions = []
-    for place, text in formulas.items():
-        where = f"config key '{key}.{place}'"
-        if isinstance(text, bool) or not isinstance(text, (str, int, float)):
-            raise ConfigError(f"{where}: expected a formula (text), got {text!r}")
+    for place, tree in trees.items():
+        text = str(formulas[place]).strip()
+        where, shown = f"config key '{key}.{place}'", shown_formula(text)
         try:
-            expression = parse_expr(
-                str(text),
-                local_dict=namespace,
-                global_dict={"__builtins__": {}, **{k: getattr(sympy, k) for k in SYMPY_LITERALS}},
-                transformations=standard_transformations,
-            )
-        except Exception as error:  # sympy raises many types on bad text
-            raise ConfigError(f"{where}: cannot parse {text!r}: {error}") from None
+            expression = _Builder(text, namespace, where, shown).build(tree.body)
+        except (ArithmeticError, TypeError, ValueError) as error:
+            raise ConfigError(f"{where}: cannot parse {shown}: {error}") from None
         if not isinstance(expression, sympy.Expr):
-            raise ConfigError(f"{where}: {text!r} is not an expression")
-        unknown = {str(s) for s in expression.free_symbols} - set(symbols)
-        if unknown:
-            raise ConfigError(f"{where}: unknown names {sorted(unknown)}; expected only {expected_text}")
-        undefined = {f.func.__name__ for f in expression.atoms(sympy.Function)} - set(ALLOWED_FUNCTIONS)
-        if undefined:
-            raise ConfigError(
-                f"{where}: unknown functions {sorted(undefined)}; allowed are "
-                f"{sorted(k for k in ALLOWED_FUNCTIONS if k not in ('pi', 'E'))}"
-            )
+            raise ConfigError(f"{where}: {shown} is not an expression")
         expressions.append(expression.subs(values))
     return expressions
+
+
+class _Builder:
+    """Builds the sympy expression of a checked syntax tree, node by node. The tree's nesting is
+    bounded (:data:`~ldpipe.systems.grammar.MAX_FORMULA_DEPTH`), and so is this recursion."""
+
+    def __init__(self, text: str, names: dict, where: str, shown: str):
+        self.text, self.names, self.where, self.shown = text, names, where, shown
+
+    def build(self, node: ast.expr):
+        if isinstance(node, ast.BinOp) and type(node.op) in CHAINS:
+            # a + b - c + ... is a tree as deep as it is long: walk down its left operands in a loop
+            # and apply the operators from the left, as Python does.
+            chain, chained = [], CHAINS[type(node.op)]
+            while isinstance(node, ast.BinOp) and CHAINS.get(type(node.op)) == chained:
+                chain.append((node.op, node.right))
+                node = node.left
+            value = self.build(node)
+            for op, right in reversed(chain):
+                value = BINARY_OPERATORS[type(op)](value, self.build(right))
+            return value
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+            base, exponent = self.build(node.left), self.build(node.right)
+            self.check_power(base, exponent)
+            return base**exponent
+        if isinstance(node, ast.UnaryOp) and type(node.op) in UNARY_OPERATORS:
+            return UNARY_OPERATORS[type(node.op)](self.build(node.operand))
+        if isinstance(node, ast.Constant) and type(node.value) is int:
+            return sympy.Integer(node.value)
+        if isinstance(node, ast.Constant) and type(node.value) is float:
+            # the literal's text, as sympy's parser read it: 0.1 is the decimal 0.1 at 15 digits,
+            # a longer literal keeps its digits
+            return sympy.Float(ast.get_source_segment(self.text, node))
+        if isinstance(node, ast.Name) and node.id in self.names:
+            return self.names[node.id]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS:
+            return ALLOWED_FUNCTIONS[node.func.id](*(self.build(argument) for argument in node.args))
+        # the grammar let nothing else through; should it ever, refuse rather than guess
+        raise ConfigError(f"{self.where}: cannot parse {self.shown}: unexpected {type(node).__name__}")
+
+    def check_power(self, base, exponent) -> None:
+        """Refuse an exact power too large to compute (9**9**9), before sympy starts on it."""
+        if isinstance(base, sympy.Rational) and isinstance(exponent, sympy.Rational) and base.p and abs(base.p) != base.q:
+            bits = math.log2(max(abs(base.p), base.q)) * abs(exponent)
+            if bits > MAX_EXACT_BITS:
+                raise ConfigError(f"{self.where}: {self.shown} makes the exact number {base}**{exponent}, of about "
+                                  f"{int(bits)} bits; at most {MAX_EXACT_BITS} are accepted")
 
 
 def parse_potential(

@@ -22,6 +22,7 @@ from typing import Callable
 from ..errors import ConfigError
 from .base import System
 from .builtin import BUILTINS, make_builtin
+from .grammar import check_formulas
 from .kinetic import kinetic_matrix
 from .model import SystemModel
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field
@@ -144,6 +145,18 @@ def _autonomous(name: str, spec: dict) -> bool:
     return not any(TIME in {str(s) for s in f.free_symbols} for f in fields)
 
 
+def _check_formula(spec: dict, key: str) -> None:
+    """The potential is a formula in the coordinates and parameters (its syntax tree, no sympy)."""
+    check_formulas({"formula": spec["formula"]}, tuple(spec["coordinates"]), spec.get("parameters") or {}, key)
+
+
+def _check_vector_field(spec: dict, key: str) -> None:
+    """Each component is a formula in the coordinates, parameters and time (its syntax tree, no sympy)."""
+    components = spec["vector_field"]
+    formulas = {f"vector_field.{name}": text for name, text in components.items()}
+    check_formulas(formulas, tuple(spec["coordinates"]), spec.get("parameters") or {}, key, time=TIME)
+
+
 def _formula_caption(spec: dict) -> str:
     return f"V = {spec.get('formula', '')}"
 
@@ -163,12 +176,13 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
     "formula": SystemKind(
         key="formula", noun="a formula", hamiltonian=True, build=_build_formula,
         coordinates=lambda spec: tuple(spec["coordinates"]), classes=(System,),
-        required=("formula", "coordinates"), caption=_formula_caption,
+        required=("formula", "coordinates"), caption=_formula_caption, check=_check_formula,
     ),
     "vector_field": SystemKind(
         key="vector_field", noun="a vector field", hamiltonian=False, build=_build_vector_field,
         coordinates=lambda spec: tuple(spec["coordinates"]), classes=(VectorFieldSystem,),
         required=("vector_field", "coordinates"), has_equilibria=_autonomous, caption=_vector_field_caption,
+        check=_check_vector_field,
     ),
     "velocity_data": SystemKind(
         key="velocity_data", noun="velocity data", hamiltonian=False, build=_build_velocity_data,
