@@ -25,6 +25,7 @@ from ..core.accuracy import (
     sample_indices, same_number, warm_up,
 )
 from ..engine.codegen import engine_compiled, engine_name
+from ..io.atomic import write_text_atomic
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
 from ..core.equilibria.potential import select_saddle
@@ -430,10 +431,7 @@ def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map
         warm_up(system, states, settings)
         how = "compiled"
     log.info("engine %s %s (%s on map %s)", name, how, IntegratorStep.from_spec(setting).label, map["map_name"])
-    output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    output.write_text(f"{name}: {IntegratorStep.from_spec(setting).label} on map {map['map_name']}\n")
-    return output
+    return write_text_atomic(output, f"{name}: {IntegratorStep.from_spec(setting).label} on map {map['map_name']}\n")
 
 
 def run_accuracy_cost(
@@ -452,10 +450,6 @@ def run_accuracy_cost(
     data = accuracy_dataset(ld, upo, nhim, [equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
     path = write_stage_file(data, output, stage=ACCURACY_COST, title="Accuracy against cost of the LD engine, the "
                             "periodic-orbit corrector and the NHIM detection", parameters={"ld": ld, "upo": upo, "nhim": nhim})
-    table = Path(table)
-    table.parent.mkdir(parents=True, exist_ok=True)
-    temporary = table.with_name(f".{table.name}.tmp")
-    temporary.write_text(accuracy_table(data))
-    temporary.replace(table)
+    table = write_text_atomic(table, accuracy_table(data))
     log.info("wrote %s and %s", path, table)
     return path
