@@ -230,7 +230,7 @@ def test_check_writable_names_the_path_when_a_parent_is_a_file(tmp_path):
 def test_check_writable_refuses_a_folder_and_makes_nothing(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         check_writable(tmp_path)
-    assert check_writable(tmp_path / "new" / "out.nc") == tmp_path / "new" / "out.nc"
+    check_writable(tmp_path / "new" / "out.nc", None, tmp_path / "other.png")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -170,20 +170,26 @@ def write_text_atomic(path: str | os.PathLike, text: str, *, newline: str | None
     return path
 
 
-def check_writable(path: str | os.PathLike) -> Path:
-    """Check that a file can be written at ``path``, before the work that makes it.
+def check_writable(*paths: str | os.PathLike | None) -> None:
+    """Check that a file can be written at each of ``paths`` (None: skipped), before the work
+    that makes them.
 
-    The nearest folder of ``path`` that exists must be a folder ldpipe can create files in (a
+    The nearest folder of a path that exists must be a folder ldpipe can create files in (a
     probe file is made there and removed: the only test a root user, a read-only mount or an
-    ACL cannot fool), and ``path`` must not be a folder. Folders still missing are not made
+    ACL cannot fool), and the path must not be a folder. Folders still missing are not made
     here (the write makes them).
 
     Raises
     ------
     OutputError
-        naming ``path`` and what is in the way.
+        naming the path and what is in the way.
     """
-    path = Path(path)
+    for path in paths:
+        if path is not None:
+            _check_writable(Path(path))
+
+
+def _check_writable(path: Path) -> None:
     if path.is_dir():
         raise OutputError(f"{path}: cannot write the output there: it is a folder; give a file name")
     folder = path.parent
@@ -201,7 +207,6 @@ def check_writable(path: str | os.PathLike) -> Path:
     finally:
         with contextlib.suppress(OSError):
             probe.unlink()
-    return path
 
 
 def write_or_keep(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:

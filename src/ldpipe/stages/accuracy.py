@@ -25,7 +25,7 @@ from ..core.accuracy import (
     sample_indices, same_number, warm_up,
 )
 from ..engine.codegen import engine_compiled, engine_name
-from ..io.atomic import write_text_atomic
+from ..io.atomic import check_writable, write_text_atomic
 from ..io.contracts import ACCURACY_COST, EQUILIBRIA
 from ..io.datafile import open_stage_file, write_stage_file
 from ..core.equilibria.potential import select_saddle
@@ -419,6 +419,7 @@ def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map
 
     The LD ladder then loads it from numba's cache; the measurement is unchanged (it times after a warm-up).
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     found = _equilibria_by_system([equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
     data = _equilibria_for(found, map["system_name"], f"accuracy_cost.ld.maps ({map['map_name']})")
     system, section, settings, info = resolve_map(map, data)
@@ -445,6 +446,7 @@ def run_accuracy_cost(
     threads: int | None = None,
 ) -> Path:
     """Measure both ladders, write the netCDF file ``output`` and the Markdown ``table``."""
+    check_writable(output, table)  # before any work: never lose a run to a bad path
     if threads:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     data = accuracy_dataset(ld, upo, nhim, [equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))

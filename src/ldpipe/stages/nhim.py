@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
 from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..errors import ConfigError
@@ -124,6 +125,7 @@ def run_nhim_study(
     refinement : dict
         The ``nhim.refinement`` config section.
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     import numba
 
     if threads:

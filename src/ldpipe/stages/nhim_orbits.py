@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, NHIM_ORBITS, UPO
 from ..io.datafile import open_stage_file, write_stage_file
 from ..core.equilibria.potential import select_saddle
@@ -72,6 +73,7 @@ def run_nhim_orbit_validation(
     ``refinement`` the ``nhim.refinement`` section (without ``zoom``); the rest are the study's
     config keys (see the schema).
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     import numba
 
     if threads:

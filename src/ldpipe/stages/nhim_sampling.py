@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, NHIM_SAMPLING
 from ..io.datafile import open_stage_file, write_stage_file
 from ..errors import ConfigError
@@ -131,6 +132,7 @@ def run_nhim_sampling(
     equilibria : path
         The system's equilibria file (the saddle the base map's ``saddle_near`` selects).
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     import numba
 
     if threads:

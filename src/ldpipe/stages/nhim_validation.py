@@ -12,7 +12,7 @@ import csv
 import io
 from pathlib import Path
 
-from ..io.atomic import write_text_atomic
+from ..io.atomic import check_writable, write_text_atomic
 from ..io.contracts import NHIM, NHIM_ORBITS
 from ..io.datafile import open_stage_file
 from ..errors import LdpipeError
@@ -160,6 +160,7 @@ def run_nhim_validation(
     NHIMValidationError
         Naming each failing slice and its distance or reason, after the tables are written.
     """
+    check_writable(csv_output, markdown_output, orbits_csv_output, orbits_markdown_output)  # before any work: never lose a run to a bad path
     rows = [row for path in studies for row in validation_rows(path, tolerance, residence_ratio)]
     _write_tables(rows, TABLE_COLUMNS, csv_output, _markdown(rows, tolerance), markdown_output)
     failed = [row for row in rows if row["status"] != "ok"]

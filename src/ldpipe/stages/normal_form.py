@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 from ..core.equilibria.potential import select_saddle, well_and_frequencies
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, NORMAL_FORM, SADDLE_FLUX, TRANSPORT
 from ..io.datafile import open_stage_file, write_stage_file
 from ..logs import get_logger
@@ -59,6 +60,7 @@ def run_normal_form(*, output: str | Path, equilibria: str | Path, transport_fil
 
     ``transport_file`` and ``saddle_flux_file`` are the files of the studies the parameters
     ``transport`` and ``saddle_flux`` name, if they do."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     key = f"normal_form.{parameters['name']}"
     system = make_system(parameters["system_name"], parameters["system_spec"])
     eq = open_stage_file(equilibria, stage=EQUILIBRIA)

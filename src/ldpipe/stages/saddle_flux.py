@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, SADDLE_FLUX
 from ..io.datafile import open_stage_file, write_stage_file
 from ..core.equilibria.potential import select_saddle, well_and_frequencies
@@ -46,6 +47,7 @@ COUNTS = ("samples", "reactive", "antireactive", "nonreactive", "undecided")
 def run_saddle_flux(*, output: str | Path, equilibria: str | Path, threads: int | None = None,
                     **parameters) -> Path:
     """Monte Carlo reactive flux, one-way flux and harmonic estimate at each energy; writes ``output``."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     key = f"saddle_flux.{parameters['name']}"
     system = make_system(parameters["system_name"], parameters["system_spec"])
     if system.n_dof not in SURFACES:

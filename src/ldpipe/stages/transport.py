@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, TRANSPORT, UPO
 from ..io.datafile import input_name, open_stage_file, stage_parameters, write_stage_file
 from ..core.equilibria.potential import well_and_frequencies
@@ -112,6 +113,7 @@ def _orbit(orbits: xr.Dataset, index: int) -> LyapunovOrbit:
 def run_transport(*, output: str | Path, upo: str | Path, equilibria: str | Path, threads: int | None = None,
                   **parameters) -> Path:
     """Flux by action, island area and Monte Carlo at each energy of the study; writes ``output``."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     key = f"transport.{parameters['name']}"
     orbits = open_stage_file(upo, stage=UPO)
     if stage_parameters(orbits)["system_name"] != parameters["system_name"]:
