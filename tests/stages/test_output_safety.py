@@ -133,3 +133,61 @@ def test_a_stage_file_that_cannot_be_put_in_place_is_kept_and_named(tmp_path, mo
     kept = Path(str(raised.value).rsplit("; the result is kept in ", 1)[1])
     assert kept.parent == scratch
     assert open_stage_file(kept, stage="probe").attrs["title"] == "kept"
+
+
+@pytest.mark.slow
+def test_a_map_killed_at_random_moments_leaves_the_previous_file_or_the_whole_new_one(tmp_path):
+    """SIGKILL at seeded random moments of `ldpipe ld`: half of them spread over the whole run,
+    half while the file is being written (a moment after its temporary appears). Every time the
+    output is absent or a complete map equal to the reference; a clean run afterwards leaves no
+    temporary and writes the reference's bits."""
+    import random
+    import signal
+    import time
+
+    from ldpipe.io.filediff import compare_files
+
+    scratch = tmp_path / "scratch"  # the equilibria the command computes go to a temporary folder
+    scratch.mkdir()
+    environment = {**os.environ, "TMPDIR": str(scratch)}
+
+    def command(output):
+        return [sys.executable, "-m", "ldpipe.cli", *LD_ARGUMENTS, "-o", str(output)]
+
+    reference = tmp_path / "reference.nc"
+    subprocess.run(command(reference), check=True, timeout=1200, env=environment)  # compiles on an empty cache
+    start = time.perf_counter()
+    subprocess.run(command(tmp_path / "timing.nc"), check=True, timeout=600, env=environment)
+    duration = time.perf_counter() - start
+    output_folder = tmp_path / "out"
+    output_folder.mkdir()
+    output = output_folder / "map.nc"
+    generator = random.Random(20240611)
+    budget = time.perf_counter() + 30.0
+    kills = torn = 0
+    while kills < 20 and (kills < 6 or time.perf_counter() < budget):
+        before = set(os.listdir(output_folder))
+        process = subprocess.Popen(command(output), env=environment, stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL)
+        if kills % 2 == 0:
+            time.sleep(generator.uniform(0.0, duration))
+        else:  # wait for the temporary to appear, then kill within the write
+            delay = generator.uniform(0.0, 0.01)
+            while process.poll() is None and not (set(os.listdir(output_folder)) - before - {"map.nc"}):
+                time.sleep(0.001)
+            time.sleep(delay)
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=60)
+        kills += 1
+        torn += bool(set(os.listdir(output_folder)) - before - {"map.nc"})  # killed mid-write
+        if output.exists():
+            open_stage_file(output, stage="ld_grid")  # complete and valid, never truncated
+            assert compare_files(reference, output) == [], f"kill {kills}"
+    assert torn >= 1, f"none of {kills} kills landed while the file was being written"
+    completed = subprocess.run(command(output), env=environment, capture_output=True, text=True, timeout=600,
+                               check=False)
+    assert completed.returncode == 0, completed.stderr[-3000:]
+    assert [p.name for p in output_folder.iterdir()] == ["map.nc"]  # the killed writers' temporaries removed
+    same = subprocess.run([sys.executable, "-m", "ldpipe.io.filediff", str(reference), str(output)],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert same.returncode == 0, same.stdout
