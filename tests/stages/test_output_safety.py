@@ -135,10 +135,22 @@ def test_a_stage_file_that_cannot_be_put_in_place_is_kept_and_named(tmp_path, mo
     assert open_stage_file(kept, stage="probe").attrs["title"] == "kept"
 
 
+def folder_state(folder: Path) -> dict:
+    """Each entry of ``folder`` with its size and modification time."""
+    state = {}
+    for entry in os.scandir(folder):
+        try:
+            status = entry.stat()
+        except FileNotFoundError:  # renamed away meanwhile
+            continue
+        state[entry.name] = (status.st_size, status.st_mtime_ns)
+    return state
+
+
 @pytest.mark.slow
 def test_a_map_killed_at_random_moments_leaves_the_previous_file_or_the_whole_new_one(tmp_path):
     """SIGKILL at seeded random moments of `ldpipe ld`: half of them spread over the whole run,
-    half while the file is being written (a moment after its temporary appears). Every time the
+    half while the file is being written (a moment after anything in its folder changes). Every time the
     output is absent or a complete map equal to the reference; a clean run afterwards leaves no
     temporary and writes the reference's bits."""
     import random
@@ -167,13 +179,14 @@ def test_a_map_killed_at_random_moments_leaves_the_previous_file_or_the_whole_ne
     kills = torn = 0
     while kills < 20 and (kills < 6 or time.perf_counter() < budget):
         before = set(os.listdir(output_folder))
+        listing = folder_state(output_folder)
         process = subprocess.Popen(command(output), env=environment, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL)
         if kills % 2 == 0:
             time.sleep(generator.uniform(0.0, duration))
-        else:  # wait for the temporary to appear, then kill within the write
+        else:  # wait for the write to begin (anything in the folder changes), then kill within it
             delay = generator.uniform(0.0, 0.01)
-            while process.poll() is None and not (set(os.listdir(output_folder)) - before - {"map.nc"}):
+            while process.poll() is None and folder_state(output_folder) == listing:
                 time.sleep(0.001)
             time.sleep(delay)
         process.send_signal(signal.SIGKILL)
