@@ -253,3 +253,10 @@ def test_when_nothing_can_be_kept_the_message_says_so(tmp_path, monkeypatch):
     monkeypatch.setattr("tempfile.tempdir", str(tmp_path / "file" / "tmp"))
     with pytest.raises(OutputError, match="; nothing was written \\(keeping the result in .* failed too"):
         write_or_keep(tmp_path / "file" / "out.txt", lambda temporary: temporary.write_text("result"))
+
+
+def test_an_output_error_from_inside_is_not_wrapped_again(tmp_path):
+    with pytest.raises(OutputError, match=r"^inner: could not be written$"):
+        with atomic_path(tmp_path / "out.nc"):
+            raise OutputError("inner: could not be written")
+    assert list(tmp_path.iterdir()) == []

@@ -138,6 +138,8 @@ def atomic_path(path: str | os.PathLike, *, replace: bool = True, fsync: bool = 
     try:
         try:
             yield temporary
+        except OutputError:  # already names its path
+            raise
         except OSError as error:
             raise _failed(path, error, "writing") from error
         try:
