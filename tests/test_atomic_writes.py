@@ -198,26 +198,32 @@ def test_without_replace_a_file_put_there_meanwhile_is_kept(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["module.py"]
 
 
-def test_temporaries_are_hidden_unique_per_thread_and_keep_the_suffix(tmp_path):
+def test_temporaries_are_hidden_unique_per_thread_and_end_in_tmp(tmp_path):
     names = []
-    thread = threading.Thread(target=lambda: names.append(temporary_name(tmp_path / "a.gif")))
+    thread = threading.Thread(target=lambda: names.append(temporary_name(tmp_path / "a.nc")))
     thread.start()
     thread.join()
-    mine = temporary_name(tmp_path / "a.gif")
+    mine = temporary_name(tmp_path / "a.nc")
     assert mine != names[0]
-    assert mine.name.startswith(".a.gif.") and mine.suffix == ".gif" and f"-{os.getpid()}-" in mine.name
+    assert mine.name.startswith(".a.nc.") and mine.name.endswith(".tmp") and f"-{os.getpid()}-" in mine.name
+    assert not list(tmp_path.glob("*.nc"))  # never taken for a file of the kind by a glob
+    assert temporary_name(tmp_path / "a.gif", keep_suffix=True).name.endswith(".tmp.gif")  # for Pillow
 
 
-def test_temporaries_of_killed_writers_are_removed_on_the_next_write(tmp_path):
+@pytest.mark.parametrize("keep_suffix", [False, True])
+def test_temporaries_of_killed_writers_are_removed_on_the_next_write(tmp_path, keep_suffix):
     path = tmp_path / "out.nc"
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
                           check=True)
-    stale = Path(str(temporary_name(path)).replace(f"-{os.getpid()}-", f"-{int(dead.stdout)}-"))
+    mine = str(temporary_name(path, keep_suffix=keep_suffix))
+    stale = Path(mine.replace(f"-{os.getpid()}-", f"-{int(dead.stdout)}-"))
     stale.write_text("half")
-    alive = Path(str(temporary_name(path)).replace(f"-{os.getpid()}-", f"-{os.getppid()}-"))
+    alive = Path(mine.replace(f"-{os.getpid()}-", f"-{os.getppid()}-"))
     alive.write_text("being written")  # a live process's: left alone
+    other = tmp_path / f".out.nc.otherhost-{int(dead.stdout)}-1.tmp"
+    other.write_text("another host's")  # its pid means nothing here: left alone
     write_text_atomic(path, "whole")
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([alive.name, "out.nc"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([alive.name, other.name, "out.nc"])
 
 
 def test_check_writable_names_the_path_when_a_parent_is_a_file(tmp_path):

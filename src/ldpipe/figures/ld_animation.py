@@ -73,7 +73,7 @@ def write_ld_animation(settings: dict, ld_map: str | Path, gif: str | Path) -> i
     title = ax.set_title("", loc="right")
     writer = PillowWriter(fps=settings["fps"])
     try:
-        with atomic_path(gif) as temporary, writer.saving(figure, str(temporary), dpi=style.DPI):
+        with atomic_path(gif, keep_suffix=True) as temporary, writer.saving(figure, str(temporary), dpi=style.DPI):
             for k, start in enumerate(starts):
                 image.set_array(np.ma.transpose(frames[k]))  # as draw_map draws it: the first axis horizontal
                 title.set_text(rf"$t_0 = {start:g}$")

@@ -28,8 +28,9 @@ from typing import Callable, Iterator
 
 from ..errors import OutputError
 
-#: Ends every temporary name, before the target's own suffix (kept, so that writers that read
-#: the format from the name, such as Pillow's GIF writer, write the right one).
+#: Ends every temporary name, so that no glob for a kind of file (``*.nc``: a folder of results
+#: compared, a map's tiles gathered) takes a killed writer's leftover for one. A writer that reads
+#: the format from the name (Pillow's GIF writer) asks for the target's suffix after it.
 TEMPORARY_MARK = ".tmp"
 
 
@@ -37,11 +38,13 @@ def _host() -> str:
     return re.sub(r"[^A-Za-z0-9_.]", "_", socket.gethostname()) or "host"
 
 
-def temporary_name(path: str | os.PathLike) -> Path:
+def temporary_name(path: str | os.PathLike, *, keep_suffix: bool = False) -> Path:
     """The temporary file :func:`atomic_path` writes for ``path``: hidden, beside it, unique to
-    this host, process and thread (``.NAME.HOST-PID-THREAD.tmp.SUFFIX``)."""
+    this host, process and thread (``.NAME.HOST-PID-THREAD.tmp``, then ``path``'s suffix if
+    ``keep_suffix``)."""
     path = Path(path)
-    return path.with_name(f".{path.name}.{_host()}-{os.getpid()}-{threading.get_ident()}{TEMPORARY_MARK}{path.suffix}")
+    suffix = path.suffix if keep_suffix else ""
+    return path.with_name(f".{path.name}.{_host()}-{os.getpid()}-{threading.get_ident()}{TEMPORARY_MARK}{suffix}")
 
 
 def _pid_alive(pid: int) -> bool:
@@ -60,7 +63,7 @@ def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
     hosts sharing the folder, are left alone: they may be writing now."""
     path = Path(path)
     pattern = re.compile(rf"^\.{re.escape(path.name)}\.{re.escape(_host())}-(\d+)-\d+"
-                         rf"{re.escape(TEMPORARY_MARK + path.suffix)}$")
+                         rf"{re.escape(TEMPORARY_MARK)}({re.escape(path.suffix)})?$")
     removed = []
     try:
         candidates = list(path.parent.glob(f".{glob_escape(path.name)}.*{TEMPORARY_MARK}*"))
@@ -105,7 +108,8 @@ def _failed(path: Path, error: BaseException, doing: str) -> OutputError:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike, *, replace: bool = True, fsync: bool = True) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike, *, replace: bool = True, fsync: bool = True,
+                keep_suffix: bool = False) -> Iterator[Path]:
     """Yield a temporary path beside ``path`` to write the file to; put it in place when the
     block ends without an exception.
 
@@ -121,6 +125,9 @@ def atomic_path(path: str | os.PathLike, *, replace: bool = True, fsync: bool = 
     fsync : bool
         Flush the file to disk before the rename, so that after a power cut the name never
         points at unwritten blocks.
+    keep_suffix : bool
+        End the temporary's name with ``path``'s suffix, for a writer that takes the format from
+        the name.
 
     Raises
     ------
@@ -130,7 +137,7 @@ def atomic_path(path: str | os.PathLike, *, replace: bool = True, fsync: bool = 
         folder). The temporary is removed; the file at ``path`` is left as it was.
     """
     path = Path(path)
-    temporary = temporary_name(path)
+    temporary = temporary_name(path, keep_suffix=keep_suffix)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as error:
