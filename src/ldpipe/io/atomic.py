@@ -28,8 +28,8 @@ from typing import Callable, Iterator
 
 from ..errors import OutputError
 
-#: Ends every temporary name, so that no glob for a kind of file (``*.nc``: a folder of results
-#: compared, a map's tiles gathered) takes a killed writer's leftover for one. A writer that reads
+#: Ends every temporary name, so that no glob for a kind of file (``*.nc``, as
+#: :mod:`ldpipe.io.filediff` compares two folders of results) takes a killed writer's leftover for one. A writer that reads
 #: the format from the name (Pillow's GIF writer) asks for the target's suffix after it.
 TEMPORARY_MARK = ".tmp"
 
