@@ -11,3 +11,8 @@ class ConfigError(LdpipeError):
 
 class StageFileError(LdpipeError):
     """A stage's input file is missing, unreadable, foreign, or from another stage."""
+
+
+class OutputError(LdpipeError, OSError):
+    """An output file cannot be written: its folder is missing or not writable, or the disk is
+    full. An ``OSError`` too, as the failure it reports was one."""

@@ -33,6 +33,7 @@ import types
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, ClassVar
 
+from .io.atomic import atomic_path
 from .logs import get_logger
 
 if TYPE_CHECKING:
@@ -157,20 +158,10 @@ def write_source(path: Path, source: str) -> None:
     """
     if path.is_file() and path.read_text() == source:
         return
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    temporary.write_text(source)
-    try:
-        if path.is_file():
-            os.replace(temporary, path)
-            return
-        try:
-            os.link(temporary, path)
-        except FileExistsError:  # another process's, linked just now: the same text (the name is its hash)
-            pass
-        except OSError:  # a file system without hard links
-            os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    # Linked only if no file is there (another process's, linked just now, has the same text: the
+    # name is its hash); a torn or edited file is replaced.
+    with atomic_path(path, replace=path.is_file()) as temporary:
+        temporary.write_text(source)
 
 
 class CompileLock:

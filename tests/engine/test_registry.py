@@ -7,6 +7,7 @@ tests check that one home is read (or mirrored) everywhere, not numbers.
 """
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -136,3 +137,47 @@ def test_a_registered_toy_scheme_is_accepted_and_runs(barbanis, monkeypatch):
     rk4 = compute_ld(barbanis, states, +1, dataclasses.replace(settings, scheme="rk4"))
     for name in toy._fields:
         np.testing.assert_array_equal(getattr(toy, name), getattr(rk4, name), err_msg=name)
+
+
+def _numbers_named(node, name, where=""):
+    """Every schema property ``name`` of type number, with where it is."""
+    if isinstance(node, dict):
+        for key, value in node.items():
+            if key == name and isinstance(value, dict) and value.get("type") == "number":
+                yield f"{where}.{key}", value
+            yield from _numbers_named(value, name, f"{where}.{key}")
+    elif isinstance(node, list):
+        for index, value in enumerate(node):
+            yield from _numbers_named(value, name, f"{where}.{index}")
+
+
+#: The rtol minimum above the floor on purpose: the accuracy ladder's periodic-orbit settings
+#: (scipy's DOP853, whose own floor is 100 eps = 2.2e-14).
+RTOL_MINIMUM_ABOVE_THE_FLOOR = 1.0e-13
+
+
+def test_schema_tolerance_minimums_are_the_settings_floors(schema):
+    from ldpipe.engine.settings import ATOL_FLOOR, RTOL_FLOOR
+
+    rtols = dict(_numbers_named(schema, "rtol"))
+    atols = dict(_numbers_named(schema, "atol"))
+    assert len(rtols) >= 5 and len(atols) >= 4
+    wrong = {where: spec.get("minimum") for where, spec in rtols.items()
+             if spec.get("minimum") not in (RTOL_FLOOR, RTOL_MINIMUM_ABOVE_THE_FLOOR)}
+    assert not wrong, f"rtol minimums other than RTOL_FLOOR ({RTOL_FLOOR}): {wrong}"
+    assert [w for w, s in rtols.items() if s["minimum"] == RTOL_FLOOR] != []
+    wrong = {where: spec.get("minimum") for where, spec in atols.items() if spec.get("minimum") != ATOL_FLOOR}
+    assert not wrong, f"atol minimums other than ATOL_FLOOR ({ATOL_FLOOR}): {wrong}"
+    assert schema["$defs"]["tolerance_list"]["items"]["minimum"] == RTOL_FLOOR  # rtol and atol lists of a ladder
+
+
+def test_the_cli_refuses_an_rtol_just_below_the_floor_naming_it(tmp_path, capsys):
+    from ldpipe.cli.main import main
+    from ldpipe.engine.settings import RTOL_FLOOR
+
+    arguments = ["ld", "--system", "barbanis_2dof", "--axis", "x=4.8:6.0:3", "--axis", "px=-0.6:0.6:3",
+                 "--fixed", "y=-7.0", "--solve", "py", "--excess-energy", "0.125", "--quiet", "-o",
+                 str(tmp_path / "m.nc")]
+    assert main([*arguments, "--rtol", repr(math.nextafter(RTOL_FLOOR, 0.0))]) == 2
+    error = capsys.readouterr().err
+    assert "config key 'ld_maps.cli.integrator.rtol'" in error and ">= 1e-15" in error and "Traceback" not in error, error

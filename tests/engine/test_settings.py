@@ -113,3 +113,60 @@ def test_results_do_not_depend_on_batching(barbanis):
     reordered = compute_ld(barbanis, states[::-1], +1, LDSettings(tau=5.0))
     assert np.array_equal(reordered.ld[::-1], whole.ld)
     assert math.isfinite(whole.ld.sum())
+
+
+# Hang guards: each threshold checked just below and just at it, where a bug would hide.
+from ldpipe.core.trajectories import FlowSettings  # noqa: E402
+from ldpipe.engine.settings import (  # noqa: E402
+    ATOL_FLOOR, MAX_STEPS_CEILING, RTOL_FLOOR, IntegratorSettings, StoppingRules,
+)
+
+BELOW_RTOL = math.nextafter(RTOL_FLOOR, 0.0)
+BELOW_ATOL = math.nextafter(ATOL_FLOOR, 0.0)
+
+
+@pytest.mark.parametrize("make", [IntegratorSettings, LDSettings, FlowSettings], ids=lambda c: c.__name__)
+def test_tolerances_below_what_doubles_honour_are_refused_naming_the_setting_and_floor(make):
+    assert make(rtol=RTOL_FLOOR, atol=ATOL_FLOOR).rtol == RTOL_FLOOR
+    with pytest.raises(ValueError, match=r"^rtol: .* below what double precision can honour.*use >= 1e-15$"):
+        make(rtol=BELOW_RTOL)
+    with pytest.raises(ValueError, match=r"^atol: .* below what double precision can honour.*use >= 2\.2250738585072014e-308$"):
+        make(atol=BELOW_ATOL)
+
+
+def test_flow_settings_refuse_what_spun_through_every_step():
+    # rtol 1e-160 was accepted and ran max_steps (1e7) NaN steps per trajectory.
+    for name, value in (("rtol", 1e-160), ("rtol", float("nan")), ("atol", float("inf")), ("escape_radius", -1.0)):
+        with pytest.raises(ValueError, match=f"^{name}: "):
+            FlowSettings(**{name: value})
+
+
+@pytest.mark.parametrize("make", [StoppingRules, LDSettings, FlowSettings], ids=lambda c: c.__name__)
+def test_max_steps_beyond_the_ceiling_is_refused(make):
+    assert make(max_steps=MAX_STEPS_CEILING).max_steps == MAX_STEPS_CEILING
+    with pytest.raises(ValueError, match=r"^max_steps: expected .*integer"):
+        make(max_steps=MAX_STEPS_CEILING + 1)
+
+
+def test_fixed_step_counts_beyond_the_ceiling_are_refused_naming_tau_and_dt():
+    at = LDSettings(scheme="rk4", dt=1.0, tau=float(MAX_STEPS_CEILING), max_steps=MAX_STEPS_CEILING)
+    assert at.tau / at.dt == MAX_STEPS_CEILING
+    with pytest.raises(ValueError, match=r"^tau, dt: tau/dt = 1e\+09 steps a trajectory, more than 1e\+09"):
+        LDSettings(scheme="rk4", dt=1.0, tau=math.nextafter(float(MAX_STEPS_CEILING), math.inf),
+                   max_steps=MAX_STEPS_CEILING)
+    LDSettings(scheme="dop853", tau=1e12)  # an adaptive scheme's count is not tau/dt
+
+
+def test_a_fixed_time_map_that_max_steps_would_cut_short_is_refused():
+    LDSettings(scheme="sym4", dt=0.01, tau=100.0, max_steps=10_000)  # 1e4 steps: just enough
+    with pytest.raises(ValueError, match=r"^tau, dt, max_steps: .* more than max_steps = 9999"):
+        LDSettings(scheme="sym4", dt=0.01, tau=100.0, max_steps=9_999)
+    # variable time: trajectories that leave the region stop early, so the cap may be lower
+    LDSettings(scheme="sym4", dt=0.01, tau=100.0, max_steps=9_999, region_lower=(0, 0), region_upper=(1, 1))
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+@pytest.mark.parametrize("name", ["tau", "dt"])
+def test_non_finite_time_settings_are_refused(name, value):
+    with pytest.raises(ValueError, match=f"^{name}: expected a finite number"):
+        LDSettings(**{name: value})

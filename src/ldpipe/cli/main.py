@@ -17,6 +17,7 @@ from ..config import load_config, validate_config
 from ..engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
 from ..engine.integrands import ARCLENGTH
 from ..errors import ConfigError, LdpipeError
+from ..io.atomic import check_writable
 from ..logs import log_to
 from ..systems import BUILTINS, is_vector_field
 from ..text import short_number
@@ -320,6 +321,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        # Every output the command will write, checked before any work: a bad path fails in a second, not after the run.
+        check_writable(getattr(args, "output", None), getattr(args, "csv", None))
         args.handler(args)
     except LdpipeError as error:
         print(f"ldpipe {args.command}: error: {error}", file=sys.stderr)

@@ -18,6 +18,7 @@ The compiled code is assembled by :mod:`ldpipe.engine.codegen` per system and ca
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..engine.integrator import get_runner, run_units
 from ..engine.kinetic import to_engine_states, to_momenta
-from ..engine.settings import DEFAULT_ESCAPE_RADIUS, engine_escape_radius
+from ..engine.settings import DEFAULT_ESCAPE_RADIUS, MAX_STEPS_CEILING, check_tolerances, engine_escape_radius
 from ..engine.templates import flow_status
 from ..systems import System
 
@@ -46,12 +47,28 @@ SMALL_LANES = 4
 
 @dataclass(frozen=True)
 class FlowSettings:
-    """DOP853 tolerances, escape radius (on every coordinate) and a cap on steps per trajectory."""
+    """DOP853 tolerances, escape radius (on every coordinate) and a cap on steps per trajectory.
+
+    Refused on construction, naming the setting: tolerances below what doubles can honour
+    (``rtol`` below :data:`ldpipe.engine.settings.RTOL_FLOOR`, 1e-15, where the step size
+    underflows and every trajectory spins to ``max_steps``; ``atol`` below ``ATOL_FLOOR``),
+    a non-finite escape radius, and ``max_steps`` beyond ``MAX_STEPS_CEILING`` (days of work).
+    """
 
     rtol: float = 1e-10
     atol: float = 1e-10
     escape_radius: float = DEFAULT_ESCAPE_RADIUS
     max_steps: int = 10_000_000
+
+    def __post_init__(self):
+        for name in ("rtol", "atol", "escape_radius"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{name}: expected a finite number > 0, got {value!r}")
+        check_tolerances(self.rtol, self.atol)
+        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) \
+                or not 1 <= self.max_steps <= MAX_STEPS_CEILING:
+            raise ValueError(f"max_steps: expected an integer in [1, {MAX_STEPS_CEILING}], got {self.max_steps!r}")
 
 
 @dataclass

@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..io.atomic import atomic_path
+
 EARTH_RADIUS = 6371000.0
 U, L = 1.2, 120e3  # jet speed (m/s) and half-width (m)
 WAVES = ((0.075, 1, 0.15), (0.4, 2, 0.10), (0.3, 3, 0.05))  # eps_n, wavenumber index n, phase speed c_n (m/s)
@@ -105,10 +107,8 @@ def example_dataset(days: float = 40.0, step_hours: float = 6.0, resolution: flo
 def write_example(path: str | Path, **options) -> Path:
     """Write :func:`example_dataset` to ``path`` (netCDF), atomically."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp")
-    example_dataset(**options).to_netcdf(temporary)
-    temporary.replace(path)
+    with atomic_path(path) as temporary:
+        example_dataset(**options).to_netcdf(temporary)
     return path
 
 

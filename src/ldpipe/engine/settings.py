@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from dataclasses import dataclass
 from typing import Union
 
@@ -31,6 +32,24 @@ from .schemes.taylor import MAX_ORDER, MIN_ORDER
 #: finite-time blow-up of their escaping trajectories, where the potential is already below
 #: -1e4, so nothing that gets there comes back into the well at the energies studied.
 DEFAULT_ESCAPE_RADIUS = 100.0
+
+#: The smallest relative tolerance an adaptive scheme accepts (the engine's, ``FlowSettings``',
+#: and the config schema's ``minimum`` of every ``rtol``). A double carries 53 bits: one rounding
+#: of a result is relative error eps/2, eps = 2.2e-16, and a step sums a dozen rounded stages, so
+#: its result is known to a few eps at best. A tolerance below that asks for an error smaller
+#: than the arithmetic commits: results are no more accurate, steps multiply, and far below
+#: it (1e-30 for DOP853 on Barbanis) the step size underflows and every trajectory spins to
+#: ``max_steps``. The floor is the power of ten above 4 eps. scipy's ``solve_ivp`` instead raises
+#: rtol to 100 eps with a warning; ldpipe refuses, because the settings are recorded in each
+#: file's attributes and a silently raised one would be recorded wrong.
+RTOL_FLOOR = 1e-15
+#: The smallest absolute tolerance: the smallest normal double. An absolute tolerance has the
+#: units of the state, so doubles alone set no other floor; below this one atol itself loses
+#: precision (subnormal), and a zero component has no tolerance the error norm can divide by.
+ATOL_FLOOR = sys.float_info.min
+#: The most steps a trajectory may be asked to take (``max_steps``, or tau/dt of a fixed-step
+#: scheme): 1e9 steps of the cheapest scheme are hours for one trajectory, days for a map.
+MAX_STEPS_CEILING = 10**9
 
 
 def engine_escape_radius(system, radius: float) -> float:
@@ -47,6 +66,17 @@ def _number(name: str, value, *, positive: bool = True) -> float:
     if not math.isfinite(value) or (positive and value <= 0.0):
         raise ValueError(f"{name}: expected a finite number > 0, got {value!r}")
     return value
+
+
+def check_tolerances(rtol: float, atol: float, where: str = "") -> None:
+    """Refuse tolerances no double-precision step can honour (:data:`RTOL_FLOOR`,
+    :data:`ATOL_FLOOR`), naming the setting (after ``where``, e.g. ``"integrator."``) and its floor."""
+    if rtol < RTOL_FLOOR:
+        raise ValueError(f"{where}rtol: {rtol!r} is below what double precision can honour (one rounding is "
+                         f"1.1e-16 relative); use >= {RTOL_FLOOR!r}")
+    if atol < ATOL_FLOOR:
+        raise ValueError(f"{where}atol: {atol!r} is below what double precision can honour (the smallest normal "
+                         f"double); use >= {ATOL_FLOOR!r}")
 
 
 def _integer(name: str, value, low: int, high: int | None = None, *, optional: bool = False) -> None:
@@ -124,8 +154,7 @@ class IntegratorSettings(_NamesAScheme):
         get_scheme(self.scheme)
         for name in ("rtol", "atol", "dt", "escape_radius"):
             _set(self, name, _number(name, getattr(self, name)))
-        if self.rtol < 1e-15:
-            raise ValueError(f"rtol: {self.rtol!r} is below what double precision can deliver; use >= 1e-15")
+        check_tolerances(self.rtol, self.atol)
         _integer("taylor_order", self.taylor_order, MIN_ORDER, MAX_ORDER, optional=True)
 
     @classmethod
@@ -268,7 +297,7 @@ class StoppingRules:
                 raise ValueError(f"region_lower, region_upper: need lower < upper in every coordinate, got {lower}, {upper}")
         _set(self, "region_lower", lower)
         _set(self, "region_upper", upper)
-        _integer("max_steps", self.max_steps, 1)
+        _integer("max_steps", self.max_steps, 1, MAX_STEPS_CEILING)
 
     @property
     def variable_time(self) -> bool:
@@ -320,6 +349,20 @@ class LDSettings(_NamesAScheme):
                 _set(self, name, getattr(part, name))
         if self.block is not None:
             _integer("block", self.block, 1)
+        if not self.adaptive:
+            self._check_fixed_steps()
+
+    def _check_fixed_steps(self) -> None:
+        # A fixed-step scheme takes tau/dt steps: refuse a count that would run for days, or that
+        # max_steps would cut short for every trajectory of a fixed-time map (all flagged failed).
+        steps = self.tau / self.dt
+        if steps > MAX_STEPS_CEILING:
+            raise ValueError(f"tau, dt: tau/dt = {steps:.3g} steps a trajectory, more than {MAX_STEPS_CEILING:.0e}; "
+                             f"raise dt or lower tau")
+        if not self.variable_time and math.ceil(steps * (1 - 1e-12)) > self.max_steps:  # tau/dt rounded up, 1e-12 spared
+            raise ValueError(f"tau, dt, max_steps: tau/dt = {steps:.6g} steps a trajectory, more than max_steps = "
+                             f"{self.max_steps}: every trajectory would stop at max_steps, flagged failed; raise dt "
+                             "or max_steps")
 
     @classmethod
     def from_parts(

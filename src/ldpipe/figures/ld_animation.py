@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.animation import PillowWriter
 
+from ..io.atomic import atomic_path
 from ..io.contracts import LD_GRID
 from ..io.datafile import open_stage_file
 from . import style
@@ -70,15 +71,13 @@ def write_ld_animation(settings: dict, ld_map: str | Path, gif: str | Path) -> i
                            limits=limits, colorbar_label=style.LD_LABEL[settings["descriptor"]])
     style.label_axes(ax, *axes_names)
     title = ax.set_title("", loc="right")
-    gif = Path(gif)
-    gif.parent.mkdir(parents=True, exist_ok=True)
-    temporary = gif.with_name(f".{gif.stem}.tmp.gif")
     writer = PillowWriter(fps=settings["fps"])
-    with writer.saving(figure, str(temporary), dpi=style.DPI):
-        for k, start in enumerate(starts):
-            image.set_array(np.ma.transpose(frames[k]))  # as draw_map draws it: the first axis horizontal
-            title.set_text(rf"$t_0 = {start:g}$")
-            writer.grab_frame()
-    plt.close(figure)
-    temporary.replace(gif)
+    try:
+        with atomic_path(gif, keep_suffix=True) as temporary, writer.saving(figure, str(temporary), dpi=style.DPI):
+            for k, start in enumerate(starts):
+                image.set_array(np.ma.transpose(frames[k]))  # as draw_map draws it: the first axis horizontal
+                title.set_text(rf"$t_0 = {start:g}$")
+                writer.grab_frame()
+    finally:
+        plt.close(figure)
     return len(starts)

@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import Colormap  # noqa: E402
 
+from ..io.atomic import atomic_path  # noqa: E402
 from ..io.datafile import open_stage_file  # noqa: E402
 
 #: Colour map of every LD map; forbidden points (masked) are drawn in FORBIDDEN_COLOR.
@@ -164,10 +165,8 @@ def save_figure(figure, png: str | Path, pdf: str | Path | None = None) -> list[
         if path is None:
             continue
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.stem}.tmp.{kind}")
-        figure.savefig(temporary, format=kind, dpi=DPI, bbox_inches="tight")
-        temporary.replace(path)
+        with atomic_path(path) as temporary:
+            figure.savefig(temporary, format=kind, dpi=DPI, bbox_inches="tight")
         written.append(path)
     plt.close(figure)
     return written

@@ -22,6 +22,7 @@ import xarray as xr
 
 from .._version import __version__
 from ..errors import StageFileError
+from .atomic import write_or_keep
 from .contracts import CONTRACTS, StageFile
 
 ENGINE = "netcdf4"
@@ -126,9 +127,16 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
     one here.
 
     The file is written to a temporary name in the same folder and renamed into
-    place only once complete, so a job killed mid-write never leaves a file
-    under the final name. Numeric variables are compressed (``COMPRESSION``), except in a
-    contract's intermediate files.
+    place only once complete (:func:`ldpipe.io.atomic.atomic_path`), so a job killed mid-write
+    never leaves a file under the final name. Numeric variables are compressed
+    (``COMPRESSION``), except in a contract's intermediate files.
+
+    Raises
+    ------
+    OutputError
+        naming ``path`` if the file cannot be written (a full disk, a folder that went away);
+        the file already at ``path`` is left as it was, and the result is kept in the system's
+        temporary folder if it can be, named in the message.
     """
     path = Path(path)
     if stage is not None:
@@ -137,7 +145,8 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
         raise ValueError(f"{path}: the dataset is not a stage product (no {STAGE_ATTRIBUTE!r} attribute); "
                          "give stage, title and parameters")
     _check_finite(dataset, path)
-    contract = CONTRACTS.get(dataset.attrs[STAGE_ATTRIBUTE])
+    # the contract given, else the one registered for the stage the dataset names
+    contract = stage if isinstance(stage, StageFile) else CONTRACTS.get(dataset.attrs[STAGE_ATTRIBUTE])
     compression = {} if contract is not None and contract.intermediate else COMPRESSION
     dataset = dataset.copy()
     encoding = {}
@@ -146,16 +155,14 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
             encoding[name] = dict(compression)  # replaces what the variable carries from a file it was read from
             if variable.dtype.kind == "b":
                 dataset[name] = variable.astype(np.int8)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        dataset.to_netcdf(temporary, engine=ENGINE, format="NETCDF4", encoding=encoding)
-        with open(temporary, "rb") as handle:
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
+
+    def write(temporary: Path) -> None:
+        try:
+            dataset.to_netcdf(temporary, engine=ENGINE, format="NETCDF4", encoding=encoding)
+        except RuntimeError as error:  # the netCDF library's own failures, a full disk among them
+            raise OSError(f"the netCDF library failed: {error}; is the disk full, or a file-size limit set?") from error
+
+    write_or_keep(path, write)
     return path
 
 

@@ -17,6 +17,8 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
+from .atomic import write_text_atomic
+
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = PACKAGE_ROOT.name
 #: Packages whose files are code generation's text (``importlib.resources``), not imports.
@@ -115,8 +117,5 @@ def code_digest(module: str, folder: str | os.PathLike) -> Path:
     text = "".join(lines)
     path = Path(folder) / f"{module}.sha256"
     if not path.is_file() or path.read_text() != text:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        temporary.write_text(text)
-        temporary.replace(path)  # atomic: a reader never sees half a list
+        write_text_atomic(path, text)  # a reader never sees half a list
     return path

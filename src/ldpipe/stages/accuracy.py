@@ -20,6 +20,7 @@ import xarray as xr
 
 from ..core.accuracy import IntegratorStep, RepeatRule, warm_up
 from ..core.accuracy.measurement import accuracy_cost_dataset, equilibria_by_system, equilibria_for
+from ..io.atomic import check_writable, write_text_atomic
 from ..core.maps.assembly import resolve_map
 from ..core.sections import section_states
 from ..engine.codegen import engine_compiled, engine_name
@@ -189,6 +190,7 @@ def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map
 
     The LD ladder then loads it from numba's cache; the measurement is unchanged (it times after a warm-up).
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     found = equilibria_by_system([equilibria] if isinstance(equilibria, (str, Path)) else list(equilibria))
     data = equilibria_for(found, map["system_name"], f"accuracy_cost.ld.maps ({map['map_name']})")
     system, section, settings, info = resolve_map(map, data)
@@ -201,10 +203,7 @@ def run_accuracy_engine(*, output: str | Path, equilibria: list[str | Path], map
         warm_up(system, states, settings)
         how = "compiled"
     log.info("engine %s %s (%s on map %s)", name, how, IntegratorStep.from_spec(setting).label, map["map_name"])
-    output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    output.write_text(f"{name}: {IntegratorStep.from_spec(setting).label} on map {map['map_name']}\n")
-    return output
+    return write_text_atomic(output, f"{name}: {IntegratorStep.from_spec(setting).label} on map {map['map_name']}\n")
 
 
 def run_accuracy_cost(
@@ -219,12 +218,9 @@ def run_accuracy_cost(
 ) -> Path:
     """Measure every ladder, write the netCDF file ``output`` and the Markdown ``table``
     (:func:`ldpipe.core.accuracy.measurement.accuracy_cost_dataset`)."""
+    check_writable(output, table)  # before any work: never lose a run to a bad path
     data = accuracy_cost_dataset({"ld": ld, "upo": upo, "nhim": nhim}, equilibria, threads=threads)
     path = write_stage_file(data, output)
-    table = Path(table)
-    table.parent.mkdir(parents=True, exist_ok=True)
-    temporary = table.with_name(f".{table.name}.tmp")
-    temporary.write_text(accuracy_table(data))
-    temporary.replace(table)
+    table = write_text_atomic(table, accuracy_table(data))
     log.info("wrote %s and %s", path, table)
     return path

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..engine import SCHEMES, integrands
 from ..errors import ConfigError
+from ..io.atomic import check_writable
 from ..logs import get_logger
 from ..config.figures import KIND_SETTINGS
 from ..config.parameters import parameters_from_config
@@ -338,6 +339,7 @@ def run_figure(*, figure_name: str, kind: str, settings: dict, caption: dict | N
     gif : path, optional
         The animation of an animated kind (:data:`ANIMATED`).
     """
+    check_writable(png, pdf, gif)  # before any work: never lose a run to a bad path
     from ..figures import style
 
     log.info("figure %s (%s) from %s", figure_name, kind, {k: _as_list(v) for k, v in inputs.items()})

@@ -9,6 +9,7 @@ import xarray as xr
 
 from ..core.maps.assembly import gather_ld_map, ld_map_dataset, ld_map_tile, map_contract, map_title, \
     recorded_parameters
+from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, LD_TILE
 from ..io.datafile import open_stage_file, stage_dataset, stage_parameters, write_stage_file
 from ..logs import get_logger
@@ -40,6 +41,7 @@ def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, t
 def run_ld_tile(*, output: str | Path, equilibria: str | Path | xr.Dataset | None, tile: int = 0, tiles: int = 1,
                 threads: int | None = None, show_progress: bool = True, **parameters) -> Path:
     """Compute one tile of an LD map and write it as a tile file."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     return write_map_file(ld_map_tile(parameters, open_equilibria(equilibria), tile=tile, tiles=tiles, threads=threads,
                                       show_progress=show_progress), output)
 
@@ -48,12 +50,14 @@ def run_ld_map(*, output: str | Path, equilibria: str | Path | xr.Dataset | None
                threads: int | None = None, show_progress: bool = True, **parameters) -> Path:
     """Compute a whole map as the workflow does, in one process, and write its file: the
     workflow's file, bit for bit (:func:`ldpipe.core.maps.assembly.ld_map_dataset`)."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     return write_map_file(ld_map_dataset(parameters, open_equilibria(equilibria), tiles=tiles, threads=threads,
                                          show_progress=show_progress), output)
 
 
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tile files of one map into the map's file."""
+    check_writable(output)  # before any work: never lose a run to a bad path
     datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
     datasets = [open_stage_file(d, stage=map_contract(stage_parameters(d), tile_file=True)) for d in datasets]
     try:

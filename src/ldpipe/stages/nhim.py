@@ -24,6 +24,7 @@ import xarray as xr
 
 from ..core.nhim.study import nhim_study_dataset
 from ..io.datafile import write_stage_file
+from ..io.atomic import check_writable
 from ..logs import get_logger
 
 log = get_logger(__name__)
@@ -56,6 +57,7 @@ def run_nhim_study(
     refinement : dict
         The ``nhim.refinement`` config section.
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {"study": study, "refinement": refinement, "references": list(references), "derived": derived}
     dataset = nhim_study_dataset(parameters, maps, reference_files, equilibria, threads=threads)
     path = write_stage_file(dataset, output)

@@ -20,6 +20,7 @@ import xarray as xr
 
 from ..core.nhim.sampling import nhim_sampling_dataset
 from ..io.datafile import write_stage_file
+from ..io.atomic import check_writable
 from ..logs import get_logger
 
 log = get_logger(__name__)
@@ -53,6 +54,7 @@ def run_nhim_sampling(
     equilibria : path
         The system's equilibria file (the saddle the base map's ``saddle_near`` selects).
     """
+    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {"study": study, "base_map": base_map, "fixed": fixed, "signs": signs, "sampling": sampling,
                   "refinement": refinement}
     path = write_stage_file(nhim_sampling_dataset(parameters, equilibria, threads=threads), output)

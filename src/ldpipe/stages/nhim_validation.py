@@ -9,8 +9,10 @@ those, and this stage only through their outputs. Two tables: the LD-map studies
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
+from ..io.atomic import check_writable, write_text_atomic
 from ..io.contracts import NHIM, NHIM_ORBITS
 from ..io.datafile import open_stage_file
 from ..errors import LdpipeError
@@ -137,13 +139,12 @@ def _format(value) -> str:
 
 def _write_tables(rows: list[dict], columns: tuple[str, ...], csv_output: str | Path, markdown: str,
                   markdown_output: str | Path) -> None:
-    path = Path(markdown_output)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(markdown)
-    with open(csv_output, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_text_atomic(markdown_output, markdown)
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text_atomic(csv_output, text.getvalue(), newline="")
 
 
 def run_nhim_validation(
@@ -159,6 +160,7 @@ def run_nhim_validation(
     NHIMValidationError
         Naming each failing slice and its distance or reason, after the tables are written.
     """
+    check_writable(csv_output, markdown_output, orbits_csv_output, orbits_markdown_output)  # before any work: never lose a run to a bad path
     rows = [row for path in studies for row in validation_rows(path, tolerance, residence_ratio)]
     _write_tables(rows, TABLE_COLUMNS, csv_output, _markdown(rows, tolerance), markdown_output)
     failed = [row for row in rows if row["status"] != "ok"]
