@@ -15,6 +15,7 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,11 @@ import xarray as xr
 
 from .._version import __version__
 from ..errors import StageFileError
-from .atomic import write_or_keep
+from ..logs import get_logger
+from .atomic import check_writable, write_or_keep
 from .contracts import CONTRACTS, StageFile
+
+log = get_logger(__name__)
 
 ENGINE = "netcdf4"
 CONVENTIONS = "CF-1.10"
@@ -163,6 +167,19 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
             raise OSError(f"the netCDF library failed: {error}; is the disk full, or a file-size limit set?") from error
 
     write_or_keep(path, write)
+    return path
+
+
+def write_product(output: str | os.PathLike, make: Callable[[], xr.Dataset],
+                  describe: Callable[[xr.Dataset], str] | None = None) -> Path:
+    """What every stage does with its product: ``output`` checked writable before any work
+    (:func:`ldpipe.io.atomic.check_writable`, so a bad path never costs a run), the product made
+    (``make()``, the core's function), written (:func:`write_stage_file`) and logged, with what
+    ``describe(dataset)`` says of it."""
+    check_writable(output)
+    dataset = make()
+    path = write_stage_file(dataset, output)
+    log.info("wrote %s%s", path, f" ({describe(dataset)})" if describe else "")
     return path
 
 

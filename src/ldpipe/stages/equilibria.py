@@ -5,11 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..core.equilibria.study import equilibria_dataset
-from ..io.atomic import check_writable
-from ..io.datafile import write_stage_file
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_equilibria(
@@ -23,11 +19,8 @@ def run_equilibria(
 ) -> Path:
     """Find every equilibrium of the system in ``box``, analyse it, and write ``output``
     (:func:`ldpipe.core.equilibria.study.equilibria_dataset`)."""
-    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {
         "system_name": system_name, "system_spec": system_spec, "box": box,
         "seeds_per_axis": seeds_per_axis, "tolerance": tolerance,
     }
-    path = write_stage_file(equilibria_dataset(parameters), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: equilibria_dataset(parameters))

@@ -9,12 +9,8 @@ import xarray as xr
 
 from ..core.maps.assembly import gather_ld_map, ld_map_dataset, ld_map_tile, map_contract, map_title, \
     recorded_parameters
-from ..io.atomic import check_writable
 from ..io.contracts import EQUILIBRIA, LD_TILE
-from ..io.datafile import open_stage_file, stage_dataset, stage_parameters, write_stage_file
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import open_stage_file, stage_dataset, stage_parameters, write_product
 
 
 def open_equilibria(equilibria: str | Path | xr.Dataset | None) -> xr.Dataset | None:
@@ -22,10 +18,8 @@ def open_equilibria(equilibria: str | Path | xr.Dataset | None) -> xr.Dataset | 
     return open_stage_file(equilibria, stage=EQUILIBRIA) if equilibria is not None else None
 
 
-def write_map_file(dataset: xr.Dataset, output: str | Path) -> Path:
-    path = write_stage_file(dataset, output)
-    log.info("wrote %s (%d allowed points)", path, int(dataset.allowed.sum()))
-    return path
+def allowed_points(dataset: xr.Dataset) -> str:
+    return f"{int(dataset.allowed.sum())} allowed points"
 
 
 def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, tile_file: bool) -> Path:
@@ -34,34 +28,34 @@ def write_ld_map(dataset: xr.Dataset, parameters: dict, output: str | Path, *, t
     tile, tiles = int(dataset.attrs["tile"]), int(dataset.attrs["tiles"])
     recorded = {**recorded_parameters(dataset, parameters), "tile": tile, "tiles": tiles}
     title = map_title(parameters, tile, tiles) if tile_file else map_title(parameters)
-    return write_map_file(stage_dataset(dataset, stage=map_contract(parameters, tile_file=tile_file), title=title,
-                                        parameters=recorded), output)
+    return write_product(output, lambda: stage_dataset(dataset, stage=map_contract(parameters, tile_file=tile_file),
+                                                       title=title, parameters=recorded), allowed_points)
 
 
 def run_ld_tile(*, output: str | Path, equilibria: str | Path | xr.Dataset | None, tile: int = 0, tiles: int = 1,
                 threads: int | None = None, show_progress: bool = True, **parameters) -> Path:
     """Compute one tile of an LD map and write it as a tile file."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    return write_map_file(ld_map_tile(parameters, open_equilibria(equilibria), tile=tile, tiles=tiles, threads=threads,
-                                      show_progress=show_progress), output)
+    return write_product(output, lambda: ld_map_tile(parameters, open_equilibria(equilibria), tile=tile, tiles=tiles,
+                                                     threads=threads, show_progress=show_progress), allowed_points)
 
 
 def run_ld_map(*, output: str | Path, equilibria: str | Path | xr.Dataset | None, tiles: int = 1,
                threads: int | None = None, show_progress: bool = True, **parameters) -> Path:
     """Compute a whole map as the workflow does, in one process, and write its file: the
     workflow's file, bit for bit (:func:`ldpipe.core.maps.assembly.ld_map_dataset`)."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    return write_map_file(ld_map_dataset(parameters, open_equilibria(equilibria), tiles=tiles, threads=threads,
-                                         show_progress=show_progress), output)
+    return write_product(output, lambda: ld_map_dataset(parameters, open_equilibria(equilibria), tiles=tiles,
+                                                        threads=threads, show_progress=show_progress), allowed_points)
 
 
 def run_ld_gather(*, tiles: list[str | Path], output: str | Path) -> Path:
     """Join the tile files of one map into the map's file."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
-    datasets = [open_stage_file(d, stage=map_contract(stage_parameters(d), tile_file=True)) for d in datasets]
-    try:
-        joined = gather_ld_map(datasets, names=[str(path) for path in tiles])
-    except ValueError as error:
-        raise ValueError(f"{output}: {error}") from None
-    return write_map_file(joined, output)
+
+    def gathered() -> xr.Dataset:
+        datasets = [open_stage_file(path, stage=LD_TILE.stage) for path in tiles]
+        datasets = [open_stage_file(d, stage=map_contract(stage_parameters(d), tile_file=True)) for d in datasets]
+        try:
+            return gather_ld_map(datasets, names=[str(path) for path in tiles])
+        except ValueError as error:
+            raise ValueError(f"{output}: {error}") from None
+
+    return write_product(output, gathered, allowed_points)

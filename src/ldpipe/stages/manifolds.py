@@ -11,17 +11,10 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.orbits.manifolds import manifolds_dataset
-from ..io.atomic import check_writable
-from ..io.datafile import write_stage_file
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_manifolds(*, output: str | Path, upo: str | Path | xr.Dataset, threads: int | None = None,
                   **parameters) -> Path:
     """Globalize both manifolds of the selected orbit of the UPO file ``upo`` and write ``output``."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    path = write_stage_file(manifolds_dataset(parameters, upo, threads=threads), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: manifolds_dataset(parameters, upo, threads=threads))

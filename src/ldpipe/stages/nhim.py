@@ -23,11 +23,7 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.nhim.study import nhim_study_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_nhim_study(
@@ -57,9 +53,6 @@ def run_nhim_study(
     refinement : dict
         The ``nhim.refinement`` config section.
     """
-    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {"study": study, "refinement": refinement, "references": list(references), "derived": derived}
-    dataset = nhim_study_dataset(parameters, maps, reference_files, equilibria, threads=threads)
-    path = write_stage_file(dataset, output)
-    log.info("wrote %s (%d slices)", path, dataset.sizes["slice"])
-    return path
+    return write_product(output, lambda: nhim_study_dataset(parameters, maps, reference_files, equilibria, threads=threads),
+                         lambda dataset: f"{dataset.sizes['slice']} slices")

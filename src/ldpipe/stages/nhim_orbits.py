@@ -35,11 +35,7 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.nhim.orbit_slices import orbit_validation_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_nhim_orbit_validation(
@@ -55,11 +51,8 @@ def run_nhim_orbit_validation(
     ``refinement`` the ``nhim.refinement`` section (without ``zoom``); the rest are the study's
     config keys (see the schema).
     """
-    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {"study": study, "base_map": base_map, "orbits": orbits, "energies": energies, "phases": phases,
                   "slices": slices, "half_width": half_width, "points": points, "boundary_cells": boundary_cells,
                   "min_transversality": min_transversality, "tolerance": tolerance, "refinement": refinement}
-    dataset = orbit_validation_dataset(parameters, orbit_files, equilibria, threads=threads)
-    written = write_stage_file(dataset, output)
-    log.info("wrote %s (%d slices, %d crossings)", written, dataset.sizes["slice"], dataset.sizes["crossing"])
-    return written
+    return write_product(output, lambda: orbit_validation_dataset(parameters, orbit_files, equilibria, threads=threads),
+                         lambda dataset: f"{dataset.sizes['slice']} slices, {dataset.sizes['crossing']} crossings")

@@ -19,11 +19,7 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.nhim.sampling import nhim_sampling_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_nhim_sampling(
@@ -54,9 +50,6 @@ def run_nhim_sampling(
     equilibria : path
         The system's equilibria file (the saddle the base map's ``saddle_near`` selects).
     """
-    check_writable(output)  # before any work: never lose a run to a bad path
     parameters = {"study": study, "base_map": base_map, "fixed": fixed, "signs": signs, "sampling": sampling,
                   "refinement": refinement}
-    path = write_stage_file(nhim_sampling_dataset(parameters, equilibria, threads=threads), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: nhim_sampling_dataset(parameters, equilibria, threads=threads))

@@ -11,11 +11,7 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.normal_form.study import normal_form_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_normal_form(*, output: str | Path, equilibria: str | Path | xr.Dataset,
@@ -25,8 +21,5 @@ def run_normal_form(*, output: str | Path, equilibria: str | Path | xr.Dataset,
 
     ``transport_file`` and ``saddle_flux_file`` are the files of the studies the parameters
     ``transport`` and ``saddle_flux`` name, if they do."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    dataset = normal_form_dataset(parameters, equilibria, transport=transport_file, saddle_flux=saddle_flux_file)
-    path = write_stage_file(dataset, output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: normal_form_dataset(parameters, equilibria, transport=transport_file,
+                                                          saddle_flux=saddle_flux_file))

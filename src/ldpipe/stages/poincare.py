@@ -11,11 +11,7 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.orbits.poincare import poincare_dataset
-from ..io.atomic import check_writable
-from ..io.datafile import write_stage_file
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_poincare(*, output: str | Path, equilibria: str | Path | xr.Dataset | None, threads: int | None = None,
@@ -23,7 +19,4 @@ def run_poincare(*, output: str | Path, equilibria: str | Path | xr.Dataset | No
     """Integrate the section's initial conditions and write their crossings to ``output``.
 
     ``equilibria`` None: a vector-field system (no energy; its trajectories start at ``t0``)."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    path = write_stage_file(poincare_dataset(parameters, equilibria, threads=threads), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: poincare_dataset(parameters, equilibria, threads=threads))

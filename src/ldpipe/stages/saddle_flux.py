@@ -11,17 +11,10 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.transport.saddle_flux import saddle_flux_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_saddle_flux(*, output: str | Path, equilibria: str | Path | xr.Dataset, threads: int | None = None,
                     **parameters) -> Path:
     """Monte Carlo reactive flux, one-way flux and harmonic estimate at each energy; writes ``output``."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    path = write_stage_file(saddle_flux_dataset(parameters, equilibria, threads=threads), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: saddle_flux_dataset(parameters, equilibria, threads=threads))

@@ -12,17 +12,10 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.transport.study import transport_dataset
-from ..io.datafile import write_stage_file
-from ..io.atomic import check_writable
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_transport(*, output: str | Path, upo: str | Path | xr.Dataset, equilibria: str | Path | xr.Dataset,
                   threads: int | None = None, **parameters) -> Path:
     """Flux by action, island area and Monte Carlo at each energy of the study; writes ``output``."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    path = write_stage_file(transport_dataset(parameters, upo, equilibria, threads=threads), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: transport_dataset(parameters, upo, equilibria, threads=threads))

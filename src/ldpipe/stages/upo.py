@@ -11,16 +11,9 @@ from pathlib import Path
 import xarray as xr
 
 from ..core.orbits.family import periodic_orbits_dataset
-from ..io.atomic import check_writable
-from ..io.datafile import write_stage_file
-from ..logs import get_logger
-
-log = get_logger(__name__)
+from ..io.datafile import write_product
 
 
 def run_upo(*, output: str | Path, equilibria: str | Path | xr.Dataset, **parameters) -> Path:
     """Compute one Lyapunov family from the system's equilibria file and write ``output``."""
-    check_writable(output)  # before any work: never lose a run to a bad path
-    path = write_stage_file(periodic_orbits_dataset(parameters, equilibria), output)
-    log.info("wrote %s", path)
-    return path
+    return write_product(output, lambda: periodic_orbits_dataset(parameters, equilibria))
