@@ -10,7 +10,6 @@ and the truncation error estimate of the top order (the change from the order be
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import matplotlib
 
@@ -91,6 +90,4 @@ def normal_form_figure(data):
     return figure
 
 
-def draw_normal_form(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
-    """Draw the figure of the normal-form file ``study`` to ``png`` (and ``pdf``)."""
-    return style.save_study_figure(normal_form_figure, NORMAL_FORM, study, png, pdf)
+draw_normal_form = style.study_drawing(normal_form_figure, NORMAL_FORM, "normal-form")

@@ -9,7 +9,6 @@ Carlo's 3 standard errors; the samples not reactive (the recrossing flux) are pr
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import matplotlib
 
@@ -68,6 +67,4 @@ def saddle_flux_figure(data):
     return figure
 
 
-def draw_saddle_flux(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
-    """Draw the figure of the saddle-flux file ``study`` to ``png`` (and ``pdf``)."""
-    return style.save_study_figure(saddle_flux_figure, SADDLE_FLUX, study, png, pdf)
+draw_saddle_flux = style.study_drawing(saddle_flux_figure, SADDLE_FLUX, "saddle-flux")

@@ -172,11 +172,17 @@ def save_figure(figure, png: str | Path, pdf: str | Path | None = None) -> list[
     return written
 
 
-def save_study_figure(figure_of: Callable, stage, study: str | Path, png: str | Path,
-                      pdf: str | Path | None = None) -> list[Path]:
-    """Draw ``figure_of`` the file ``study`` of ``stage`` (a :class:`~ldpipe.io.contracts.StageFile`)
-    and write it to ``png`` (and ``pdf``): the whole of a one-study figure's ``draw_*``."""
-    return save_figure(figure_of(open_stage_file(study, stage=stage)), png, pdf)
+def study_drawing(figure_of: Callable, stage, what: str) -> Callable[..., list[Path]]:
+    """The ``draw_*`` function of a one-study figure: ``draw(study=..., png=..., pdf=None)`` draws
+    ``figure_of`` the file ``study`` of ``stage`` (a :class:`~ldpipe.io.contracts.StageFile`) and
+    writes it to ``png`` (and ``pdf``); ``what`` names the study in its docstring."""
+
+    def draw(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
+        return save_figure(figure_of(open_stage_file(study, stage=stage)), png, pdf)
+
+    draw.__name__ = draw.__qualname__ = f"draw_{stage.stage}"
+    draw.__doc__ = f"Draw the figure of the {what} file ``study`` to ``png`` (and ``pdf``)."
+    return draw
 
 
 def plot_deviation(ax, x: np.ndarray, deviation: np.ndarray, marker: str, color, name: str, reference: str = "") -> None:

@@ -12,7 +12,6 @@ gives both sides of the identity Φ E[min(τ, T)] = V (1 − P(T)).
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import matplotlib
 
@@ -145,6 +144,4 @@ def transport_figure(data):
     return figure
 
 
-def draw_transport(*, study: str | Path, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
-    """Draw the figure of the transport file ``study`` to ``png`` (and ``pdf``)."""
-    return style.save_study_figure(transport_figure, TRANSPORT, study, png, pdf)
+draw_transport = style.study_drawing(transport_figure, TRANSPORT, "transport")
