@@ -17,7 +17,7 @@ from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.figures import run_figure
 from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.stages.ld import run_ld_map
-from ldpipe.stages.plan import ld_map_tiles
+from ldpipe.stages.plan import ld_map_points, ld_map_tiles, ld_tile_points
 from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import double_gyre_velocity
 from support.gridded import write_velocity_file
@@ -76,3 +76,22 @@ def test_snakemake_runs_a_job_per_start_time_and_band(workdir):
 def test_figures_of_one_start_time_refuse_a_stacked_map(tmp_path):
     with pytest.raises(ConfigError, match=r"map 'm' has several start times .*kind 'ld_animation' draws them all"):
         gyre_config(tmp_path / "gyre.nc", [2.0, 2.5], {"f": {"kind": "ld_ftle", "ld_maps": ["m"]}})
+
+
+@pytest.mark.parametrize("tiles", [2, 4])
+def test_tile_points_the_workflow_sizes_jobs_by_are_a_tiles_points(tmp_path, tiles):
+    """A tile job's memory and time limit are sized by its points (workflow/rules/common.smk).
+    With several start times a tile is a band of one start time's grid: the count planned must be
+    the largest tile's, counted here independently on the tiles computed (6 rows in 2 bands of 3,
+    or in 4 bands of 1 or 2 rows, each of 4 columns), not the map's points over the tiles."""
+    x, y, t = np.arange(0, 2 + H / 2, H), np.arange(0, 1 + H / 2, H), np.arange(0.0, 6.0 + H / 2, H)
+    path = write_velocity_file(tmp_path / "gyre.nc", double_gyre_velocity, x, y, t)
+    config = gyre_config(path, [2.0, 2.5, 3.0])
+    config["ld_maps"]["m"]["tiles"] = tiles
+    count = ld_map_tiles(config, "m")
+    assert count == 3 * tiles
+    parameters = parameters_from_config(config, "ld", "m")
+    counted = [compute_ld_map(parameters, None, tile=k, tiles=count, show_progress=False).ld_forward.size
+               for k in range(count)]
+    assert sum(counted) == ld_map_points(config, "m") == 3 * 6 * 4
+    assert ld_tile_points(config, "m", count) == max(counted) == 4 * -(-6 // tiles)
