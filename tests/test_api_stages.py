@@ -385,3 +385,26 @@ def test_equilibria_of_the_system_itself_are_taken(pipeline):
     # under another name the system is the same: its equilibria are taken
     renamed = ldpipe.system(name="barbanis", **BARBANIS)
     assert ldpipe.poincare(renamed, name="p", equilibria=equilibria, **without(POINCARE, "system")).sizes
+
+
+def test_energies_shorthand_is_the_total_energies_block(pipeline):
+    """``energies=[E]`` (a list or a tuple) stands for ``energies={"total": [E]}``: the same file bit
+    for bit. Barbanis' saddle is at a nonzero energy, so a shorthand read as excess energies (or
+    the block's total taken for an excess) gives another family: the case where the two coincide
+    (a saddle at energy 0, as the quadratic one) could not tell them apart."""
+    from ldpipe.core.equilibria.potential import select_saddle
+
+    equilibria = ldpipe.open_dataset(pipeline["equilibria"])
+    critical = select_saddle(equilibria, FAMILY["saddle_near"])[1]
+    assert abs(critical) > 1.0  # far from zero: total and excess energies differ
+    total = critical + 0.125
+    barbanis = ldpipe.system(**BARBANIS)
+    entry = without(without(FAMILY, "system"), "energies")
+    block = ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=equilibria, energies={"total": [total]}, **entry)
+    for shorthand in ([total], (total,)):
+        assert_same_file(ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=equilibria, energies=shorthand,
+                                                **entry), block)
+    # and the block is the total energy: the family of the excess 0.125 has the same orbit's period
+    stored = ldpipe.open_dataset(pipeline["upo"])
+    # (measured: equal; the orbit's own tolerance 1e-10 bounds what a rounding of the total could move)
+    np.testing.assert_allclose(block.period.values, stored.period.values, rtol=1e-11)
