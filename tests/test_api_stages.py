@@ -408,3 +408,16 @@ def test_energies_shorthand_is_the_total_energies_block(pipeline):
     stored = ldpipe.open_dataset(pipeline["upo"])
     # (measured: equal; the orbit's own tolerance 1e-10 bounds what a rounding of the total could move)
     np.testing.assert_allclose(block.period.values, stored.period.values, rtol=1e-11)
+
+
+def test_section_shorthand_gives_the_file_of_its_block(pipeline):
+    # ldpipe.section(...) for the initial_conditions block: the stage function's file bit for bit
+    stored = run_poincare(**parameters_from_config(pipeline["config"], "poincare", "p"),
+                          equilibria=pipeline["equilibria"], output=pipeline["folder"] / "p_section.nc")
+    # (POINCARE's block as written above; the pipeline's validation fills its defaults in)
+    section = ldpipe.section(x=(-5, 5, 4), px=(-5, 5, 4), fixed={"y": 0.0}, solve="py")
+    assert section == {"axes": [{"name": "x", "range": [-5, 5], "points": 4},
+                                {"name": "px", "range": [-5, 5], "points": 4}], "fixed": {"y": 0.0}, "solve": "py"}
+    result = ldpipe.poincare(ldpipe.system(**BARBANIS), name="p", **{**without(POINCARE, "system"),
+                                                                      "initial_conditions": section})
+    assert_same_file(result, ldpipe.open_dataset(stored))
