@@ -29,7 +29,8 @@ SHARED_DOCS = {
     "equilibria": """equilibria : xarray.Dataset, optional
         The system's equilibria (:func:`ldpipe.equilibria`), where the saddle and an excess energy
         are read; default computed now with the system's ``equilibria`` settings, as the pipeline
-        does (none for a vector field, which has neither).""",
+        does (none for a vector field, which has neither). Those of another system (another spec
+        recorded in their file) are refused.""",
     "threads": """threads : int, optional
         Threads of the engine (default every core).""",
     "raises": """Raises
