@@ -6,6 +6,7 @@ exactly (an invariant of the tiling, no tolerance); the animated figure has one 
 """
 
 import copy
+import re
 
 import numpy as np
 import pytest
@@ -71,6 +72,16 @@ def test_snakemake_runs_a_job_per_start_time_and_band(workdir):
     result = run_snakemake(workdir, "anim", "-n", "--quiet", "rules", "--configfile", "starts.yaml", timeout=300)
     assert result.returncode == 0, result.stderr
     assert job_counts(result.stdout) == {"ld_tile": 6, "ld_gather": 1, "anim": 1}
+    # each tile job asks for the memory of its own points, a band of one start time's grid: on a
+    # 2000 x 1500 section (the file's 3 x 3e6 points) in 3 x 2 tiles, 1000 rows x 1500 columns,
+    # 1 GB plus 200 bytes a point (workflow/rules/common.smk), where a third of that was asked
+    big = {**config, "ld_maps": {"m": {**config["ld_maps"]["m"], "section": {"axes": [
+        {"name": "x", "range": [0.1, 1.9], "points": 2000}, {"name": "y", "range": [0.1, 0.9], "points": 1500}]}}}}
+    (workdir / "big.yaml").write_text(yaml.safe_dump(big))
+    result = run_snakemake(workdir, "anim", "-n", "--configfile", "big.yaml", timeout=300)
+    assert result.returncode == 0, result.stderr
+    tiles = re.findall(r"rule ld_tile:.*?resources: [^\n]*mem_mb=(\d+)", result.stdout, flags=re.S)
+    assert len(tiles) == 6 and set(tiles) == {str(1000 + 1000 * 1500 * 200 // 2**20)}, tiles
 
 
 def test_figures_of_one_start_time_refuse_a_stacked_map(tmp_path):
