@@ -263,3 +263,11 @@ def test_energy_shorthand_is_the_total_energy_block(hh, energy):
     excess = ldpipe.ld_map(hh, name="hh", energy={"excess": energy}, **settings)
     assert not np.array_equal(excess.allowed.values, block.allowed.values) or \
         not np.array_equal(excess.ld_forward.values, block.ld_forward.values)
+
+
+def test_a_bool_energy_is_no_shorthand(hh):
+    # True is an int to Python, but not a number to the configuration: it is refused as the argument
+    # 'energy' itself, not made a block {"total": True} whose key the message would name instead
+    section = ldpipe.section(y=(-0.45, 0.8, 3), py=(-0.5, 0.5, 3), fixed={"px": 0.0}, solve="x", root="largest")
+    with pytest.raises(ConfigError, match=r"argument 'energy': True is not of type 'object'"):
+        ldpipe.ld_map(hh, section=section, energy=True, tau=0.5)
