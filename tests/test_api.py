@@ -249,3 +249,25 @@ def test_every_api_docstring_is_whole_and_names_its_shared_arguments():
         assert "%(" not in function.__doc__, name
         if "threads" in inspect.signature(function).parameters:
             assert "threads : int, optional" in function.__doc__, name
+
+
+@pytest.mark.parametrize("energy", [0.125, 1])
+def test_energy_shorthand_is_the_total_energy_block(hh, energy):
+    # ``energy=E`` stands for ``energy={"total": E}``, a whole number too: the same map bit for bit
+    # (Henon-Heiles' saddle is at 1/6, so a number read as an excess energy gives another map)
+    section = ldpipe.section(y=(-0.45, 0.8, 5), py=(-0.5, 0.5, 4), fixed={"px": 0.0}, solve="x", root="largest")
+    settings = {"section": section, "tau": 0.5, "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8}}
+    block = ldpipe.ld_map(hh, name="hh", energy={"total": energy}, **settings)
+    assert_same_file(ldpipe.ld_map(hh, name="hh", energy=energy, **settings), block)
+    assert block.allowed.values.any()
+    excess = ldpipe.ld_map(hh, name="hh", energy={"excess": energy}, **settings)
+    assert not np.array_equal(excess.allowed.values, block.allowed.values) or \
+        not np.array_equal(excess.ld_forward.values, block.ld_forward.values)
+
+
+def test_a_bool_energy_is_no_shorthand(hh):
+    # True is an int to Python, but not a number to the configuration: it is refused as the argument
+    # 'energy' itself, not made a block {"total": True} whose key the message would name instead
+    section = ldpipe.section(y=(-0.45, 0.8, 3), py=(-0.5, 0.5, 3), fixed={"px": 0.0}, solve="x", root="largest")
+    with pytest.raises(ConfigError, match=r"argument 'energy': True is not of type 'object'"):
+        ldpipe.ld_map(hh, section=section, energy=True, tau=0.5)

@@ -329,3 +329,95 @@ def test_accuracy_cost_equals_the_stage_functions_file_but_for_what_it_measures(
         assert np.all(result[name].values >= 0) and np.all(stored[name].values >= 0), name
     assert_same_file(result.drop_vars(wall_times(result)), stored.drop_vars(wall_times(stored)))
     assert stored.sizes["setting"] == 2 and stored.sizes["orbit_setting"] == 1 and stored.sizes["nhim_grid"] == 1
+
+
+def _refused_calls(pipeline):
+    """Each API call taking ``equilibria=`` of a system, given the other system's (Barbanis' and the
+    quadratic saddle's, both recorded by the equilibria stage)."""
+    barbanis, quadratic_system = ldpipe.system(**BARBANIS), ldpipe.system(name="quadratic", **QUADRATIC)
+    barbanis_eq = ldpipe.open_dataset(pipeline["equilibria"])
+    quadratic_eq = ldpipe.open_dataset(pipeline["quadratic_equilibria"])
+    return {
+        "ld_map": lambda: ldpipe.ld_map(barbanis, name="k-7.0", equilibria=quadratic_eq, **without(NHIM_MAP, "system")),
+        "periodic_orbits": lambda: ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=quadratic_eq,
+                                                          **without(FAMILY, "system")),
+        "poincare": lambda: ldpipe.poincare(barbanis, name="p", equilibria=quadratic_eq, **without(POINCARE, "system")),
+        "nhim_sampling": lambda: ldpipe.nhim_sampling(barbanis, study="ns", equilibria=quadratic_eq,
+                                                      base_map=without(NHIM_MAP, "system"),
+                                                      **without(NHIM_SAMPLING, "base_map")),
+        "saddle_flux": lambda: ldpipe.saddle_flux(quadratic_system, name="q", equilibria=barbanis_eq,
+                                                  **without(SADDLE_FLUX, "system")),
+        "normal_form": lambda: ldpipe.normal_form(quadratic_system, name="nq", equilibria=barbanis_eq,
+                                                  **without(without(NORMAL_FORMS["nq"], "system"), "saddle_flux")),
+    }
+
+
+@pytest.mark.parametrize("function", ["ld_map", "periodic_orbits", "poincare", "nhim_sampling", "saddle_flux",
+                                      "normal_form"])
+def test_equilibria_of_another_system_are_refused_naming_the_argument(pipeline, function):
+    """Another system's saddle would place a map's section, a family's start or a flux's dividing
+    surface at a point of the wrong system, silently: every call taking ``equilibria=`` compares the
+    spec the equilibria file records with its system's (as ldpipe.transport does for a family)."""
+    with pytest.raises(ConfigError, match=rf"^ldpipe.{function}: argument 'equilibria': equilibria of system "
+                                          r"'(quadratic|barbanis_2dof)' \{.*\}, but the system given is of "
+                                          r"'(barbanis_2dof|quadratic)' \{.*\}$"):
+        _refused_calls(pipeline)[function]()
+
+
+def test_equilibria_of_the_system_itself_are_taken(pipeline):
+    # the same files as the stage functions write given their own equilibria
+    barbanis = ldpipe.system(**BARBANIS)
+    equilibria = ldpipe.open_dataset(pipeline["equilibria"])
+    stored = run_poincare(**parameters_from_config(pipeline["config"], "poincare", "p"),
+                          equilibria=pipeline["equilibria"], output=pipeline["folder"] / "p_own.nc")
+    assert_same_file(ldpipe.poincare(barbanis, name="p", equilibria=equilibria, **without(POINCARE, "system")),
+                     ldpipe.open_dataset(stored))
+    assert_same_file(ldpipe.ld_map(barbanis, name="k-7.0", equilibria=equilibria, **without(NHIM_MAP, "system")),
+                     ldpipe.open_dataset(pipeline["map"]))
+    assert_same_file(ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=equilibria,
+                                            **without(FAMILY, "system")), ldpipe.open_dataset(pipeline["upo"]))
+    quadratic_system = ldpipe.system(name="quadratic", **QUADRATIC)
+    stored = run_saddle_flux(**parameters_from_config(pipeline["config"], "saddle_flux", "q"),
+                             equilibria=pipeline["quadratic_equilibria"], output=pipeline["folder"] / "q_own.nc")
+    assert_same_file(ldpipe.saddle_flux(quadratic_system, name="q", **without(SADDLE_FLUX, "system"),
+                                        equilibria=ldpipe.open_dataset(pipeline["quadratic_equilibria"])),
+                     ldpipe.open_dataset(stored))
+    # under another name the system is the same: its equilibria are taken
+    renamed = ldpipe.system(name="barbanis", **BARBANIS)
+    assert ldpipe.poincare(renamed, name="p", equilibria=equilibria, **without(POINCARE, "system")).sizes
+
+
+def test_energies_shorthand_is_the_total_energies_block(pipeline):
+    """``energies=[E]`` (a list or a tuple) stands for ``energies={"total": [E]}``: the same file bit
+    for bit. Barbanis' saddle is at a nonzero energy, so a shorthand read as excess energies (or
+    the block's total taken for an excess) gives another family: the case where the two coincide
+    (a saddle at energy 0, as the quadratic one) could not tell them apart."""
+    from ldpipe.core.equilibria.potential import select_saddle
+
+    equilibria = ldpipe.open_dataset(pipeline["equilibria"])
+    critical = select_saddle(equilibria, FAMILY["saddle_near"])[1]
+    assert abs(critical) > 1.0  # far from zero: total and excess energies differ
+    total = critical + 0.125
+    barbanis = ldpipe.system(**BARBANIS)
+    entry = without(without(FAMILY, "system"), "energies")
+    block = ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=equilibria, energies={"total": [total]}, **entry)
+    for shorthand in ([total], (total,)):
+        assert_same_file(ldpipe.periodic_orbits(barbanis, name="bottom", equilibria=equilibria, energies=shorthand,
+                                                **entry), block)
+    # and the block is the total energy: the family of the excess 0.125 has the same orbit's period
+    stored = ldpipe.open_dataset(pipeline["upo"])
+    # (measured: equal; the orbit's own tolerance 1e-10 bounds what a rounding of the total could move)
+    np.testing.assert_allclose(block.period.values, stored.period.values, rtol=1e-11)
+
+
+def test_section_shorthand_gives_the_file_of_its_block(pipeline):
+    # ldpipe.section(...) for the initial_conditions block: the stage function's file bit for bit
+    stored = run_poincare(**parameters_from_config(pipeline["config"], "poincare", "p"),
+                          equilibria=pipeline["equilibria"], output=pipeline["folder"] / "p_section.nc")
+    # (POINCARE's block as written above; the pipeline's validation fills its defaults in)
+    section = ldpipe.section(x=(-5, 5, 4), px=(-5, 5, 4), fixed={"y": 0.0}, solve="py")
+    assert section == {"axes": [{"name": "x", "range": [-5, 5], "points": 4},
+                                {"name": "px", "range": [-5, 5], "points": 4}], "fixed": {"y": 0.0}, "solve": "py"}
+    result = ldpipe.poincare(ldpipe.system(**BARBANIS), name="p", **{**without(POINCARE, "system"),
+                                                                      "initial_conditions": section})
+    assert_same_file(result, ldpipe.open_dataset(stored))

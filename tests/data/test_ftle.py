@@ -216,3 +216,24 @@ def test_differences_maps_converge_to_the_variational_map():
     slope = np.polyfit(np.log(spacings), np.log(errors), 1)[0]
     # measured: errors 6.8e-4, 1.7e-4, 4.2e-5, slope 2.00
     assert 1.7 < slope < 2.3, errors
+
+
+def test_variational_ftle_takes_the_columns_of_the_section_axes():
+    # Closed form: x' = lam x, y' = -lam y, z' = s x (z driven by x): the state transition matrix over
+    # T has columns (e^(lam T), 0, s (e^(lam T) - 1) / lam) for x and (0, e^(-lam T), 0) for y, so
+    # the FTLE of the section (x, y) is ln(e^(2 lam T) + (s (e^(lam T) - 1) / lam)^2) / (2 T). Its
+    # rows for x and y hold no s at all: taking rows for columns (the same in 2 dimensions, and on a
+    # diagonal flow) gives lam. Three states, the gradient off-diagonal, or the bug cannot show.
+    from ldpipe.core.maps.ftle import variational_ftle
+    from ldpipe.systems import make_system
+
+    lam, s, time = 0.5, 2.0, 1.5
+    system = make_system("sheared_saddle", {"vector_field": {"x": "lam*x", "y": "-lam*y", "z": "s*x"},
+                                            "coordinates": ["x", "y", "z"], "parameters": {"lam": lam, "s": s}})
+    points = np.array([[0.1, -0.2, 0.3], [-0.4, 0.5, 0.0]])
+    growth = math.exp(lam * time)
+    expected = math.log(growth**2 + (s * (growth - 1) / lam) ** 2) / (2 * time)
+    values = variational_ftle(system, points, (0, 1), 0.0, time)
+    # measured: relative error 6.4e-14 (scipy at the default rtol 1e-12)
+    np.testing.assert_allclose(values, expected, rtol=3e-13)
+    assert abs(expected - lam) > 0.3  # far from the rows' value

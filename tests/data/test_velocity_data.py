@@ -263,3 +263,32 @@ def test_bad_data_errors_name_the_variable(tmp_path):
     data = data_system(good)
     with pytest.raises(ConfigError, match=r"times \[1, 3\], outside the time range \[0, 2\] of .* \(variable 'time'\)"):
         data.check_times(1.0, 3.0)
+
+
+def test_a_coast_with_a_corner_stops_trajectories_at_its_first_land_cell(tmp_path):
+    # u = 1 m/s eastward, land an L: the column x >= 8 and the arm x >= 6, y >= 6, whose corner
+    # node (6, 6) is the only land node of the water cell [5, 6] x [5, 6] (a diagonal corner: a
+    # straight coast never has one). Closed forms: a trajectory below the arm (y0 < 5) stops at
+    # x = 7, before the column; one whose row of cells touches the corner or the arm (y0 > 5) at
+    # x = 5; each after (stop - x0) seconds, flagged on land, never past its line (no trajectory
+    # enters a land cell); backward every one reaches the west edge x = 0 after x0 seconds.
+    x, y, t = np.arange(0.0, 10.01, 1.0), np.arange(0.0, 10.01, 1.0), np.arange(0.0, 20.01, 1.0)
+    coast = write_velocity_file(tmp_path / "corner.nc", lambda X, Y, T: (1.0 + 0 * X, 0 * Y), x, y, t,
+                                land=lambda X, Y: (X >= 8) | ((X >= 6) & (Y >= 6)))
+    entry = {"system": "corner", "t0": 10.0, "tau": 8.0, "p": 0.5, "ftle": True,
+             "integrator": {"rtol": 1e-10, "atol": 1e-10},
+             "section": {"axes": [{"name": "x", "range": [1.0, 3.0], "points": 3},
+                                  {"name": "y", "range": [2.5, 6.5], "points": 5}]}}
+    config = validate_config({"systems": {"corner": {"velocity_data": {"path": str(coast)}}},
+                              "ld_maps": {"c": entry}})
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "c"), None, show_progress=False)
+    x0 = dataset.x.values[:, None] + 0 * dataset.y.values
+    stop = np.where(dataset.y.values > 5, 5.0, 7.0) + 0 * x0
+    assert dataset.on_land_forward.values.all() and not dataset.left_data_forward.values.any()
+    # measured: 3.6e-8 relative (the step across the cell's edge); end points 1.4e-8 past their line
+    np.testing.assert_allclose(dataset.exit_time_forward.values, stop - x0, rtol=2e-7)
+    np.testing.assert_allclose(dataset.ld_forward.values, stop - x0, rtol=2e-7)
+    assert np.all(dataset.end_x_forward.values <= stop + 1e-7)  # at its line, not in the land cell
+    np.testing.assert_allclose(dataset.end_y_forward.values, 0 * x0 + dataset.y.values, rtol=0, atol=1e-12)
+    assert dataset.left_data_backward.values.all() and not dataset.on_land_backward.values.any()
+    np.testing.assert_allclose(dataset.exit_time_backward.values, x0, rtol=5e-8)  # measured 6e-9

@@ -198,6 +198,87 @@ def test_small_cells_beside_a_fate_switch_are_accepted_on_their_centre():
         assert changed.computed[:, 7].all(), change
 
 
+def _bumped(height: float, at: tuple[int, int], regressor_slope: float = 0.0, regressor=None):
+    """A one-fate map whose value is i (bilinear: every interpolant exact), plus ``regressor_slope``
+    times ``regressor`` and ``height`` at the pixel ``at`` alone: a test point off the interpolant
+    by exactly ``height`` (closed form)."""
+    def evaluate(i, j):
+        value = i + height * ((i == at[0]) & (j == at[1]))
+        if regressor is not None:
+            value = value + regressor_slope * regressor[i, j]
+        return {"ld_forward": value, "ld_backward": value, "fate": np.zeros(len(i), dtype=np.int64)}
+    return evaluate
+
+
+@pytest.mark.parametrize("factor, accepted", [(0.9, True), (1.1, False)])
+def test_a_cell_is_accepted_just_inside_its_bound_and_split_just_outside(factor, accepted):
+    # One coarse cell [0, 16]^2 (spacing 16): its corners hold 0 and 16 (value i), so the value range
+    # on the lattice is 16 and the bound tolerance * 16. Its centre, a test point, is off the
+    # bilinear interpolant by factor times that bound: at 0.9 the cell is accepted on its corners
+    # and five test points (nine trajectories, the rest filled exactly), at 1.1 it is split and its
+    # children tested (more trajectories). A bound applied twice as loose accepts both. An accepted
+    # cell's four children are filled bilinearly from their corners, the centre among them: i plus
+    # the bump times the hat (1 - |i - 8| / 8)(1 - |j - 8| / 8).
+    shape, tolerance = (17, 17), 1e-2
+    height = factor * tolerance * 16
+    band = refine_band(np.ones(shape, dtype=bool), 0, shape, _bumped(height, (8, 8)),
+                       RefineSettings(tolerance=tolerance, coarse_spacing=16))
+    assert (int(band.computed.sum()) == 9) is accepted, int(band.computed.sum())
+    if accepted:
+        i, j = np.indices(shape)
+        expected = i + height * (1 - np.abs(i - 8) / 8) * (1 - np.abs(j - 8) / 8)
+        np.testing.assert_allclose(band.fields["ld_forward"], expected, rtol=0, atol=1e-12)  # measured 1.8e-15
+
+
+@pytest.mark.parametrize("factor, accepted", [(0.9, True), (1.1, False)])
+def test_a_small_cell_is_accepted_on_its_centre_just_inside_its_bound(factor, accepted):
+    # One cell [0, 2]^2 (spacing 2), one fate at its corners: tested at its centre alone first. The
+    # value range on the lattice is 2 (value i), the bound tolerance * 2; the centre off the
+    # interpolant by 0.9 of it accepts the cell on five trajectories, by 1.1 sends it to the full
+    # test (its four edge midpoints too: nine).
+    shape, tolerance = (3, 3), 1e-2
+    band = refine_band(np.ones(shape, dtype=bool), 0, shape, _bumped(factor * tolerance * 2, (1, 1)),
+                       RefineSettings(tolerance=tolerance, coarse_spacing=2))
+    assert int(band.computed.sum()) == (5 if accepted else 9)
+
+
+def test_the_interpolant_carries_the_solved_coordinates_departure_from_bilinear():
+    # Closed form: the value is i + 0.5 q with q = (i - 8)^2 the regressor (the solved coordinate,
+    # known at every pixel): bilinear plus 0.5 times q's own departure from bilinear, which the
+    # interpolant reproduces exactly (slope 0.5 fitted by least squares on the test points, where
+    # the residuals then vanish). So the one coarse cell is accepted on nine trajectories and every
+    # filled pixel is exact; without the slope term its residual at the centre is 32, far above
+    # the bound (tolerance 1e-2 of the range 16), and the cell is split.
+    shape = (17, 17)
+    q = (np.indices(shape)[0] - 8.0) ** 2
+    band = refine_band(np.ones(shape, dtype=bool), 0, shape, _bumped(0.0, (0, 0), 0.5, q),
+                       RefineSettings(tolerance=1e-2, coarse_spacing=16), regressor=q)
+    assert int(band.computed.sum()) == 9
+    expected = np.indices(shape)[0] + 0.5 * q
+    # measured: exact to 3.6e-15 (the fill's arithmetic)
+    np.testing.assert_allclose(band.fields["ld_forward"], expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("factor, accepted", [(0.9, True), (1.1, False)])
+def test_the_slope_is_carried_only_where_the_test_points_saw_the_regressors_bend(factor, accepted):
+    # The value i + 0.5 q of the test above, q now (i - 8)^2 plus a spike at the pixel (4, 4), no
+    # test point of the coarse cell. The test points saw q depart from bilinear by 64 at most (the
+    # centre); the slope is trusted where the cell's largest departure is at most twice that, 128.
+    # The spike sets that departure to factor * 128: at 0.9 the cell is accepted on its nine
+    # trajectories and filled exactly, the spike's pixel too (the value follows q); at 1.1 it takes
+    # no slope, fails its bound (residual 32 at the centre) and is split, the spike then a child's
+    # test point (the slope is never carried to a bend sharper than the test points saw).
+    shape = (17, 17)
+    i = np.indices(shape)[0]
+    q = (i - 8.0) ** 2
+    q[4, 4] += 48.0 + factor * 128.0  # departure 16 + spike - 64
+    band = refine_band(np.ones(shape, dtype=bool), 0, shape, _bumped(0.0, (0, 0), 0.5, q),
+                       RefineSettings(tolerance=1e-2, coarse_spacing=16), regressor=q)
+    assert (int(band.computed.sum()) == 9) is accepted
+    assert band.computed[4, 4] is not accepted
+    np.testing.assert_allclose(band.fields["ld_forward"], i + 0.5 * q, rtol=0, atol=1e-12)  # measured 2.8e-14
+
+
 # --------------------------------------------------------------------------------------------
 # The paper's system: error bound, determinism, tiles, NHIM detection, the CLI.
 

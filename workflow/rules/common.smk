@@ -8,7 +8,8 @@ try:
     from ldpipe.errors import ConfigError
     from ldpipe.io.provenance import code_digest
     from ldpipe.config.parameters import parameters_from_config
-    from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_tiles, nhim_orbit_inputs,
+    from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_points, ld_map_tiles, ld_tile_points,
+                                    nhim_orbit_inputs,
                                     nhim_sampling_system, nhim_study_inputs)
     from ldpipe.systems import has_equilibria, is_vector_field, system_data_files
 except ImportError as error:
@@ -111,8 +112,8 @@ def ld_tile_files(wildcards):
 
 
 def _ld_points(map_name):
-    axes = parameters_from_config(config, "ld", map_name)["section"]["axes"]
-    return axes[0]["points"] * axes[1]["points"]
+    # every start time's grid of a map with several (the file's t0 dimension)
+    return ld_map_points(config, map_name)
 
 
 # Cores of one job of a multi-threaded stage (LD tiles, manifolds, Poincare sections). A local
@@ -134,7 +135,7 @@ def ld_tile_memory_mb(wildcards):
 def _ld_tile_memory_mb(map_name, tiles):
     # About 200 bytes a grid point for the fields and the engine's arrays, plus the interpreter
     # (measured: 350-460 MB peak for a 1500 x 375 tile).
-    return 1000 + _ld_points(map_name) * 200 // tiles // 2**20
+    return 1000 + ld_tile_points(config, map_name, tiles) * 200 // 2**20
 
 
 def ld_tile_runtime_min(wildcards, threads, attempt):
@@ -144,7 +145,7 @@ def ld_tile_runtime_min(wildcards, threads, attempt):
 def _ld_tile_runtime_min(map_name, tiles, threads, attempt):
     # A time limit that fits the tile (a scheduler starts short jobs sooner), doubled on a retry.
     tau = parameters_from_config(config, "ld", map_name)["tau"]
-    tile_points = _ld_points(map_name) / tiles
+    tile_points = ld_tile_points(config, map_name, tiles)
     core_seconds = tile_points * tau * LD_CORE_SECONDS_PER_POINT_TAU
     return (10 + math.ceil(core_seconds / threads / 60)) * attempt
 

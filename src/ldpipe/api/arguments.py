@@ -13,9 +13,9 @@ import xarray as xr
 
 from ..config import validate_config
 from ..config.parameters import parameters_from_config
-from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, UPO
-from ..io.datafile import open_stage_file, stage_parameters
+from ..errors import ConfigError, StageFileError
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, UPO
+from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
@@ -29,7 +29,8 @@ SHARED_DOCS = {
     "equilibria": """equilibria : xarray.Dataset, optional
         The system's equilibria (:func:`ldpipe.equilibria`), where the saddle and an excess energy
         are read; default computed now with the system's ``equilibria`` settings, as the pipeline
-        does (none for a vector field, which has neither).""",
+        does (none for a vector field, which has neither). Those of another system (another spec
+        recorded in their file) are refused.""",
     "threads": """threads : int, optional
         Threads of the engine (default every core).""",
     "raises": """Raises
@@ -101,9 +102,29 @@ def family_config(orbits: xr.Dataset) -> tuple[str, dict]:
                     "periodic_orbits": {family: {"system": system_name, **entry}}}
 
 
+def equilibria_of(given: xr.Dataset, system_name: str, spec: dict, what: str) -> xr.Dataset:
+    """``given`` (an ``equilibria=`` argument), checked to be the equilibria of the system whose
+    spec is ``spec`` (the entry less its equilibrium-search settings, as stage files record it):
+    another system's saddle would silently place a map, a family or a flux wrongly. The name a
+    system goes by does not change its equilibria, so only the specs are compared. ``what`` names
+    the call's subject in the message ("the map", "the family")."""
+    try:
+        if not isinstance(given, xr.Dataset):  # a file's path, as the stage functions take
+            given = open_stage_file(given, stage=EQUILIBRIA)
+        stage = FLOW_EQUILIBRIA if given.attrs.get(STAGE_ATTRIBUTE) == FLOW_EQUILIBRIA.stage else EQUILIBRIA
+        recorded = stage_parameters(open_stage_file(given, stage=stage))
+    except StageFileError as error:
+        raise ConfigError(f"argument 'equilibria': {error}") from None
+    spec = {k: v for k, v in spec.items() if k != "equilibria"}
+    if recorded["system_spec"] != spec:
+        raise ConfigError(f"argument 'equilibria': equilibria of system {recorded['system_name']!r} "
+                          f"{recorded['system_spec']}, but {what} is of {system_name!r} {spec}")
+    return given
+
+
 def family_equilibria(orbits: xr.Dataset, given: xr.Dataset | None) -> xr.Dataset:
     """The equilibria given for a family's study, checked to be of the family's system (its spec
-    as both files record it; the name a system goes by does not change its equilibria); required,
+    as both files record it; :func:`equilibria_of`); required,
     since the family's file does not record the system's equilibrium-search settings that would
     find them again. A ConfigError here names the argument (``arguments_of`` adds the function)."""
     if given is None:
@@ -111,9 +132,4 @@ def family_equilibria(orbits: xr.Dataset, given: xr.Dataset | None) -> xr.Datase
                           "(ldpipe.equilibria(system), found with the system's own 'equilibria' settings); "
                           "a family's file does not record those settings, so they cannot be found again here")
     family = stage_parameters(open_stage_file(orbits, stage=UPO))
-    recorded = stage_parameters(open_stage_file(given, stage=EQUILIBRIA))
-    if recorded["system_spec"] != family["system_spec"]:
-        raise ConfigError(f"argument 'equilibria': equilibria of system {recorded['system_name']!r} "
-                          f"{recorded['system_spec']}, but the family is of {family['system_name']!r} "
-                          f"{family['system_spec']}")
-    return given
+    return equilibria_of(given, family["system_name"], family["system_spec"], "the family")

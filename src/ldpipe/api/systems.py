@@ -13,7 +13,7 @@ from ..config.parameters import parameters_from_config
 from ..core.equilibria.study import equilibria_dataset
 from ..errors import ConfigError
 from ..systems import make_system, system_spec
-from .arguments import AnySystem, arguments_of, system_entry
+from .arguments import AnySystem, arguments_of, equilibria_of, system_entry
 
 #: The keys of a section block besides its axes (:func:`section`).
 SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
@@ -128,9 +128,10 @@ def equilibria(system: AnySystem, **spec) -> xr.Dataset:
 
 
 def equilibria_input(system: AnySystem, given: xr.Dataset | None) -> xr.Dataset | None:
-    """The equilibria a stage reads: those given, none for a vector field, else computed now."""
+    """The equilibria a stage reads: those given (checked to be ``system``'s; a ConfigError names
+    the argument), none for a vector field, else computed now."""
     if given is not None:
-        return given
+        return equilibria_of(given, system.name, system_entry(system), "the system given")
     if not system.hamiltonian:
         return None
     return equilibria(system)

@@ -23,6 +23,26 @@ def ld_map_tiles(config: dict, map_name: str) -> int:
     return min(spec["tiles"], rows) * len(map_start_times(parameters) or [None])
 
 
+def ld_map_points(config: dict, map_name: str) -> int:
+    """The grid points of the map's file: the section's rows times its columns, for each start
+    time of a map with several."""
+    parameters = parameters_from_config(config, "ld", map_name)
+    axes = parameters["section"]["axes"]
+    return axes[0]["points"] * axes[1]["points"] * len(map_start_times(parameters) or [None])
+
+
+def ld_tile_points(config: dict, map_name: str, tiles: int) -> int:
+    """The grid points of the largest of the map's ``tiles`` tiles (what a tile job's memory and
+    time limit are sized by). A map with several start times gives each start time
+    ``tiles / starts`` bands (:func:`ldpipe.core.maps.grid.start_time_band`), so a tile is a band of
+    one start time's grid, not ``1 / tiles`` of one start time's grid."""
+    parameters = parameters_from_config(config, "ld", map_name)
+    axes = parameters["section"]["axes"]
+    rows, columns = axes[0]["points"], axes[1]["points"]
+    bands = max(1, tiles // len(map_start_times(parameters) or [None]))
+    return -(-rows // bands) * columns  # the widest band of tile_rows holds ceil(rows / bands) rows
+
+
 def nhim_study_inputs(config: dict, study: str) -> dict[str, list[str]]:
     """Names the study reads: LD maps (``maps``), periodic-orbit families (``references``), and the system whose
     equilibria a derived study needs (``systems``)."""
