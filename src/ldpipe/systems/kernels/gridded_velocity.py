@@ -99,11 +99,4 @@ def rhs(state, t, out):
         u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
         v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
                     + wx3 * data[row + 3 * step + 1])
-    scale = data[11]
-    if data[9] > 0.0:
-        degrees = 180.0 / math.pi
-        out[0] = u * scale * degrees / (data[10] * math.cos(state[1] / degrees))
-        out[1] = v * scale * degrees / data[10]
-    else:
-        out[0] = u * scale
-        out[1] = v * scale
+    velocity_in_state_units(u, v, state[1], data[9], data[10], data[11], out)

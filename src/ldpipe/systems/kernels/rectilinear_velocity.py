@@ -146,13 +146,6 @@ def rhs(state, t, out):
                 if GRID_DIMS == 3:
                     row += size
                     w += wabc * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
-    scale = head[6]
-    if head[4] > 0.0:
-        degrees = 180.0 / math.pi
-        out[0] = u * scale * degrees / (head[5] * math.cos(state[1] / degrees))
-        out[1] = v * scale * degrees / head[5]
-    else:
-        out[0] = u * scale
-        out[1] = v * scale
+    velocity_in_state_units(u, v, state[1], head[4], head[5], head[6], out)
     if GRID_DIMS == 3:
         out[2] = w * head[7]

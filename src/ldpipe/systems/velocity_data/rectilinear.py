@@ -25,7 +25,7 @@ import numpy as np
 from ...jitcache import njit_functions
 from .. import kernels
 from .regular import VelocityDataSystem
-from .source import DataSource, at_least_three_nodes, fill_land, sphere_ld_metric_source
+from .source import DataSource, at_least_three_nodes, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made: a velocity-data entry is
 # read for its coordinates (planning, figures) without it.
@@ -41,7 +41,7 @@ def rectilinear_kernel_source(dims: int) -> str:
     module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    text = resources.files(kernels).joinpath("rectilinear_velocity.py").read_text()
+    text = kernel_text("velocity_units.py") + kernel_text("rectilinear_velocity.py")
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\nGRID_DIMS = {dims}\n" + text
 
 

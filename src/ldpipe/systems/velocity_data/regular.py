@@ -11,15 +11,13 @@ from __future__ import annotations
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Callable, ClassVar
 
 import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
-from .. import kernels
-from .source import DataSource, at_least_three_nodes, fill_land, sphere_ld_metric_source
+from .source import DataSource, at_least_three_nodes, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
 # entry is read for its coordinates (planning, figures) without it.
@@ -31,7 +29,7 @@ def kernel_source() -> str:
     """The data kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    text = resources.files(kernels).joinpath("gridded_velocity.py").read_text()
+    text = kernel_text("velocity_units.py") + kernel_text("gridded_velocity.py")
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
 
 

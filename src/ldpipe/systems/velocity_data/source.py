@@ -34,11 +34,16 @@ TIMES = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "min": 60.0, "minu
          "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0, "d": 86400.0, "day": 86400.0, "days": 86400.0}
 
 
+def kernel_text(name: str) -> str:
+    """The text of the kernel template ``name`` (a file of :mod:`ldpipe.systems.kernels`)."""
+    return resources.files(kernels).joinpath(name).read_text()
+
+
 def sphere_ld_metric_source(radius_at: int, scale_at: int) -> str:
     """The engine section that takes a sphere map's LD in km and velocity units
     (``kernels/sphere_ld_metric.py``), for a kernel whose header holds the radius and
     velocity_scale at these indices."""
-    text = resources.files(kernels).joinpath("sphere_ld_metric.py").read_text()
+    text = kernel_text("sphere_ld_metric.py")
     return text.replace("LD_RADIUS_AT", str(radius_at)).replace("LD_SCALE_AT", str(scale_at))
 
 
