@@ -422,16 +422,26 @@ def _evaluate_pixels(evaluate_states, states, index, direction: int, label: str,
 #: order :func:`bilinear` forms them) plus slope times departure; rounded for a count (mode 1), a
 #: corner's flag (mode 2).
 #: ``largest_departure``: per cell, the largest |regressor - its bilinear interpolant| over its
-#: allowed pixels.
+#: allowed pixels. Both frame a cell (``cell_frame``) and weigh its corners (``corner_weights``) alike.
 _CELL_LOOPS = """
 import numpy as np
 
 
+def cell_frame(regressor, i0, i1, j0, j1, c):
+    a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
+    return (a0, a1, b0, b1, max(a1 - a0, 1), max(b1 - b0, 1),
+            regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1])
+
+
+def corner_weights(i, j, a0, b0, h, w):
+    a = (i - a0) / h
+    b = (j - b0) / w
+    return (1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b
+
+
 def fill_cells(fields, slopes, allowed, computed, regressor, i0, i1, j0, j1, mode):
     for c in range(i0.shape[0]):
-        a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
-        h, w = max(a1 - a0, 1), max(b1 - b0, 1)
-        q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
+        a0, a1, b0, b1, h, w, q00, q10, q01, q11 = cell_frame(regressor, i0, i1, j0, j1, c)
         for i in range(a0, a1 + 1):
             for j in range(b0, b1 + 1):
                 if computed[i, j] or not allowed[i, j]:
@@ -440,9 +450,7 @@ def fill_cells(fields, slopes, allowed, computed, regressor, i0, i1, j0, j1, mod
                     for field in fields:
                         field[i, j] = field[a0, b0]
                     continue
-                a = (i - a0) / h
-                b = (j - b0) / w
-                w00, w10, w01, w11 = (1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b
+                w00, w10, w01, w11 = corner_weights(i, j, a0, b0, h, w)
                 departure = regressor[i, j] - (w00 * q00 + w10 * q10 + w01 * q01 + w11 * q11)
                 for k in range(len(fields)):
                     field = fields[k]
@@ -456,19 +464,17 @@ def fill_cells(fields, slopes, allowed, computed, regressor, i0, i1, j0, j1, mod
 def largest_departure(regressor, allowed, i0, i1, j0, j1):
     out = np.zeros(i0.shape[0])
     for c in range(i0.shape[0]):
-        a0, a1, b0, b1 = i0[c], i1[c], j0[c], j1[c]
-        h, w = max(a1 - a0, 1), max(b1 - b0, 1)
-        q00, q10, q01, q11 = regressor[a0, b0], regressor[a1, b0], regressor[a0, b1], regressor[a1, b1]
+        a0, a1, b0, b1, h, w, q00, q10, q01, q11 = cell_frame(regressor, i0, i1, j0, j1, c)
         for i in range(a0, a1 + 1):
             for j in range(b0, b1 + 1):
                 if allowed[i, j]:
-                    a = (i - a0) / h
-                    b = (j - b0) / w
-                    guess = (1 - a) * (1 - b) * q00 + a * (1 - b) * q10 + (1 - a) * b * q01 + a * b * q11
-                    out[c] = max(out[c], abs(regressor[i, j] - guess))
+                    w00, w10, w01, w11 = corner_weights(i, j, a0, b0, h, w)
+                    out[c] = max(out[c], abs(regressor[i, j] - (w00 * q00 + w10 * q10 + w01 * q01 + w11 * q11)))
     return out
 """
 
 @functools.cache
 def _kernels():
-    return njit_functions(_CELL_LOOPS, ("fill_cells", "largest_departure"), "ld_adaptive")
+    # the helpers compiled too, so the loops call them compiled (and inline them)
+    return njit_functions(_CELL_LOOPS, ("cell_frame", "corner_weights", "fill_cells", "largest_departure"),
+                          "ld_adaptive")[2:]
