@@ -163,7 +163,7 @@ def test_ld_ladder_stores_its_repeat_rule(oscillator, oscillator_states):
     runs = {}
     for budget in (1e-9, math.inf):
         data = ld_ladder_dataset(oscillator, oscillator_states, LDSettings(tau=TAU), steps, reference, check,
-                                 repeats=3, repeat_budget=budget)
+                                 rule=accuracy.RepeatRule(3, budget))
         runs[budget] = data
         assert data.attrs["repeats"] == 3 and data.attrs["repeat_budget"] == budget
     assert runs[1e-9].timed_runs.values.tolist() == [1, 1] and runs[math.inf].timed_runs.values.tolist() == [3, 3]

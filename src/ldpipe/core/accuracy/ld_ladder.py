@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -129,8 +128,7 @@ def ld_ladder_dataset(
     reference: IntegratorSettings,
     reference_check: IntegratorSettings,
     *,
-    repeats: int = 1,
-    repeat_budget: float = math.inf,
+    rule: RepeatRule = RepeatRule(),
 ) -> xr.Dataset:
     """Measure every step of the ladder on ``states`` against the reference.
 
@@ -145,11 +143,9 @@ def ld_ladder_dataset(
     steps : list of IntegratorSettings, length S
     reference, reference_check : IntegratorSettings
         The reference, and a second setting whose agreement with it is stored as a check.
-    repeats : int
-        Timed runs per setting (the smallest time is kept), at most.
-    repeat_budget : float
-        Seconds: a setting's runs stop once their wall times total this (see
-        :class:`~ldpipe.core.accuracy.timing.RepeatRule`); inf runs every setting ``repeats`` times.
+    rule : RepeatRule
+        How often each setting is timed (the smallest time is kept): at most ``rule.repeats``
+        runs, fewer once their wall times total ``rule.budget`` seconds.
 
     Returns
     -------
@@ -158,7 +154,6 @@ def ld_ladder_dataset(
         ``quantile``: per-setting times, throughput, error quantiles, energy drift, stop-reason
         mismatches and failures; per-point errors; the reference's LD, stop reasons and check.
     """
-    rule = RepeatRule(repeats, repeat_budget)
     states = np.ascontiguousarray(states, dtype=np.float64)
     if states.ndim != 2 or states.shape[1] != 2 * system.n_dof or len(states) == 0:
         raise ValueError(f"states: expected shape (N > 0, {2 * system.n_dof}), got {states.shape}")
@@ -277,8 +272,8 @@ def ld_ladder_dataset(
     )
     data.attrs.update({
         "reference": reference.label, "reference_check": reference_check.label,
-        "reference_wall_time": ref.wall_time, "reference_check_wall_time": check.wall_time, "repeats": repeats,
-        "repeat_budget": repeat_budget,
+        "reference_wall_time": ref.wall_time, "reference_check_wall_time": check.wall_time, "repeats": rule.repeats,
+        "repeat_budget": rule.budget,
         "reference_escapes": int((~resolved).sum()),
     })
     return data

@@ -33,6 +33,7 @@ from .ld_ladder import QUANTILES, IntegratorStep, ld_ladder_dataset, same_number
 from .machine import load_average, machine_attributes
 from .nhim_ladder import nhim_grid_dataset, nhim_refinement_dataset
 from .orbit_ladder import CorrectorStep, compute_orbit, corrector_ladder, orbit_ladder_dataset
+from .timing import RepeatRule
 
 log = get_logger(__name__)
 
@@ -103,8 +104,8 @@ def _map_dataset(name: str, parameters: dict, equilibria: xr.Dataset, ld: dict, 
     grid_index = np.argwhere(allowed)[chosen]  # C order of the grid, as section_states orders the states
     log.info("map %s: %d of %d allowed points sampled (grid %s), %s time, tau %g", name, len(chosen), len(states),
              section.shape, parameters["time"], settings.tau)
-    data = ld_ladder_dataset(system, states[chosen], settings, steps, reference, check, repeats=ld["repeats"],
-                              repeat_budget=ld["repeat_budget"])
+    data = ld_ladder_dataset(system, states[chosen], settings, steps, reference, check,
+                             rule=RepeatRule(ld["repeats"], ld["repeat_budget"]))
     n = len(chosen)
     default = np.array([step.matches(settings) for step in steps])
     if not default.any():
@@ -181,8 +182,8 @@ def orbit_accuracy_dataset(orbit: dict, equilibria: dict[str, xr.Dataset]) -> xr
              family["center_mode"], energy, energy - critical_energy, len(steps))
     result = orbit_ladder_dataset(
         system, saddle, family["center_mode"], energy, steps, reference, continuation=family["continuation"],
-        check_rtol=orbit["check_rtol"], repeats=orbit["repeats"],
-        repeat_budget=orbit["repeat_budget"], max_iterations=family["max_iterations"],
+        check_rtol=orbit["check_rtol"], rule=RepeatRule(orbit["repeats"], orbit["repeat_budget"]),
+        max_iterations=family["max_iterations"],
     )
     default = [same_number(s.tolerance, family["tolerance"]) and same_number(s.rtol, family["integrator"]["rtol"])
                for s in steps]
@@ -235,8 +236,8 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     initial_state, period = known
     crossing = orbit_section_crossing(problem, initial_state, period, rtol=upo["check_rtol"], atol=upo["check_rtol"])
     log.info("NHIM ladders on %s: the orbit (period %.12g) crosses the slice at %s", name, period, crossing)
-    grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"], repeats=nhim["repeats"],
-                              repeat_budget=nhim["repeat_budget"])
+    grids = nhim_grid_dataset(problem, crossing, nhim["grid_points"],
+                              rule=RepeatRule(nhim["repeats"], nhim["repeat_budget"]))
     start = dataclasses.replace(section, shape=(nhim["refinement_grid"], nhim["refinement_grid"]))
     start_problem = dataclasses.replace(problem, section=start)
     grid = ld_grid_dataset(system, start, info["energy"], settings)
@@ -244,7 +245,7 @@ def nhim_accuracy_dataset(nhim: dict, upo: dict, equilibria: dict[str, xr.Datase
     guess = detect_nhim_cell(grid.ld_forward.values, grid.ld_backward.values, grid.allowed.values, axes).point
     refinements = nhim_refinement_dataset(
         start_problem, guess, crossing, nhim["tolerance"], RefinementSettings(**nhim["refinement"]),
-        precision_ratio=nhim["precision_ratio"], repeats=nhim["repeats"], repeat_budget=nhim["repeat_budget"],
+        precision_ratio=nhim["precision_ratio"], rule=RepeatRule(nhim["repeats"], nhim["repeat_budget"]),
     )
     result = xr.merge([grids, refinements], compat="no_conflicts", join="outer", combine_attrs="drop")
     result["nhim_grid_is_default"] = ("nhim_grid", np.array([p == section.shape[0] for p in nhim["grid_points"]]),

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import xarray as xr
@@ -28,8 +27,7 @@ def nhim_grid_dataset(
     crossing: np.ndarray,
     grid_points: list[int],
     *,
-    repeats: int = 1,
-    repeat_budget: float = math.inf,
+    rule: RepeatRule = RepeatRule(),
 ) -> xr.Dataset:
     """Detection error against grid resolution: the LD map at n x n points, its NHIM cell, the distance.
 
@@ -46,12 +44,11 @@ def nhim_grid_dataset(
     -------
     xarray.Dataset
         Dimension ``nhim_grid`` (G): points per axis, cell diagonal, wall time (LD grid forward
-        and backward plus detection, smallest of at most ``repeats`` runs, fewer once they total
-        ``repeat_budget`` seconds: :class:`~ldpipe.core.accuracy.timing.RepeatRule`), the distance of the detected cell
+        and backward plus detection, smallest of the runs ``rule`` allows,
+        :class:`~ldpipe.core.accuracy.timing.RepeatRule`), the distance of the detected cell
         (``nhim.detect_nhim_cell``) and of the plain LD maximum (``nhim.detect_global_argmax``)
         from the crossing.
     """
-    rule = RepeatRule(repeats, repeat_budget)
     n = len(grid_points)
     wall = np.zeros(n)
     runs = np.zeros(n, dtype=np.int64)
@@ -97,8 +94,7 @@ def nhim_refinement_dataset(
     base: RefinementSettings,
     *,
     precision_ratio: float,
-    repeats: int = 1,
-    repeat_budget: float = math.inf,
+    rule: RepeatRule = RepeatRule(),
 ) -> xr.Dataset:
     """Location error against refinement depth, for both refinement methods of :mod:`ldpipe.core.nhim`.
 
@@ -110,12 +106,10 @@ def nhim_refinement_dataset(
     -------
     xarray.Dataset
         Dimensions ``nhim_method`` (fates, ld_zoom) and ``nhim_refinement`` (len(tolerances)):
-        wall time (smallest of at most ``repeats`` runs, fewer once they total ``repeat_budget``
-        seconds), the runs timed, trajectories integrated, iterations, the method's own
+        wall time (smallest of the runs ``rule`` allows, :class:`~ldpipe.core.accuracy.timing.RepeatRule`), the runs timed, trajectories integrated, iterations, the method's own
         uncertainty, the distance from the crossing, and whether it converged (0 elsewhere).
     """
     methods = {"fates": refine_by_fates, "ld_zoom": refine_by_ld_zoom}
-    rule = RepeatRule(repeats, repeat_budget)
     shape = (len(REFINEMENT_METHODS), len(tolerances))
     out = {name: np.zeros(shape) for name in ("wall_time", "error", "uncertainty")}
     trajectories = np.zeros(shape, dtype=np.int64)

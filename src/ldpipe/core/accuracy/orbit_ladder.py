@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -96,8 +95,7 @@ def orbit_ladder_dataset(
     *,
     continuation: dict,
     check_rtol: float,
-    repeats: int = 1,
-    repeat_budget: float = math.inf,
+    rule: RepeatRule = RepeatRule(),
     max_iterations: int = 20,
 ) -> xr.Dataset:
     """Measure every corrector setting on the orbit at total ``energy`` against a tight reference orbit.
@@ -109,10 +107,8 @@ def orbit_ladder_dataset(
         ``closure_error`` (re-measured at ``check_rtol``), ``reported_closure_error``,
         ``energy_error``, ``period_error``, ``initial_state_error``, ``family_members``; the
         reference orbit's period, initial state and closure error as attributes. Fields of a
-        setting that did not converge are 0. Each setting is timed at most ``repeats`` times,
-        fewer once its runs total ``repeat_budget`` seconds (:class:`~ldpipe.core.accuracy.timing.RepeatRule`).
+        setting that did not converge are 0. Each setting is timed as ``rule`` says (:class:`~ldpipe.core.accuracy.timing.RepeatRule`).
     """
-    rule = RepeatRule(repeats, repeat_budget)
     ref, _, ref_wall, _ = timed_orbit(system, saddle, mode, energy, reference, continuation, RepeatRule(),
                                       max_iterations)
     if ref is None:
@@ -172,7 +168,7 @@ def orbit_ladder_dataset(
         "orbit_reference": reference.label, "orbit_reference_energy_tolerance": reference.energy_tolerance,
         "orbit_reference_period": ref.period, "orbit_reference_initial_state": ref.initial_state,
         "orbit_reference_closure_error": ref_closure, "orbit_reference_wall_time": ref_wall,
-        "orbit_check_rtol": check_rtol, "orbit_target_energy": energy, "orbit_repeats": repeats,
-        "orbit_repeat_budget": repeat_budget,
+        "orbit_check_rtol": check_rtol, "orbit_target_energy": energy, "orbit_repeats": rule.repeats,
+        "orbit_repeat_budget": rule.budget,
     })
     return data
