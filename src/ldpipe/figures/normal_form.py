@@ -68,13 +68,7 @@ def normal_form_figure(data):
                         label=r"Monte Carlo $3\sigma$")
         ax.plot(excess, np.maximum(data.flux_truncation_error.values / flux, 1e-17), "s", color="black", mfc="none",
                 ms=5, label="normal form's truncation error")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(r"$\Delta E = E - E_c$")
-        ax.set_ylabel("|flux / normal form - 1|")
-        ax.set_title("relative to the normal form's flux")
-        ax.legend(loc="lower right", fontsize=7)
-        style.panel_letter(ax, 1)
+        style.finish_deviation_panel(ax, "|flux / normal form - 1|", "relative to the normal form's flux", 1)
 
         ax = axes[2]
         orders = data.order.values

@@ -57,13 +57,8 @@ def saddle_flux_figure(data):
         reactive = data.monte_carlo_reactive.values
         for x, y, n, r in zip(excess, 3 * err / harmonic, samples, reactive):
             ax.annotate(f"{n - r}/{n}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=6)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(r"$\Delta E = E - E_c$")
-        ax.set_ylabel("|flux / harmonic - 1|")
-        ax.set_title("relative to the harmonic estimate\n(labels: samples not reactive / samples)")
-        ax.legend(loc="lower right", fontsize=7)
-        style.panel_letter(ax, 1)
+        style.finish_deviation_panel(ax, "|flux / harmonic - 1|",
+                                     "relative to the harmonic estimate\n(labels: samples not reactive / samples)", 1)
     return figure
 
 

@@ -185,6 +185,18 @@ def study_drawing(figure_of: Callable, stage, what: str) -> Callable[..., list[P
     return draw
 
 
+def finish_deviation_panel(ax, ylabel: str, title: str, letter: int) -> None:
+    """Label a panel of relative deviations against the excess energy on log-log axes (the flux
+    figures' comparison panels): scales, axis labels, title, legend and the panel's letter."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"$\Delta E = E - E_c$")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=7)
+    panel_letter(ax, letter)
+
+
 def plot_deviation(ax, x: np.ndarray, deviation: np.ndarray, marker: str, color, name: str, reference: str = "") -> None:
     """|deviation| against x for a log scale: ``marker`` where it is positive, hollow circles where
     negative, labelled "``name``, above (below) ``reference``" when there are any."""
