@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import pytest
 
-from ldpipe.io.provenance import PACKAGE_ROOT
+from ldpipe.io.provenance import PACKAGE_ROOT, import_base
 
 LAYERS = ("foundations", "systems", "engine", "core", "configuration", "figures", "face")
 
@@ -112,12 +112,7 @@ def imports(module: str) -> frozenset[tuple[str, int, str]]:
         if isinstance(node, ast.Import):
             found.update((alias.name, node.lineno, "import") for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                anchor = package.split(".")
-                anchor = anchor[: len(anchor) - (node.level - 1)]
-                base = ".".join(anchor + ([node.module] if node.module else []))
-            else:
-                base = node.module or ""
+            base = import_base(node, package)
             for alias in node.names:
                 found.add((f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base, node.lineno, "import"))
         elif isinstance(node, ast.Call) and node.args and (

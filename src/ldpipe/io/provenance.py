@@ -53,6 +53,15 @@ def statements(body: list[ast.stmt]):
                 yield from statements(nested)
 
 
+def import_base(node: ast.ImportFrom, package: str) -> str:
+    """The absolute name of the module a ``from ... import`` statement in ``package`` imports from."""
+    if not node.level:
+        return node.module or ""
+    anchor = package.split(".")
+    anchor = anchor[: len(anchor) - (node.level - 1)]
+    return ".".join(anchor + ([node.module] if node.module else []))
+
+
 @lru_cache(maxsize=None)  # a Snakefile asks for ~30 stages' closures, which share most files
 def _imported_modules(path: Path, module: str) -> frozenset[str]:
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
@@ -61,12 +70,7 @@ def _imported_modules(path: Path, module: str) -> frozenset[str]:
         if isinstance(node, ast.Import):
             found.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                anchor = package.split(".")
-                anchor = anchor[: len(anchor) - (node.level - 1)]
-                base = ".".join(anchor + ([node.module] if node.module else []))
-            else:
-                base = node.module or ""
+            base = import_base(node, package)
             found.add(base)
             # `from . import x` and `from .pkg import mod` may name submodules.
             found.update(f"{base}.{alias.name}" for alias in node.names)
