@@ -9,7 +9,9 @@ nearest water's values (:func:`fill_land`) and the sphere's LD metric section
 
 from __future__ import annotations
 
+import contextlib
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -88,11 +90,28 @@ def is_uniform(values: np.ndarray) -> bool:
     return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
 
 
+#: What xarray and its backends raise for a file they cannot read (truncated, damaged, not netCDF
+#: or zarr at all): netCDF4's OSError "NetCDF: HDF error", xarray's ValueError "did not find a
+#: match in any of xarray's currently installed IO backends", a zarr store's missing metadata.
+READ_ERRORS = (OSError, ValueError, RuntimeError, KeyError)
+
+
 def open_dataset(path: str) -> xr.Dataset:
-    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily."""
-    if path.rstrip("/").endswith(".zarr"):
-        return xr.open_zarr(path, decode_times=False)
-    return xr.open_dataset(path, decode_times=False)
+    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily; a
+    ConfigError naming the file if it cannot be read."""
+    try:
+        if path.rstrip("/").endswith(".zarr"):
+            return xr.open_zarr(path, decode_times=False)
+        return xr.open_dataset(path, decode_times=False)
+    except READ_ERRORS as error:
+        raise unreadable(path, error) from None
+
+
+def unreadable(path: str, error: BaseException) -> ConfigError:
+    """The error for a velocity-data file that cannot be read (its data read lazily, a damaged
+    block fails only when a window of it is read, during an integration)."""
+    reason = str(error).splitlines()[0] if str(error).strip() else type(error).__name__
+    return ConfigError(f"velocity data {path}: cannot read the file ({reason}); expected a netCDF file or a zarr store")
 
 
 @dataclass(frozen=True)
@@ -127,8 +146,15 @@ class DataSource:
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
 
-    def open(self) -> xr.Dataset:
-        return open_dataset(self.path)
+    @contextlib.contextmanager
+    def open(self) -> Iterator[xr.Dataset]:
+        """The dataset, opened lazily; a read in the block that fails (a damaged block of a file
+        whose coordinates read well) is a ConfigError naming the file."""
+        with open_dataset(self.path) as dataset:
+            try:
+                yield dataset
+            except READ_ERRORS as error:
+                raise unreadable(self.path, error) from None
 
     def axis_values(self, which: str) -> np.ndarray:
         if self.nodes is not None:

@@ -1,0 +1,39 @@
+"""Velocity-data files corrupted one way at a time (``ldpipe.testing.fuzz.FILE_CASES``: units
+missing or not understood, NaN, decreasing, repeated or non-numeric coordinates, wrong
+dimensions, variables missing, truncated or damaged bytes): read as a ``velocity_data`` system,
+each gives a valid system or a ConfigError naming the file and the variable at fault."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+import ldpipe
+from ldpipe.testing import fuzz
+
+#: Corruptions that leave a valid system: integer velocities are numbers; an infinite or missing
+#: velocity is land (a trajectory stops at it), every node land included.
+VALID = {"none", "u_integer", "u_infinite", "all_land"}
+#: The cases checked here, each refused naming the file (and its variable) unless in VALID.
+CHECKED = ["none", "v_missing", "u_missing", "time_missing", "u_integer", "u_infinite", "all_land",
+           "truncated", "empty_file", "garbage"]
+
+
+def outcome(directory, corruption: str, fraction: float = 0.5) -> str:
+    path, entry = fuzz.write_velocity_case(directory, corruption, fraction)
+    try:
+        ldpipe.system(name="data", velocity_data=entry)
+    except Exception as error:
+        return fuzz.check_refusal(error, corruption, *fuzz.file_case_names(path, corruption))
+    return "valid"
+
+
+@pytest.mark.parametrize("corruption", CHECKED)
+def test_a_corrupted_file_is_refused_naming_the_file_and_variable(tmp_path, corruption):
+    assert outcome(tmp_path, corruption) == ("valid" if corruption in VALID else "refused")
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(fraction=st.floats(0.0, 0.999))
+def test_a_truncated_file_is_refused_naming_it(tmp_path, fraction):
+    assert outcome(tmp_path, "truncated", fraction) == "refused"
