@@ -49,11 +49,13 @@ def velocity_units_match(units: str) -> re.Match | None:
     return re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", units.strip().replace("**", "^"))
 
 
-def parse_velocity_units(units: str, key: str) -> tuple[float, float]:
-    """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``, ``km/day``)."""
+def parse_velocity_units(units: str, key: str, name: str = "") -> tuple[float, float]:
+    """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``,
+    ``km/day``); ``name``: the variable, for the error."""
     match = velocity_units_match(units)
     if not match or match.group(1) not in LENGTHS or (match.group(2) or match.group(3)) not in TIMES:
-        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood; expected a length per time, "
+        of = f" (variable {name!r})" if name else ""
+        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood{of}; expected a length per time, "
                           f"e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
     return LENGTHS[match.group(1)], TIMES[match.group(2) or match.group(3)]
 
@@ -195,7 +197,18 @@ def length_of(units: str | None, name: str, key: str, default: float) -> float:
 
 
 def open_source(spec: dict, key: str) -> DataSource:
-    """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units."""
+    """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units; a
+    ConfigError names the entry's key, the variable and the file."""
+    try:
+        return _checked_source(spec, key)
+    except ConfigError as error:
+        path = spec.get("path") if isinstance(spec, dict) else None
+        if not path or str(path) in str(error):
+            raise
+        raise ConfigError(f"{error} (in {path})") from None
+
+
+def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
     unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
     if unknown:
@@ -232,9 +245,10 @@ def open_source(spec: dict, key: str) -> DataSource:
             if not units:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has no 'units' attribute; "
                                   "a velocity needs its units (e.g. 'm/s')")
-            scales.append(parse_velocity_units(units, f"{key}.{role}"))
+            scales.append(parse_velocity_units(units, f"{key}.{role}", entry[role]))
         if scales[0] != scales[1]:
-            raise ConfigError(f"config key '{key}.v': u and v have different units")
+            raise ConfigError(f"config key '{key}.v': variables {entry['u']!r} and {entry['v']!r} have different units "
+                              f"({dataset[entry['u']].attrs['units']!r}, {dataset[entry['v']].attrs['units']!r})")
         mask = entry.get("mask")
         if mask and tuple(dataset[mask].dims) != expected[1:]:
             raise ConfigError(f"config key '{key}.mask': variable {mask!r} has dimensions "
