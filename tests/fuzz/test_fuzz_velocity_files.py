@@ -18,7 +18,8 @@ VALID = {"none", "u_integer", "u_infinite", "all_land"}
 CHECKED = ["none", "v_missing", "u_missing", "time_missing", "u_integer", "u_infinite", "all_land",
            "u_without_units", "v_without_units", "u_units_unknown", "u_units_empty", "x_units_unknown", "nan_x",
            "nan_y", "nan_time", "decreasing_x", "decreasing_y", "decreasing_time", "duplicated_time", "constant_x",
-           "two_y_points", "u_transposed", "u_without_time", "v_units_differ",
+           "two_y_points", "u_transposed", "u_without_time", "v_units_differ", "u_strings", "u_units_a_number",
+           "time_units_a_number", "x_units_a_number", "string_x",
            "truncated", "empty_file", "garbage"]
 
 

@@ -60,6 +60,18 @@ def parse_velocity_units(units: str, key: str, name: str = "") -> tuple[float, f
     return LENGTHS[match.group(1)], TIMES[match.group(2) or match.group(3)]
 
 
+def units_of(dataset: xr.Dataset, name: str, key: str) -> str | None:
+    """The ``units`` attribute of variable ``name``, stripped; None if absent or blank. Refused
+    if not text (netCDF lets an attribute be a number, which no unit is)."""
+    units = dataset[name].attrs.get("units")
+    if units is None:
+        return None
+    if not isinstance(units, str):
+        raise ConfigError(f"config key '{key}': variable {name!r} has units {units!r}, a number, not a unit; "
+                          "expected text such as 'm/s', 'm' or 'days since 2000-01-01'")
+    return units.strip() or None
+
+
 def time_unit_seconds(units: str | None) -> float | None:
     """Seconds per unit of a time coordinate (``days since ...``, ``hours``, ``s``), None if not given."""
     if not units:
@@ -75,10 +87,17 @@ UNIFORM_RTOL = 1e-6
 
 def increasing_axis(values: np.ndarray, name: str, key: str) -> np.ndarray:
     """The values of a coordinate, which must be one-dimensional, increasing, with at least 3 values."""
-    values = np.asarray(values, dtype=float)
+    values = np.asarray(values)
+    if values.dtype.kind not in "iuf":
+        raise ConfigError(f"config key '{key}': coordinate {name!r} holds {values.dtype} values, not numbers")
+    values = values.astype(float)
     if values.ndim != 1 or len(values) < 3:
         raise ConfigError(f"config key '{key}': coordinate {name!r} must be one-dimensional with at least 3 values, "
                           f"got shape {values.shape}")
+    missing = ~np.isfinite(values)
+    if missing.any():
+        raise ConfigError(f"config key '{key}': coordinate {name!r} has a missing or infinite value (at index "
+                          f"{int(np.argmax(missing))}); every node of the grid needs its coordinate")
     steps = np.diff(values)
     if not np.all(steps > 0):
         raise ConfigError(f"config key '{key}': coordinate {name!r} is not monotonic increasing "
@@ -241,7 +260,10 @@ def _checked_source(spec: dict, key: str) -> DataSource:
             if tuple(variable.dims) != expected:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
                                   f"{tuple(variable.dims)}; expected {expected}")
-            units = variable.attrs.get("units")
+            if variable.dtype.kind not in "iuf":
+                raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} holds {variable.dtype} "
+                                  "values, not numbers")
+            units = units_of(dataset, entry[role], f"{key}.{role}")
             if not units:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has no 'units' attribute; "
                                   "a velocity needs its units (e.g. 'm/s')")
@@ -254,9 +276,9 @@ def _checked_source(spec: dict, key: str) -> DataSource:
             raise ConfigError(f"config key '{key}.mask': variable {mask!r} has dimensions "
                               f"{tuple(dataset[mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
-        time_coordinate_units = dataset[entry["time"]].attrs.get("units")
+        time_coordinate_units = units_of(dataset, entry["time"], f"{key}.time")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
-        velocity_units = str(dataset[entry["u"]].attrs["units"]).strip()
+        velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
             time_units = time_coordinate_units.strip().split()[0]
         else:
@@ -265,12 +287,12 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
-            length = length_of(dataset[entry["x"]].attrs.get("units"), entry["x"], f"{key}.x", metres)
+            length = length_of(units_of(dataset, entry["x"], f"{key}.x"), entry["x"], f"{key}.x", metres)
         vertical_scale = 0.0
         z_length = 1.0
         if three_d:
             w_metres, w_seconds = scales[2]
-            z_length = length_of(dataset[entry["z"]].attrs.get("units"), entry["z"], f"{key}.z", w_metres)
+            z_length = length_of(units_of(dataset, entry["z"], f"{key}.z"), entry["z"], f"{key}.z", w_metres)
             vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
     grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
     regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
