@@ -19,7 +19,7 @@ CHECKED = ["none", "v_missing", "u_missing", "time_missing", "u_integer", "u_inf
            "u_without_units", "v_without_units", "u_units_unknown", "u_units_empty", "x_units_unknown", "nan_x",
            "nan_y", "nan_time", "decreasing_x", "decreasing_y", "decreasing_time", "duplicated_time", "constant_x",
            "two_y_points", "u_transposed", "u_without_time", "v_units_differ", "u_strings", "u_units_a_number",
-           "time_units_a_number", "x_units_a_number", "string_x",
+           "time_units_a_number", "x_units_a_number", "string_x", "time_units_unknown",
            "truncated", "empty_file", "garbage"]
 
 

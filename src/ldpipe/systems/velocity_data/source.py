@@ -277,6 +277,11 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                               f"{tuple(dataset[mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
         time_coordinate_units = units_of(dataset, entry["time"], f"{key}.time")
+        if time_coordinate_units and time_unit_seconds(time_coordinate_units) is None:
+            # else the times would be read in the velocity's time unit, silently wrong
+            raise ConfigError(f"config key '{key}.time': time units {time_coordinate_units!r} of variable "
+                              f"{entry['time']!r} not understood; expected one of {sorted(TIMES)}, or 'UNIT since "
+                              "DATE' (or no units: the velocity's time unit)")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
         velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
