@@ -319,6 +319,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    for token in argv:
+        # argparse reads OPTION=-- as an empty list, past the option's type and its check
+        option, sep, value = token.partition("=")
+        if token.startswith("--") and sep and value == "--":
+            parser.error(f"argument {option}: expected one argument, got '--'")
     args = parser.parse_args(argv)
     try:
         # Every output the command will write, checked before any work: a bad path fails in a second, not after the run.
