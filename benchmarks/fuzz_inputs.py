@@ -235,11 +235,12 @@ class CliFamily:
         argv = self.argv(case, output)
         what = "ldpipe " + " ".join(argv)
         stderr, stdout = io.StringIO(), io.StringIO()
+        parsed = True
         try:
             with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(stdout):
                 code = main(argv)
-        except SystemExit as exit:  # argparse's refusals
-            code = exit.code
+        except SystemExit as exit:  # argparse's refusals: its usage line, then the error's
+            code, parsed = exit.code, False
         except Exception as error:
             raise fuzz.FuzzFailure(f"{what}: {type(error).__name__}: {error}") from error
         message = stderr.getvalue()
@@ -257,8 +258,9 @@ class CliFamily:
         if left:
             _fail(what, f"exit {code}, but it wrote {left}")
         lines = [line for line in message.splitlines() if line.strip()]
-        if not lines or "error" not in lines[-1]:
-            _fail(what, f"exit {code} without an error message: {message!r}")
+        if not lines or not lines[-1].startswith("ldpipe ld: error: " if parsed else ("ldpipe ld: error: ",
+                                                                                      "ldpipe: error: ")):
+            _fail(what, f"exit {code} without a one-line error message: {message!r}")
         return "refused"
 
 
