@@ -43,14 +43,14 @@ ROOT = Path(__file__).resolve().parents[1]
 HH = {"formula": "(x**2 + y**2)/2 + x**2*y - y**3/3", "coordinates": ["x", "y"]}
 SYSTEM_KWARGS = {"name": "henon_heiles", **HH, "equilibria": {"box": {"x": [-2.0, 2.0], "y": [-2.0, 2.0]},
                                                                "seeds_per_axis": 5}}
-SECTION_KWARGS = {"y": [-0.45, 0.8, 3], "py": [-0.5, 0.5, 3], "fixed": {"px": 0.0}, "solve": "x", "root": "largest"}
+SECTION_KWARGS = {"y": [-0.3, 0.5, 3], "py": [-0.3, 0.3, 3], "fixed": {"px": 0.0}, "solve": "x", "root": "largest"}
 MAP_KWARGS = {"energy": 0.125, "tau": 2.0, "p": 0.5, "time": "fixed",
               "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8}}
 #: A valid map is integrated only this small: the fuzzer looks for faults, not for long runs.
 ENGINE_POINTS, ENGINE_TAU = 25, 50.0
 
 #: ``ldpipe ld`` of the Hénon–Heiles slice (the system declared in a configuration file).
-CLI_OPTIONS = {"--system": "henon_heiles", "--axis": ["y=-0.45:0.8:3", "py=-0.5:0.5:3"], "--fixed": ["px=0.0"],
+CLI_OPTIONS = {"--system": "henon_heiles", "--axis": ["y=-0.3:0.5:3", "py=-0.3:0.3:3"], "--fixed": ["px=0.0"],
                "--solve": "x", "--root": "largest", "--energy": "0.125", "--tau": "2", "--p": "0.5",
                "--rtol": "1e-8", "--atol": "1e-8", "--quiet": None, "--threads": "1"}
 #: What a command-line argument is replaced by.
