@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 import ldpipe
+from ldpipe.errors import ConfigError
 
 from support.fuzz_inputs import fuzz_inputs
 
@@ -28,3 +30,24 @@ def test_a_section_out_to_1e300_is_a_map_with_those_points_not_allowed(family, a
                            **fuzz_inputs.MAP_KWARGS)
     assert result.allowed.values[0, 0] and not result.allowed.values[far].any()
     assert np.isfinite(result.ld_forward.values).all()
+
+
+@pytest.mark.parametrize("name", [[1], {"a": 1}, "not a name", 5])
+def test_a_bad_entry_name_is_refused_naming_the_argument(family, name):
+    # a list as ldpipe.system's name raised TypeError: unhashable type: 'list'; a bad string an error
+    # about 'systems' as a whole
+    with pytest.raises(ConfigError, match=r"^ldpipe.system: argument 'name': expected a name"):
+        ldpipe.system(name=name, **fuzz_inputs.HH)
+    section = ldpipe.section(**{k: tuple(v) if isinstance(v, list) and k in ("y", "py") else v
+                                for k, v in fuzz_inputs.SECTION_KWARGS.items()})
+    with pytest.raises(ConfigError, match=r"^ldpipe.ld_map: argument 'name': expected a name"):
+        ldpipe.ld_map(family.system, name=name, section=section, **fuzz_inputs.MAP_KWARGS)
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_a_mutated_keyword_gives_a_finite_map_or_an_error_naming_it(family, data):
+    function = data.draw(st.sampled_from(list(family.BASES)))
+    case = (function, data.draw(st.sampled_from(family.sites[function])),
+            data.draw(st.sampled_from(family.mutations)))
+    family.check(case)
