@@ -5,11 +5,13 @@ Validation ends valid or with a ConfigError naming the key (``ldpipe.testing.fuz
 
 from __future__ import annotations
 
+import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
 from ldpipe.config import validate_config
 from ldpipe.config.loading import load_schema
+from ldpipe.errors import ConfigError
 from ldpipe.testing import fuzz
 
 from support.workflow import ROOT
@@ -50,3 +52,11 @@ def test_every_mutation_of_a_map_key_is_refused_naming_it():
 def test_a_message_that_does_not_name_the_key_fails_the_check():
     assert fuzz.names_the_key("config key 'ld_maps.m.tau': expected a number", ("ld_maps", "m", "tau"))
     assert not fuzz.names_the_key("expected a number", ("ld_maps", "m", "tau"))
+
+
+@pytest.mark.parametrize("variable", ["path", "u", "v", "w", "time", "mask"])
+def test_an_empty_variable_name_of_velocity_data_is_refused_by_its_key(variable):
+    # w: "" made the data 3-D, refused only by a map's FTLE check that named neither the system nor w
+    path = ("systems", "example_currents", "velocity_data", variable)
+    with pytest.raises(ConfigError, match=rf"config key '{'.'.join(path)}': '' should be non-empty"):
+        validate_config(fuzz.mutate(BASE, path, "empty_string"))
