@@ -51,3 +51,11 @@ def test_a_mutated_keyword_gives_a_finite_map_or_an_error_naming_it(family, data
     case = (function, data.draw(st.sampled_from(family.sites[function])),
             data.draw(st.sampled_from(family.mutations)))
     family.check(case)
+
+
+@pytest.mark.parametrize("threads", [-1, 1.5, "2", True])
+def test_a_thread_count_that_is_no_count_is_refused(family, threads):
+    section = ldpipe.section(y=(-0.3, 0.5, 3), py=(-0.3, 0.3, 3), fixed={"px": 0.0}, solve="x", root="largest")
+    with pytest.raises(ConfigError, match=r"^ldpipe.ld_map: threads: expected a whole number of threads"):
+        ldpipe.ld_map(family.system, equilibria=family.equilibria, section=section, threads=threads,
+                      **fuzz_inputs.MAP_KWARGS)

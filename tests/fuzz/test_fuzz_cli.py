@@ -53,3 +53,13 @@ def test_a_configuration_error_is_one_line_on_stderr(family, tmp_path, capsys):
     assert err.count("\n") == 1 and err.startswith("ldpipe ld: error: invalid configuration: config key "
                                                    "'ld_maps.cli.tau': -1.0 is less than or equal to the minimum of 0")
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("threads", ["-1", "-5"])
+def test_a_negative_thread_count_is_refused_by_name(family, tmp_path, capsys, threads):
+    # --threads=-1 raised numba's ValueError: The number of threads must be between 1 and N
+    assert main(family.argv(("--threads", 0, threads), tmp_path / "out.nc")) == 2
+    err = capsys.readouterr().err
+    assert f"ldpipe ld: error: threads: expected a whole number of threads, 1 or more (0 or None: every core), " \
+           f"got {threads}" in err
+    assert not list(tmp_path.iterdir())
