@@ -11,8 +11,8 @@ Four families, ``--examples`` of each, drawn from ``--seed``:
   5 x 5 points, tau <= 50) and its data checked finite;
 - ``cli``: the arguments of ``ldpipe ld --system ... --axis ...`` mutated, run in-process: exit
   0 with a file, or an error on stderr with no traceback and no file (nor temporary) left;
-- ``files``: the double gyre's netCDF file corrupted one way at a time (``FILE_CASES``) and read
-  as a ``velocity_data`` system.
+- ``files``: the double gyre's netCDF file corrupted one way at a time (``FILE_CASES``), read as
+  a ``velocity_data`` system and, if valid, its 4 x 3 map computed and checked finite.
 
     python benchmarks/fuzz_inputs.py                      # 30 of each, a minute
     python benchmarks/fuzz_inputs.py --examples 10000     # the reliability page's run
@@ -48,6 +48,10 @@ MAP_KWARGS = {"energy": 0.125, "tau": 2.0, "p": 0.5, "time": "fixed",
               "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8}}
 #: A valid map is integrated only this small: the fuzzer looks for faults, not for long runs.
 ENGINE_POINTS, ENGINE_TAU = 25, 50.0
+
+#: A 4 x 3 map of a velocity-data file's double gyre (``ldpipe.testing.fuzz.GRID``).
+GYRE_SECTION = {"axes": [{"name": "x", "range": [0.2, 1.8], "points": 4},
+                         {"name": "y", "range": [0.2, 0.8], "points": 3}], "fixed": {}}
 
 #: ``ldpipe ld`` of the Hénon–Heiles slice (the system declared in a configuration file).
 CLI_OPTIONS = {"--system": "henon_heiles", "--axis": ["y=-0.3:0.5:3", "py=-0.3:0.3:3"], "--fixed": ["px=0.0"],
@@ -284,11 +288,13 @@ class FilesFamily:
         self.count += 1
         folder = self.workdir / f"file{self.count}"
         path, entry = self.fuzz.write_velocity_case(folder, corruption, fraction)
+        what = f"file {corruption} ({fraction:.3f})"
         try:
-            self.ldpipe.system(name="data", velocity_data=entry)
+            system = self.ldpipe.system(name="data", velocity_data=entry)
+            result = self.ldpipe.ld_map(system, section=GYRE_SECTION, tau=3.0, t0=4.0, threads=1)
         except Exception as error:
-            return self.fuzz.check_refusal(error, f"file {corruption} ({fraction:.3f})",
-                                           *self.fuzz.file_case_names(path, corruption))
+            return self.fuzz.check_refusal(error, what, *self.fuzz.file_case_names(path, corruption))
+        self.fuzz.finite_dataset(result, what)
         return "valid"
 
 

@@ -298,6 +298,11 @@ def _infinite_velocity(dataset):
     return dataset
 
 
+def _faster_than_light(dataset):
+    dataset["u"][dict(time=2, y=2, x=4)] = 1.2e17  # as a few flipped bytes made it
+    return dataset
+
+
 def _all_nan_velocity(dataset):
     dataset["u"][:] = np.nan
     dataset["v"][:] = np.nan
@@ -339,6 +344,7 @@ CORRUPTIONS = {
     "u_integer": _integer_velocity,
     "u_strings": _string_velocity,
     "u_infinite": _infinite_velocity,
+    "u_faster_than_light": _faster_than_light,
     "all_land": _all_nan_velocity,
     "v_missing": _drop("v"),
     "u_missing": _drop("u"),
@@ -384,8 +390,8 @@ NAMED_VARIABLE = {
     "x_units_unknown": "x", "x_units_a_number": "x", "nan_x": "x", "nan_y": "y", "nan_time": "time",
     "decreasing_x": "x", "decreasing_y": "y", "decreasing_time": "time", "duplicated_time": "time",
     "constant_x": "x", "string_x": "x", "two_y_points": "y", "u_transposed": "u", "u_without_time": "u",
-    "u_integer": "u", "u_strings": "u", "u_infinite": "u", "all_land": "u", "v_missing": "v", "u_missing": "u",
-    "time_missing": "time",
+    "u_integer": "u", "u_strings": "u", "u_infinite": "u", "u_faster_than_light": "u", "all_land": "u",
+    "v_missing": "v", "u_missing": "u", "time_missing": "time",
 }
 
 

@@ -55,8 +55,8 @@ def parse_velocity_units(units: str, key: str, name: str = "") -> tuple[float, f
     match = velocity_units_match(units)
     if not match or match.group(1) not in LENGTHS or (match.group(2) or match.group(3)) not in TIMES:
         of = f" (variable {name!r})" if name else ""
-        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood{of}; expected a length per time, "
-                          f"e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
+        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood{of}; expected a length per "
+                          f"time, e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
     return LENGTHS[match.group(1)], TIMES[match.group(2) or match.group(3)]
 
 
@@ -163,6 +163,7 @@ class DataSource:
     vertical_scale: float = 0.0  # dz/dt per unit of w: the units' ratio, negative when z is positive down
     z_metres: float = 1.0  # metres per unit of z (3-D data)
     velocity_units: str = ""  # as the file writes them (u's units)
+    metres_per_second: tuple[float, ...] = ()  # of each velocity (u, v, (w,)) per unit, by its units
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
@@ -309,7 +310,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
-                      x_global=x_global,
+                      x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
@@ -345,6 +346,25 @@ def seam_grid(grid: tuple[float, float, int], name: str, key: str) -> tuple[tupl
                           "so the seam is neither a grid cell nor an edge; give a global grid with 360 / spacing "
                           "columns, or a regional one with a gap of more than a spacing")
     return grid, False
+
+
+#: No flow is faster than light: a velocity beyond it (in m/s, by its units) is damaged or
+#: mis-scaled data (a few flipped bytes make 1e17), and a trajectory through it would take every
+#: step it may, the run seeming to hang.
+LIGHT_SPEED = 299_792_458.0
+
+
+def check_speeds(source: DataSource, arrays: list[np.ndarray]) -> None:
+    """A ConfigError naming the file and the variable if a velocity read (``arrays``, in the order
+    u, v, (w)) is faster than light; missing values (land) are not speeds."""
+    names = (source.u, source.v) + ((source.w,) if source.w else ())
+    for name, array, factor in zip(names, arrays, source.metres_per_second):
+        finite = np.abs(array[np.isfinite(array)])
+        fastest = float(finite.max()) if finite.size else 0.0
+        if fastest * factor > LIGHT_SPEED:
+            raise ConfigError(f"velocity data {source.path}: variable {name!r} holds a speed of {fastest:.3g} "
+                              f"({fastest * factor:.3g} m/s by its units), faster than light: damaged or "
+                              "mis-scaled data")
 
 
 def at_least_three_nodes(a: int, b: int, count: int) -> tuple[int, int]:
