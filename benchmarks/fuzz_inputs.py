@@ -137,9 +137,9 @@ class ApiFamily:
             if not self._small(section, kwargs["ld_map"]):
                 self._validate(section, kwargs["ld_map"])
                 return "valid"
-            self.integrated += 1
             result = self.ldpipe.ld_map(self.system, equilibria=self.equilibria, section=section, threads=1,
                                         **kwargs["ld_map"])
+            self.integrated += 1
         except Exception as error:
             # the function and the argument: its top-level keyword (a section's axis or option,
             # given to ld_map as 'section')
@@ -333,7 +333,7 @@ def main(argv=None) -> int:
             family = makers[name]()
             counts, failures = run(family, args.examples, args.seed)
             seconds = time.perf_counter() - start
-            extra = f", integrated {family.integrated}" if name == "api" else ""
+            extra = f" ({family.integrated} maps computed)" if name == "api" else ""
             print(f"{name:7s} tried {counts['tried']}, valid {counts['valid']}, refused with a message naming the "
                   f"input {counts['refused']}, failures {counts['failures']}{extra} ({seconds:.0f} s)")
             for failure in failures[:20]:

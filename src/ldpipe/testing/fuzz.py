@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -413,13 +413,6 @@ def file_case_names(path: Path, corruption: str) -> tuple[str, ...]:
     return (path.name,) + ((f"'{variable}'",) if variable else ())
 
 
-def cases(sites: list[tuple], mutations=tuple(MUTATIONS), seed: int = 0) -> Iterator[tuple[tuple, str]]:
-    """``(path, mutation)`` pairs drawn at random (seeded) from every site and mutation, for ever."""
-    rng = np.random.default_rng(seed)
-    while True:
-        yield sites[int(rng.integers(len(sites)))], mutations[int(rng.integers(len(mutations)))]
-
-
 def finite_dataset(dataset: xr.Dataset, what: str) -> None:
     """Every floating variable of ``dataset`` is finite where it has a value (a NaN in a file is a fault)."""
     for name, variable in dataset.data_vars.items():
@@ -427,6 +420,6 @@ def finite_dataset(dataset: xr.Dataset, what: str) -> None:
             raise FuzzFailure(f"{what}: variable {name!r} holds a non-finite value")
 
 
-__all__ = ["BYTE_CORRUPTIONS", "CORRUPTIONS", "FILE_CASES", "MUTATIONS", "FuzzFailure", "cases", "check_config_case",
+__all__ = ["BYTE_CORRUPTIONS", "CORRUPTIONS", "FILE_CASES", "MUTATIONS", "FuzzFailure", "check_config_case",
            "check_message", "check_refusal", "config_sites", "file_case_names", "finite_dataset", "merged",
            "mutate", "names_the_key", "plain", "write_velocity_case"]
