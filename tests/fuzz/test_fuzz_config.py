@@ -60,3 +60,17 @@ def test_an_empty_variable_name_of_velocity_data_is_refused_by_its_key(variable)
     path = ("systems", "example_currents", "velocity_data", variable)
     with pytest.raises(ConfigError, match=rf"config key '{'.'.join(path)}': '' should be non-empty"):
         validate_config(fuzz.mutate(BASE, path, "empty_string"))
+
+
+@pytest.mark.parametrize("family", ["", "no_such_family"])
+@pytest.mark.parametrize("with_normal_form", [True, False])
+def test_a_transport_study_of_a_family_not_declared_is_refused_by_its_key(family, with_normal_form):
+    # validation took any name here: with a normal-form study comparing with it, a KeyError; without,
+    # a valid configuration whose transport job had no family file to read
+    config = fuzz.plain(BASE)
+    config["transport"]["barbanis_2dof_bottom"]["orbits"] = family
+    if not with_normal_form:
+        del config["normal_form"]
+    with pytest.raises(ConfigError, match=rf"^config key 'transport.barbanis_2dof_bottom.orbits': no family "
+                                          rf"'{family}'; expected one of \['barbanis_2dof_bottom', "):
+        validate_config(config)
