@@ -74,3 +74,11 @@ def test_a_transport_study_of_a_family_not_declared_is_refused_by_its_key(family
     with pytest.raises(ConfigError, match=rf"^config key 'transport.barbanis_2dof_bottom.orbits': no family "
                                           rf"'{family}'; expected one of \['barbanis_2dof_bottom', "):
         validate_config(config)
+
+
+def test_a_reference_to_a_section_left_out_names_the_section():
+    # without periodic_orbits: "config key 'manifolds.X.orbits': no family 'Y'; expected one of []"
+    assert fuzz.check_config_case(BASE, ("periodic_orbits",), "missing", validate_config) == "refused"
+    with pytest.raises(ConfigError, match=r"no family '\w+'; expected one of \[\] \(the entries under "
+                                          r"'periodic_orbits'\)"):
+        validate_config(fuzz.mutate(BASE, ("periodic_orbits",), "missing"))
