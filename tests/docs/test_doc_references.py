@@ -27,7 +27,6 @@ from __future__ import annotations
 import importlib
 import re
 from functools import cache
-from pathlib import Path
 
 import pytest
 

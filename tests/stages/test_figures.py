@@ -23,7 +23,6 @@ from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_
 from ldpipe.core.sections import Section, section_states
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
-from ldpipe.config.parameters import parameters_from_config
 from support.workflow import ROOT, job_counts, run_snakemake
 
 BARBANIS = {"builtin": "barbanis_2dof", "parameters": {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}}

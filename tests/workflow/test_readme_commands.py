@@ -12,7 +12,8 @@ each is classified by :func:`plan`:
   options with its ``:1500`` point counts replaced), and the workflow runs (``snakemake``,
   ``snakemake fig4``, the parameter study at full resolution) as dry runs with ``-n``; the quick
   parameter study really runs, in a copy of the quick run's results; the benchmark comparison on a
-  12 × 12 grid, a few reference points and one round instead of 300 × 300 and three;
+  12 × 12 grid, a few reference points and one round instead of 300 × 300 and three; the fuzz
+  command with 20 examples of each family instead of 10^4;
 - covered by another test or by CI: the install-and-test command is what ``.ci/run`` runs (checked
   here, verbatim), and so is the docs extra's install (the test extra includes it, checked here);
   the docs build is run verbatim by tests/docs/test_docs.py (in a copy of docs/); the fast subset of
@@ -82,6 +83,8 @@ def plan(command: str) -> tuple[str, str, str]:
         # one Taylor arc-length rtol, not five: each rtol picks an order, a module of ~80 CPU s to compile
         return ("run", smaller + " --taylor-arclength-rtols 1e-10 --out results/compare",
                 "12 × 12 grid, 3 reference points, one round, one Taylor arc-length rtol")
+    if re.fullmatch(r"\.venv/bin/python benchmarks/fuzz_inputs\.py( --examples \d+)?", command):
+        return "run", ".venv/bin/python benchmarks/fuzz_inputs.py --examples 20", "20 examples of each family"
     if command == INSTALL_AND_SNAKEMAKE:
         # The install is CI's (the test extras include the main install); the run is planned.
         return "run", ".venv/bin/snakemake -n", "install as CI; the full run as a dry run (-n)"

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import functools
 import re
 from collections.abc import Callable, Iterator
 
 import xarray as xr
 
 from ..config import validate_config
+from ..config.loading import load_schema
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, UPO
@@ -59,6 +61,22 @@ def arguments_of(function: str, key: str) -> Iterator[None]:
                       r"unknown arguments \1; allowed are", text)
         text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
         raise ConfigError(f"ldpipe.{function}: {text}") from None
+
+
+@functools.lru_cache(maxsize=None)
+def _name_pattern(section: str) -> str:
+    return load_schema()["properties"][section]["propertyNames"]["pattern"]
+
+
+def entry_key(function: str, section: str, name) -> str:
+    """The config key of the entry ``name`` of ``section`` (``"ld_maps.map"``); a ConfigError naming
+    the argument ``name`` of ``ldpipe.<function>`` if no entry may have that name (the schema's
+    pattern): else a list as a name made an unhashable key, and a bad name an error about the
+    whole section."""
+    pattern = _name_pattern(section)
+    if not isinstance(name, str) or not re.fullmatch(pattern, name):
+        raise ConfigError(f"ldpipe.{function}: argument 'name': expected a name matching {pattern!r}, got {name!r}")
+    return f"{section}.{name}"
 
 
 def energy_shorthand(spec: dict) -> dict:

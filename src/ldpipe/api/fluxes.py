@@ -12,8 +12,8 @@ from ..io.contracts import SADDLE_FLUX, TRANSPORT, StageFile
 from ..io.datafile import open_stage_file, stage_parameters
 from .systems import equilibria_input
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, family_equilibria, shared_docs,
-    system_config,
+    AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config, family_equilibria,
+    shared_docs, system_config,
 )
 
 
@@ -43,7 +43,7 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
     >>> f = ldpipe.saddle_flux(b, energies={"excess": [0.1]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("saddle_flux", f"saddle_flux.{name}"):
+    with arguments_of("saddle_flux", entry_key("saddle_flux", "saddle_flux", name)):
         _, parameters = entry_parameters(entry, system_config(system), "saddle_flux", name, "saddle_flux")
         return saddle_flux_dataset(parameters, equilibria_input(system, equilibria), threads=threads)
 
@@ -88,7 +88,7 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
     """
     family, config = family_config(orbits)
     entry = {"orbits": family, **energy_shorthand(spec)}
-    with arguments_of("transport", f"transport.{name}"):
+    with arguments_of("transport", entry_key("transport", "transport", name)):
         _, parameters = entry_parameters(entry, config, "transport", name, "transport")
         return transport_dataset(parameters, orbits, family_equilibria(orbits, equilibria), threads=threads)
 
@@ -134,7 +134,7 @@ def normal_form(system: AnySystem, *, name: str = "normal_form", equilibria: xr.
     >>> nf = ldpipe.normal_form(b, energies={"excess": [0.1]}, order=8, saddle_flux=f)  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("normal_form", f"normal_form.{name}"):
+    with arguments_of("normal_form", entry_key("normal_form", "normal_form", name)):
         _, parameters = entry_parameters(entry, system_config(system), "normal_form", name, "normal_form")
         # The entry names the compared studies; here they are given, so their names are taken from
         # them (as their files record them) once they are found to be of the same system.

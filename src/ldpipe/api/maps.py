@@ -7,7 +7,8 @@ import xarray as xr
 from ..core.maps.assembly import ld_map_dataset
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import AnySystem, arguments_of, energy_shorthand, entry_parameters, shared_docs, system_config
+from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, shared_docs,
+                        system_config)
 
 
 @shared_docs
@@ -48,7 +49,7 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     >>> m.ldpipe.plot()  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("ld_map", f"ld_maps.{name}"):
+    with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
         return ld_map_dataset(parameters, equilibria_input(system, equilibria), tiles=ld_map_tiles(config, name),
                               threads=threads, show_progress=progress)

@@ -9,7 +9,7 @@ from ..core.orbits.manifolds import manifolds_dataset
 from ..core.orbits.poincare import poincare_dataset
 from .systems import equilibria_input
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, entry_parameters, family_config, shared_docs, system_config,
+    AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config, shared_docs, system_config,
 )
 
 
@@ -41,7 +41,7 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
     >>> orbits = ldpipe.periodic_orbits(b, name="bottom", energies={"excess": [0.125]})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("periodic_orbits", f"periodic_orbits.{name}"):
+    with arguments_of("periodic_orbits", entry_key("periodic_orbits", "periodic_orbits", name)):
         _, parameters = entry_parameters(entry, system_config(system), "periodic_orbits", name, "upo")
         return periodic_orbits_dataset(parameters, equilibria_input(system, equilibria))
 
@@ -73,7 +73,7 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
     """
     family, config = family_config(orbits)
     entry = {"orbits": family, **energy_shorthand(spec)}
-    with arguments_of("manifolds", f"manifolds.{name}"):
+    with arguments_of("manifolds", entry_key("manifolds", "manifolds", name)):
         _, parameters = entry_parameters(entry, config, "manifolds", name, "manifolds")
         return manifolds_dataset(parameters, orbits, threads=threads)
 
@@ -106,6 +106,6 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
     ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("poincare", f"poincare_sections.{name}"):
+    with arguments_of("poincare", entry_key("poincare", "poincare_sections", name)):
         _, parameters = entry_parameters(entry, system_config(system), "poincare_sections", name, "poincare")
         return poincare_dataset(parameters, equilibria_input(system, equilibria), threads=threads)

@@ -13,7 +13,7 @@ from ..config.parameters import parameters_from_config
 from ..core.equilibria.study import equilibria_dataset
 from ..errors import ConfigError
 from ..systems import make_system, system_spec
-from .arguments import AnySystem, arguments_of, equilibria_of, system_entry
+from .arguments import AnySystem, arguments_of, entry_key, equilibria_of, system_entry
 
 #: The keys of a section block besides its axes (:func:`section`).
 SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
@@ -50,8 +50,10 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     >>> hh.coordinates
     ('x', 'y')
     """
-    name = name or spec.get("builtin") or "system"
-    with arguments_of("system", f"systems.{name}"):
+    builtin = spec.get("builtin")
+    # a built-in's name names its entry, unless it is no name at all (then the entry's error says so)
+    name = name or (builtin if isinstance(builtin, str) and builtin.isidentifier() else None) or "system"
+    with arguments_of("system", entry_key("system", "systems", name)):
         config = validate_config({"systems": {name: copy.deepcopy(spec)}})
         built = make_system(name, system_spec(config, name))
     return dataclasses.replace(built, spec=config["systems"][name])

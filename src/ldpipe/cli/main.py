@@ -317,15 +317,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def one_line(message: str) -> str:
+    """A message on one line (a configuration's errors are listed one a line): what a log line or a
+    shell script's ``2>`` capture keeps whole."""
+    lines = [line.strip() for line in message.splitlines() if line.strip()]
+    return " ".join(lines[:1] + ["; ".join(lines[1:])] if len(lines) > 1 else lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    for token in argv:
+        # argparse reads OPTION=-- as an empty list, past the option's type and its check
+        option, sep, value = token.partition("=")
+        if token.startswith("--") and sep and value == "--":
+            parser.error(f"argument {option}: expected one argument, got '--'")
     args = parser.parse_args(argv)
     try:
         # Every output the command will write, checked before any work: a bad path fails in a second, not after the run.
         check_writable(getattr(args, "output", None), getattr(args, "csv", None))
         args.handler(args)
     except LdpipeError as error:
-        print(f"ldpipe {args.command}: error: {error}", file=sys.stderr)
+        print(f"ldpipe {args.command}: error: {one_line(str(error))}", file=sys.stderr)
         return 2
     return 0
 

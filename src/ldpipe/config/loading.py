@@ -29,6 +29,7 @@ from .studies import (
     check_nhim_sampling,
     check_normal_form,
     check_orbits,
+    check_transport,
     check_transport_masses,
 )
 
@@ -212,6 +213,7 @@ def validate_config(config: dict) -> dict:
     check_figures(config)
     check_nhim(config)
     check_accuracy_cost(config)
+    check_transport(config)
     check_transport_masses(config)
     check_normal_form(config)
     return config

@@ -24,8 +24,9 @@ def check_names(names: list[str], section: str, key: str, config: dict, noun: st
     such an entry is called in the error; default "<section> entry")."""
     for name in names:
         if name not in config[section]:
+            # the section named too: with none declared, 'expected one of []' alone says not where to add one
             raise ConfigError(f"config key {key!r}: no {noun or section + ' entry'} {name!r}; expected one of "
-                              f"{sorted(config[section])}")
+                              f"{sorted(config[section])} (the entries under {section!r})")
 
 
 def check_energy_surface_grid(spec: dict, key: str, grid: str, what: str) -> None:

@@ -264,6 +264,12 @@ def check_accuracy_cost(config: dict) -> None:
             )
 
 
+def check_transport(config: dict) -> None:
+    """Each transport study's family is a family of the configuration (the stage reads its file)."""
+    for name, spec in (config.get("transport") or {}).items():
+        check_names([spec["orbits"]], "periodic_orbits", f"transport.{name}.orbits", config, "family")
+
+
 def check_transport_masses(config: dict) -> None:
     """The transport and saddle-flux stages take |p|^2/2 as the kinetic energy (their well volume,
     one-way flux and Monte Carlo sampling of momenta): a study of a system with masses is refused

@@ -382,9 +382,13 @@ def _solve_position(system: System, section: Section, states: np.ndarray, energy
     count = len(states)
     if section.search is None:
         others = [states[:, l] for l in range(n) if l != s]
-        a, b, c = (np.broadcast_to(np.asarray(f(*others), dtype=np.float64), (count,)) for f in quadratic_in(system, section.solve))
-        c = c - target
-        with np.errstate(divide="ignore", invalid="ignore"):
+        # a coordinate far out (1e300) overflows a coefficient to inf: that point has no finite root,
+        # and is refused below (np.isfinite), a fact, not a fault to warn of
+        with np.errstate(over="ignore", invalid="ignore"):
+            a, b, c = (np.broadcast_to(np.asarray(f(*others), dtype=np.float64), (count,))
+                       for f in quadratic_in(system, section.solve))
+            c = c - target
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             discriminant = b * b - 4.0 * a * c
             root = np.sqrt(np.maximum(discriminant, 0.0))
             half = -0.5 * (b + np.copysign(root, b))

@@ -31,6 +31,9 @@ Modules, one job each:
 - :mod:`~ldpipe.engine.api` — :func:`compute_ld` and :class:`LDResult`.
 """
 
+import numbers
+
+from ..errors import ConfigError
 from .schemes import SCHEMES
 from .settings import DEFAULT_ESCAPE_RADIUS, DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules
 
@@ -41,7 +44,13 @@ __all__ = [
 
 
 def use_threads(threads: int | None) -> None:
-    """Let the engine run on ``threads`` threads, at most numba's (None or 0: leave them as they are)."""
+    """Let the engine run on ``threads`` threads, at most numba's (None or 0: leave them as they are);
+    a ConfigError naming ``threads`` for a negative or fractional count (numba's own ValueError
+    would come from deep inside a run)."""
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, numbers.Integral)
+                                or threads < 0):
+        raise ConfigError(f"threads: expected a whole number of threads, 1 or more (0 or None: every core), "
+                          f"got {threads!r}")
     if threads:
         import numba  # here, where the engine runs: a job that only reads files never loads it
 

@@ -25,7 +25,7 @@ import numpy as np
 from ...jitcache import njit_functions
 from .. import kernels
 from .regular import VelocityDataSystem
-from .source import DataSource, at_least_three_nodes, fill_land, kernel_text, sphere_ld_metric_source
+from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made: a velocity-data entry is
 # read for its coordinates (planning, figures) without it.
@@ -107,6 +107,7 @@ def read_rectilinear_window(source: DataSource, ranges: dict[str, tuple[int, int
         arrays = [np.asarray(dataset[name].isel(region).values, dtype=float) for name in velocities]
         water = (np.asarray(dataset[source.mask].isel({names[r]: region[names[r]] for r in order[1:]}).values) != 0
                  if source.mask else True)
+    check_speeds(source, arrays)
     finite = np.logical_and.reduce([np.isfinite(a) for a in arrays])
     land_nodes = (~(finite & water)).any(axis=0)
     arrays = [fill_land(a, land_nodes) for a in arrays]

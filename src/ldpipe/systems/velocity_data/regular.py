@@ -17,7 +17,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
-from .source import DataSource, at_least_three_nodes, fill_land, kernel_text, sphere_ld_metric_source
+from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
 # entry is read for its coordinates (planning, figures) without it.
@@ -118,6 +118,7 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
         u = np.asarray(read(source.u, (source.time, source.y)), dtype=float)
         v = np.asarray(read(source.v, (source.time, source.y)), dtype=float)
         water = read(source.mask, (source.y,)) != 0 if source.mask else True
+    check_speeds(source, [u, v])
     land_all = ~(np.isfinite(u) & np.isfinite(v) & water)
     land_nodes = land_all.any(axis=0)
     u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)

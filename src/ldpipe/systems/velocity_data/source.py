@@ -9,7 +9,9 @@ nearest water's values (:func:`fill_land`) and the sphere's LD metric section
 
 from __future__ import annotations
 
+import contextlib
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -52,13 +54,27 @@ def velocity_units_match(units: str) -> re.Match | None:
     return re.fullmatch(r"(\w+)\s*(?:/\s*(\w+)|\s+(\w+)\s*\^?-1)", units.strip().replace("**", "^"))
 
 
-def parse_velocity_units(units: str, key: str) -> tuple[float, float]:
-    """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``, ``km/day``)."""
+def parse_velocity_units(units: str, key: str, name: str = "") -> tuple[float, float]:
+    """(metres per length unit, seconds per time unit) of a velocity's ``units`` (``m/s``, ``m s-1``,
+    ``km/day``); ``name``: the variable, for the error."""
     match = velocity_units_match(units)
     if not match or match.group(1) not in LENGTHS or (match.group(2) or match.group(3)) not in TIMES:
-        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood; expected a length per time, "
-                          f"e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
+        of = f" (variable {name!r})" if name else ""
+        raise ConfigError(f"config key '{key}': velocity units {units!r} not understood{of}; expected a length per "
+                          f"time, e.g. 'm/s', 'm s-1' or 'km/day' (lengths {sorted(LENGTHS)}, times {sorted(TIMES)})")
     return LENGTHS[match.group(1)], TIMES[match.group(2) or match.group(3)]
+
+
+def units_of(dataset: xr.Dataset, name: str, key: str) -> str | None:
+    """The ``units`` attribute of variable ``name``, stripped; None if absent or blank. Refused
+    if not text (netCDF lets an attribute be a number, which no unit is)."""
+    units = dataset[name].attrs.get("units")
+    if units is None:
+        return None
+    if not isinstance(units, str):
+        raise ConfigError(f"config key '{key}': variable {name!r} has units {units!r}, a number, not a unit; "
+                          "expected text such as 'm/s', 'm' or 'days since 2000-01-01'")
+    return units.strip() or None
 
 
 def time_unit_seconds(units: str | None) -> float | None:
@@ -76,10 +92,17 @@ UNIFORM_RTOL = 1e-6
 
 def increasing_axis(values: np.ndarray, name: str, key: str) -> np.ndarray:
     """The values of a coordinate, which must be one-dimensional, increasing, with at least 3 values."""
-    values = np.asarray(values, dtype=float)
+    values = np.asarray(values)
+    if values.dtype.kind not in "iuf":
+        raise ConfigError(f"config key '{key}': coordinate {name!r} holds {values.dtype} values, not numbers")
+    values = values.astype(float)
     if values.ndim != 1 or len(values) < 3:
         raise ConfigError(f"config key '{key}': coordinate {name!r} must be one-dimensional with at least 3 values, "
                           f"got shape {values.shape}")
+    missing = ~np.isfinite(values)
+    if missing.any():
+        raise ConfigError(f"config key '{key}': coordinate {name!r} has a missing or infinite value (at index "
+                          f"{int(np.argmax(missing))}); every node of the grid needs its coordinate")
     steps = np.diff(values)
     if not np.all(steps > 0):
         raise ConfigError(f"config key '{key}': coordinate {name!r} is not monotonic increasing "
@@ -93,11 +116,28 @@ def is_uniform(values: np.ndarray) -> bool:
     return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
 
 
+#: What xarray and its backends raise for a file they cannot read (truncated, damaged, not netCDF
+#: or zarr at all): netCDF4's OSError "NetCDF: HDF error", xarray's ValueError "did not find a
+#: match in any of xarray's currently installed IO backends", a zarr store's missing metadata.
+READ_ERRORS = (OSError, ValueError, RuntimeError, KeyError)
+
+
 def open_dataset(path: str) -> xr.Dataset:
-    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily."""
-    if path.rstrip("/").endswith(".zarr"):
-        return xr.open_zarr(path, decode_times=False)
-    return xr.open_dataset(path, decode_times=False)
+    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily; a
+    ConfigError naming the file if it cannot be read."""
+    try:
+        if path.rstrip("/").endswith(".zarr"):
+            return xr.open_zarr(path, decode_times=False)
+        return xr.open_dataset(path, decode_times=False)
+    except READ_ERRORS as error:
+        raise unreadable(path, error) from None
+
+
+def unreadable(path: str, error: BaseException) -> ConfigError:
+    """The error for a velocity-data file that cannot be read (its data read lazily, a damaged
+    block fails only when a window of it is read, during an integration)."""
+    reason = str(error).splitlines()[0] if str(error).strip() else type(error).__name__
+    return ConfigError(f"velocity data {path}: cannot read the file ({reason}); expected a netCDF file or a zarr store")
 
 
 @dataclass(frozen=True)
@@ -128,12 +168,20 @@ class DataSource:
     vertical_scale: float = 0.0  # dz/dt per unit of w: the units' ratio, negative when z is positive down
     z_metres: float = 1.0  # metres per unit of z (3-D data)
     velocity_units: str = ""  # as the file writes them (u's units)
+    metres_per_second: tuple[float, ...] = ()  # of each velocity (u, v, (w,)) per unit, by its units
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
 
-    def open(self) -> xr.Dataset:
-        return open_dataset(self.path)
+    @contextlib.contextmanager
+    def open(self) -> Iterator[xr.Dataset]:
+        """The dataset, opened lazily; a read in the block that fails (a damaged block of a file
+        whose coordinates read well) is a ConfigError naming the file."""
+        with open_dataset(self.path) as dataset:
+            try:
+                yield dataset
+            except READ_ERRORS as error:
+                raise unreadable(self.path, error) from None
 
     def axis_values(self, which: str) -> np.ndarray:
         if self.nodes is not None:
@@ -174,7 +222,18 @@ def length_of(units: str | None, name: str, key: str, default: float) -> float:
 
 
 def open_source(spec: dict, key: str) -> DataSource:
-    """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units."""
+    """Check a ``velocity_data`` entry against its file: variables, dimensions, grids, units; a
+    ConfigError names the entry's key, the variable and the file."""
+    try:
+        return _checked_source(spec, key)
+    except ConfigError as error:
+        path = spec.get("path") if isinstance(spec, dict) else None
+        if not path or str(path) in str(error):
+            raise
+        raise ConfigError(f"{error} (in {path})") from None
+
+
+def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
     unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
     if unknown:
@@ -207,21 +266,30 @@ def open_source(spec: dict, key: str) -> DataSource:
             if tuple(variable.dims) != expected:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
                                   f"{tuple(variable.dims)}; expected {expected}")
-            units = variable.attrs.get("units")
+            if variable.dtype.kind not in "iuf":
+                raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} holds {variable.dtype} "
+                                  "values, not numbers")
+            units = units_of(dataset, entry[role], f"{key}.{role}")
             if not units:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has no 'units' attribute; "
                                   "a velocity needs its units (e.g. 'm/s')")
-            scales.append(parse_velocity_units(units, f"{key}.{role}"))
+            scales.append(parse_velocity_units(units, f"{key}.{role}", entry[role]))
         if scales[0] != scales[1]:
-            raise ConfigError(f"config key '{key}.v': u and v have different units")
+            raise ConfigError(f"config key '{key}.v': variables {entry['u']!r} and {entry['v']!r} have different units "
+                              f"({dataset[entry['u']].attrs['units']!r}, {dataset[entry['v']].attrs['units']!r})")
         mask = entry.get("mask")
         if mask and tuple(dataset[mask].dims) != expected[1:]:
             raise ConfigError(f"config key '{key}.mask': variable {mask!r} has dimensions "
                               f"{tuple(dataset[mask].dims)}; expected {expected[1:]}")
         metres, seconds = scales[0]
-        time_coordinate_units = dataset[entry["time"]].attrs.get("units")
+        time_coordinate_units = units_of(dataset, entry["time"], f"{key}.time")
+        if time_coordinate_units and time_unit_seconds(time_coordinate_units) is None:
+            # else the times would be read in the velocity's time unit, silently wrong
+            raise ConfigError(f"config key '{key}.time': time units {time_coordinate_units!r} of variable "
+                              f"{entry['time']!r} not understood; expected one of {sorted(TIMES)}, or 'UNIT since "
+                              "DATE' (or no units: the velocity's time unit)")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
-        velocity_units = str(dataset[entry["u"]].attrs["units"]).strip()
+        velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
             time_units = time_coordinate_units.strip().split()[0]
         else:
@@ -230,12 +298,12 @@ def open_source(spec: dict, key: str) -> DataSource:
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
-            length = length_of(dataset[entry["x"]].attrs.get("units"), entry["x"], f"{key}.x", metres)
+            length = length_of(units_of(dataset, entry["x"], f"{key}.x"), entry["x"], f"{key}.x", metres)
         vertical_scale = 0.0
         z_length = 1.0
         if three_d:
             w_metres, w_seconds = scales[2]
-            z_length = length_of(dataset[entry["z"]].attrs.get("units"), entry["z"], f"{key}.z", w_metres)
+            z_length = length_of(units_of(dataset, entry["z"], f"{key}.z"), entry["z"], f"{key}.z", w_metres)
             vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
     grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
     regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
@@ -247,7 +315,7 @@ def open_source(spec: dict, key: str) -> DataSource:
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
-                      x_global=x_global,
+                      x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
@@ -283,6 +351,25 @@ def seam_grid(grid: tuple[float, float, int], name: str, key: str) -> tuple[tupl
                           "so the seam is neither a grid cell nor an edge; give a global grid with 360 / spacing "
                           "columns, or a regional one with a gap of more than a spacing")
     return grid, False
+
+
+#: No flow is faster than light: a velocity beyond it (in m/s, by its units) is damaged or
+#: mis-scaled data (a few flipped bytes make 1e17), and a trajectory through it would take every
+#: step it may, the run seeming to hang.
+LIGHT_SPEED = 299_792_458.0
+
+
+def check_speeds(source: DataSource, arrays: list[np.ndarray]) -> None:
+    """A ConfigError naming the file and the variable if a velocity read (``arrays``, in the order
+    u, v, (w)) is faster than light; missing values (land) are not speeds."""
+    names = (source.u, source.v) + ((source.w,) if source.w else ())
+    for name, array, factor in zip(names, arrays, source.metres_per_second):
+        finite = np.abs(array[np.isfinite(array)])
+        fastest = float(finite.max()) if finite.size else 0.0
+        if fastest * factor > LIGHT_SPEED:
+            raise ConfigError(f"velocity data {source.path}: variable {name!r} holds a speed of {fastest:.3g} "
+                              f"({fastest * factor:.3g} m/s by its units), faster than light: damaged or "
+                              "mis-scaled data")
 
 
 def at_least_three_nodes(a: int, b: int, count: int) -> tuple[int, int]:
