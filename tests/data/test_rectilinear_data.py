@@ -278,7 +278,7 @@ def test_bad_3d_data_errors_name_the_coordinate(tmp_path):
                                           r"expected \('time', 'z', 'y', 'x'\)"):
         data_system(tmp_path / "flat_w.nc", w="w")
     # the FTLE of 3-D data on the sphere would mix degrees of arc with metres: refused, naming the key
-    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': the FTLE of 3-D data on the sphere"):
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.ftle': system 's' is 3-D data on the sphere"):
         validate_config({"systems": {"s": {"velocity_data": {"path": str(unsigned), "w": "w", "coordinates": "sphere"}}},
                          "ld_maps": {"m": {"system": "s", "tau": 1.0, "p": 0.5, "ftle": True,
                                            "section": {"axes": [{"name": "lon", "range": [0.0, 1.0], "points": 3},

@@ -44,7 +44,8 @@ def test_a_bad_entry_name_is_refused_naming_the_argument(family, name):
         ldpipe.ld_map(family.system, name=name, section=section, **fuzz_inputs.MAP_KWARGS)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=120, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_a_mutated_keyword_gives_a_finite_map_or_an_error_naming_it(family, data):
     function = data.draw(st.sampled_from(list(family.BASES)))

@@ -20,7 +20,8 @@ def family(tmp_path_factory):
     return fuzz_inputs.CliFamily(tmp_path_factory.mktemp("cli"))
 
 
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=80, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(case=CLI_CASES)
 def test_a_mutated_argument_runs_or_is_refused_without_a_traceback_or_a_file(family, case):
     family.check(case)

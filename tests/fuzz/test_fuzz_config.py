@@ -30,7 +30,7 @@ def test_the_sites_reach_every_section_and_keys_the_configuration_leaves_out():
     assert "ld_maps.fig3_dE0.000.section.axes.0.range.1" in dotted
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150, deadline=None, derandomize=True)
 @given(site=st.sampled_from(SITES), mutation=st.sampled_from(list(fuzz.MUTATIONS)))
 def test_a_mutated_key_validates_or_is_refused_by_name(site, mutation):
     fuzz.check_config_case(BASE, site, mutation, validate_config)

@@ -40,7 +40,8 @@ def test_a_corrupted_file_is_refused_naming_the_file_and_variable(family, corrup
     assert outcome(family, corruption) == ("valid" if corruption in VALID else "refused")
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(fraction=st.floats(0.0, 0.999))
 def test_a_truncated_file_is_refused_naming_it(family, fraction):
     assert outcome(family, "truncated", fraction) == "refused"
@@ -50,7 +51,8 @@ def test_every_corruption_is_checked():
     assert sorted(CHECKED) == sorted(c for c in fuzz.FILE_CASES if c != "bytes_flipped")
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=15, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(fraction=st.floats(0.0, 0.999))
 def test_a_file_with_damaged_bytes_is_refused_naming_it_or_gives_a_finite_map(family, fraction):
     # where the damage falls decides: headers and coordinates are checked, velocities may read as numbers

@@ -59,8 +59,9 @@ def check_ld_maps(config: dict) -> None:
             raise ConfigError(f"config key '{key}.refine': an adaptive map refines on the fates of region exits and "
                               "escapes, not on land or the data's edge; give refine: null for a velocity-data map")
         if spec.get("ftle") and on_sphere(system) and len(coordinates) == 3:
-            raise ConfigError(f"config key '{key}.ftle': the FTLE of 3-D data on the sphere would mix degrees of arc "
-                              "with the vertical coordinate's units; it is not supported (on the plane it is)")
+            raise ConfigError(f"config key '{key}.ftle': system {spec['system']!r} is 3-D data on the sphere (its "
+                              "velocity_data names w), whose FTLE would mix degrees of arc with the vertical "
+                              "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
         check_variational_ftle(spec, key, system)
         if is_vector_field(system):
@@ -147,7 +148,7 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
     if sorted(named) != sorted(state):
         raise ConfigError(
             f"config key '{key}.section': the two axes and the fixed variables must name each of {list(state)} "
-            f"exactly once; got axes {axes}, fixed {list(section['fixed'])}"
+            f"(the state of system {spec['system']!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
         )
     if any(value == "saddle" for value in section["fixed"].values()):
         raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
@@ -176,4 +177,4 @@ def check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
     named = [axis["name"] for axis in start["axes"]] + list(start["fixed"])
     if sorted(named) != sorted(state):
         raise ConfigError(f"config key '{key}.initial_conditions': the two axes and the fixed variables must name "
-                          f"each of {list(state)} exactly once; got {named}")
+                          f"each of {list(state)} (the state of system {spec['system']!r}) exactly once; got {named}")
