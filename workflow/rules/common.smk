@@ -8,6 +8,7 @@ try:
     from ldpipe.errors import ConfigError
     from ldpipe.io.provenance import code_digest
     from ldpipe.config.parameters import parameters_from_config
+    from ldpipe.core.maps.budget import band_memory_mb
     from ldpipe.stages.plan import (accuracy_systems, ladder_engines, ld_map_points, ld_map_tiles, ld_tile_points,
                                     nhim_orbit_inputs,
                                     nhim_sampling_system, nhim_study_inputs)
@@ -133,9 +134,7 @@ def ld_tile_memory_mb(wildcards):
 
 
 def _ld_tile_memory_mb(map_name, tiles):
-    # About 200 bytes a grid point for the fields and the engine's arrays, plus the interpreter
-    # (measured: 350-460 MB peak for a 1500 x 375 tile).
-    return 1000 + ld_tile_points(config, map_name, tiles) * 200 // 2**20
+    return band_memory_mb(ld_tile_points(config, map_name, tiles))
 
 
 def ld_tile_runtime_min(wildcards, threads, attempt):

@@ -25,6 +25,7 @@ from ...logs import get_logger
 from ...systems import on_sphere, system_phase_coordinates
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
+from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
 from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
                    start_time_band, tile_rows)
@@ -124,6 +125,8 @@ def compute_ld_map(
         return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
+    check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
+                      section.shape[0] * section.shape[1])
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
              else f"E = {info['energy']:.12g} (dE = {info['excess_energy']:.6g})")
     log.info(
@@ -151,6 +154,22 @@ def compute_ld_map(
     add_ld_units(dataset, system, settings.p)
     note_allowed_points(dataset, whole_map=tiles == 1)
     return dataset
+
+
+def check_band_memory(map_name: str, points: int, map_points: int, available_mb: int | None = None) -> None:
+    """A ConfigError naming the map's ``tiles`` if a band of ``points`` grid points needs more memory
+    than this machine has (``available_mb``, default its physical memory): refused before any
+    trajectory is integrated, with the estimate and the tiles that would fit."""
+    available_mb = machine_memory_mb() if available_mb is None else available_mb
+    need = band_memory_mb(points)
+    if available_mb is None or need <= available_mb:
+        return
+    tiles = fewest_tiles(map_points, available_mb)
+    fix = (f"give tiles: {tiles} or more (the workflow runs each as a job of its own), or fewer points"
+           if tiles else "give fewer points")
+    raise ConfigError(f"config key 'ld_maps.{map_name}.tiles': a band of {points} grid points needs about "
+                      f"{need} MB ({BYTES_PER_POINT} bytes a point and {BASE_MB} MB for the process), more than "
+                      f"this machine's {available_mb} MB; {fix}")
 
 
 def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
