@@ -16,7 +16,7 @@ from ..config import validate_config
 from ..config.loading import load_schema
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError, StageFileError
-from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, UPO
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
 
@@ -118,6 +118,18 @@ def family_config(orbits: xr.Dataset) -> tuple[str, dict]:
     entry = {k: v for k, v in recorded.items() if k not in ("family", "system_name", "system_spec")}
     return family, {"systems": {system_name: recorded["system_spec"]},
                     "periodic_orbits": {family: {"system": system_name, **entry}}}
+
+
+#: What a map's file records besides the keys of the ``ld_maps`` entry it was computed from.
+MAP_RECORD = ("map_name", "system_name", "system_spec", "resolved", "tile", "tiles")
+
+
+def recorded_map_entry(ld_map: xr.Dataset) -> tuple[str, str, dict, dict]:
+    """The ``ld_maps`` entry an LD map was computed from, from the parameters its file records:
+    the map's name, its system's name and spec, and the entry's other keys."""
+    recorded = stage_parameters(open_stage_file(ld_map, stage=LD_GRID.stage))
+    return (recorded["map_name"], recorded["system_name"], recorded["system_spec"],
+            {k: v for k, v in recorded.items() if k not in MAP_RECORD})
 
 
 def equilibria_of(given: xr.Dataset, system_name: str, spec: dict, what: str) -> xr.Dataset:

@@ -17,7 +17,8 @@ from ..errors import ConfigError
 from ..io.contracts import LD_GRID, UPO
 from ..io.datafile import open_stage_file, stage_parameters
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, shared_docs, system_config,
+    AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, recorded_map_entry, shared_docs,
+    system_config,
 )
 from .systems import equilibria_input
 
@@ -66,8 +67,6 @@ def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequen
 
 #: The name of a base map given by its keys (not an LD map), in the configuration built for it and in the file.
 BASE_MAP = "base_map"
-#: What an LD map's file records beside its ld_maps entry (defaults filled): its name, system and resolved energies.
-MAP_RECORD = ("map_name", "system_name", "system_spec", "resolved", "tile", "tiles")
 
 
 def _base_map_entry(function: str, base_map: xr.Dataset | dict, config: dict, system_name: str) -> tuple[str, dict]:
@@ -76,12 +75,11 @@ def _base_map_entry(function: str, base_map: xr.Dataset | dict, config: dict, sy
     (:func:`ld_map`), its entry as the file records it, under its name; or the keys of an entry
     (a map never computed), under the name :data:`BASE_MAP`."""
     if isinstance(base_map, xr.Dataset):
-        recorded = stage_parameters(open_stage_file(base_map, stage=LD_GRID.stage))
+        name, map_system, map_spec, entry = recorded_map_entry(base_map)
         spec = config["systems"][system_name]
-        if recorded["system_spec"] != {k: v for k, v in spec.items() if k != "equilibria"}:
-            raise ConfigError(f"ldpipe.{function}: argument 'base_map': a map of system {recorded['system_name']!r} "
-                              f"{recorded['system_spec']}, but the study is of {system_name!r} {spec}")
-        name, entry = recorded["map_name"], {k: v for k, v in recorded.items() if k not in MAP_RECORD}
+        if map_spec != {k: v for k, v in spec.items() if k != "equilibria"}:
+            raise ConfigError(f"ldpipe.{function}: argument 'base_map': a map of system {map_system!r} "
+                              f"{map_spec}, but the study is of {system_name!r} {spec}")
     elif isinstance(base_map, dict):
         name, entry = BASE_MAP, energy_shorthand(base_map)
     else:

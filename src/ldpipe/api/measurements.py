@@ -11,10 +11,8 @@ from ..config import validate_config
 from ..config.parameters import parameters_from_config
 from ..core.accuracy.measurement import accuracy_cost_dataset
 from ..errors import ConfigError
-from ..io.contracts import LD_GRID
-from ..io.datafile import open_stage_file, stage_parameters
-from .arguments import arguments_of, family_config
-from .invariant_sets import MAP_RECORD, refinement_argument
+from .arguments import arguments_of, family_config, recorded_map_entry
+from .invariant_sets import refinement_argument
 
 
 def _map_entry(ld_map: xr.Dataset, argument: str, systems: dict) -> tuple[str, dict]:
@@ -22,12 +20,11 @@ def _map_entry(ld_map: xr.Dataset, argument: str, systems: dict) -> tuple[str, d
     if not isinstance(ld_map, xr.Dataset):
         raise ConfigError(f"ldpipe.accuracy_cost: argument '{argument}': expected an LD map (ldpipe.ld_map), "
                           f"got {type(ld_map).__name__}")
-    recorded = stage_parameters(open_stage_file(ld_map, stage=LD_GRID.stage))
-    name, spec = recorded["system_name"], recorded["system_spec"]
+    map_name, name, spec, entry = recorded_map_entry(ld_map)
     if systems.setdefault(name, spec) != spec:
         raise ConfigError(f"ldpipe.accuracy_cost: argument '{argument}': system {name!r} {spec}, but another "
                           f"argument's system of that name is {systems[name]}")
-    return recorded["map_name"], {"system": name, **{k: v for k, v in recorded.items() if k not in MAP_RECORD}}
+    return map_name, {"system": name, **entry}
 
 
 def accuracy_cost(*, equilibria: xr.Dataset | Sequence[xr.Dataset], ld: dict | None = None, upo: dict | None = None,
