@@ -15,10 +15,10 @@ A ``config.yaml`` entry and a call say the same thing::
 Where an entry names another entry (a map's ``system``, a manifold set's ``orbits``) the call
 takes that object or Dataset instead. Each call builds the configuration the entry would sit in,
 validates it with the configuration's own schema and rules (so a bad argument gets the message a
-bad key gets, naming the argument), and calls the library function of the stage's product (:mod:`ldpipe.core`, as the stage
-Snakemake and the command line run does) in memory: the Dataset returned equals, data and
-attributes, the file the pipeline writes for the same entry (but for ``history``, which says when
-and how a file was written).
+bad key gets, naming the argument), and calls in memory the library function that makes the
+stage's product (:mod:`ldpipe.core`), the one the stage calls for Snakemake and the command line:
+the Dataset returned equals, data and attributes, the file the pipeline writes for the same entry
+(but for ``history``, which says when and how a file was written).
 """
 
 from .files import open_dataset, plot
