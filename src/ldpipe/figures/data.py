@@ -38,7 +38,8 @@ class LDMap:
     first, second : ndarray, shapes (n1,), (n2,)
         Grid coordinates.
     values : masked ndarray, shape (n1, n2)
-        The descriptor; masked where the point is energetically forbidden (never integrated).
+        The descriptor; masked where it is missing (the point is energetically forbidden or starts
+        on land: never integrated).
     attrs : dict
         The file's attributes (energy, excess_energy, critical_energy, tau, time_mode, region ...).
     parameters : dict
@@ -81,7 +82,7 @@ def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDM
         axes=(str(axes[0]), str(axes[1])),
         first=dataset[axes[0]].values.copy(),
         second=dataset[axes[1]].values.copy(),
-        values=np.ma.masked_array(values, mask=~allowed),
+        values=np.ma.masked_array(values, mask=~allowed | ~np.isfinite(values)),
         attrs=dict(dataset.attrs),
         parameters=stage_parameters(dataset),
     )

@@ -38,7 +38,7 @@ def ld_frames(path: str | Path, descriptor: str) -> tuple[xr.Dataset, np.ma.Mask
     starts = ([float(v) for v in dataset.t0.values] if stacked else [float(dataset.attrs.get("t0", 0.0))])
     if not stacked:
         values, allowed = values[None], allowed[None]
-    return dataset, np.ma.masked_array(values, mask=~allowed), starts
+    return dataset, np.ma.masked_array(values, mask=~allowed | ~np.isfinite(values)), starts
 
 
 def draw_ld_animation(settings: dict, *, ld_maps: list[str | Path]) -> plt.Figure:

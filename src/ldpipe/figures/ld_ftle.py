@@ -34,17 +34,10 @@ def draw_ld_ftle(settings: dict, *, ld_maps: list[str | Path]) -> plt.Figure:
         if "ftle_forward" not in dataset:
             raise ConfigError(f"figure kind 'ld_ftle': map {ld_map.name!r} ({path}) has no FTLE; "
                               f"compute it with ftle: true (config key ld_maps.{ld_map.name}.ftle)")
-        # a start on land: stopped at once both ways (a trajectory that reached land keeps its LD)
-        land = np.zeros(ld_map.values.shape, dtype=bool)
-        if "on_land_forward" in dataset:
-            land = (dataset.on_land_forward.values.astype(bool) & dataset.on_land_backward.values.astype(bool)
-                    & (dataset.exit_time_forward.values == float(ld_map.attrs["tau"]))
-                    & (dataset.ld_forward.values == 0) & (dataset.ld_backward.values == 0))
-        ld_values = np.ma.masked_array(ld_map.values, mask=np.ma.getmaskarray(ld_map.values) | land)
-        panels = [(ld_values, style.LD_LABEL[settings["descriptor"]])]
+        # the LD is missing where a point starts on land (a trajectory that reached land keeps its LD)
+        panels = [(ld_map.values, style.LD_LABEL[settings["descriptor"]])]
         for label in ("forward", "backward"):
-            values = np.ma.masked_array(dataset[f"ftle_{label}"].values,
-                                        mask=~dataset[f"ftle_defined_{label}"].values.astype(bool))
+            values = np.ma.masked_invalid(dataset[f"ftle_{label}"].values)  # missing where not defined
             panels.append((values, f"FTLE, {label}"))
         for column, (values, label) in enumerate(panels):
             ax = grid[row][column]

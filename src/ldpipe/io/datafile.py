@@ -59,10 +59,36 @@ def git_commit() -> str:
     return commit + ("-dirty" if dirty else "")
 
 
+#: The encoding key by which a variable declares NaN its missing value (CF ``_FillValue``): the
+#: file then says which points have no value, and xarray reads them back as NaN.
+FILL_VALUE = "_FillValue"
+
+
+def missing_value_encoding() -> dict:
+    """The encoding of a floating-point variable whose NaN points are missing values (CF
+    ``_FillValue``, NaN): a point outside the allowed region, on land, or whose value is not
+    defined. Give it as the fourth item of a variable's tuple, or update ``variable.encoding``."""
+    return {FILL_VALUE: np.nan}
+
+
+def declares_missing_values(variable: xr.Variable | xr.DataArray) -> bool:
+    """Whether ``variable`` declares NaN a missing value (:func:`missing_value_encoding`; a file's
+    variable read back with its ``_FillValue`` NaN does too)."""
+    fill = variable.encoding.get(FILL_VALUE)
+    return fill is not None and np.issubdtype(np.asarray(fill).dtype, np.floating) and bool(np.isnan(fill))
+
+
 def _check_finite(dataset: xr.Dataset, where) -> None:
+    """Refuse inf anywhere, and NaN in a variable that does not declare it a missing value."""
     for name, variable in dataset.variables.items():
-        if np.issubdtype(variable.dtype, np.floating) and not np.all(np.isfinite(variable.values)):
-            raise ValueError(f"{where}: variable {name!r} holds NaN or inf; refusing to write it")
+        if not np.issubdtype(variable.dtype, np.floating):
+            continue
+        values = variable.values
+        if np.any(np.isinf(values)):
+            raise ValueError(f"{where}: variable {name!r} holds inf; refusing to write it")
+        if not declares_missing_values(variable) and np.any(np.isnan(values)):
+            raise ValueError(f"{where}: variable {name!r} holds NaN and declares no missing value "
+                             "(_FillValue); refusing to write it")
 
 
 def _json_default(value):
@@ -91,7 +117,8 @@ def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, pa
     version, the commit), flags kept as booleans with their CF flag attributes, text as fixed-width
     strings, one-element numeric attributes as scalars. Every library function of a stage product
     returns its Dataset through this, so the Python API hands back, in memory, what the pipeline
-    writes. Floating-point data must be finite.
+    writes. Floating-point data must be finite, but for the NaN of a variable that declares it a
+    missing value (:func:`missing_value_encoding`).
     """
     stage = stage.stage if isinstance(stage, StageFile) else stage
     _check_finite(dataset, f"the {stage!r} stage's data")
@@ -157,8 +184,13 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
     for name, variable in dataset.data_vars.items():
         if variable.dtype.kind in "fiub":
             encoding[name] = dict(compression)  # replaces what the variable carries from a file it was read from
+            if variable.dtype.kind == "f":  # a fill value only where NaN means a missing point (xarray's default: all)
+                encoding[name][FILL_VALUE] = np.nan if declares_missing_values(variable) else None
             if variable.dtype.kind == "b":
                 dataset[name] = variable.astype(np.int8)
+    for name, variable in dataset.coords.items():
+        if variable.dtype.kind == "f":
+            encoding[name] = {FILL_VALUE: np.nan if declares_missing_values(variable) else None}
 
     def write(temporary: Path) -> None:
         try:

@@ -15,8 +15,8 @@ the grid's spacing and at the end point for the end states' (``sphere_metric``);
 radius cancels in the ratio.
 
 A point is *defined* when it and every grid neighbour its differences use ran the whole time
-(no region exit, escape, land, data edge or failure): elsewhere the exponent is written as 0
-and the ``ftle_defined_*`` flag is false (the files hold no NaN).
+(no region exit, escape, land, data edge or failure): elsewhere the exponent is missing (NaN,
+the file's declared ``_FillValue``) and the ``ftle_defined_*`` flag is false.
 
 A formula system's map may instead take the gradient exact (``ftle: variational``,
 :func:`variational_ftle`): the state transition matrix along each point's own trajectory.
@@ -98,7 +98,7 @@ def ftle(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray], tim
         gradient = gradient * end_scale[..., :, None] / axis_scale[..., None, :]
     stretch = largest_stretching(gradient)
     defined &= np.isfinite(stretch) & (stretch > 0)
-    values = np.zeros(defined.shape)
+    values = np.full(defined.shape, np.nan)
     values[defined] = np.log(stretch[defined]) / (2.0 * time)
     return values, defined
 

@@ -19,6 +19,7 @@ from tqdm import tqdm
 from ...engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from ...engine.schemes import check_scheme, get_scheme
 from ...errors import ConfigError
+from ...io.datafile import missing_value_encoding
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
@@ -34,6 +35,8 @@ CHUNK = 1 << 15
 #: ``stop_flags``: land, the data's edge), with what they say.
 STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
               "left_data": "stopped at the edge of the data (or of its window)"}
+#: The flag of a map's points that start on land (velocity data): not integrated, so without an LD.
+START_ON_LAND = "start_on_land"
 #: The per-direction result fields an LD map holds (``fields`` of :func:`fields_dataset`: NAME_forward, NAME_backward).
 MAP_FIELDS = ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")
 
@@ -236,6 +239,9 @@ def ld_grid_dataset(
     directions = ((1, "forward"),) if mirror is not None else ((1, "forward"), (-1, "backward"))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
+    if system.has_stop_flags:  # a start on land stops at once: its LD is missing, not 0
+        fields[START_ON_LAND] = np.zeros(shape, dtype=bool)
+        fields[START_ON_LAND][allowed] = system.stop_flags(states, t0, t0)["on_land"]
     stream, interval = progress_output(log)
     progress = tqdm(total=len(directions) * len(states), unit="traj", desc="LD", disable=not show_progress,
                     file=stream, mininterval=interval, ascii=stream is not sys.stderr)
@@ -311,22 +317,37 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
     """The LD map's Dataset from its per-direction fields on the grid (the band ``rows`` of it):
     ``fields`` maps NAME_forward, NAME_backward (NAME in :data:`MAP_FIELDS`, and the stop flags of
     :data:`STOP_FLAGS` where the system has them) to arrays of the band's shape; ``ends`` the flow
-    map's end states by direction, where kept."""
+    map's end states by direction, where kept, and ``fields[START_ON_LAND]`` the points that start on land.
+
+    A point never integrated (outside the energetically allowed region, or starting on land) has
+    no value: its floating-point fields are missing (NaN, declared as the file's ``_FillValue``),
+    and the flags ``allowed`` and ``start_on_land`` say why."""
     first = section.axis_values()[0][rows]
     descriptor = "ld_forward" in fields  # a vector field's map without its LD holds the flow map alone
     dims = section.axes
-    mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
+    on_land = fields.get(START_ON_LAND)
+    mask_note = "missing where the point is outside the energetically allowed region (see 'allowed')"
+    ld_note = mask_note + (" or starts on land (see 'start_on_land')" if on_land is not None else "")
+    never_integrated = ~allowed if on_land is None else ~allowed | on_land
+
+    def missing(values: np.ndarray, where: np.ndarray = ~allowed) -> np.ndarray:
+        return np.where(where, np.nan, values)
+
+    def field(values, attrs: dict, where: np.ndarray = ~allowed) -> tuple:
+        return (dims, missing(values, where), {**attrs, "comment": attrs.get("comment", mask_note)},
+                missing_value_encoding())
+
     variables = {}
     if descriptor:
-        variables["ld_forward"] = (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time",
-                                                                "comment": mask_note})
-        variables["ld_backward"] = (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time",
-                                                                  "comment": mask_note})
+        variables["ld_forward"] = field(fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time",
+                                                               "comment": ld_note}, never_integrated)
+        variables["ld_backward"] = field(fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time",
+                                                                 "comment": ld_note}, never_integrated)
     variables.update({
-        "exit_time_forward": (dims, fields["time_forward"],
-                              {"long_name": "forward integration time reached: tau, or the exit or escape time"}),
-        "exit_time_backward": (dims, fields["time_backward"],
-                               {"long_name": "backward integration time reached (|t|): tau, or the exit or escape time"}),
+        "exit_time_forward": field(fields["time_forward"],
+                                   {"long_name": "forward integration time reached: tau, or the exit or escape time"}),
+        "exit_time_backward": field(fields["time_backward"], {
+            "long_name": "backward integration time reached (|t|): tau, or the exit or escape time"}),
         "escaped_forward": (dims, fields["escaped_forward"], {"long_name": "trajectory escaped (forward)"}),
         "escaped_backward": (dims, fields["escaped_backward"], {"long_name": "trajectory escaped (backward)"}),
     })
@@ -342,23 +363,23 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
         "steps_backward": (dims, fields["steps_backward"], {"long_name": "integrator step attempts (backward)"}),
     })
     if section.solve is not None:  # a Hamiltonian's section (a map with its LD)
-        variables["energy_error"] = (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
-                                     {"long_name": "largest |H(end) - H(start)| of the two directions"})
+        variables["energy_error"] = field(np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
+                                          {"long_name": "largest |H(end) - H(start)| of the two directions"})
     variables["allowed"] = (dims, allowed, {"long_name": "point lies in the energetically allowed region"})
     if section.solve is not None:
-        variables[section.solve] = (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
-                                                   "comment": mask_note})
+        variables[section.solve] = field(solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy"})
     else:  # a vector field: no energy, every point integrated
         variables["allowed"] = (dims, allowed, {"long_name": "point integrated (a vector field: every point)"})
     for flag, text in STOP_FLAGS.items():
         for label in ("forward", "backward"):
             if f"{flag}_{label}" in fields:
                 variables[f"{flag}_{label}"] = (dims, fields[f"{flag}_{label}"], {"long_name": f"trajectory {text} ({label})"})
+    if on_land is not None:
+        variables[START_ON_LAND] = (dims, on_land, {"long_name": "point starts on land (not integrated: no LD)"})
     for label, end in (ends or {}).items():
         for i, coordinate in enumerate(system.phase_coordinates):
-            variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = (
-                dims, end[..., i], {"long_name": f"{_long_name(coordinate, system)} where the {label} trajectory stopped",
-                                    "comment": mask_note})
+            variables[END_STATE_NAME.format(coordinate=coordinate, direction=label)] = field(
+                end[..., i], {"long_name": f"{_long_name(coordinate, system)} where the {label} trajectory stopped"})
     coords = {
         section.axes[0]: (section.axes[0], first, {"long_name": _long_name(section.axes[0], system)}),
         section.axes[1]: (section.axes[1], section.axis_values()[1], {"long_name": _long_name(section.axes[1], system)}),
@@ -386,7 +407,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
             "long_name": f"finite-time Lyapunov exponent, {label} time",
             "units": "1/time",
             "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
-                       "by differences of end states over the grid; 0 where not defined (see ftle_defined)"})
+                       "by differences of end states over the grid; missing where not defined (see ftle_defined)"},
+            missing_value_encoding())
         dataset[f"ftle_defined_{label}"] = (dims, defined, {
             "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
     return dataset
@@ -417,7 +439,7 @@ def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: sl
     dims = dataset.allowed.dims
     for label, direction in (("forward", 1), ("backward", -1)):
         defined = ran_whole_time(dataset, label, tau)
-        values = np.zeros(defined.shape)
+        values = np.full(defined.shape, np.nan)
         if defined.any():
             values[defined] = variational_ftle(system, states[defined], axes, t0, direction * tau, rtol=rtol, atol=atol)
         dataset[f"ftle_{label}"] = (dims, values, {
@@ -428,7 +450,8 @@ def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: sl
             "atol": atol,
             "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
                        "exact: the state transition matrix of the variational equations along the point's "
-                       "trajectory (scipy DOP853 at rtol, atol); 0 where not defined (see ftle_defined)"})
+                       "trajectory (scipy DOP853 at rtol, atol); missing where not defined (see ftle_defined)"},
+            missing_value_encoding())
         dataset[f"ftle_defined_{label}"] = (dims, defined, {
             "long_name": f"the {label} FTLE is defined: the point's trajectory ran the whole time"})
     return dataset
