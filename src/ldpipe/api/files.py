@@ -42,7 +42,7 @@ def open_dataset(path: str | Path) -> xr.Dataset:
     return open_stage_file(path, stage=str(stage))
 
 
-def plot(dataset: xr.Dataset, ax=None, **options):
+def plot(dataset: xr.Dataset, ax=None, variable: str | None = None, **options):
     """Draw what a stage file holds on ``ax`` (a new figure's if None); ``ds.ldpipe.plot()`` calls this.
 
     Parameters
@@ -52,10 +52,18 @@ def plot(dataset: xr.Dataset, ax=None, **options):
         section (``poincare``), manifolds (``manifolds``) or equilibria (``equilibria``).
     ax : matplotlib Axes, optional
         Where to draw.
+    variable : str, optional
+        For an LD map, the variable drawn: ``"ld_forward"``, ``"ftle_forward"``, a flag such as
+        ``"allowed"`` ...; by default the LD ``descriptor``. It is drawn as
+        ``dataset[variable].plot()`` draws it (the same dimension horizontal), with missing
+        points (never integrated, or not defined) in grey and the axes and colour bar labelled
+        with their symbols and units.
     **options
         For an LD map: ``descriptor`` (``"total"``, ``"forward"``, ``"backward"``),
         ``color_percentiles``, ``color_limits``, ``manifolds`` (manifold files drawn over it), the
-        figure keys of those names; for a Poincaré section: ``point_size``.
+        figure keys of those names, and matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``,
+        ``add_colorbar``, xarray's ``x`` and ``y`` (the coordinate drawn horizontally,
+        vertically); for a Poincaré section: ``point_size``.
 
     Returns
     -------
@@ -64,7 +72,8 @@ def plot(dataset: xr.Dataset, ax=None, **options):
     Examples
     --------
     >>> m.ldpipe.plot(descriptor="forward")  # doctest: +SKIP
+    >>> m.ldpipe.plot("ftle_forward", cmap="magma", vmin=0)  # doctest: +SKIP
     """
     from ..figures.dataset import draw_stage_file
 
-    return draw_stage_file(dataset, ax, **options)
+    return draw_stage_file(dataset, ax, variable, **options)

@@ -18,12 +18,17 @@ from ..errors import ConfigError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
 from . import style
-from .data import load_orbits
-from .section_maps import draw_ld_panel, draw_manifold_curves, draw_poincare
+from .data import DESCRIPTORS, load_orbits
+from .section_maps import draw_manifold_curves, draw_poincare, energy_title
 
 #: The figure keys an LD map or a Poincaré section takes as options.
 MAP_OPTIONS = ("descriptor", "color_percentiles", "color_limits")
 POINCARE_OPTIONS = ("point_size",)
+#: The matplotlib keywords a map's drawing passes on (xarray's pcolormesh takes them too).
+MATPLOTLIB_OPTIONS = ("cmap", "vmin", "vmax", "norm", "add_colorbar", "x", "y")
+#: The symbols of a map's fields in axis and colour-bar labels; other variables are named by their long name.
+FIELD_SYMBOLS = {"ld_forward": style.LD_LABEL["forward"], "ld_backward": style.LD_LABEL["backward"],
+                 "ftle_forward": r"FTLE $\Lambda^{f}$", "ftle_backward": r"FTLE $\Lambda^{b}$"}
 
 
 def _figure_defaults(keys: tuple[str, ...]) -> dict:
@@ -39,9 +44,79 @@ def _options(given: dict, keys: tuple[str, ...], stage: str) -> dict:
     return {**_figure_defaults(keys), **given}
 
 
-def _draw_ld_map(ax, dataset: xr.Dataset, manifolds=(), **options) -> None:
+def _with_units(text: str, attrs: dict) -> str:
+    units = attrs.get("units")
+    return f"{text} [{units}]" if units else text
+
+
+def map_field(dataset: xr.Dataset, variable: str | None, descriptor: str) -> tuple[xr.DataArray, str]:
+    """The field of an LD map file to draw and its colour-bar label: ``variable`` (any variable on
+    the map's grid: an LD, an FTLE, a flag), or by default the LD ``descriptor`` (forward plus
+    backward for ``total``). Missing points are NaN: never integrated, or not defined."""
+    if variable is None:
+        if descriptor not in DESCRIPTORS:
+            raise ConfigError(f"plot option descriptor={descriptor!r}: expected one of {list(DESCRIPTORS)}")
+        if descriptor == "total":
+            field = dataset.ld_forward + dataset.ld_backward
+            field.attrs = {k: v for k, v in dataset.ld_forward.attrs.items() if k == "units"}
+        else:
+            field = dataset[f"ld_{descriptor}"]
+        return field, _with_units(style.LD_LABEL[descriptor], field.attrs)
+    if variable not in dataset.data_vars:
+        grid = dataset.allowed.dims
+        drawable = sorted(name for name, v in dataset.data_vars.items() if set(grid) <= set(v.dims))
+        raise ConfigError(f"plot: this map has no variable {variable!r}; it has {drawable}")
+    field = dataset[variable]
+    if field.dtype.kind == "b":  # a flag: 0 or 1
+        field = field.astype(np.int8)
+    symbol = FIELD_SYMBOLS.get(variable, field.attrs.get("long_name", variable))
+    return field, _with_units(symbol, field.attrs)
+
+
+def _horizontal_vertical(dims: tuple, x: str | None, y: str | None) -> tuple[str, str]:
+    """The coordinates drawn horizontally and vertically, as xarray chooses them: the last
+    dimension horizontal unless ``x`` or ``y`` names one."""
+    dims = tuple(str(d) for d in dims)
+    for given, key in ((x, "x"), (y, "y")):
+        if given is not None and given not in dims:
+            raise ConfigError(f"plot option {key}={given!r}: expected one of the map's coordinates {list(dims)}")
+    if x is None and y is None:
+        return dims[1], dims[0]
+    if x is None:
+        return next(d for d in dims if d != y), y
+    return x, y if y is not None else next(d for d in dims if d != x)
+
+
+def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds=(), **options) -> None:
+    """A field of an LD map as xarray's ``dataset[variable].plot()`` draws it (the same dimension
+    horizontal, the same cells), with missing points in the figures' neutral grey, the figures'
+    robust colour scale unless ``vmin``, ``vmax`` or ``norm`` say otherwise, and the axes and
+    colour bar labelled with the paper's symbols and their units."""
+    passed = {key: options.pop(key) for key in MATPLOTLIB_OPTIONS if key in options}
     settings = _options(options, MAP_OPTIONS, LD_GRID.stage)
-    draw_ld_panel(ax, dataset, settings, list(manifolds))
+    field, label = map_field(dataset, variable, settings["descriptor"])
+    if field.ndim != 2:
+        extra = [d for d in field.dims if d not in dataset.allowed.dims[-2:]]
+        raise ConfigError(f"plot: {field.name or 'the LD'} has the dimensions {list(field.dims)}; select one "
+                          f"value of {extra} first, e.g. ds.isel({extra[0]}=0).ldpipe.plot()")
+    cmap = plt.get_cmap(passed.pop("cmap", style.LD_COLORMAP)).with_extremes(bad=style.FORBIDDEN_COLOR)
+    if passed.get("norm") is None:
+        passed.pop("norm", None)
+        low, high = settings.get("color_limits") or style.color_limits(field.values, settings["color_percentiles"])
+        passed.setdefault("vmin", low)
+        passed.setdefault("vmax", high)
+    add_colorbar = passed.pop("add_colorbar", True)
+    horizontal, vertical = _horizontal_vertical(field.dims, passed.pop("x", None), passed.pop("y", None))
+    field.plot.pcolormesh(ax=ax, x=horizontal, y=vertical, cmap=cmap, add_colorbar=add_colorbar, rasterized=True,
+                          **({"cbar_kwargs": {"label": label}} if add_colorbar else {}), **passed)
+    ax.set_xlabel(_with_units(style.symbol(horizontal), dataset[horizontal].attrs))
+    ax.set_ylabel(_with_units(style.symbol(vertical), dataset[vertical].attrs))
+    if manifolds:
+        draw_manifold_curves(ax, list(manifolds), (horizontal, vertical))
+    where = (energy_title(float(dataset.attrs["excess_energy"]), float(dataset.attrs["energy"]))
+             if "energy" in dataset.attrs else rf"$t_0 = {float(dataset.attrs.get('t0', 0.0)):g}$")
+    ax.set_title("")
+    ax.set_title(where + (rf", $\tau = {float(dataset.attrs['tau']):g}$" if "tau" in dataset.attrs else ""), loc="right")
 
 
 def _draw_orbits(ax, dataset: xr.Dataset) -> None:
@@ -83,15 +158,21 @@ def _draw_equilibria(ax, dataset: xr.Dataset) -> None:
     ax.legend(loc="best")
 
 
-def draw_stage_file(dataset: xr.Dataset, ax=None, **options):
+def draw_stage_file(dataset: xr.Dataset, ax=None, variable: str | None = None, **options):
     """Draw the stage file ``dataset`` on ``ax`` (a new figure's if None) and return the axes.
 
-    Options: an LD map takes ``descriptor``, ``color_percentiles``, ``color_limits`` (the figure
-    keys) and ``manifolds`` (manifold files drawn over it); a Poincaré section ``point_size``.
+    An LD map draws ``variable`` (any variable on its grid: ``"ftle_forward"``, a flag ...; by
+    default the LD ``descriptor``) as ``dataset[variable].plot()`` does, the same dimension
+    horizontal, with missing points grey. It takes ``descriptor``, ``color_percentiles``,
+    ``color_limits`` (the figure keys), ``manifolds`` (manifold files drawn over it) and
+    matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``, ``add_colorbar``, and xarray's ``x``, ``y``
+    (which coordinate is horizontal, vertical). A Poincaré section takes ``point_size``.
     """
     stage = dataset.attrs.get(STAGE_ATTRIBUTE)
+    if variable is not None and stage != LD_GRID.stage:
+        raise ConfigError(f"plot: a {stage!r} file is drawn whole; only an LD map draws one variable ({variable!r})")
     drawings = {
-        LD_GRID.stage: lambda: _draw_ld_map(ax, dataset, **options),
+        LD_GRID.stage: lambda: _draw_ld_map(ax, dataset, variable, **options),
         POINCARE.stage: lambda: draw_poincare(ax, dataset, **_options(options, POINCARE_OPTIONS, POINCARE.stage)),
         UPO.stage: lambda: _draw_orbits(ax, dataset, **options),
         MANIFOLDS.stage: lambda: _draw_manifolds(ax, dataset, **options),
