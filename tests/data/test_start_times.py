@@ -22,6 +22,7 @@ from ldpipe.stages.plan import ld_map_points, ld_map_tiles, ld_tile_points
 from ldpipe.config.parameters import parameters_from_config
 from support.double_gyre import double_gyre_velocity
 from support.gridded import write_velocity_file
+from support.tick_labels import assert_readable_tick_labels
 
 H = 1.0 / 8
 SPEC = {"system": "gyre", "tau": 1.5, "p": 0.5, "ftle": True, "tiles": 2, "integrator": {"rtol": 1e-9, "atol": 1e-9},
@@ -55,6 +56,9 @@ def test_stacked_start_times_equal_single_maps_and_animate(tmp_path):
     run_figure(**settings, inputs={"ld_maps": [str(tmp_path / "m.nc")]}, png=tmp_path / "anim.png", gif=gif)
     with Image.open(gif) as image:
         assert image.n_frames == len(starts)
+    from ldpipe.figures.ld_animation import draw_ld_animation
+
+    assert_readable_tick_labels(draw_ld_animation(settings["settings"], ld_maps=[str(tmp_path / "m.nc")]), tmp_path)
 
 
 def test_snakemake_runs_a_job_per_start_time_and_band(workdir):

@@ -27,6 +27,7 @@ from ldpipe.systems import make_system
 from support.bickley_jet import BICKLEY_JET, bickley_velocity
 from support.double_gyre import sampled_gyre_errors
 from support.gridded import assert_quadratic_field_ld, quadratic_field, sampled_flow_errors, write_velocity_file
+from support.tick_labels import assert_readable_tick_labels
 
 TIGHT = dict(rtol=1e-11, atol=1e-11)
 
@@ -218,6 +219,7 @@ def test_ld_ftle_figure_draws_ld_and_both_ftle(tmp_path):
     settings = parameters_from_config(config, "figures", "f")["settings"]
     figure = draw_figure("ld_ftle", settings, {"ld_maps": [str(written)]})
     assert len(figure.axes) == 6  # three panels, three colour bars
+    assert_readable_tick_labels(figure, tmp_path)
     # the adaptive refinement knows the fates of region exits and escapes, not land or the data's edge
     with pytest.raises(ConfigError, match=r"ld_maps\.s\.refine': .*velocity-data map"):
         validate_config({"systems": {"shear": {"velocity_data": {"path": str(path)}}},

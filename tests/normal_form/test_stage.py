@@ -8,12 +8,13 @@ import pytest
 
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
-from ldpipe.figures.normal_form import draw_normal_form
+from ldpipe.figures.normal_form import draw_normal_form, normal_form_figure
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.normal_form import run_normal_form
 from ldpipe.config.parameters import parameters_from_config
 from support import quadratic_saddle as quadratic
+from support.tick_labels import assert_readable_tick_labels
 
 
 def _config(**studies):
@@ -47,6 +48,7 @@ def test_quadratic_saddle_stage_and_figure(tmp_path):
     png = tmp_path / "q.png"
     draw_normal_form(study=path, png=png)
     assert png.stat().st_size > 0
+    assert_readable_tick_labels(normal_form_figure(data), tmp_path)
 
 
 def test_study_checks():

@@ -323,11 +323,14 @@ def test_nhim_ladders_take_the_orbit_ladders_reference_orbit_only_where_it_is_th
     assert computed == [1] and np.array_equal(again.attrs["nhim_crossing"], own.attrs["nhim_crossing"])
 
 
-def test_figure_is_drawn(stage_output, tmp_path):
+def test_figure_is_drawn(stage_output, tmp_path, monkeypatch):
     from ldpipe.figures.accuracy import draw_accuracy_cost
+    from support.tick_labels import assert_saved_tick_labels_readable, record_saved_figures
 
+    saved = record_saved_figures(monkeypatch)
     written = draw_accuracy_cost(stage_output[0], png=tmp_path / "a.png", pdf=tmp_path / "a.pdf")
     assert [p.suffix for p in written] == [".png", ".pdf"] and all(p.stat().st_size > 1000 for p in written)
+    assert_saved_tick_labels_readable(saved)
 
 
 def test_config_errors_name_the_key():

@@ -16,13 +16,14 @@ from docutils.core import publish_parts
 from matplotlib.image import imread
 
 from ldpipe.config import load_config, validate_config
-from ldpipe.io.datafile import write_stage_file
+from ldpipe.io.datafile import missing_value_encoding, write_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures import style
 from ldpipe.figures.data import Orbit, _split_curve, load_ld_map, orbit_section_points
 from ldpipe.core.sections import Section, section_states
 from ldpipe.stages.equilibria import run_equilibria
 from ldpipe.stages.figures import draw_figure, figure_caption, figure_input_files, figure_parameters, run_figure
+from support.tick_labels import assert_readable_tick_labels
 from support.workflow import ROOT, job_counts, run_snakemake
 
 BARBANIS = {"builtin": "barbanis_2dof", "parameters": {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}}
@@ -40,17 +41,18 @@ def ld_file(path, barbanis, *, excess=0.125, fixed_y=0.0, points=(41, 37), time=
     (its recorded spec fixes y at ``spec_y`` if given, e.g. 'saddle').
 
     The allowed mask is the real one (section_states); the total LD is ``total(x, px)`` (default
-    1 + x^2 + p_x^2), half forward and half backward, on allowed points and 0 elsewhere, as the
-    stage leaves points it never integrates.
+    1 + x^2 + p_x^2), half forward and half backward, on allowed points and missing (NaN)
+    elsewhere, as the stage leaves points it never integrates.
     """
     section = Section(axes=("x", "px"), ranges=((-6.0, 6.0), (-6.0, 6.0)), shape=points, fixed={"y": fixed_y},
                       solve="py")
     energy = E_C + excess
     _, allowed, solved = section_states(barbanis, section, energy)
     x, px = section.axis_values()
-    field = np.where(allowed, total(x[:, None], px[None, :]), 0.0)
+    field = np.where(allowed, total(x[:, None], px[None, :]), np.nan)
     dataset = xr.Dataset(
-        {"ld_forward": (("x", "px"), field / 2), "ld_backward": (("x", "px"), field / 2),
+        {"ld_forward": (("x", "px"), field / 2, {}, missing_value_encoding()),
+         "ld_backward": (("x", "px"), field / 2, {}, missing_value_encoding()),
          "allowed": (("x", "px"), allowed), "py": (("x", "px"), solved)},
         coords={"x": x, "px": px},
         attrs={"map": Path(path).stem, "system": "barbanis_2dof", "energy": energy, "excess_energy": excess,
@@ -183,7 +185,7 @@ def test_section_maps_figure_has_labels_colour_bar_grey_forbidden_and_green_boun
     colors = map_colors(paraboloid(grid_x, grid_px), allowed)
     for i, j in ((20, 18), (30, 20), (8, 25), (14, 5), (33, 30), (1, 1), (39, 35)):
         np.testing.assert_allclose(pixels_at(image, map_ax, x[i], px[j])[0], colors[i, j], atol=0.02)
-    plt.close(figure)
+    assert_readable_tick_labels(figure, tmp_path)  # saved, then closed
 
 
 def test_ld_slices_with_orbit_marks_where_it_pierces_each_section(tmp_path, barbanis):
@@ -203,7 +205,7 @@ def test_ld_slices_with_orbit_marks_where_it_pierces_each_section(tmp_path, barb
     assert len(curve_ax.get_legend().get_texts()) == 2
     assert curve_ax.get_ylabel() == r"$\mathcal{L}$" and map_ax.get_ylabel() == "$p_x$"
     assert any(ax.name == "3d" for ax in figure.axes)  # the view of the orbit threading the sections
-    plt.close(figure)
+    assert_readable_tick_labels(figure, tmp_path)  # saved, then closed
 
 
 def test_ld_slices_resolve_a_saddle_coordinate_from_the_map_file(tmp_path, barbanis):
@@ -248,7 +250,7 @@ def test_split_curve_keeps_a_closed_curve_whole_and_breaks_at_gaps():
     assert len(_split_curve(jump, np.ones(100, dtype=bool))) == 2
 
 
-def test_potential_figure_marks_the_paper_saddles(equilibria_file):
+def test_potential_figure_marks_the_paper_saddles(equilibria_file, tmp_path):
     settings = {"kind": "potential", "system": "barbanis_2dof", "plane": {"x": [-10.0, 15.0], "y": [-12.0, 12.0]},
                 "fixed": {}, "energies": {"excess": [-1.0, 1.0]}, "points": 60, "levels": 10, "surface": True,
                 "potential_range": None}
@@ -277,7 +279,44 @@ def test_potential_figure_marks_the_paper_saddles(equilibria_file):
         for x, y, inside in ((0.0, 0.0, True), (12.0, -11.0, True), (-8.0, 0.0, False),
                              (5.5, -6.0, excess > 0), (5.5, 6.0, excess > 0)):
             np.testing.assert_allclose(pixels_at(image, ax, x, y)[0], hill if inside else (1.0, 1.0, 1.0), atol=0.02)
-    plt.close(figure)
+    assert_readable_tick_labels(figure, tmp_path)  # saved, then closed
+
+
+def normal_form_study(excess: np.ndarray) -> xr.Dataset:
+    """A synthetic normal-form study (any numbers will do for its drawing): flux 40 dE^2, the
+    harmonic estimate and the Monte Carlo flux a few 1e-3 off, a truncation error 1e-3 dE flux."""
+    flux = 40.0 * excess**2
+    orders = np.array([2, 4, 6, 8])
+    return xr.Dataset(
+        {"excess_energy": ("energy", excess), "flux": ("energy", flux),
+         "flux_harmonic": ("energy", flux * (1 + 0.004 * excess / excess.max())),
+         "flux_truncation_error": ("energy", 1e-3 * flux * excess),
+         "flux_by_order": (("energy", "order"), flux[:, None] * (1 + 1e-3 * excess[:, None] ** (orders / 2))),
+         "monte_carlo_excess_energy": ("sample", excess), "flux_monte_carlo": ("sample", flux * 1.003),
+         "flux_monte_carlo_stderr": ("sample", flux * 0.002)},
+        coords={"order": orders}, attrs={"n_dof": 3, "system": "synthetic", "saddle_position": [1.0, 2.0, 3.0]})
+
+
+@pytest.mark.parametrize("excess", [[0.125, 0.25, 0.5, 1.0, 2.25, 5.0], [0.0023, 0.004, 0.006], [0.01, 0.3, 90.0]],
+                         ids=["1.6 decades", "under a decade", "4 decades"])
+def test_normal_form_figure_tick_labels_are_readable(tmp_path, excess):
+    """The main run's energies (0.125 ... 5: matplotlib labelled the minor ticks 2×10⁻¹ 3×10⁻¹ ...
+    into one another), a span under a decade (no decade inside) and a wide one."""
+    from ldpipe.figures.normal_form import normal_form_figure
+
+    assert_readable_tick_labels(normal_form_figure(normal_form_study(np.array(excess))), tmp_path)
+
+
+def test_orbit_family_figure_tick_labels_are_readable(tmp_path, barbanis):
+    from ldpipe.config import load_schema
+
+    properties = load_schema()["$defs"]["figure"]["properties"]
+    settings = {key: properties[key].get("default") for key in ("energies", "configuration", "view3d_axes",
+                                                                 "view3d_limits", "trajectories_per_branch", "view")}
+    with style.figure_style():
+        figure = draw_figure("orbit_family", {**settings, "kind": "orbit_family", "family": "f"},
+                             {"upo": [upo_file(tmp_path / "f.nc", barbanis)]})
+    assert_readable_tick_labels(figure, tmp_path)
 
 
 def tilted(x, px):

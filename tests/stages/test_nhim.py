@@ -318,3 +318,13 @@ def test_linear_saddle_with_masses():
     assert np.linalg.norm(refined.point) <= SETTINGS.tolerance
     slope = mx * lam
     assert refined.angle == pytest.approx(np.arccos(abs(1 - slope**2) / (1 + slope**2)), abs=1e-6)
+
+
+def test_validation_figure_tick_labels_are_readable(study_file, barbanis_files, tmp_path, monkeypatch):
+    from ldpipe.figures.nhim import draw_nhim_validation
+    from support.tick_labels import assert_saved_tick_labels_readable, record_saved_figures
+
+    saved = record_saved_figures(monkeypatch)
+    draw_nhim_validation(studies=[study_file], maps=[barbanis_files["maps"]["k-7.0"]], tolerance=1e-7,
+                         png=tmp_path / "v.png")
+    assert_saved_tick_labels_readable(saved)

@@ -35,6 +35,7 @@ from ldpipe.stages.upo import run_upo
 from ldpipe.figures.nhim_sample import draw_nhim_sample
 from ldpipe.systems import make_system
 from support.barbanis import BC_ENERGY, BC_SADDLE, fig5_slice_problem
+from support.tick_labels import assert_readable_tick_labels
 
 LAM, W1, W2 = 1.5, 1.0, 1.3
 ENERGY = 0.5
@@ -266,7 +267,7 @@ def test_figure_draws_the_points_the_orbit_and_the_coverage(small_study, tmp_pat
     (coverage,) = [ax for ax in figure.axes if ax.name != "3d"]
     labels = [text.get_text() for text in coverage.get_legend().get_texts()]
     assert "ok (1)" in labels and any(label.endswith("(1)") and label != "ok (1)" for label in labels)
-    plt.close(figure)
+    assert_readable_tick_labels(figure, tmp_path)
 
 
 def test_config_errors_name_the_key():

@@ -25,6 +25,7 @@ from ldpipe.stages.saddle_flux import run_saddle_flux
 from ldpipe.systems import make_system
 from support import quadratic_saddle as quadratic
 from support.decoupled_flux import decoupled_reactive_flux
+from support.tick_labels import assert_saved_tick_labels_readable, record_saved_figures
 
 BC = {"builtin": "barbanis_contopoulos_3dof",
       "parameters": {"omega_x2": 0.9, "omega_y2": 1.6, "omega_z2": 0.4, "epsilon": 0.08, "eta": 0.01}}
@@ -62,7 +63,7 @@ def test_quadratic_saddle_flux_is_the_closed_form(tmp_path):
     assert data.attrs["centre_frequencies"] == pytest.approx([quadratic.OM1, quadratic.OM2], rel=1e-9)
 
 
-def test_barbanis_contopoulos_flux_and_figure(tmp_path):
+def test_barbanis_contopoulos_flux_and_figure(tmp_path, monkeypatch):
     config = _config(bc={"system": "bc", "saddle_near": [10.29, 5.29, 2.65], "energies": {"total": [23.85, 24.0]},
                          "monte_carlo": {"batch": 300, "max_samples": 300, "duration": 20.0}})
     path = _run(tmp_path, config, "bc", "bc")
@@ -80,8 +81,10 @@ def test_barbanis_contopoulos_flux_and_figure(tmp_path):
     assert data.flux_harmonic.values == pytest.approx((2 * math.pi * excess) ** 2 / (2 * w1 * w2), rel=1e-9)
     assert np.all(data.monte_carlo_undecided.values == 0)
     assert np.all(data.flux_monte_carlo.values <= data.flux_dividing_surface.values * (1 + 1e-14))
+    saved = record_saved_figures(monkeypatch)
     written = draw_saddle_flux(study=path, png=tmp_path / "f.png", pdf=tmp_path / "f.pdf")
     assert all(p.stat().st_size > 10_000 for p in written)
+    assert_saved_tick_labels_readable(saved)
 
 
 def test_decoupled_barbanis_contopoulos_flux_is_the_orbit_convolution(tmp_path):

@@ -18,6 +18,7 @@ from ldpipe.io.contracts import TRANSPORT
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.errors import ConfigError
 from ldpipe.figures.transport import draw_transport
+from support.tick_labels import assert_saved_tick_labels_readable, record_saved_figures
 from ldpipe.stages import transport as transport_stage
 from ldpipe.stages import upo as upo_stage
 from ldpipe.stages.equilibria import run_equilibria
@@ -88,10 +89,12 @@ def test_harmonic_estimate_is_the_low_energy_limit(files):
     assert abs(relative[0]) < 1e-4 and abs(relative[0]) < abs(relative[1])
 
 
-def test_figure_is_drawn(files):
+def test_figure_is_drawn(files, monkeypatch):
     folder, _, _, path = files
+    saved = record_saved_figures(monkeypatch)
     written = draw_transport(study=path, png=folder / "t.png", pdf=folder / "t.pdf")
     assert all(p.stat().st_size > 10_000 for p in written)
+    assert_saved_tick_labels_readable(saved)
 
 
 def test_energy_not_in_the_family_is_refused(files):

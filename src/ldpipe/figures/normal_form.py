@@ -16,6 +16,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from ..io.contracts import NORMAL_FORM  # noqa: E402
 from . import style  # noqa: E402
@@ -76,6 +77,7 @@ def normal_form_figure(data):
         for i, e in enumerate(excess):
             change = np.abs(by_order[i, :-1] / by_order[i, -1] - 1)
             ax.semilogy(orders[:-1], np.maximum(change, 1e-17), "o-", ms=4, label=rf"$\Delta E$ = {e:.4g}")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # orders are whole numbers
         ax.set_xlabel("order of the normal form")
         ax.set_ylabel(f"|flux(order) / flux(order {orders[-1]}) - 1|")
         ax.set_title("convergence with the order")

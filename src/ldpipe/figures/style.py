@@ -10,6 +10,7 @@ that neither file grows with the grid size.
 from __future__ import annotations
 
 import contextlib
+import math
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -25,6 +26,7 @@ if "matplotlib.pyplot" not in sys.modules:
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import Colormap  # noqa: E402
+from matplotlib.ticker import MaxNLocator, NullFormatter  # noqa: E402
 
 from ..io.atomic import atomic_path  # noqa: E402
 from ..io.datafile import open_stage_file  # noqa: E402
@@ -154,12 +156,69 @@ def panel_letter(ax, index: int, text: str = "") -> None:
     ax.set_title(f"({chr(ord('a') + index)}) {text}".rstrip(), loc="left")
 
 
+def readable_ticks(figure) -> None:
+    """Tick labels that do not run into each other, on every axes of ``figure``.
+
+    A logarithmic axis labels its decades, and only them: left to itself matplotlib labels minor
+    ticks too when an axis spans less than about two decades (2×10⁻¹, 3×10⁻¹, 4×10⁻¹ ...), and
+    on a narrow panel those labels overlap. An axis spanning less than a decade is widened to the
+    decades around its data, so it keeps two labels. An axis of a 3-D panel, foreshortened by the
+    view, keeps fewer ticks until its labels stand apart, and none if even two would touch.
+    """
+    for ax in figure.axes:
+        if ax.name == "3d":
+            continue
+        colorbar = getattr(ax, "_colorbar", None) is not None
+        for axis, limits, set_limits in ((ax.xaxis, ax.get_xlim, ax.set_xlim), (ax.yaxis, ax.get_ylim, ax.set_ylim)):
+            if axis.get_scale() != "log":
+                continue
+            axis.set_minor_formatter(NullFormatter())
+            low, high = sorted(limits())
+            if colorbar or not low > 0:
+                continue
+            first, last = math.log10(low), math.log10(high)
+            if math.floor(last + 1e-9) - math.ceil(first - 1e-9) >= 1:  # two decades labelled already
+                continue
+            below, above = math.floor(first + 1e-9), math.ceil(last - 1e-9)
+            widened = (10.0**below, 10.0 ** max(above, below + 1))
+            set_limits(widened if limits()[0] <= limits()[1] else widened[::-1])
+    for ax in figure.axes:
+        if ax.name == "3d":
+            for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+                _thin_labels(figure, axis)
+
+
+def _overlapping(figure, axis) -> bool:
+    """Whether two of ``axis``'s tick labels in view overlap, as ``figure`` is drawn."""
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    low, high = sorted(axis.get_view_interval())
+    locations = axis.get_majorticklocs()
+    boxes = [tick.label1.get_window_extent(renderer) for location, tick in zip(locations, axis.get_major_ticks(len(locations)))
+             if low <= location <= high and tick.label1.get_visible() and tick.label1.get_text()]
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def _thin_labels(figure, axis) -> None:
+    """Fewer ticks on ``axis`` until their labels do not overlap; no labels if two still do."""
+    if axis.get_scale() != "linear" or not hasattr(figure.canvas, "get_renderer"):
+        return
+    for bins in (4, 3, 2, 1):
+        if not _overlapping(figure, axis):
+            return
+        axis.set_major_locator(MaxNLocator(bins))
+    if _overlapping(figure, axis):
+        axis.set_ticklabels([])
+
+
 def save_figure(figure, png: str | Path, pdf: str | Path | None = None) -> list[Path]:
     """Write ``figure`` as PNG (and PDF, maps rasterized at :data:`DPI`), then close it.
 
-    Both files are written under temporary names and renamed when complete, so a killed job
-    never leaves a figure that looks finished.
+    Its tick labels are made readable first (:func:`readable_ticks`). Both files are
+    written under temporary names and renamed when complete, so a killed job never leaves a
+    figure that looks finished.
     """
+    readable_ticks(figure)
     written = []
     for path, kind in ((png, "png"), (pdf, "pdf")):
         if path is None:
