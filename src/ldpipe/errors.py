@@ -16,3 +16,8 @@ class StageFileError(LdpipeError):
 class OutputError(LdpipeError, OSError):
     """An output file cannot be written: its folder is missing or not writable, or the disk is
     full. An ``OSError`` too, as the failure it reports was one."""
+
+
+class LdpipeWarning(UserWarning):
+    """Something a user should know about a result that is still right (a map with no allowed
+    point, a backward half integrated rather than mirrored): the message says what it means."""

@@ -24,6 +24,7 @@ import functools
 import hashlib
 import importlib.util
 import json
+import math
 import os
 import re
 import sys
@@ -34,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, ClassVar
 
 from .io.atomic import atomic_path
-from .logs import get_logger
+from .logs import get_logger, tell_user
 
 if TYPE_CHECKING:
     from numba.core.dispatcher import Dispatcher
@@ -48,6 +49,13 @@ _NAMES: dict[tuple[Path, str], str] = {}
 _BELOW: dict[str, frozenset[str]] = {}
 GENERATED_PREFIX = "ldpipe_generated_"
 COMPILE_LOG_VARIABLE = "LDPIPE_COMPILE_LOG"
+#: What the first compile of a generated module tells the user, once per module and process
+#: (measured: 10-17 s per engine on an idle machine, minutes on a loaded one).
+COMPILING_NOTICE = ("ldpipe: compiling {what} for this machine (its first use): this usually takes 10 to 60 s, "
+                    "once; later runs, in this process or any other, load it from the cache ({cache}) in under a "
+                    "second")
+#: Seconds after a compile notice in which the next compiles (of the same call) are not told again.
+NOTICE_QUIET_S = 300.0
 # How long a process waits for another's compile of a module before compiling it itself: far
 # above the slowest module's compile (about 270 s on a loaded 2-core machine), so only a holder
 # that hangs (stopped, in a debugger) is ever given up on.
@@ -193,6 +201,10 @@ class CompileLock:
 
     # The locks this process holds, outermost first (guarded by numba's global compiler lock).
     held: ClassVar[list["CompileLock"]] = []
+    # The modules whose compile this process has announced (:data:`COMPILING_NOTICE`), and when it
+    # last did: the modules one call compiles (the system's kernels, then its engine) are told once.
+    announced: ClassVar[set[str]] = set()
+    last_notice: ClassVar[float] = -math.inf
 
     def __init__(self, path: Path, module: str, below: frozenset[str] = frozenset()):
         self.path = path
@@ -208,6 +220,7 @@ class CompileLock:
             if self in CompileLock.held or tuple(sigutils.normalize_signature(signature)[0]) in dispatcher.overloads:
                 return compile_function(signature)  # a callee's compile inside ours, or compiled already
             patient = all(self.module in outer.below for outer in CompileLock.held)
+            self.announce(dispatcher.py_func.__qualname__)
             descriptor = self.acquire(dispatcher.py_func.__qualname__, patient)
             CompileLock.held.append(self)
             try:
@@ -216,6 +229,24 @@ class CompileLock:
                 CompileLock.held.pop()
                 if descriptor is not None:
                     os.close(descriptor)  # releases the flock
+
+    def announce(self, function: str) -> None:
+        """Tell the user that ``function``'s compile (an outermost one: callees of other modules
+        compile inside it, untold) will take a while, unless numba's cache beside the module holds
+        it: once per module, and once for the modules one call compiles one after another
+        (:data:`NOTICE_QUIET_S`)."""
+        if CompileLock.held or self.module in CompileLock.announced or os.environ.get("NUMBA_CACHE_DIR"):
+            return  # inside another's compile, announced, or numba's cache is elsewhere (a load looks like a compile)
+        tag = f"py{sys.version_info.major}{sys.version_info.minor}"
+        if any((self.path.parent / "__pycache__").glob(f"{self.module}.{function}-*.{tag}.nbi")):
+            return
+        CompileLock.announced.add(self.module)
+        now = time.monotonic()
+        if now - CompileLock.last_notice < NOTICE_QUIET_S:
+            return
+        CompileLock.last_notice = now
+        what = self.module.removeprefix(GENERATED_PREFIX).rsplit("_", 1)[0]
+        tell_user(logger, COMPILING_NOTICE.format(what=f"the engine of {what!r}", cache=self.path.parent))
 
     def acquire(self, function: str, patient: bool) -> int | None:
         """A descriptor of the lock file, ``flock``-ed; None if there is no lock to be had (compile anyway)."""

@@ -373,3 +373,20 @@ def test_without_flock_the_module_compiles_unlocked(tmp_path, monkeypatch, caplo
     double = tiny_module(tmp_path, tmp_path.name)
     assert double(1.5) == 3.0
     assert "refuses flock" in caplog.text and double.__module__ in caplog.text
+
+
+def test_the_first_compile_is_announced_and_a_load_is_not(tmp_path):
+    # In a notebook (a Jupyter kernel loaded) the first process compiles ``double`` and says so on
+    # standard error, once; the second loads it from numba's cache (the compile log's invariant
+    # above) and says nothing.
+    env = {**os.environ, "LDPIPE_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("NUMBA_CACHE_DIR", None)
+    notebook = "import sys, types\nsys.modules['ipykernel'] = types.ModuleType('ipykernel')\n" + LOGGED_CHILD
+    told = []
+    for _ in range(2):
+        child = subprocess.run([sys.executable, "-c", notebook, "notice_check"], env=env, capture_output=True,
+                               text=True, timeout=300)
+        assert child.returncode == 0 and child.stdout.strip() == "3.0", child.stderr
+        told.append([line for line in child.stderr.splitlines() if line.startswith("ldpipe: compiling")])
+    assert len(told[0]) == 1 and "'notice_check'" in told[0][0] and "10 to 60 s" in told[0][0]
+    assert told[1] == []

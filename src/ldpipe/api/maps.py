@@ -12,18 +12,19 @@ from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, en
 
 
 @shared_docs
-def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
-           threads: int | None = None, **spec) -> xr.Dataset:
+def ld_map(system: AnySystem, *, name: str | None = None, equilibria: xr.Dataset | None = None,
+           progress: bool | None = None, threads: int | None = None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
 
     Parameters
     ----------
     %(system)s
     name : str
-        The entry's name, recorded in the file (default ``"map"``).
+        The entry's name, recorded in the file (default: the system's name).
     %(equilibria)s
-    progress : bool
-        Show a progress bar.
+    progress : bool, optional
+        Show a progress bar: True always, False never; by default in a notebook (tqdm's notebook
+        bar) or a terminal, once the map has run for two seconds, and never when nobody watches.
     %(threads)s
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
@@ -48,6 +49,7 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
     """
+    name = system.name if name is None else name
     entry = {"system": system.name, **energy_shorthand(spec)}
     with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")

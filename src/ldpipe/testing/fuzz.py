@@ -26,6 +26,7 @@ import xarray as xr
 
 from ..errors import ConfigError, LdpipeError
 from ..io.atomic import atomic_path
+from ..io.datafile import declares_missing_values
 
 
 class FuzzFailure(AssertionError):
@@ -413,11 +414,35 @@ def file_case_names(path: Path, corruption: str) -> tuple[str, ...]:
     return (path.name,) + ((f"'{variable}'",) if variable else ())
 
 
+def _explained(dataset: xr.Dataset, name: str) -> np.ndarray | None:
+    """Where a map's flags say variable ``name`` has no value: not allowed (never integrated), a
+    start on land (no LD), an FTLE not defined; None for a Dataset without an ``allowed`` flag."""
+    if "allowed" not in dataset:
+        return None
+    missing = ~dataset.allowed.values.astype(bool)
+    if name.startswith("ld_") and "start_on_land" in dataset:
+        missing = missing | dataset.start_on_land.values.astype(bool)
+    if name.startswith("ftle_") and f"ftle_defined_{name[5:]}" in dataset:
+        missing = missing | ~dataset[f"ftle_defined_{name[5:]}"].values.astype(bool)
+    return missing
+
+
 def finite_dataset(dataset: xr.Dataset, what: str) -> None:
-    """Every floating variable of ``dataset`` is finite where it has a value (a NaN in a file is a fault)."""
+    """Every floating variable of ``dataset`` is finite where it has a value: never inf, and NaN
+    only in a variable that declares it its missing value, at points a flag says have none (a
+    NaN the engine made at an integrated point is a fault)."""
     for name, variable in dataset.data_vars.items():
-        if variable.dtype.kind == "f" and not np.all(np.isfinite(variable.values)):
-            raise FuzzFailure(f"{what}: variable {name!r} holds a non-finite value")
+        if variable.dtype.kind != "f":
+            continue
+        values = variable.values
+        if np.any(np.isinf(values)):
+            raise FuzzFailure(f"{what}: variable {name!r} holds inf")
+        nan = np.isnan(values)
+        if not nan.any():
+            continue
+        explained = _explained(dataset, name)
+        if not declares_missing_values(variable) or explained is None or np.any(nan & ~explained):
+            raise FuzzFailure(f"{what}: variable {name!r} holds a non-finite value where it should have one")
 
 
 __all__ = ["BYTE_CORRUPTIONS", "CORRUPTIONS", "FILE_CASES", "MUTATIONS", "FuzzFailure", "check_config_case",

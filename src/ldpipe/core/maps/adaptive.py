@@ -65,16 +65,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import functools
-import sys
 
 import numpy as np
 import xarray as xr
-from tqdm import tqdm
 
 from ...engine import LDSettings
 from ...jitcache import njit_functions
 from .grid import MAP_FIELDS, integrate_points, fields_dataset
-from ...logs import get_logger, progress_output
+from ...logs import get_logger, progress_bar
 from ..sections import Section, section_states
 from ...systems import System
 
@@ -354,7 +352,7 @@ def adaptive_ld_dataset(
     settings: LDSettings,
     refine: RefineSettings,
     rows: slice | None = None,
-    show_progress: bool = False,
+    show_progress: bool | None = False,
     t0: float = 0.0,
 ) -> xr.Dataset:
     """:func:`ldpipe.core.maps.grid.ld_grid_dataset` refined adaptively: the same variables, integrated where
@@ -368,9 +366,7 @@ def adaptive_ld_dataset(
     states, allowed, solved = section_states(system, section, energy, slice(first, last + 1))
     index = np.full(allowed.shape, -1, dtype=np.int64)
     index[allowed] = np.arange(len(states))
-    stream, interval = progress_output(log)
-    progress = tqdm(unit="traj", desc="LD (adaptive)", disable=not show_progress, file=stream,
-                    mininterval=interval, ascii=stream is not sys.stderr)
+    progress = progress_bar(log, show=show_progress, unit="traj", desc="LD (adaptive)")
     count = {"forward": 0, "backward": 0}
     directions = ((1, "forward"), (-1, "backward"))
 

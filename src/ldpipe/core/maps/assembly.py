@@ -21,13 +21,13 @@ from ...engine.settings import engine_escape_radius
 from ...errors import ConfigError
 from ...io.contracts import FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ...io.datafile import MANAGED_ATTRIBUTES, stage_dataset, stage_parameters
-from ...logs import get_logger
+from ...logs import get_logger, warn_user
 from ...systems import on_sphere, system_phase_coordinates
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
-from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
+from .grid import (MIRROR_UNUSED, add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
                    start_time_band, tile_rows)
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
@@ -90,15 +90,17 @@ EMPTY_MAP_WARNING = "warning"
 
 def note_allowed_points(dataset: xr.Dataset, *, whole_map: bool) -> int:
     """Record how many points of ``dataset`` are energetically allowed (attribute ``allowed_points``);
-    a whole map with none is all zeros: warn, and say so in the attribute ``warning``."""
+    a whole map with none is empty: warn the user (once: only the whole map warns, not its tiles),
+    and say so in the attribute ``warning``."""
     count = int(dataset.allowed.sum())
     dataset.attrs["allowed_points"] = count
     dataset.attrs.pop(EMPTY_MAP_WARNING, None)
     if whole_map and count == 0:
         energy = dataset.attrs.get("energy")
-        text = (f"map {dataset.attrs.get('map')}: no point of the section is energetically allowed at E = {energy:.12g} "
-                "(the energy is below the potential everywhere on the section); every field is 0")
-        log.warning(text)
+        text = (f"map {dataset.attrs.get('map')!r} is empty: no point of its section is energetically allowed at "
+                f"E = {energy:.12g}, where the potential is above the energy everywhere on the section, so every "
+                "value is missing (NaN). Raise the energy or move the section")
+        warn_user(log, text)
         dataset.attrs[EMPTY_MAP_WARNING] = text
     return count
 
@@ -110,7 +112,7 @@ def compute_ld_map(
     tile: int = 0,
     tiles: int = 1,
     threads: int | None = None,
-    show_progress: bool = True,
+    show_progress: bool | None = True,
 ) -> xr.Dataset:
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
     use_threads(threads)
@@ -152,7 +154,7 @@ def compute_ld_map(
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     add_ld_units(dataset, system, settings.p)
-    note_allowed_points(dataset, whole_map=tiles == 1)
+    note_allowed_points(dataset, whole_map=False)  # the whole map warns (finish_ld_map), not each tile
     return dataset
 
 
@@ -224,7 +226,7 @@ def map_title(parameters: dict, tile: int | None = None, tiles: int | None = Non
 
 
 def ld_map_tile(parameters: dict, equilibria: xr.Dataset | None, *, tile: int = 0, tiles: int = 1,
-                threads: int | None = None, show_progress: bool = True) -> xr.Dataset:
+                threads: int | None = None, show_progress: bool | None = True) -> xr.Dataset:
     """Tile ``tile`` of ``tiles`` of an LD map, as its tile file holds it (:func:`gather_ld_map`
     joins them): :func:`compute_ld_map`'s band with the parameters it records."""
     dataset = compute_ld_map(parameters, equilibria, tile=tile, tiles=tiles, threads=threads, show_progress=show_progress)
@@ -234,7 +236,7 @@ def ld_map_tile(parameters: dict, equilibria: xr.Dataset | None, *, tile: int = 
 
 
 def ld_map_dataset(parameters: dict, equilibria: xr.Dataset | None, *, tiles: int = 1, threads: int | None = None,
-                   show_progress: bool = True) -> xr.Dataset:
+                   show_progress: bool | None = True) -> xr.Dataset:
     """A whole LD map, as the workflow computes it and its file holds it, in memory: a map of one
     tile finished as the gather finishes tiles (:func:`finish_ld_map`), several tiles computed one
     after another (:func:`ld_map_tile`) and gathered (:func:`gather_ld_map`).
@@ -301,6 +303,10 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
     joined.attrs.update({k: v for k, v in datasets[0].attrs.items() if k not in MANAGED_ATTRIBUTES and k != "tile"})
     joined.attrs["tiles"] = len(datasets)
     note_mirrored_tiles(joined, datasets)
+    unused = next((d.attrs[MIRROR_UNUSED] for d in datasets if MIRROR_UNUSED in d.attrs), None)
+    if unused is not None:  # once for the map, whichever of its tiles could not be mirrored
+        joined.attrs[MIRROR_UNUSED] = unused
+        warn_user(log, f"map {common['map_name']!r}: {unused}")
     for name in ("refine_trajectories", "refine_trajectories_forward", "refine_trajectories_backward"):
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)

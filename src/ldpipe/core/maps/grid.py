@@ -10,8 +10,6 @@ batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import xarray as xr
 from tqdm import tqdm
@@ -24,7 +22,7 @@ from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
 from .symmetry import MapMirror
-from ...logs import get_logger, progress_output
+from ...logs import get_logger, progress_bar
 from ..sections import Section, section_states
 from ...systems import System, make_system
 
@@ -208,7 +206,7 @@ def ld_grid_dataset(
     energy: float | None,
     settings: LDSettings,
     rows: slice | None = None,
-    show_progress: bool = False,
+    show_progress: bool | None = False,
     t0: float = 0.0,
     flow_map: bool = False,
     descriptor: bool = True,
@@ -233,6 +231,7 @@ def ld_grid_dataset(
     rows = rows if rows is not None else slice(0, section.shape[0])
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
+    requested = mirror
     if mirror is not None:
         mirror = _checked_mirror(system, mirror, states, allowed, rows, section.shape[0],
                                  flow_map or not descriptor)
@@ -242,9 +241,7 @@ def ld_grid_dataset(
     if system.has_stop_flags:  # a start on land stops at once: its LD is missing, not 0
         fields[START_ON_LAND] = np.zeros(shape, dtype=bool)
         fields[START_ON_LAND][allowed] = system.stop_flags(states, t0, t0)["on_land"]
-    stream, interval = progress_output(log)
-    progress = tqdm(total=len(directions) * len(states), unit="traj", desc="LD", disable=not show_progress,
-                    file=stream, mininterval=interval, ascii=stream is not sys.stderr)
+    progress = progress_bar(log, show=show_progress, total=len(directions) * len(states), unit="traj", desc="LD")
     with progress:
         for direction, label in directions:
             result = integrate_points(system, states, direction, settings, progress, t0, descriptor)
@@ -275,7 +272,10 @@ def ld_grid_dataset(
                 end[allowed] = result.end_state
                 ends[label] = end
     if mirror is None:
-        return fields_dataset(system, section, fields, allowed, solved, rows, ends)
+        dataset = fields_dataset(system, section, fields, allowed, solved, rows, ends)
+        if requested is not None:
+            dataset.attrs[MIRROR_UNUSED] = mirror_unused_text(requested, section.solve)
+        return dataset
     for name in [key for key in fields if key.endswith("_forward")]:
         fields[name[: -len("forward")] + "backward"] = np.ascontiguousarray(mirror.mirror(fields[name]))
     dataset = fields_dataset(system, section, fields, allowed, solved, rows, ends)
@@ -307,9 +307,22 @@ def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.n
     grid[allowed] = states
     if mirror.maps_grid(grid, allowed):
         return mirror
-    log.warning("%s does not map this grid's states onto each other to %.3g (the solved coordinate's "
-                "rounding or root); integrating backward", mirror.description, mirror.tolerance)
+    log.info("%s does not map this grid's states onto each other to %.3g; integrating backward",
+             mirror.description, mirror.tolerance)
     return None
+
+
+#: The attribute of a map whose backward half a reversing symmetry could have given but did not.
+MIRROR_UNUSED = "reversing_symmetry_unused"
+
+
+def mirror_unused_text(mirror: MapMirror, solve: str | None) -> str:
+    """What a user should know when a map's backward half was integrated although a reversing
+    symmetry would have given it: the map is right, it took twice the time, and why."""
+    cause = f"the solved coordinate {solve} rounds differently" if solve else "the axis values round differently"
+    return (f"the backward half was integrated, not mirrored, so the map took twice as long (its values are right): "
+            f"its grid points are not each other's mirror images under the reversing symmetry {mirror.description} "
+            f"to {mirror.tolerance:.1g} ({cause} on the two sides); backward_by_symmetry: false skips this check")
 
 
 def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarray], allowed: np.ndarray,
