@@ -307,7 +307,7 @@ def _checked_mirror(system, mirror: MapMirror, states: np.ndarray, allowed: np.n
     grid[allowed] = states
     if mirror.maps_grid(grid, allowed):
         return mirror
-    log.info("%s does not map this grid's states onto each other to %.3g; integrating backward",
+    log.debug("%s does not map this grid's states onto each other to %.3g; integrating backward",
              mirror.description, mirror.tolerance)
     return None
 
