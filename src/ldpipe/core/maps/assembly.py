@@ -142,7 +142,8 @@ def compute_ld_map(
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
                                   t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
-                                  mirror=backward_mirror(parameters, system, section))
+                                  mirror=backward_mirror(parameters, system, section),
+                                  label=f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
