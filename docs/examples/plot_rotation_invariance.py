@@ -1,9 +1,9 @@
-"""
+r"""
 A round eddy: M_p depends on the axes, the arc length does not
 ===============================================================
 
-M_p sums each coordinate's speed on its own, |dx/dt|^p + |dy/dt|^p, so it depends on the
-directions of the axes: turning the coordinates turns nothing in the flow but changes the map.
+M_p sums each coordinate's speed on its own, :math:`|\dot x|^p + |\dot y|^p`, so it depends on
+the directions of the axes: turning the coordinates turns nothing in the flow but changes the map.
 A trajectory moving along a diagonal counts more than one moving as fast along an axis, by
 2^(1 - p/2) for p < 1 and by √2 for p = 1. A round eddy, u = −y Ω(r), v = x Ω(r) with
 Ω(r) = exp(−r²), whose particles circle at a speed that depends on the radius alone, then shows
