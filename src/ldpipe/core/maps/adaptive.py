@@ -53,10 +53,9 @@ offset, and that it is sharp; choose ``coarse_spacing`` at most twice the narrow
 feature, in pixels.
 
 Cells are global (the lattice of the whole map), so a tile (a band of rows) refines the cells
-that reach into its rows, whole, and a rerun gives the same bits. The engine's LD of a
-trajectory can depend on the other trajectories of its batch in the last bit or two (measured:
-3 of 200,000 Barbanis trajectories when the batch is permuted); a computed pixel then differs
-from the full map's by that much, and a tiled map from the untiled one likewise.
+that reach into its rows, whole, and a rerun gives the same bits. The engine's result for a
+trajectory does not depend on the other trajectories of its batch, so a computed pixel equals
+the full map's, and a tiled map the untiled one, bit for bit.
 """
 
 from __future__ import annotations

@@ -3,9 +3,9 @@
 A grid of ``shape`` points is split into ``tiles`` bands of rows along the
 first axis; each tile is computed on its own (a separate Snakemake job) and
 :func:`gather_tiles` joins them. Every trajectory is integrated independently
-of the others, so the gathered grid equals the untiled one (but for the last bit
-or two of a rare LD, which can depend on the other trajectories of its engine
-batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
+of the others (its results depend on its start point and the settings alone, not
+on the trajectories that share its engine call or block), so the gathered grid
+equals the untiled one bit for bit, however the points are batched.
 """
 
 from __future__ import annotations
@@ -146,7 +146,7 @@ def integrate_points(system: System, states: np.ndarray, direction: int, setting
                      progress: tqdm | None = None, t0: float = 0.0, descriptor: bool = True):
     """:func:`ldpipe.engine.compute_ld` of ``states`` (without the ``descriptor``, :func:`ldpipe.core.trajectories.flow_map`)
     in calls of at most :data:`CHUNK` points, updating ``progress`` (each trajectory is integrated on
-    its own; see the module docstring for the last bits a batch can change)."""
+    its own: the calls' sizes change no bit)."""
     if descriptor:
         def compute(chunk):
             return compute_ld(system, chunk, direction=direction, settings=settings, t0=t0)
