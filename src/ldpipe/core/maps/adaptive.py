@@ -72,7 +72,7 @@ from tqdm import tqdm
 
 from ...engine import LDSettings
 from ...jitcache import njit_functions
-from .grid import MAP_FIELDS, integrate_points, fields_dataset
+from .grid import BOTH, MAP_FIELDS, fields_dataset, integrate_points, map_directions
 from ...logs import get_logger, progress_output
 from ..sections import Section, section_states
 from ...systems import System
@@ -355,12 +355,14 @@ def adaptive_ld_dataset(
     rows: slice | None = None,
     show_progress: bool = False,
     t0: float = 0.0,
+    directions: str = BOTH,
 ) -> xr.Dataset:
     """:func:`ldpipe.core.maps.grid.ld_grid_dataset` refined adaptively: the same variables, integrated where
     the criterion asks and interpolated elsewhere (see the module docstring), each direction refined
     on its own; plus the masks ``computed_forward`` and ``computed_backward`` and the attributes
     ``refine_*`` (``refine_trajectories``: trajectories integrated over both directions;
-    ``refine_trajectories_forward``, ``refine_trajectories_backward``: each direction's)."""
+    ``refine_trajectories_forward``, ``refine_trajectories_backward``: each direction's). ``directions``:
+    as the full map's (one direction: only its variables, masks and counts)."""
     shape = section.shape
     rows = rows if rows is not None else slice(0, shape[0])
     first, last = band_bounds(rows, shape[0], refine.coarse_spacing)
@@ -370,8 +372,8 @@ def adaptive_ld_dataset(
     stream, interval = progress_output(log)
     progress = tqdm(unit="traj", desc="LD (adaptive)", disable=not show_progress, file=stream,
                     mininterval=interval, ascii=stream is not sys.stderr)
-    count = {"forward": 0, "backward": 0}
-    directions = ((1, "forward"), (-1, "backward"))
+    directions = map_directions(directions)
+    count = {label: 0 for _, label in directions}
 
     def evaluate_states(chosen: np.ndarray, direction: int, label: str) -> dict[str, np.ndarray]:
         result = integrate_points(system, chosen, direction, settings, progress, t0)
