@@ -201,3 +201,26 @@ def test_plot_draws_the_direction_a_map_has(barbanis_system, equilibria):
     plt.close("all")
     with pytest.raises(ConfigError, match=r"ld_maps\.m\.directions.*directions: forward.*needs the backward"):
         forward.ldpipe.plot(descriptor="total")
+
+
+def test_adaptive_forward_map_is_the_forward_half(equilibria):
+    # each direction is refined on its own fates and LD, so the forward map refines as the map of
+    # both refines its forward half: the same pixels integrated, the same values, half the trajectories
+    # (the variable-time slice of tests/stages/test_ld.py's adaptive map)
+    entry = {"system": "b", "saddle_near": [5.5, -7.0], "energy": {"excess": 0.125}, "tau": 5.0, "time": "variable",
+             "section": {"axes": [{"name": "x", "range": [4.8, 6.0], "points": 13},
+                                  {"name": "px", "range": [-0.6, 0.6], "points": 9}],
+                         "fixed": {"y": -7.0}, "solve": "py"},
+             "region": {"x": [4.5, 6.5], "y": [-8.5, -5.5]}, "refine": {"tolerance": 0.002, "coarse_spacing": 4},
+             "integrator": {"scheme": "dop853", "rtol": 1e-8, "atol": 1e-8}}
+
+    def adaptive(**keys):
+        config = validate_config({"systems": {"b": {"builtin": "barbanis_2dof"}}, "ld_maps": {"m": {**entry, **keys}}})
+        return ld_map_dataset(parameters_from_config(config, "ld", "m"), equilibria, show_progress=False)
+
+    forward, whole = adaptive(directions="forward"), adaptive()
+    assert direction_variables(forward, "backward") == []
+    assert forward.computed_forward.values.any()
+    for name in direction_variables(whole, "forward"):
+        assert np.array_equal(forward[name].values, whole[name].values), name
+    assert forward.attrs["refine_trajectories"] == whole.attrs["refine_trajectories_forward"]
