@@ -224,3 +224,21 @@ def test_adaptive_forward_map_is_the_forward_half(equilibria):
     for name in direction_variables(whole, "forward"):
         assert np.array_equal(forward[name].values, whole[name].values), name
     assert forward.attrs["refine_trajectories"] == whole.attrs["refine_trajectories_forward"]
+
+
+def test_ld_ftle_figure_draws_the_one_ftle(backward):
+    from ldpipe.figures.ld_ftle import draw_ld_ftle
+
+    figure = draw_ld_ftle({"descriptor": "backward", "color_percentiles": [5.0, 99.9]}, ld_maps=[backward])
+    ld_ax, ftle_ax, empty = figure.axes[0], figure.axes[1], figure.axes[2]
+    allowed = backward.allowed.values
+    assert np.array_equal(ld_ax.images[0].get_array().data.T[allowed], backward.ld_backward.values[allowed])
+    defined = backward.ftle_defined_backward.values.astype(bool)
+    assert defined.any()
+    assert np.array_equal(ftle_ax.images[0].get_array().data.T[defined], backward.ftle_backward.values[defined])
+    assert not empty.axison and not empty.images  # no forward FTLE to draw
+    plt.close(figure)
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.directions.*needs the forward direction"):
+        draw_ld_ftle({"descriptor": "total", "color_percentiles": [5.0, 99.9]}, ld_maps=[backward])
+    with pytest.raises(ConfigError, match=r"ld_maps\.m\.directions.*directions: backward, and an NHIM study"):
+        grid.open_map_file(backward, "an NHIM study")
