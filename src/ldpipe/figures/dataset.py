@@ -1,4 +1,4 @@
-"""One stage file drawn on one axes: what ``ds.ldpipe.plot(ax)`` and :func:`ldpipe.plot` draw.
+"""One stage file drawn on one axes: what ``ds.ldpipe.plot()`` and :func:`ldpipe.plot` draw.
 
 An LD map with the paper's colour scale (the ``section_maps`` figure's panel), a periodic-orbit
 family in the configuration plane, a Poincaré section with its energy boundary, the curves where
@@ -14,11 +14,12 @@ import numpy as np
 import xarray as xr
 
 from ..config import load_schema
+from ..core.maps.grid import BOTH, require_directions
 from ..errors import ConfigError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
 from . import style
-from .data import DESCRIPTORS, load_orbits
+from .data import DESCRIPTORS, descriptor_directions, load_orbits
 from .section_maps import draw_manifold_curves, draw_poincare, energy_title
 
 #: The figure keys an LD map or a Poincaré section takes as options.
@@ -56,6 +57,7 @@ def map_field(dataset: xr.Dataset, variable: str | None, descriptor: str) -> tup
     if variable is None:
         if descriptor not in DESCRIPTORS:
             raise ConfigError(f"plot option descriptor={descriptor!r}: expected one of {list(DESCRIPTORS)}")
+        require_directions(dataset.attrs, descriptor_directions(descriptor), f"the plot of descriptor={descriptor!r}")
         if descriptor == "total":
             field = dataset.ld_forward + dataset.ld_backward
             field.attrs = {k: v for k, v in dataset.ld_forward.attrs.items() if k == "units"}
@@ -93,6 +95,9 @@ def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds
     robust colour scale unless ``vmin``, ``vmax`` or ``norm`` say otherwise, and the axes and
     colour bar labelled with the paper's symbols and their units."""
     passed = {key: options.pop(key) for key in MATPLOTLIB_OPTIONS if key in options}
+    directions = str(dataset.attrs.get("directions", BOTH))
+    if variable is None and "descriptor" not in options and directions != BOTH:  # one direction: its LD by default
+        options = {**options, "descriptor": directions}
     settings = _options(options, MAP_OPTIONS, LD_GRID.stage)
     field, label = map_field(dataset, variable, settings["descriptor"])
     if field.ndim != 2:
@@ -162,11 +167,12 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, variable: str | None = None, *
     """Draw the stage file ``dataset`` on ``ax`` (a new figure's if None) and return the axes.
 
     An LD map draws ``variable`` (any variable on its grid: ``"ftle_forward"``, a flag ...; by
-    default the LD ``descriptor``) as ``dataset[variable].plot()`` does, the same dimension
-    horizontal, with missing points grey. It takes ``descriptor``, ``color_percentiles``,
-    ``color_limits`` (the figure keys), ``manifolds`` (manifold files drawn over it) and
-    matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``, ``add_colorbar``, and xarray's ``x``, ``y``
-    (which coordinate is horizontal, vertical). A Poincaré section takes ``point_size``.
+    default the LD ``descriptor``: the total, or for a map of one direction that direction's LD)
+    as ``dataset[variable].plot()`` does, the same dimension horizontal, with missing points grey.
+    It takes ``descriptor``, ``color_percentiles``, ``color_limits`` (the figure keys),
+    ``manifolds`` (manifold files drawn over it) and matplotlib's ``cmap``, ``vmin``, ``vmax``,
+    ``norm``, ``add_colorbar``, and xarray's ``x``, ``y`` (which coordinate is horizontal,
+    vertical). A Poincaré section takes ``point_size``.
     """
     stage = dataset.attrs.get(STAGE_ATTRIBUTE)
     if variable is not None and stage != LD_GRID.stage:
