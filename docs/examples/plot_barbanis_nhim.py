@@ -50,7 +50,8 @@ print(f"distance to it: {float(points.distance_refined[0]):.1e} after refinement
 
 fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, descriptor in zip(axes, ("forward", "backward")):
-    ld.ldpipe.plot(ax=ax, descriptor=descriptor, x="x")  # x horizontal, as the point (x, p_x)
+    # x across, as the point (x, p_x) drawn on it
+    ld.ldpipe.plot(ax=ax, descriptor=descriptor, x="x")
     ax.plot(*refined, "r+", markersize=14, markeredgewidth=2,
             label="refined NHIM point")
     ax.legend(loc="lower right")

@@ -20,7 +20,9 @@ import ldpipe
 
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))  # grid points per axis
 
-eddy = ldpipe.system(name="round_eddy", vector_field={"x": "-y*exp(-(x**2 + y**2))", "y": "x*exp(-(x**2 + y**2))"},
+omega = "exp(-(x**2 + y**2))"  # the rate of turn, a function of the radius alone
+eddy = ldpipe.system(name="round_eddy",
+                     vector_field={"x": f"-y*{omega}", "y": f"x*{omega}"},
                      coordinates=["x", "y"])
 section = ldpipe.section(x=(-2.0, 2.0, POINTS), y=(-2.0, 2.0, POINTS))
 TAU = 3.0
@@ -32,7 +34,8 @@ TAU = 3.0
 fig, axes = plt.subplots(1, 2, figsize=(9, 3.9), layout="constrained")
 maps = {}
 for ax, p in zip(axes, (0.5, "arclength")):
-    maps[p] = ldpipe.ld_map(eddy, name=f"eddy_{p}", section=section, tau=TAU, p=p)
+    maps[p] = ldpipe.ld_map(eddy, name=f"eddy_{p}", section=section,
+                            tau=TAU, p=p)
     maps[p].ldpipe.plot(ax=ax, x="x")
     ax.set_aspect("equal")
     ax.set_title("$M_{1/2}$" if p == 0.5 else "arc length", loc="left")
@@ -45,4 +48,5 @@ arc = maps["arclength"]
 r = np.hypot(*np.meshgrid(arc.x, arc.y, indexing="ij"))
 exact = 2 * TAU * r * np.exp(-r**2)
 total = (arc.ld_forward + arc.ld_backward).values
-print(f"largest |arc length - 2 tau r Omega(r)|: {np.max(np.abs(total - exact)):.1e}")
+error = np.max(np.abs(total - exact))
+print(f"largest |arc length - 2 tau r Omega(r)|: {error:.1e}")
