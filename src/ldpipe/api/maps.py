@@ -5,6 +5,8 @@ from __future__ import annotations
 import xarray as xr
 
 from ..core.maps.assembly import ld_map_dataset
+from ..core.maps.lazy import lazy_ld_map
+from ..errors import ConfigError
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
 from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, shared_docs,
@@ -13,7 +15,7 @@ from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, en
 
 @shared_docs
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
-           threads: int | None = None, **spec) -> xr.Dataset:
+           threads: int | None = None, chunks=None, client=None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
 
     Parameters
@@ -25,6 +27,14 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     progress : bool
         Show a progress bar.
     %(threads)s
+    chunks : int or dict, optional
+        Compute the map on Dask, in blocks of about ``chunks`` start points (whole rows of the first
+        axis: ``chunks // columns`` rows, at least one), or of ``{first_axis: rows}``: the Dataset
+        returned at once holds dask arrays, and ``.compute()`` gives the map bit for bit as
+        without ``chunks`` (see the guide's Dask page). Needs ``pip install 'ldpipe[dask]'``.
+    client : distributed.Client, optional
+        With ``chunks``: the running client whose cluster computes the blocks, sent there now
+        (``client.persist``); default the active Dask scheduler, when the Dataset is computed.
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
@@ -51,5 +61,10 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     entry = {"system": system.name, **energy_shorthand(spec)}
     with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
+        if chunks is not None:
+            return lazy_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, client=client,
+                               threads=threads)
+        if client is not None:
+            raise ConfigError(f"config key 'ld_maps.{name}.client': a client computes a map in blocks; give chunks too")
         return ld_map_dataset(parameters, equilibria_input(system, equilibria), tiles=ld_map_tiles(config, name),
                               threads=threads, show_progress=progress)

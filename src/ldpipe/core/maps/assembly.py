@@ -111,20 +111,26 @@ def compute_ld_map(
     tiles: int = 1,
     threads: int | None = None,
     show_progress: bool = True,
+    rows: slice | None = None,
 ) -> xr.Dataset:
-    """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
+    """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes.
+
+    ``rows``: the band of first-axis rows to compute instead of the tile's (a block of the Dask
+    backend, :mod:`ldpipe.core.maps.lazy`, possibly empty); it is never the whole map, so the FTLE
+    by differences is left to whoever joins the bands."""
     use_threads(threads)
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
         index, band, bands = start_time_band(starts, tile, tiles)
         dataset = compute_ld_map({**parameters, "t0": starts[index]}, equilibria, tile=band, tiles=bands,
-                                 show_progress=show_progress)
+                                 show_progress=show_progress, rows=rows)
         dataset = dataset.expand_dims(t0=[starts[index]])
         dataset.attrs.pop("t0")
         dataset.attrs.update({"tile": tile, "tiles": tiles})
         return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
-    rows = tile_rows(section.shape[0], tile, tiles)
+    whole_map = tiles == 1 and rows is None
+    rows = tile_rows(section.shape[0], tile, tiles) if rows is None else rows
     check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
                       section.shape[0] * section.shape[1])
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
@@ -146,13 +152,13 @@ def compute_ld_map(
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
-    elif ftle and tiles == 1:
+    elif ftle and whole_map:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     add_ld_units(dataset, system, settings.p)
-    note_allowed_points(dataset, whole_map=tiles == 1)
+    note_allowed_points(dataset, whole_map=whole_map)
     return dataset
 
 
