@@ -142,7 +142,7 @@ def test_a_closed_or_wrong_client_and_a_client_without_chunks_are_refused(hh):
         ldpipe.ld_map(hh, name="hh", chunks=400, client=closed, **copy.deepcopy(HH_MAP))
     with pytest.raises(ConfigError, match=r"argument 'client': expected a distributed.Client, got str"):
         ldpipe.ld_map(hh, name="hh", chunks=400, client="tcp://localhost:8786", **copy.deepcopy(HH_MAP))
-    with pytest.raises(ConfigError, match=r"argument 'client': a client computes a map in blocks; give chunks too"):
+    with pytest.raises(ConfigError, match=r"argument 'client': a map in blocks takes a client; give chunks too"):
         ldpipe.ld_map(hh, name="hh", client=closed, **copy.deepcopy(HH_MAP))
 
 
@@ -151,3 +151,75 @@ def test_chunks_without_dask_are_refused_naming_the_install(hh, monkeypatch):
         monkeypatch.setitem(sys.modules, name, None)  # as if not installed: importing it raises ImportError
     with pytest.raises(ConfigError, match=r"argument 'chunks': a map in blocks \(chunks\) needs dask.*ldpipe\[dask\]"):
         ldpipe.ld_map(hh, name="hh", chunks=400, **copy.deepcopy(HH_MAP))
+
+
+def stored_equals(store_map: xr.Dataset, eager: xr.Dataset) -> None:
+    """The map a store holds equals the one-process map: every variable bit for bit with its
+    dtype, the coordinates, and the recorded parameters (zarr keeps attributes as JSON)."""
+    assert set(store_map.variables) == set(eager.variables)
+    for name, variable in eager.variables.items():
+        assert store_map[name].dtype == variable.dtype, name
+        np.testing.assert_array_equal(store_map[name].values, variable.values, err_msg=name)
+    assert store_map.attrs["parameters"] == eager.attrs["parameters"]
+
+
+def test_an_interrupted_stream_resumes_its_missing_blocks_to_the_same_map(hh, hh_eager, tmp_path, monkeypatch):
+    # In this process (the synchronous scheduler), so that a block can be made to fail: 300 points
+    # a block are 6 blocks of the FTLE map, then its FTLE from the stored flow map.
+    import dask
+    from ldpipe.core.maps import zarr_stream
+
+    store, calls, compute_block = tmp_path / "hh.zarr", [], zarr_stream.compute_block
+
+    def failing_third(*args):
+        calls.append(args[2])
+        if len(calls) == 3:
+            raise RuntimeError("the kernel died")
+        return compute_block(*args)
+
+    monkeypatch.setattr(zarr_stream, "compute_block", failing_third)
+    with dask.config.set(scheduler="synchronous"), pytest.raises(RuntimeError, match="the kernel died"):
+        ldpipe.ld_map(hh, name="hh", ftle=True, chunks=300, store=store, **copy.deepcopy(HH_MAP))
+    markers = zarr_stream.markers_folder(store)
+    assert sorted(p.name for p in markers.iterdir()) == sorted(zarr_stream.block_name(0, r) for r in calls[:2])
+    # a block whose region was written but whose marker was not: written again
+    kept, half = calls[0], calls[1]
+    (markers / zarr_stream.block_name(0, half)).unlink()
+    zeros = {name: np.zeros((half.stop - half.start, 40)) for name in ("ld_forward", "exit_time_forward")}
+    zarr_stream.write_region(store, zeros, ("y", "py"), None, half)
+    calls.clear()
+    monkeypatch.setattr(zarr_stream, "compute_block", lambda *args: calls.append(args[2]) or compute_block(*args))
+    with dask.config.set(scheduler="synchronous"):
+        resumed = ldpipe.ld_map(hh, name="hh", ftle=True, chunks=300, store=store, **copy.deepcopy(HH_MAP))
+    assert sorted(r.start for r in calls) == [s for s in range(0, 40, 7) if s != kept.start]  # all but the one kept
+    stored_equals(resumed, hh_eager[True])
+    with dask.config.set(scheduler="synchronous"):  # a finished stream: nothing left to compute
+        calls.clear()
+        stored_equals(ldpipe.ld_map(hh, name="hh", ftle=True, chunks=300, store=store, **copy.deepcopy(HH_MAP)),
+                      hh_eager[True])
+        assert calls == []
+
+
+def test_a_stream_on_the_cluster_writes_start_times_from_the_workers(client, gyre, tmp_path):
+    eager = ldpipe.ld_map(gyre, name="g", **copy.deepcopy(GYRE_MAP))
+    stored = ldpipe.ld_map(gyre, name="g", chunks={"x": 4}, client=client, store=tmp_path / "g.zarr",
+                           **copy.deepcopy(GYRE_MAP))
+    stored_equals(stored, eager)
+    assert len(list((tmp_path / "g.zarr.blocks").glob("*.done"))) == 3 * 2 + 3  # 2 bands and an FTLE a start time
+
+
+def test_a_store_of_another_map_or_cut_otherwise_is_refused_by_name(hh, tmp_path):
+    import dask
+
+    small = {**copy.deepcopy(HH_MAP), "section": {**HH_SECTION, "axes": [{**HH_SECTION["axes"][0], "points": 6},
+                                                                          {**HH_SECTION["axes"][1], "points": 5}]}}
+    store = tmp_path / "m.zarr"
+    with dask.config.set(scheduler="synchronous"):
+        ldpipe.ld_map(hh, name="hh", chunks={"y": 2}, store=store, **copy.deepcopy(small))
+        with pytest.raises(ConfigError, match=r"argument 'store': .*m.zarr holds another map"):
+            ldpipe.ld_map(hh, name="hh", chunks={"y": 2}, store=store, **{**copy.deepcopy(small), "tau": 1.0})
+        with pytest.raises(ConfigError, match=r"argument 'chunks': .*started with blocks of 2 rows, these chunks "
+                                              r"give 3; resume it with chunks=\{'y': 2\}"):
+            ldpipe.ld_map(hh, name="hh", chunks={"y": 3}, store=store, **copy.deepcopy(small))
+    with pytest.raises(ConfigError, match=r"argument 'store': a map in blocks takes a store; give chunks too"):
+        ldpipe.ld_map(hh, name="hh", store=store, **copy.deepcopy(small))

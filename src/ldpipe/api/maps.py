@@ -6,6 +6,7 @@ import xarray as xr
 
 from ..core.maps.assembly import ld_map_dataset
 from ..core.maps.lazy import lazy_ld_map
+from ..core.maps.zarr_stream import stream_ld_map
 from ..errors import ConfigError
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
@@ -15,7 +16,7 @@ from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, en
 
 @shared_docs
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
-           threads: int | None = None, chunks=None, client=None, **spec) -> xr.Dataset:
+           threads: int | None = None, chunks=None, client=None, store=None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
 
     Parameters
@@ -35,6 +36,10 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     client : distributed.Client, optional
         With ``chunks``: the running client whose cluster computes the blocks, sent there now
         (``client.persist``); default the active Dask scheduler, when the Dataset is computed.
+    store : str or path, optional
+        With ``chunks``: a zarr store each block is written to when it finishes; a store this
+        map's stream left unfinished is resumed (its finished blocks kept). Returns once the
+        map is in, as the store holds it (``xarray.open_zarr``).
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
@@ -61,10 +66,15 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     entry = {"system": system.name, **energy_shorthand(spec)}
     with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
+        if chunks is not None and store is not None:
+            return stream_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, store=store,
+                                 client=client, threads=threads)
         if chunks is not None:
             return lazy_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, client=client,
                                threads=threads)
-        if client is not None:
-            raise ConfigError(f"config key 'ld_maps.{name}.client': a client computes a map in blocks; give chunks too")
+        for argument, value in (("client", client), ("store", store)):
+            if value is not None:
+                raise ConfigError(f"config key 'ld_maps.{name}.{argument}': a map in blocks takes a {argument}; "
+                                  "give chunks too")
         return ld_map_dataset(parameters, equilibria_input(system, equilibria), tiles=ld_map_tiles(config, name),
                               threads=threads, show_progress=progress)

@@ -165,8 +165,8 @@ def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
     return {name: variable.values for name, variable in dataset.data_vars.items()}
 
 
-def _ftle(variables: dict[str, np.ndarray], dims: tuple[str, str], axes: dict[str, np.ndarray],
-          coordinates: tuple[str, ...], tau: float, sphere: bool) -> dict[str, np.ndarray]:
+def block_ftle(variables: dict[str, np.ndarray], dims: tuple[str, str], axes: dict[str, np.ndarray],
+               coordinates: tuple[str, ...], tau: float, sphere: bool) -> dict[str, np.ndarray]:
     """The FTLE of one start time's whole flow map (a task): :func:`ldpipe.core.maps.grid.add_ftle`."""
     dataset = xr.Dataset({name: (dims, values) for name, values in variables.items()}, coords=axes)
     add_ftle(dataset, coordinates, tau, sphere)
@@ -184,15 +184,23 @@ def lazy_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, clie
     the active Dask scheduler when asked. ``threads``: engine threads of each task (default every
     core of its worker)."""
     key = f"ld_maps.{parameters['map_name']}"
-    da, delayed = require_dask(key)
     check_client(client, key)
-    blocks = MapBlocks(parameters, equilibria, chunks=chunks, threads=threads)
-    template = blocks.template()
-    skeleton, lazy = _skeleton_and_blocks(blocks, template, da, delayed)
-    finished = finish_ld_map(skeleton, recorded_parameters(skeleton[0], parameters))
+    _blocks, zeros, lazy = map_layout(parameters, equilibria, chunks=chunks, threads=threads)
+    finished = zeros.copy()
     for name, data in lazy.items():
         finished[name] = finished[name].copy(data=data)
     return client.persist(finished) if client is not None else finished
+
+
+def map_layout(parameters: dict, equilibria: xr.Dataset | None, *, chunks, threads: int | None = None):
+    """``(blocks, zeros, lazy)``: the map's :class:`MapBlocks`; its Dataset as the one-process map's
+    (coordinates, ``allowed``, attributes), every other variable a dask array of zeros chunked by
+    the blocks; and each such variable's dask array over the blocks' tasks. Refuses what cannot
+    be cut (ConfigError naming the key) before any block runs."""
+    da, delayed = require_dask(f"ld_maps.{parameters['map_name']}")
+    blocks = MapBlocks(parameters, equilibria, chunks=chunks, threads=threads)
+    skeleton, lazy = _skeleton_and_blocks(blocks, blocks.template(), da, delayed)
+    return blocks, finish_ld_map(skeleton, recorded_parameters(skeleton[0], parameters)), lazy
 
 
 def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
@@ -246,7 +254,7 @@ def _add_lazy_ftle(dataset: xr.Dataset, band: dict, blocks: MapBlocks, chunks, l
     inputs = {name: band[name] for name in band if name not in FTLE_VARIABLES}
     inputs["allowed"] = blocks.allowed
     axes = {dim: dataset[dim].values for dim in dims}
-    result = delayed(_ftle, pure=True)(inputs, dims, axes, blocks.coordinates, tau, blocks.sphere)
+    result = delayed(block_ftle, pure=True)(inputs, dims, axes, blocks.coordinates, tau, blocks.sphere)
     for name in FTLE_VARIABLES:
         variable = corner[name]
         dataset[name] = (dims, da.zeros(blocks.shape, dtype=variable.dtype, chunks=chunks), variable.attrs)
