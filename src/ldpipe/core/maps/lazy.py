@@ -28,13 +28,13 @@ import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
+from ...io.datafile import stage_dataset
 from ...systems import on_sphere
 from ..sections import section_states
-from .assembly import backward_mirror, compute_ld_map, finish_ld_map, map_contract, map_title, recorded_parameters, resolve_map
-from .ftle import VARIATIONAL
+from .assembly import (backward_mirror, compute_ld_map, finish_ld_map, map_contract, map_title, recorded_parameters,
+                       resolve_map)
 from .grid import add_ftle, map_start_times
 from .symmetry import SETTING_KEY
-from ...io.datafile import stage_dataset
 
 #: The FTLE variables :func:`ldpipe.core.maps.grid.add_ftle` adds (computed after the blocks).
 FTLE_VARIABLES = ("ftle_forward", "ftle_defined_forward", "ftle_backward", "ftle_defined_backward")
@@ -108,7 +108,7 @@ class MapBlocks:
     """What a lazy map is cut into and what is known of it before any block runs."""
 
     def __init__(self, parameters: dict, equilibria: xr.Dataset | None, *, chunks, threads: int | None = None):
-        self.key = key = f"ld_maps.{parameters['map_name']}"
+        key = f"ld_maps.{parameters['map_name']}"
         if parameters.get("refine") is not None:
             raise ConfigError(f"config key '{key}.chunks': an adaptive map (refine) is not computed in blocks; "
                               "leave chunks or refine out")
@@ -117,7 +117,8 @@ class MapBlocks:
                               "leave tiles out")
         self.parameters, self.equilibria, self.threads = parameters, equilibria, threads
         self.starts = map_start_times(parameters)
-        system, section, _settings, info = resolve_map(self.at_start(self.first_start), equilibria)
+        first = parameters if self.starts is None else {**parameters, "t0": self.starts[0]}
+        system, section, _settings, info = resolve_map(first, equilibria)
         self.axes, self.shape = tuple(section.axes), tuple(section.shape)
         self.first_axis = section.axis_values()[0]
         self.bands = bands(self.shape[0], block_rows(chunks, self.axes, self.shape, key))
@@ -126,7 +127,7 @@ class MapBlocks:
         self.sphere = on_sphere(parameters["system_spec"])
 
     def _mirror_decided(self, system, section, energy) -> dict:
-        """The parameters each block computes with, and the whole grid's ``allowed`` mask: the backward
+        """The parameters each block computes with (and, kept, the whole grid's ``allowed`` mask): the backward
         fields are mirrored in every block where the whole grid is mirrored, and in none otherwise,
         as the one-process map decides (a band can be mirrored where the whole grid is not)."""
         mirror = backward_mirror(self.parameters, system, section)
@@ -147,8 +148,7 @@ class MapBlocks:
 
     def at_start(self, start: float | None) -> dict:
         """The block parameters of one start time (None: the map's only one)."""
-        parameters = getattr(self, "block_parameters", self.parameters)  # the map's own while they are decided
-        return parameters if start is None else {**parameters, "t0": start}
+        return self.block_parameters if start is None else {**self.block_parameters, "t0": start}
 
     def template(self) -> xr.Dataset:
         """An empty band (no row) at the first start time: the variables, types and attributes of a band."""
