@@ -28,11 +28,10 @@ import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
-from ...io.datafile import stage_dataset
+from ...io.datafile import check_finite
 from ...systems import on_sphere
 from ..sections import section_states
-from .assembly import (backward_mirror, compute_ld_map, finish_ld_map, map_contract, map_title, recorded_parameters,
-                       resolve_map)
+from .assembly import backward_mirror, compute_ld_map, finish_ld_map, recorded_parameters, resolve_map
 from .grid import add_ftle, map_start_times
 from .symmetry import SETTING_KEY
 
@@ -160,8 +159,7 @@ def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
     """The band ``rows`` of a map of one start time (a task): its variables as numpy arrays,
     checked finite as the map's file is (:func:`ldpipe.io.datafile.stage_dataset`)."""
     dataset = compute_ld_map(parameters, equilibria, rows=rows, threads=threads, show_progress=False)
-    dataset = stage_dataset(dataset, stage=map_contract(parameters, tile_file=True), title=map_title(parameters),
-                            parameters={})
+    check_finite(dataset, f"map {parameters['map_name']}, rows {rows.start}:{rows.stop}")
     return {name: variable.values for name, variable in dataset.data_vars.items()}
 
 
@@ -200,7 +198,10 @@ def map_layout(parameters: dict, equilibria: xr.Dataset | None, *, chunks, threa
     da, delayed = require_dask(f"ld_maps.{parameters['map_name']}")
     blocks = MapBlocks(parameters, equilibria, chunks=chunks, threads=threads)
     skeleton, lazy = _skeleton_and_blocks(blocks, blocks.template(), da, delayed)
-    return blocks, finish_ld_map(skeleton, recorded_parameters(skeleton[0], parameters)), lazy
+    # the finish reads the zeros (their finiteness, the allowed points): here, not on a cluster
+    with importlib.import_module("dask").config.set(scheduler="synchronous"):
+        zeros = finish_ld_map(skeleton, recorded_parameters(skeleton[0], parameters))
+    return blocks, zeros, lazy
 
 
 def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
