@@ -83,6 +83,19 @@ def test_start_times_with_ftle_equal_the_one_process_map(client, gyre):
     assert_same_file(lazy.compute(), eager)
 
 
+def test_a_flow_map_without_its_ld_in_blocks_equals_the_one_process_map(gyre):
+    # ld: false (the flow map and its FTLE by the flow driver, tests/data/test_flow_map_only.py's
+    # settings), two start times, on this process's threads
+    import dask
+
+    spec = {**copy.deepcopy(GYRE_MAP), "ld": False, "t0": [2.0, 2.5]}
+    eager = ldpipe.ld_map(gyre, name="g", **copy.deepcopy(spec))
+    with dask.config.set(scheduler="threads"):
+        lazy = ldpipe.ld_map(gyre, name="g", chunks=8, **copy.deepcopy(spec))  # 8 points: bands of 2 rows
+        assert lazy.end_x_forward.data.numblocks == (2, 3, 1) and "ld_forward" not in lazy
+        assert_same_file(lazy.compute(), eager)
+
+
 def test_the_active_scheduler_computes_without_a_client(hh, hh_eager):
     # no client given: the Dataset is computed where dask computes (here the threads of this process)
     import dask
