@@ -117,7 +117,8 @@ def compute_ld_map(
 
     ``rows``: the band of first-axis rows to compute instead of the tile's (a block of the Dask
     backend, :mod:`ldpipe.core.maps.lazy`, possibly empty); it is never the whole map, so the FTLE
-    by differences is left to whoever joins the bands."""
+    by differences is left to whoever joins the bands, and it is not piloted
+    (:func:`ldpipe.core.maps.pilot.check_map_time`: a block's time says nothing of the map's)."""
     use_threads(threads)
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
@@ -129,7 +130,7 @@ def compute_ld_map(
         dataset.attrs.update({"tile": tile, "tiles": tiles})
         return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
-    whole_map = tiles == 1 and rows is None
+    block, whole_map = rows is not None, tiles == 1 and rows is None
     rows = tile_rows(section.shape[0], tile, tiles) if rows is None else rows
     check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
                       section.shape[0] * section.shape[1])
@@ -148,12 +149,13 @@ def compute_ld_map(
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
                                   t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
-                                  mirror=backward_mirror(parameters, system, section))
+                                  mirror=backward_mirror(parameters, system, section),
+                                  label=None if block else f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
     elif ftle and whole_map:
-        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
+        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]), section.solve)
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
@@ -259,7 +261,7 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     if parameters.get("ftle", False) is True and len(datasets) > 1:  # by differences over the whole grid
         add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
-                 on_sphere(parameters["system_spec"]))
+                 on_sphere(parameters["system_spec"]), parameters["section"].get("solve"))
     return joined
 
 

@@ -122,7 +122,7 @@ class MapBlocks:
         self.first_axis = section.axis_values()[0]
         self.bands = bands(self.shape[0], block_rows(chunks, self.axes, self.shape, key))
         self.block_parameters = self._mirror_decided(system, section, info["energy"])
-        self.coordinates = system.phase_coordinates
+        self.coordinates, self.solved = system.phase_coordinates, section.solve
         self.sphere = on_sphere(parameters["system_spec"])
 
     def _mirror_decided(self, system, section, energy) -> dict:
@@ -164,10 +164,10 @@ def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
 
 
 def block_ftle(variables: dict[str, np.ndarray], dims: tuple[str, str], axes: dict[str, np.ndarray],
-               coordinates: tuple[str, ...], tau: float, sphere: bool) -> dict[str, np.ndarray]:
+               coordinates: tuple[str, ...], tau: float, sphere: bool, solved: str | None) -> dict[str, np.ndarray]:
     """The FTLE of one start time's whole flow map (a task): :func:`ldpipe.core.maps.grid.add_ftle`."""
     dataset = xr.Dataset({name: (dims, values) for name, values in variables.items()}, coords=axes)
-    add_ftle(dataset, coordinates, tau, sphere)
+    add_ftle(dataset, coordinates, tau, sphere, solved)
     return {name: dataset[name].values for name in FTLE_VARIABLES}
 
 
@@ -251,11 +251,11 @@ def _add_lazy_ftle(dataset: xr.Dataset, band: dict, blocks: MapBlocks, chunks, l
     dims = dataset.allowed.dims
     tau = float(dataset.attrs["tau"])
     corner = add_ftle(dataset.isel({dims[0]: slice(0, 3), dims[1]: slice(0, 3)}).compute(), blocks.coordinates, tau,
-                      blocks.sphere)
+                      blocks.sphere, blocks.solved)
     inputs = {name: band[name] for name in band if name not in FTLE_VARIABLES}
     inputs["allowed"] = blocks.allowed
     axes = {dim: dataset[dim].values for dim in dims}
-    result = delayed(block_ftle, pure=True)(inputs, dims, axes, blocks.coordinates, tau, blocks.sphere)
+    result = delayed(block_ftle, pure=True)(inputs, dims, axes, blocks.coordinates, tau, blocks.sphere, blocks.solved)
     for name in FTLE_VARIABLES:
         variable = corner[name]
         dataset[name] = (dims, da.zeros(blocks.shape, dtype=variable.dtype, chunks=chunks), variable.attrs)

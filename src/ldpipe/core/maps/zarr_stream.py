@@ -70,14 +70,14 @@ def stream_block(parameters: dict, equilibria, rows: slice, threads, store: Path
 
 
 def stream_ftle(store: Path, index: int | None, dims: tuple[str, str], coordinates: tuple[str, ...], tau: float,
-                sphere: bool, marker: Path, *written: str) -> str:
+                sphere: bool, solved: str | None, marker: Path, *written: str) -> str:
     """One start time's FTLE by differences (a task after its blocks, ``written``), from the store's flow map."""
     with xr.open_zarr(store, consolidated=True) as opened:
         start = opened if index is None else opened.isel(t0=index)
         inputs = {name: start[name].values for name in start.data_vars
                   if name not in FTLE_VARIABLES and start[name].dims == dims}
         axes = {dim: start[dim].values for dim in dims}
-    values = block_ftle(inputs, dims, axes, coordinates, tau, sphere)
+    values = block_ftle(inputs, dims, axes, coordinates, tau, sphere, solved)
     write_region(store, values, dims, index, slice(0, len(axes[dims[0]])))
     write_text_atomic(marker, "written\n")
     return marker.name
@@ -144,7 +144,7 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
         tasks += written
         if blocks.parameters.get("ftle") is True and ftle_name(index) not in done:
             tasks.append(delayed(stream_ftle)(store, at, dims, blocks.coordinates, float(zeros.attrs["tau"]),
-                                              blocks.sphere, markers / ftle_name(index), *written))
+                                              blocks.sphere, blocks.solved, markers / ftle_name(index), *written))
     if tasks:
         if client is not None:
             client.gather(client.compute(tasks))
