@@ -76,6 +76,25 @@ def test_a_lazy_map_computes_to_the_one_process_map_bit_for_bit(client, hh, hh_e
     assert_same_file(computed, hh_eager[ftle])
 
 
+def test_a_worker_killed_after_its_blocks_leaves_the_same_map(client, hh, hh_eager):
+    # The worker holding a finished block is killed (its nanny starts another): the scheduler
+    # computes the lost block again, elsewhere or on the new worker, and the map is unchanged.
+    import os
+    import signal
+    import time
+
+    lazy = ldpipe.ld_map(hh, name="hh", ftle=False, chunks=200, client=client, **copy.deepcopy(HH_MAP))
+    futures = distributed.futures_of(lazy)
+    deadline = time.monotonic() + 60
+    while not any(f.done() for f in futures) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    finished = next(f for f in futures if f.done())
+    holder = client.who_has([finished])[finished.key][0]
+    os.kill(client.run(os.getpid, workers=[holder])[holder], signal.SIGKILL)
+    assert_same_file(lazy.compute(), hh_eager[False])
+    assert holder not in client.scheduler_info()["workers"]  # the block's worker did die
+
+
 def test_start_times_with_ftle_equal_the_one_process_map(client, gyre):
     eager = ldpipe.ld_map(gyre, name="g", **copy.deepcopy(GYRE_MAP))
     lazy = ldpipe.ld_map(gyre, name="g", chunks={"x": 4, "y": -1}, client=client, **copy.deepcopy(GYRE_MAP))
