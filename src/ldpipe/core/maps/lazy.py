@@ -197,9 +197,9 @@ def map_layout(parameters: dict, equilibria: xr.Dataset | None, *, chunks, threa
     be cut (ConfigError naming the key) before any block runs."""
     da, delayed = require_dask(f"ld_maps.{parameters['map_name']}")
     blocks = MapBlocks(parameters, equilibria, chunks=chunks, threads=threads)
-    skeleton, lazy = _skeleton_and_blocks(blocks, blocks.template(), da, delayed)
-    # the finish reads the zeros (their finiteness, the allowed points): here, not on a cluster
+    # the FTLE's attributes and the finish read zeros (their finiteness): computed here, not on a cluster
     with importlib.import_module("dask").config.set(scheduler="synchronous"):
+        skeleton, lazy = _skeleton_and_blocks(blocks, blocks.template(), da, delayed)
         zeros = finish_ld_map(skeleton, recorded_parameters(skeleton[0], parameters))
     return blocks, zeros, lazy
 
