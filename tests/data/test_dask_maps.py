@@ -115,6 +115,20 @@ def test_a_flow_map_without_its_ld_in_blocks_equals_the_one_process_map(gyre):
         assert_same_file(lazy.compute(), eager)
 
 
+def test_a_map_of_one_direction_in_blocks_and_streamed_equals_the_one_process_map(hh, tmp_path):
+    # directions: backward, with its FTLE by differences: the blocks and the FTLE task hold that
+    # direction's variables alone
+    import dask
+
+    spec = {**copy.deepcopy(HH_MAP), "ftle": True, "directions": "backward"}
+    eager = ldpipe.ld_map(hh, name="hh", **copy.deepcopy(spec))
+    assert "ftle_backward" in eager and "ld_forward" not in eager
+    with dask.config.set(scheduler="synchronous"):
+        assert_same_file(ldpipe.ld_map(hh, name="hh", chunks=500, **copy.deepcopy(spec)).compute(), eager)
+        stored_equals(ldpipe.ld_map(hh, name="hh", chunks=500, store=tmp_path / "b.zarr", **copy.deepcopy(spec)),
+                      eager)
+
+
 def test_the_active_scheduler_computes_without_a_client(hh, hh_eager):
     # no client given: the Dataset is computed where dask computes (here the threads of this process)
     import dask

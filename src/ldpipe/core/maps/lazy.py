@@ -35,8 +35,6 @@ from .assembly import backward_mirror, compute_ld_map, finish_ld_map, recorded_p
 from .grid import add_ftle, map_start_times
 from .symmetry import SETTING_KEY
 
-#: The FTLE variables :func:`ldpipe.core.maps.grid.add_ftle` adds (computed after the blocks).
-FTLE_VARIABLES = ("ftle_forward", "ftle_defined_forward", "ftle_backward", "ftle_defined_backward")
 #: The install that brings what a lazy map needs.
 INSTALL = "pip install 'ldpipe[dask]'"
 
@@ -168,7 +166,7 @@ def block_ftle(variables: dict[str, np.ndarray], dims: tuple[str, str], axes: di
     """The FTLE of one start time's whole flow map (a task): :func:`ldpipe.core.maps.grid.add_ftle`."""
     dataset = xr.Dataset({name: (dims, values) for name, values in variables.items()}, coords=axes)
     add_ftle(dataset, coordinates, tau, sphere, solved)
-    return {name: dataset[name].values for name in FTLE_VARIABLES}
+    return {name: dataset[name].values for name in dataset.data_vars if name not in variables}
 
 
 def lazy_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, client=None,
@@ -213,6 +211,7 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
     axis = np.asarray(blocks.first_axis, dtype=first.dtype)
     coords = {dims[0]: (dims[0], axis, first.attrs), dims[1]: template[dims[1]]}
     names = [name for name in template.data_vars if name != "allowed"]
+    blocks.block_variables = tuple(names)  # what a block's task gives (the FTLE by differences comes after)
     chunks = (tuple(r.stop - r.start for r in blocks.bands), blocks.shape[1])
     ftle_by_differences = blocks.parameters.get("ftle", False) is True
     skeleton, lazy = [], {name: [] for name in names}
@@ -252,11 +251,10 @@ def _add_lazy_ftle(dataset: xr.Dataset, band: dict, blocks: MapBlocks, chunks, l
     tau = float(dataset.attrs["tau"])
     corner = add_ftle(dataset.isel({dims[0]: slice(0, 3), dims[1]: slice(0, 3)}).compute(), blocks.coordinates, tau,
                       blocks.sphere, blocks.solved)
-    inputs = {name: band[name] for name in band if name not in FTLE_VARIABLES}
-    inputs["allowed"] = blocks.allowed
+    inputs = {**band, "allowed": blocks.allowed}
     axes = {dim: dataset[dim].values for dim in dims}
     result = delayed(block_ftle, pure=True)(inputs, dims, axes, blocks.coordinates, tau, blocks.sphere, blocks.solved)
-    for name in FTLE_VARIABLES:
+    for name in [name for name in corner.data_vars if name not in dataset.data_vars]:  # those add_ftle adds
         variable = corner[name]
         dataset[name] = (dims, da.zeros(blocks.shape, dtype=variable.dtype, chunks=chunks), variable.attrs)
         whole = da.from_delayed(delayed(operator.getitem)(result, name), blocks.shape, dtype=variable.dtype)

@@ -25,7 +25,7 @@ import xarray as xr
 
 from ...errors import ConfigError
 from ...io.atomic import atomic_path, write_text_atomic
-from .lazy import FTLE_VARIABLES, MapBlocks, block_ftle, check_client, compute_block, map_layout
+from .lazy import MapBlocks, block_ftle, check_client, compute_block, map_layout
 
 #: The suffix of the folder of block markers beside a store.
 MARKERS = ".blocks"
@@ -69,13 +69,14 @@ def stream_block(parameters: dict, equilibria, rows: slice, threads, store: Path
     return marker.name
 
 
-def stream_ftle(store: Path, index: int | None, dims: tuple[str, str], coordinates: tuple[str, ...], tau: float,
-                sphere: bool, solved: str | None, marker: Path, *written: str) -> str:
-    """One start time's FTLE by differences (a task after its blocks, ``written``), from the store's flow map."""
+def stream_ftle(store: Path, index: int | None, dims: tuple[str, str], inputs: tuple[str, ...],
+                coordinates: tuple[str, ...], tau: float, sphere: bool, solved: str | None, marker: Path,
+                *written: str) -> str:
+    """One start time's FTLE by differences (a task after its blocks, ``written``), from the store's
+    flow map (its variables ``inputs``)."""
     with xr.open_zarr(store, consolidated=True) as opened:
         start = opened if index is None else opened.isel(t0=index)
-        inputs = {name: start[name].values for name in start.data_vars
-                  if name not in FTLE_VARIABLES and start[name].dims == dims}
+        inputs = {name: start[name].values for name in inputs}
         axes = {dim: start[dim].values for dim in dims}
     values = block_ftle(inputs, dims, axes, coordinates, tau, sphere, solved)
     write_region(store, values, dims, index, slice(0, len(axes[dims[0]])))
@@ -97,7 +98,7 @@ def _check_resumable(store: Path, zeros: xr.Dataset, blocks: MapBlocks, key: str
         if not same:
             raise ConfigError(f"config key '{key}.store': {store} holds another map (other parameters or "
                               "variables); give another path, or remove it to start again")
-        stored = opened["exit_time_forward"].encoding["chunks"][-2]  # every map has it, chunked by the blocks
+        stored = opened[blocks.block_variables[0]].encoding["chunks"][-2]  # chunked by the blocks
     wanted = blocks.bands[0].stop - blocks.bands[0].start
     if stored != wanted:
         raise ConfigError(f"config key '{key}.chunks': {store} was started with blocks of {stored} rows, "
@@ -132,7 +133,7 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
     from dask import compute, delayed  # imported by map_layout already, or refused there
 
     dims = tuple(blocks.axes)
-    names = tuple(name for name in zeros.data_vars if name != "allowed" and name not in FTLE_VARIABLES)
+    names = blocks.block_variables
     equilibria_key = delayed(blocks.equilibria, traverse=False)
     tasks = []
     for index, start in enumerate(blocks.starts or [None]):
@@ -143,8 +144,9 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
                    for rows in blocks.bands if block_name(index, rows) not in done]
         tasks += written
         if blocks.parameters.get("ftle") is True and ftle_name(index) not in done:
-            tasks.append(delayed(stream_ftle)(store, at, dims, blocks.coordinates, float(zeros.attrs["tau"]),
-                                              blocks.sphere, blocks.solved, markers / ftle_name(index), *written))
+            tasks.append(delayed(stream_ftle)(store, at, dims, (*names, "allowed"), blocks.coordinates,
+                                              float(zeros.attrs["tau"]), blocks.sphere, blocks.solved,
+                                              markers / ftle_name(index), *written))
     if tasks:
         if client is not None:
             client.gather(client.compute(tasks))
