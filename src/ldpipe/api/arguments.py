@@ -8,6 +8,7 @@ import contextlib
 import copy
 import functools
 import re
+import textwrap
 from collections.abc import Callable, Iterator
 
 import xarray as xr
@@ -15,10 +16,11 @@ import xarray as xr
 from ..config import validate_config
 from ..config.loading import load_schema
 from ..config.parameters import parameters_from_config
-from ..errors import ConfigError, StageFileError
+from ..errors import ConfigError, LdpipeError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
+from .keywords import keyword_docs
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem
 
@@ -48,17 +50,56 @@ def shared_docs(function: Callable) -> Callable:
     return function
 
 
+def api_function(schema: str | None = None, taken: tuple[str, ...] = ()) -> Callable[[Callable], Callable]:
+    """A function of the API: its docstring's ``%(NAME)s`` filled (:func:`shared_docs`), the keys
+    of the schema's block at ``schema`` (a JSON pointer, ``"$defs/ld_map"``) that it takes as
+    keyword arguments documented under ``Other Parameters`` (all but those ``taken``:
+    its own parameters, or the objects standing for a named entry), and its errors raised at
+    the caller (:func:`user_error`)."""
+
+    def decorate(function: Callable) -> Callable:
+        shared_docs(function)
+        if schema is not None:
+            section = textwrap.indent(keyword_docs(schema, taken), "    ").replace("\n    \n", "\n\n")
+            head, returns, tail = function.__doc__.partition("\n    Returns\n")
+            function.__doc__ = f"{head}\n{section}\n\n    Returns\n{tail}" if returns else f"{head}\n\n{section}\n"
+        function.schema_keywords = (schema, taken)
+
+        @functools.wraps(function)
+        def call(*args, **kwargs):
+            __tracebackhide__ = True  # noqa: F841  (IPython and pytest hide this frame)
+            try:
+                return function(*args, **kwargs)
+            except LdpipeError as error:
+                raise user_error(error, function.__name__) from None
+
+        return call
+
+    return decorate
+
+
+def user_error(error: LdpipeError, function: str) -> LdpipeError:
+    """``error`` as the caller of ``ldpipe.<function>`` sees it: the same class, a one-line message
+    that names the function, and no traceback of ldpipe's own frames (the message is the whole
+    story: which argument, what was expected)."""
+    text = "; ".join(line.strip() for line in str(error).splitlines() if line.strip())
+    if not text.startswith("ldpipe."):
+        text = f"ldpipe.{function}: {text}"
+    return type(error)(text)
+
+
 @contextlib.contextmanager
 def arguments_of(function: str, key: str) -> Iterator[None]:
     """Turn a ConfigError about the entry at config key ``key`` into one about the arguments of
-    ``ldpipe.<function>``: the same message, naming the argument where it named the key."""
+    ``ldpipe.<function>``: the same message on one line, naming the argument where it named the key."""
     try:
         yield
     except ConfigError as error:
-        text = str(error).replace("invalid configuration:", "invalid arguments:")
+        text = str(error).replace("invalid configuration:", "").strip()
+        text = "; ".join(line.strip() for line in text.splitlines() if line.strip())
         text = re.sub(rf"config key '{re.escape(key)}\.([^']*)'", r"argument '\1'", text)
-        text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]); allowed keys are",
-                      r"unknown arguments \1; allowed are", text)
+        text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]( \(did you mean [^)]*\))?); "
+                      "allowed keys are", r"unknown arguments \1; allowed are", text)
         text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
         raise ConfigError(f"ldpipe.{function}: {text}") from None
 

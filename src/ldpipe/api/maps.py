@@ -7,11 +7,11 @@ import xarray as xr
 from ..core.maps.assembly import ld_map_dataset
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, shared_docs,
+from .arguments import (AnySystem, api_function, arguments_of, energy_shorthand, entry_key, entry_parameters,
                         system_config)
 
 
-@shared_docs
+@api_function("$defs/ld_map", taken=("system",))
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
            threads: int | None = None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.

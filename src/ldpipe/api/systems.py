@@ -13,12 +13,13 @@ from ..config.parameters import parameters_from_config
 from ..core.equilibria.study import equilibria_dataset
 from ..errors import ConfigError
 from ..systems import make_system, system_spec
-from .arguments import AnySystem, arguments_of, entry_key, equilibria_of, system_entry
+from .arguments import AnySystem, api_function, arguments_of, entry_key, equilibria_of, system_entry
 
 #: The keys of a section block besides its axes (:func:`section`).
 SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
 
 
+@api_function("$defs/system")
 def system(*, name: str | None = None, **spec) -> AnySystem:
     """A model system, from the keys of a ``systems:`` entry.
 
@@ -59,6 +60,7 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     return dataclasses.replace(built, spec=config["systems"][name])
 
 
+@api_function()
 def section(*, fixed: dict | None = None, solve: str | None = None, sign: int | None = None,
             root: str | dict | None = None, search: Sequence[float] | None = None,
             **axes: tuple[float, float, int]) -> dict:
@@ -99,6 +101,7 @@ def section(*, fixed: dict | None = None, solve: str | None = None, sign: int | 
     return block
 
 
+@api_function("$defs/system/properties/equilibria")
 def equilibria(system: AnySystem, **spec) -> xr.Dataset:
     """Every equilibrium of ``system`` in a box, with its energy, spectrum and type (the equilibria stage).
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
+from ..model import system_repr
 from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
@@ -170,6 +171,9 @@ class VelocityDataSystem:
     time_dependent: ClassVar[bool] = True
     #: Land and the data's edge stop trajectories: :meth:`stop_flags` says which, :meth:`stop_lines` where.
     has_stop_flags: ClassVar[bool] = True
+
+    def __repr__(self) -> str:
+        return system_repr(self, "velocity_data", data=self.source.path)
 
     @property
     def engine_name(self) -> str:
