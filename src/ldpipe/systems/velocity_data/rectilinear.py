@@ -162,7 +162,7 @@ class RectilinearVelocitySystem(VelocityDataSystem):
     def description(self) -> str:
         kind = "longitude/latitude" if self.source.sphere else "plane"
         components = ", ".join(c for c in (self.source.u, self.source.v, self.source.w) if c)
-        return f"velocity data {components} from {self.source.path} ({kind}, rectilinear grid)"
+        return f"velocity data {components} from {self.source.label} ({kind}, rectilinear grid)"
 
     @property
     def coordinate_bound(self) -> float:

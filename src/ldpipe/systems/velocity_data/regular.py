@@ -173,7 +173,7 @@ class VelocityDataSystem:
     has_stop_flags: ClassVar[bool] = True
 
     def __repr__(self) -> str:
-        return system_repr(self, "velocity_data", data=self.source.path)
+        return system_repr(self, "velocity_data", data=self.source.label)
 
     @property
     def engine_name(self) -> str:
@@ -210,7 +210,7 @@ class VelocityDataSystem:
     @property
     def description(self) -> str:
         kind = "longitude/latitude" if self.source.sphere else "plane"
-        return f"velocity data {self.source.u}, {self.source.v} from {self.source.path} ({kind})"
+        return f"velocity data {self.source.u}, {self.source.v} from {self.source.label} ({kind})"
 
     def kinetic_attributes(self) -> dict[str, str]:
         return {}
@@ -233,7 +233,7 @@ class VelocityDataSystem:
         if low < first - 1e-9 * abs(first) or high > last + 1e-9 * abs(last):
             where = f"config key '{key}': " if key else ""
             raise ConfigError(f"{where}the trajectories need times [{low:.12g}, {high:.12g}], outside the time range "
-                              f"[{first:.12g}, {last:.12g}] of {self.source.path} (variable {self.source.time!r})")
+                              f"[{first:.12g}, {last:.12g}] of {self.source.label} (variable {self.source.time!r})")
 
     def data_window(self, start: float, end: float) -> DataWindow:
         """The window of the data [start, end] needs (read once; the last one is kept)."""
