@@ -11,6 +11,7 @@ import json
 
 import dask.array
 import numpy as np
+import pandas as pd
 import pytest
 import xarray as xr
 
@@ -138,3 +139,38 @@ def test_an_entry_naming_data_in_memory_that_this_process_lacks_is_refused():
         make_system("gone", config["systems"]["gone"])
     with pytest.raises(ldpipe.ConfigError, match=r"'systems.none.velocity_data.path': required"):
         validate_config({"systems": {"none": {"velocity_data": {"u": "u"}}}})
+
+
+@pytest.mark.parametrize(("t0", "tau"), [("2000-01-02T06", "1D"),
+                                         (np.datetime64("2000-01-02T06:00"), np.timedelta64(24, "h")),
+                                         (pd.Timestamp("2000-01-02 06:00"), pd.Timedelta(hours=24))])
+def test_dates_and_durations_give_the_map_of_their_numbers(example, t0, tau):
+    # the example's time axis is "days since 2000-01-01" (standard calendar): 2000-01-02 06:00 is
+    # day 1.25 and 24 hours one day, by the definition of the units
+    system = ldpipe.system(name="ex", velocity_data={"dataset": example, "coordinates": "sphere"})
+    numeric = ldpipe.ld_map(system, **{**SECTION, "t0": 1.25, "tau": 1.0})
+    dated = ldpipe.ld_map(system, **{**SECTION, "t0": t0, "tau": tau})
+    assert_same_data(dated, numeric)
+    assert (dated.attrs["t0"], dated.attrs["tau"]) == (1.25, 1.0)
+    assert (dated.attrs["t0_date"], dated.attrs["tau_duration"]) == ("2000-01-02T06:00:00", "P1DT0H0M0S")
+    # several start times: each one placed, the file's t0 coordinate in days, its dates beside them
+    several = ldpipe.ld_map(system, **{**SECTION, "t0": ["2000-01-02", "2000-01-02T12"], "tau": "1D"})
+    assert several.t0.values.tolist() == [1.0, 1.5]
+    assert several.attrs["t0_dates"] == "2000-01-02T00:00:00, 2000-01-02T12:00:00"
+
+
+def test_a_date_without_a_calendar_gets_its_own_message(example):
+    plain = example.copy()
+    plain["time"] = plain.time.assign_attrs(units="days")  # a time unit, no reference date
+    del plain.time.attrs["calendar"]
+    system = ldpipe.system(name="plain", velocity_data={"dataset": plain, "coordinates": "sphere"})
+    with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 't0': '2000-01-02' is a date, but the "
+                                                 r"time coordinate 'time' .* is no calendar"):
+        ldpipe.ld_map(system, **{**SECTION, "t0": "2000-01-02"})
+    flow = ldpipe.system(vector_field={"x": "y", "y": "-x"}, coordinates=["x", "y"])
+    with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 't0': .* is a date, but system 'system' "
+                                                 r"has no calendar"):
+        ldpipe.ld_map(flow, section=ldpipe.section(x=(0, 1, 3), y=(0, 1, 3)), t0=np.datetime64("2000-01-02"))
+    with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 't0': 'soon' is not a date"):
+        ldpipe.ld_map(ldpipe.system(name="ex", velocity_data={"dataset": example, "coordinates": "sphere"}),
+                      **{**SECTION, "t0": "soon"})

@@ -7,8 +7,8 @@ import xarray as xr
 from ..core.maps.assembly import ld_map_dataset
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import (AnySystem, api_function, arguments_of, energy_shorthand, entry_key, entry_parameters,
-                        system_config)
+from .arguments import (AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key,
+                        entry_parameters, system_config)
 
 
 @api_function("$defs/ld_map", taken=("system",))
@@ -28,7 +28,11 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
-        ``saddle_near``, ``integrator``, ``tiles``, ...
+        ``saddle_near``, ``integrator``, ``tiles``, ... On velocity data whose time axis is a
+        calendar (CF units ``UNIT since DATE``), ``t0`` may be a date (``"2021-03-01"``,
+        ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of them) and ``tau`` a
+        duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the file records the
+        numbers (in the data's time units) and the dates (``t0_date``, ``tau_duration``, ISO 8601).
 
     Returns
     -------
@@ -48,8 +52,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
     """
-    entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
+    key = entry_key("ld_map", "ld_maps", name)
+    with arguments_of("ld_map", key):
+        entry = {"system": system.name, **calendar_times(system, energy_shorthand(spec), key)}
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
         return ld_map_dataset(parameters, equilibria_input(system, equilibria), tiles=ld_map_tiles(config, name),
                               threads=threads, show_progress=progress)

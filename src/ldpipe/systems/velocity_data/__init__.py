@@ -36,10 +36,11 @@ from __future__ import annotations
 from ...errors import ConfigError
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
+from .calendar import calendar_attributes
 from .memory import is_in_memory, memory_entry
 from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 
-__all__ = ["DEFAULTS", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "is_in_memory",
+__all__ = ["DEFAULTS", "calendar_attributes", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "is_in_memory",
            "make_velocity_data_system", "memory_entry", "open_source", "velocity_data_coordinates"]
 
 

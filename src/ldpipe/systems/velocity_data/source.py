@@ -174,6 +174,8 @@ class DataSource:
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
     memory: str = ""  # the hash of a dataset given in memory (:mod:`.memory`), no path
+    time_reference: str = ""  # the time coordinate's units as written ("days since 2000-01-01"), if any
+    calendar: str = ""  # its CF calendar attribute, if any
 
     @property
     def label(self) -> str:
@@ -312,6 +314,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                               f"{entry['time']!r} not understood; expected one of {sorted(TIMES)}, or 'UNIT since "
                               "DATE' (or no units: the velocity's time unit)")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
+        calendar = dataset[entry["time"]].attrs.get("calendar")
         velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
             time_units = time_coordinate_units.strip().split()[0]
@@ -338,7 +341,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
-                      x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
+                      x_global=x_global, time_reference=time_coordinate_units or "",
+                      calendar=str(calendar or ""), metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
