@@ -29,7 +29,7 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
         ``saddle_near``, ``integrator``, ``tiles``, ... On velocity data whose time axis is a
-        calendar (CF units ``UNIT since DATE``), ``t0`` may be a date (``"2021-03-01"``,
+        calendar (CF units ``UNIT since DATE``), ``t0`` may be a date (``"YYYY-MM-DD"``,
         ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of them) and ``tau`` a
         duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the file records the
         numbers (in the data's time units) and the dates (``t0_date``, ``tau_duration``, ISO 8601).

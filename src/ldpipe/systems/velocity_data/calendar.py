@@ -2,7 +2,7 @@
 
 Data whose time coordinate is a calendar (CF units ``UNIT since DATE``, with its ``calendar``)
 are integrated in numbers of UNIT since DATE; a start time may be given as a date
-(``"2021-03-01"``, ``numpy.datetime64``, ``pandas.Timestamp``, ``datetime``) and an
+(``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``, ``datetime``) and an
 integration time as a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``,
 ``datetime.timedelta``): :func:`numeric_time` and :func:`numeric_duration` turn them into
 those numbers through xarray's CF encoder (the one ``to_netcdf`` uses, every CF calendar), and
