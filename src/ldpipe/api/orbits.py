@@ -9,7 +9,7 @@ from ..core.orbits.manifolds import manifolds_dataset
 from ..core.orbits.poincare import poincare_dataset
 from .systems import equilibria_input
 from .arguments import (
-    AnySystem, api_function, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config,
+    AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key, entry_parameters, family_config,
     system_config,
 )
 
@@ -106,7 +106,8 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
     >>> p = ldpipe.poincare(b, initial_conditions=ldpipe.section(x=(4.8, 6.0, 10), px=(-0.6, 0.6, 10),
     ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
     """
-    entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("poincare", entry_key("poincare", "poincare_sections", name)):
+    key = entry_key("poincare", "poincare_sections", name)
+    with arguments_of("poincare", key):
+        entry = {"system": system.name, **calendar_times(system, energy_shorthand(spec), key)}
         _, parameters = entry_parameters(entry, system_config(system), "poincare_sections", name, "poincare")
         return poincare_dataset(parameters, equilibria_input(system, equilibria), threads=threads)
