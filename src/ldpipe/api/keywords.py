@@ -9,6 +9,7 @@ velocity-data system's times are its data's).
 
 from __future__ import annotations
 
+import functools
 import textwrap
 
 from ..config.loading import load_schema
@@ -19,10 +20,15 @@ TYPE_WORDS = {"number": "float", "integer": "int", "string": "str", "boolean": "
 WIDTH = 100
 
 
+@functools.lru_cache(maxsize=1)
+def schema() -> dict:
+    """The schema, parsed once (read here, never changed)."""
+    return load_schema()
+
+
 def schema_at(pointer: str) -> dict:
     """The schema's node at a JSON pointer (``"$defs/ld_map"``), ``$ref`` followed."""
-    schema = load_schema()
-    node = schema
+    node = schema()
     for part in pointer.split("/"):
         node = node[part]
     return resolved(node)
@@ -32,7 +38,7 @@ def resolved(node: dict) -> dict:
     """``node`` with its ``$ref`` (a pointer into the schema's ``$defs``) merged under its own keys."""
     if "$ref" not in node:
         return node
-    target = load_schema()
+    target = schema()
     for part in node["$ref"].removeprefix("#/").split("/"):
         target = target[part]
     return {**resolved(target), **{key: value for key, value in node.items() if key != "$ref"}}
