@@ -174,3 +174,19 @@ def test_a_date_without_a_calendar_gets_its_own_message(example):
     with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 't0': 'soon' is not a date"):
         ldpipe.ld_map(ldpipe.system(name="ex", velocity_data={"dataset": example, "coordinates": "sphere"}),
                       **{**SECTION, "t0": "soon"})
+
+
+def test_a_zarr_store_opened_by_xarray_gives_the_map_of_its_netcdf_twin(example, tmp_path, file_map):
+    example.to_zarr(tmp_path / "example.zarr", zarr_format=2)  # consolidated metadata: no format-3 warning
+    lazy = xr.open_zarr(tmp_path / "example.zarr")
+    assert lazy.u.chunks is not None
+    system = ldpipe.system(name="ex", velocity_data={"dataset": lazy, "coordinates": "sphere"})
+    assert_same_data(ldpipe.ld_map(system, **SECTION), file_map)
+
+
+def test_three_dimensional_data_from_their_data_arrays():
+    # u, v, w on (time, depth, lat, lon): the state is (lon, lat, depth), read from u's dimensions
+    deep = example_dataset(days=2.0, step_hours=12.0, resolution=2.0, depths=4)
+    system = ldpipe.system(name="deep", velocity_data={"u": deep.u, "v": deep.v, "w": deep.w, "coordinates": "sphere"})
+    assert system.coordinates == ("lon", "lat", "depth")
+    assert system.spec["velocity_data"]["memory"]["shape"] == {"time": 5, "depth": 4, "lat": 13, "lon": 21}
