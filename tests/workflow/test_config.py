@@ -129,7 +129,8 @@ def _parsed_descriptions(text: str) -> dict[int, str]:
     def walk(node):
         if isinstance(node, yaml.MappingNode):
             for key, value in node.value:
-                if isinstance(key, yaml.ScalarNode) and key.value == "description" and isinstance(value, yaml.ScalarNode):
+                if (isinstance(key, yaml.ScalarNode) and key.value == "description"
+                        and isinstance(value, yaml.ScalarNode)):
                     found[value.start_mark.line] = value.value
                 walk(value)
         elif isinstance(node, yaml.SequenceNode):

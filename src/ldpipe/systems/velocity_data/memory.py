@@ -54,7 +54,8 @@ def _as_dataset(value, key: str) -> tuple[xr.Dataset, dict]:
                           "DataArrays u, v (and w) as a tuple or a mapping {'u': ..., 'v': ...}")
     if isinstance(value, (tuple, list)):
         if len(value) not in (2, 3):
-            raise ConfigError(f"config key '{key}': expected the DataArrays (u, v) or (u, v, w), got {len(value)} items")
+            raise ConfigError(f"config key '{key}': expected the DataArrays (u, v) or (u, v, w), "
+                              f"got {len(value)} items")
         value = dict(zip(VELOCITIES, value))
     options = {name: item for name, item in value.items() if name != "dataset" and not isinstance(item, xr.DataArray)}
     if "dataset" in value:

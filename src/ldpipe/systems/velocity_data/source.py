@@ -342,7 +342,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
                       x_global=x_global, time_reference=time_coordinate_units or "",
-                      calendar=str(calendar or ""), metres_per_second=tuple(metres / seconds for metres, seconds in scales),
+                      calendar=str(calendar or ""),
+                      metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
