@@ -126,3 +126,13 @@ def test_help_documents_every_keyword_with_its_schema_description(name, function
             assert f"default {node['default']!r}" in match.group(1), f"{name}: {key}"
         description = _flat(node.get("description", ""))
         assert description and description.replace(" ", "") in flat.replace(" ", ""), f"{name}: {key}"
+
+
+def test_a_system_argument_that_is_no_system_is_named(hh):
+    with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 'system': expected a system from "
+                                                 r"ldpipe.system\(...\), got str 'henon_heiles'$"):
+        ldpipe.ld_map("henon_heiles", **SECTION)
+    # and the unknown-argument message lists keywords, not the positional system
+    with pytest.raises(ldpipe.ConfigError) as error:
+        ldpipe.ld_map(hh, **SECTION, zzzzzz=1.0)
+    assert "'system'" not in str(error.value) and "'tau'" in str(error.value)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import functools
+import inspect
 import re
 import textwrap
 from collections.abc import Callable, Iterator
@@ -65,11 +66,14 @@ def api_function(schema: str | None = None, taken: tuple[str, ...] = ()) -> Call
             head, returns, tail = function.__doc__.partition("\n    Returns\n")
             function.__doc__ = f"{head}\n{section}\n\n    Returns\n{tail}" if returns else f"{head}\n\n{section}\n"
         function.schema_keywords = (schema, taken)
+        takes_system = next(iter(inspect.signature(function).parameters), None) == "system"
 
         @functools.wraps(function)
         def call(*args, **kwargs):
             __tracebackhide__ = True  # noqa: F841  (IPython and pytest hide this frame)
             try:
+                if takes_system:  # before its name is read: a string would fail as no attribute 'name'
+                    check_system(args[0] if args else kwargs.get("system"))
                 return function(*args, **kwargs)
             except LdpipeError as error:
                 raise user_error(error, function.__name__) from None
@@ -77,6 +81,13 @@ def api_function(schema: str | None = None, taken: tuple[str, ...] = ()) -> Call
         return call
 
     return decorate
+
+
+def check_system(system) -> None:
+    """A ConfigError naming the argument ``system`` unless it is a system object."""
+    if not isinstance(system, SYSTEM_CLASSES):
+        raise ConfigError(f"argument 'system': expected a system from ldpipe.system(...), got {type(system).__name__} "
+                          f"{system!r:.60}")
 
 
 def user_error(error: LdpipeError, function: str) -> LdpipeError:
@@ -101,6 +112,7 @@ def arguments_of(function: str, key: str) -> Iterator[None]:
         text = re.sub(rf"config key '{re.escape(key)}\.([^']*)'", r"argument '\1'", text)
         text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]( \(did you mean [^)]*\))?); "
                       "allowed keys are", r"unknown arguments \1; allowed are", text)
+        text = text.replace("'system', ", "") if "unknown arguments" in text else text  # given as the object
         text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
         raise ConfigError(f"ldpipe.{function}: {text}") from None
 
