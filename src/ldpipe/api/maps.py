@@ -14,7 +14,8 @@ from .arguments import (AnySystem, api_function, arguments_of, calendar_times, e
 @api_function("$defs/ld_map", taken=("system",))
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
            threads: int | None = None, **spec) -> xr.Dataset:
-    """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
+    """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry;
+    with ``directions="forward"`` (or ``"backward"``) that direction alone, at half the trajectories.
 
     Parameters
     ----------
@@ -28,16 +29,19 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
-        ``saddle_near``, ``integrator``, ``tiles``, ... On velocity data whose time axis is a
-        calendar (CF units ``UNIT since DATE``), ``t0`` may be a date (``"YYYY-MM-DD"``,
-        ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of them) and ``tau`` a
-        duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the file records the
-        numbers (in the data's time units) and the dates (``t0_date``, ``tau_duration``, ISO 8601).
+        ``saddle_near``, ``integrator``, ``tiles``, ``directions`` (``"both"``, the default;
+        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ... On
+        velocity data whose time axis is a calendar (CF units ``UNIT since DATE``), ``t0`` may be
+        a date (``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of
+        them) and ``tau`` a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the
+        file records the numbers (in the data's time units) and the dates (``t0_date``,
+        ``tau_duration``, ISO 8601).
 
     Returns
     -------
     xarray.Dataset
-        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...;
+        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...
+        (with one direction, only its variables; the attribute ``directions`` says which);
         with ``ld=False`` (a vector field's fixed-time map with ``ftle=True``) the flow map and
         its FTLE alone (contract ``flow_map``).
 
