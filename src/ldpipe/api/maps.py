@@ -10,11 +10,11 @@ from ..core.maps.zarr_stream import stream_ld_map
 from ..errors import ConfigError
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, shared_docs,
-                        system_config)
+from .arguments import (AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key,
+                        entry_parameters, system_config)
 
 
-@shared_docs
+@api_function("$defs/ld_map", taken=("system",))
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
            threads: int | None = None, chunks=None, client=None, store=None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry;
@@ -45,7 +45,12 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
         ``saddle_near``, ``integrator``, ``tiles``, ``directions`` (``"both"``, the default;
-        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ...
+        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ... On
+        velocity data whose time axis is a calendar (CF units ``UNIT since DATE``), ``t0`` may be
+        a date (``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of
+        them) and ``tau`` a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the
+        file records the numbers (in the data's time units) and the dates (``t0_date``,
+        ``tau_duration``, ISO 8601).
 
     Returns
     -------
@@ -66,8 +71,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
     """
-    entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
+    key = entry_key("ld_map", "ld_maps", name)
+    with arguments_of("ld_map", key):
+        entry = {"system": system.name, **calendar_times(system, energy_shorthand(spec), key)}
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
         if chunks is not None and store is not None:
             return stream_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, store=store,

@@ -8,6 +8,7 @@ what is allowed there.
 from __future__ import annotations
 
 import copy
+import difflib
 import functools
 import math
 import re
@@ -103,7 +104,9 @@ def _describe(error: jsonschema.ValidationError) -> str:
     if error.validator == "additionalProperties" and isinstance(error.instance, dict):
         allowed = sorted(error.schema.get("properties", {}))
         extra = sorted(set(error.instance) - set(allowed))
-        return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}; allowed keys are {allowed}"
+        guesses = [match for name in extra for match in difflib.get_close_matches(str(name), allowed, n=1)]
+        guess = f" (did you mean {', '.join(map(repr, dict.fromkeys(guesses)))}?)" if guesses else ""
+        return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}{guess}; allowed keys are {allowed}"
     if error.validator == "oneOf" and error.absolute_path and "systems" in error.absolute_path:
         return f"config key {_key(error.absolute_path)!r}: a system needs exactly one of {_kinds_requirement()}"
     allowed = _allowed(error.schema)

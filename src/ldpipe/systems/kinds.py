@@ -165,6 +165,23 @@ def _vector_field_caption(spec: dict) -> str:
     return "vector field " + ", ".join(f"d{c}/dt = {f}" for c, f in spec["vector_field"].items())
 
 
+def _velocity_data_caption(spec: dict) -> str:
+    entry = spec["velocity_data"]
+    if "path" in entry:
+        return f"velocity data from {entry['path']}"
+    memory = entry.get("memory") or {}
+    return f"velocity data from memory ({', '.join(memory.get('variables', []))}; {memory.get('hash', '')[:23]})"
+
+
+def _check_velocity_data(spec: dict, key: str) -> None:
+    """A file's path, or (from the Python API) a dataset in memory: one of them."""
+    entry = spec["velocity_data"]
+    if ("path" in entry) == ("memory" in entry):
+        raise ConfigError(f"config key '{key}.velocity_data.path': " + (
+            "a path and a dataset in memory both given; give one" if "path" in entry else
+            "required: the dataset's file (netCDF, or a .zarr store), or, in Python, the xarray.Dataset itself"))
+
+
 #: The registry: config key -> record, in the order messages list the kinds.
 SYSTEM_KINDS: dict[str, SystemKind] = {
     "builtin": SystemKind(
@@ -191,8 +208,8 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
         excluded=("coordinates",), formulas=False, stop_flags=True,
         has_equilibria=lambda name, spec: False,  # data depend on time
         on_sphere=lambda spec: spec["velocity_data"].get("coordinates") == "sphere",
-        data_files=lambda spec: [spec["velocity_data"]["path"]],
-        caption=lambda spec: f"velocity data from {spec['velocity_data']['path']}",
+        data_files=lambda spec: [spec["velocity_data"]["path"]] if "path" in spec["velocity_data"] else [],
+        caption=_velocity_data_caption, check=_check_velocity_data,
     ),
 }
 

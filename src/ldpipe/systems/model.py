@@ -17,7 +17,18 @@ from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "SystemModel", "Unbounded", "protocol_members"]
+__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "SystemModel", "Unbounded", "protocol_members",
+           "system_repr"]
+
+
+def system_repr(system: Any, kind: str, **more: Any) -> str:
+    """One line for a system object (a notebook prints it): its class, name, kind, coordinates
+    and parameters, and ``more`` (say, a data file): not its compiled kernels or their source."""
+    words = [repr(system.name), kind, f"coordinates={tuple(system.coordinates)!r}"]
+    if system.parameters:
+        words.append(f"parameters={dict(system.parameters)!r}")
+    words += [f"{key}={value!r}" for key, value in more.items()]
+    return f"{type(system).__name__}({', '.join(words)})"
 
 
 class Unbounded:

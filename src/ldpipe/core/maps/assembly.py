@@ -25,6 +25,7 @@ from ...io.contracts import FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ...io.datafile import MANAGED_ATTRIBUTES, stage_dataset, stage_parameters
 from ...logs import get_logger
 from ...systems import on_sphere, system_phase_coordinates
+from ...systems.velocity_data import calendar_attributes
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
@@ -329,5 +330,9 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
+    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units)
+    joined.attrs.update(calendar_attributes(common["system_spec"], f"systems.{common['system_name']}",
+                                            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0),
+                                            joined.attrs["tau"]))
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})
