@@ -28,7 +28,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
-        ``saddle_near``, ``integrator``, ``tiles``, ...
+        ``saddle_near``, ``integrator``, ``tiles``, ...; of a discrete map (``ldpipe.system(map=...)``),
+        ``section``, ``iterations`` (N: the LD sums over n from -N to N-1; no ``tau``), ``p``,
+        ``integrator={"escape_radius": R}`` and ``tiles``.
 
     Returns
     -------
@@ -47,6 +49,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     >>> m = ldpipe.ld_map(hh, section=ldpipe.section(y=(-0.45, 0.8, 41), py=(-0.5, 0.5, 41),
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
+    >>> henon = ldpipe.system(map="henon")
+    >>> d = ldpipe.ld_map(henon, section=ldpipe.section(x=(-1.5, 1.5, 101), y=(-0.5, 0.5, 101)),
+    ...                   iterations=10)  # doctest: +SKIP
     """
     entry = {"system": system.name, **energy_shorthand(spec)}
     with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):

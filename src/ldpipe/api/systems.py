@@ -29,12 +29,14 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     **spec
         The entry's keys: ``builtin`` (with ``parameters`` overriding the paper's values), or
         ``formula`` (a potential V(q)) or ``vector_field`` (dx/dt = f(x, t)) with ``coordinates``,
-        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables);
+        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables),
+        or ``map`` (a discrete map x_{n+1} = f(x_n): ``"henon"``, ``"standard"``, or formulas with
+        ``coordinates``, an ``inverse`` and ``periodic`` coordinates);
         ``parameters``, ``masses`` or ``mass_matrix``, ``equilibria`` (the equilibrium search).
 
     Returns
     -------
-    System, VectorFieldSystem or VelocityDataSystem
+    System, VectorFieldSystem, VelocityDataSystem or DiscreteMapSystem
         The compiled system; its ``spec`` is the validated entry, defaults filled in.
 
     Raises
@@ -50,7 +52,7 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     >>> hh.coordinates
     ('x', 'y')
     """
-    builtin = spec.get("builtin")
+    builtin = spec.get("builtin", spec.get("map"))
     # a built-in's name names its entry, unless it is no name at all (then the entry's error says so)
     name = name or (builtin if isinstance(builtin, str) and builtin.isidentifier() else None) or "system"
     with arguments_of("system", entry_key("system", "systems", name)):

@@ -22,7 +22,7 @@ from ..systems import SYSTEM_KINDS, system_coordinates, system_kind
 from ..systems.kinds import kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .figures import check_figures
-from .maps import check_interval, check_ld_maps
+from .maps import check_interval, check_ld_maps, given_map_keys
 from .studies import (
     check_accuracy_cost,
     check_nhim,
@@ -200,6 +200,7 @@ def validate_config(config: dict) -> dict:
     if not isinstance(config, dict):
         raise ConfigError(f"the configuration must be a mapping of keys to values, got {type(config).__name__}")
     validator = _schema_validator()
+    given = given_map_keys(config)  # before the schema fills defaults in: a map refuses a tau it was given
     # The deepest error names the key most precisely: list those first.
     errors = sorted(_schema_errors(config, validator), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
     check_finite(config)  # after _schema_errors, which reads '1e999' as the float it means
@@ -207,7 +208,7 @@ def validate_config(config: dict) -> dict:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
     _check_semantics(config)
-    check_ld_maps(config)
+    check_ld_maps(config, given)
     check_orbits(config)
     check_nhim_sampling(config)
     check_figures(config)

@@ -91,6 +91,8 @@ class System(Unbounded):
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
 
     @property
     def n_dof(self) -> int:

@@ -8,6 +8,7 @@ energy over the critical energy of an index-1 saddle, and its fixed coordinates 
 (the saddle's value), both read from the system's equilibria. :func:`ld_map_dataset` is the
 whole map; :func:`ld_map_tile` and :func:`gather_ld_map` the same map in tiles, each a job of
 the workflow. Each returns the Dataset its file holds (:func:`ldpipe.io.datafile.stage_dataset`).
+A discrete map's LD map (:mod:`ldpipe.core.maps.discrete`) is tiled, gathered and recorded the same way.
 """
 
 from __future__ import annotations
@@ -22,9 +23,10 @@ from ...errors import ConfigError
 from ...io.contracts import FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ...io.datafile import MANAGED_ATTRIBUTES, stage_dataset, stage_parameters
 from ...logs import get_logger
-from ...systems import on_sphere, system_phase_coordinates
+from ...systems import is_discrete_map, on_sphere, system_phase_coordinates
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
+from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
 from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
@@ -114,6 +116,10 @@ def compute_ld_map(
 ) -> xr.Dataset:
     """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
     use_threads(threads)
+    if is_discrete_map(parameters["system_spec"]):  # iterated, not integrated: no time, energy or engine settings
+        dataset = discrete_ld_dataset(parameters, tile=tile, tiles=tiles)
+        note_allowed_points(dataset, whole_map=tiles == 1)
+        return dataset
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
         index, band, bands = start_time_band(starts, tile, tiles)
