@@ -120,9 +120,19 @@ def _kinds_requirement() -> str:
     for kind in SYSTEM_KINDS.values():
         for key in kind.excluded:
             refuses.setdefault(key, []).append(kind.noun)
+    refused_by = {}  # the keys the same kinds refuse, in one note
+    for key, nouns in refuses.items():
+        refused_by.setdefault(tuple(nouns), []).append(key)
     notes = [f"{' or '.join(nouns)} also needs '{key}'" for key, nouns in needs.items()]
-    notes += [f"{' or '.join(nouns)} takes no '{key}'" for key, nouns in refuses.items()]
+    notes += [f"{_listed(nouns, 'and')} take{'s' if len(nouns) == 1 else ''} no {_listed([repr(k) for k in keys], 'or')}"
+              for nouns, keys in refused_by.items()]
     return kinds_text() + (f" ({'; '.join(notes)})" if notes else "")
+
+
+def _listed(items, conjunction: str) -> str:
+    """``a, b and c``."""
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + f" {conjunction} " + items[-1]
 
 
 def _check_semantics(config: dict) -> None:
