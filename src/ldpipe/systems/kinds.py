@@ -207,9 +207,7 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
     "map": SystemKind(
         key="map", noun="a map", hamiltonian=False, build=_build_map, coordinates=map_coordinates,
         classes=(DiscreteMapSystem,), required=("map",), excluded=("masses", "mass_matrix"), caption=map_caption,
-        check=check_map, discrete=True,
-        # fixed points of a map are roots of f(x) - x, not of a vector field: the equilibrium stage does not apply
-        has_equilibria=lambda name, spec: False,
+        check=check_map, discrete=True,  # its equilibria are its fixed points
     ),
 }
 
