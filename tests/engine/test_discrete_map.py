@@ -62,17 +62,19 @@ def test_linear_saddle_map_ld_is_its_closed_form(saddle, p):
 
 
 def test_an_escaping_orbit_holds_the_iterations_inside(saddle):
-    """Starts whose forward orbit passes the radius R: flagged, with the closed form's partial sum
-    over k = floor(log(R / |x0|) / log l) iterations (R chosen off every iterate)."""
+    """Starts whose orbit passes the radius R (x forward, y backward): flagged, with the closed
+    form's partial sum over k = floor(log(R / |x0|) / log l) iterations (R chosen off every
+    iterate), no term of the iteration that left."""
     n, p, radius = 30, 0.5, 10.3
     starts = np.array([[0.7, 0.2], [-0.013, 0.4], [4.0, -1.0], [11.0, 0.0]])
-    result = iterate_map_ld(saddle, starts, n, p, 1, radius)
-    held = [min(n, math.floor(math.log(radius / abs(x0)) / math.log(LAMBDA))) if abs(x0) <= radius else 0
-            for x0, _ in starts]
-    assert result.iterations.tolist() == held
-    assert result.escaped.tolist() == [k < n for k in held]
-    expected = [saddle_halves(x0, y0, k, p)[0] for (x0, y0), k in zip(starts, held)]
-    np.testing.assert_allclose(result.ld, expected, rtol=1e-13)
+    for direction, grows in ((1, 0), (-1, 1)):
+        result = iterate_map_ld(saddle, starts[:, ::direction], n, p, direction, radius)
+        held = [min(n, math.floor(math.log(radius / abs(x0)) / math.log(LAMBDA))) if abs(x0) <= radius else 0
+                for x0, _ in starts]
+        assert result.iterations.tolist() == held
+        assert result.escaped.tolist() == [k < n for k in held]
+        expected = [saddle_halves(*start[::direction], k, p)[grows] for start, k in zip(starts, held)]
+        np.testing.assert_allclose(result.ld, expected, rtol=1e-13)
 
 
 def test_an_overflowing_orbit_is_flagged_not_infinite():

@@ -1,0 +1,161 @@
+"""Maps through the stages: the Hénon map's fixed points against their closed form, its LD's
+sharp features against its manifolds, and a map's LD file from a configuration alone.
+
+The Hénon map (x, y) -> (1 - a x^2 + y, b x) has fixed points x* = (-(1 - b) +- sqrt((1 - b)^2
++ 4 a)) / (2 a), y* = b x*, and its tangent map [[-2 a x, 1], [b, 0]] has the multipliers
+lambda = -a x* +- sqrt(a^2 x*^2 + b) there (the roots of lambda^2 + 2 a x* lambda - b).
+
+The manifolds come from an independent method: a fundamental segment of the saddle's eigenvector
+iterated by the map (unstable) or its inverse (stable), :mod:`ldpipe.core.orbits.map_manifolds`,
+no LD. Lopesino et al. (2015): the forward LD is singular (a cusp, |distance|^p times a factor
+growing like lambda_u^(N p)) along the stable manifold, the backward LD along the unstable one.
+A feature of the grid's LD is a pixel below both its neighbours along a row or a column; the
+manifold's points in the window lie within 1.5 grid spacings of one (a feature pixel is within
+h / sqrt(2) of where the curve crosses its line: 0.72 to 0.80 h measured, at every resolution),
+and the same points shifted by 5 spacings across the manifold do not (a control that fails where
+features are everywhere).
+"""
+
+import cmath
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+import ldpipe
+from ldpipe.config import validate_config
+from ldpipe.config.parameters import parameters_from_config
+from ldpipe.core.orbits.map_manifolds import fixed_point_manifold
+from ldpipe.io.datafile import open_stage_file, stage_parameters
+from ldpipe.io.filediff import compare_files
+from ldpipe.stages.equilibria import run_equilibria
+from ldpipe.stages.ld import run_ld_gather, run_ld_map, run_ld_tile
+
+#: Tolerance and control shift, in grid spacings (see the module docstring).
+FEATURE_TOLERANCE = 1.5
+CONTROL_SHIFT = 5.0
+
+
+def henon_fixed_points(a: float, b: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(x*, y*) and the two multipliers (decreasing modulus) of each fixed point, in closed form."""
+    points = []
+    for sign in (1, -1):
+        x = (-(1 - b) + sign * math.sqrt((1 - b) ** 2 + 4 * a)) / (2 * a)
+        root = cmath.sqrt(a * a * x * x + b)  # imaginary at an elliptic point
+        multipliers = sorted([-a * x + root, -a * x - root], key=abs, reverse=True)
+        points.append((np.array([x, b * x]), np.array(multipliers)))
+    return sorted(points, key=lambda point: tuple(point[0]))
+
+
+@pytest.mark.parametrize("a, b, types", [(1.4, 0.3, ["saddle", "saddle"]), (1.0, -1.0, ["saddle", "non-hyperbolic"])])
+def test_henon_fixed_points_and_multipliers_are_their_closed_form(a, b, types):
+    henon = ldpipe.system(name="henon", map="henon", parameters={"a": a, "b": b})
+    found = ldpipe.equilibria(henon)
+    expected = henon_fixed_points(a, b)
+    np.testing.assert_allclose(found.position.values, [point for point, _ in expected], rtol=1e-12, atol=1e-14)
+    multipliers = found.eigenvalue_real.values + 1j * found.eigenvalue_imag.values
+    np.testing.assert_allclose(multipliers, [m for _, m in expected], rtol=1e-12, atol=1e-14)
+    assert found.type.values.tolist() == types
+    # the eigenvector of each multiplier: Df v = lambda v
+    for index, (point, _) in enumerate(expected):
+        jacobian = np.array([[-2 * a * point[0], 1.0], [b, 0.0]])
+        for mode in range(2):
+            vector = found.eigenvector_real.values[index, mode] + 1j * found.eigenvector_imag.values[index, mode]
+            np.testing.assert_allclose(jacobian @ vector, multipliers[index, mode] * vector, atol=1e-12)
+
+
+def features(ld: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The points of the pixels below both neighbours along a row or a column."""
+    found = np.zeros(ld.shape, dtype=bool)
+    found[1:-1, :] |= (ld[1:-1, :] < ld[:-2, :]) & (ld[1:-1, :] < ld[2:, :])
+    found[:, 1:-1] |= (ld[:, 1:-1] < ld[:, :-2]) & (ld[:, 1:-1] < ld[:, 2:])
+    grid_x, grid_y = np.meshgrid(x, y, indexing="ij")
+    return np.column_stack([grid_x[found], grid_y[found]])
+
+
+def manifold_distances(ld_map, half: str, manifold: np.ndarray, centre: np.ndarray, half_width: float,
+                       normal: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Distances, in grid spacings, from the manifold's points inside the window (less a border
+    of two pixels) to the nearest feature of the LD half, and from the same points shifted
+    across the manifold by :data:`CONTROL_SHIFT` spacings."""
+    spacing = float(ld_map.x.values[1] - ld_map.x.values[0])
+    points = manifold.reshape(-1, 2)
+    points = points[np.all(np.isfinite(points), axis=1)]
+    points = points[np.all(np.abs(points - centre) < half_width - 2 * spacing, axis=1)]
+    tree = cKDTree(features(ld_map[half].values, ld_map.x.values, ld_map.y.values))
+    distance = tree.query(points)[0] / spacing
+    shifted = tree.query(points + CONTROL_SHIFT * spacing * normal)[0] / spacing
+    return distance, shifted, spacing
+
+
+@pytest.mark.parametrize("a, b, iterations, halves", [
+    (1.0, -1.0, 4, ("ld_forward", "ld_backward")),  # area preserving: both manifolds, no orbit escapes in N
+    (1.4, 0.3, 6, ("ld_forward",)),  # Hénon's attractor: the backward orbits escape; the stable manifold
+])
+def test_henon_ld_features_lie_on_the_saddles_manifolds(a, b, iterations, halves):
+    henon = ldpipe.system(name="henon", map="henon", parameters={"a": a, "b": b})
+    fixed = ldpipe.equilibria(henon)
+    saddle = int(np.flatnonzero(fixed.type.values == "saddle")[-1])
+    centre = fixed.position.values[saddle]
+    multipliers = fixed.eigenvalue_real.values[saddle]
+    vectors = fixed.eigenvector_real.values[saddle]
+    manifolds = {
+        "ld_forward": (fixed_point_manifold(henon, centre, multipliers[1], vectors[1], stable=True, iterations=40,
+                                            first_distance=1e-6), vectors[1]),
+        "ld_backward": (fixed_point_manifold(henon, centre, multipliers[0], vectors[0], stable=False, iterations=40,
+                                             first_distance=1e-6), vectors[0]),
+    }
+    half_width = 0.05
+    for points in (101, 201):  # the tolerance, in spacings, shrinks with the grid
+        section = ldpipe.section(x=(centre[0] - half_width, centre[0] + half_width, points),
+                                 y=(centre[1] - half_width, centre[1] + half_width, points))
+        ld_map = ldpipe.ld_map(henon, section=section, iterations=iterations)
+        for half in halves:
+            manifold, tangent = manifolds[half]
+            normal = np.array([-tangent[1], tangent[0]])
+            distance, shifted, spacing = manifold_distances(ld_map, half, manifold, centre, half_width, normal)
+            assert len(distance) > 1000, (half, points)  # the manifold crosses the window
+            assert distance.max() < FEATURE_TOLERANCE, (half, points, distance.max())
+            assert np.mean(shifted < FEATURE_TOLERANCE) < 0.05, (half, points)
+
+
+def map_config(tiles: int = 1) -> dict:
+    return validate_config({
+        "systems": {"henon": {"map": "henon", "equilibria": {"box": {"x": [-2.0, 2.0], "y": [-1.0, 1.0]}}}},
+        "ld_maps": {"h": {"system": "henon", "iterations": 8, "p": 0.5, "tiles": tiles,
+                          "section": {"axes": [{"name": "x", "range": [-1.5, 1.5], "points": 31},
+                                               {"name": "y", "range": [-0.6, 0.6], "points": 17}]},
+                          "integrator": {"escape_radius": 50.0}}},
+    })
+
+
+def test_a_map_file_from_a_configuration_alone(tmp_path):
+    """The LD stage's jobs on a map entry: two tiles gathered equal the one-job map bit for bit,
+    escapes flagged with finite sums (no inf or NaN in the file), N and p recorded; the
+    equilibria stage writes the fixed points."""
+    config = map_config(tiles=2)
+    parameters = parameters_from_config(config, "ld", "h")
+    assert "tau" not in parameters and parameters["integrator"] == {"escape_radius": 50.0}
+    tiles = [run_ld_tile(**parameters, output=tmp_path / f"tile-{tile}.nc", equilibria=None, tile=tile, tiles=2,
+                         show_progress=False) for tile in range(2)]
+    gathered = run_ld_gather(tiles=tiles, output=tmp_path / "gathered.nc")
+    alone = run_ld_map(**parameters, output=tmp_path / "alone.nc", equilibria=None, tiles=1, show_progress=False)
+    differences = compare_files(gathered, alone)
+    # the variables bit for bit; the attributes but for the count of tiles (also in the parameters)
+    assert {d.where for d in differences} == {"attribute 'tiles'", "attribute 'parameters'"}, \
+        [str(d) for d in differences]
+    assert {**stage_parameters(open_stage_file(alone, stage="ld_grid")), "tiles": 2} == \
+        stage_parameters(open_stage_file(gathered, stage="ld_grid"))
+    ld_map = open_stage_file(gathered, stage="ld_grid")
+    assert ld_map.escaped_forward.values.any() and not ld_map.escaped_forward.values.all()
+    for name in ("ld_forward", "ld_backward"):
+        assert np.isfinite(ld_map[name].values).all()
+    escaped = ld_map.escaped_forward.values
+    assert (ld_map.iterations_forward.values[escaped] < 8).all() and (ld_map.iterations_forward.values[~escaped] == 8).all()
+    assert ld_map.attrs["iterations"] == 8 and ld_map.attrs["p"] == 0.5 and ld_map.attrs["escape_radius"] == 50.0
+    assert stage_parameters(ld_map)["iterations"] == 8
+    fixed = open_stage_file(run_equilibria(**parameters_from_config(config, "equilibria", "henon"),
+                                           output=tmp_path / "equilibria.nc"), stage="flow_equilibria")
+    np.testing.assert_allclose(fixed.position.values, [point for point, _ in henon_fixed_points(1.4, 0.3)],
+                               rtol=1e-12)
