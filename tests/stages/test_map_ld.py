@@ -17,6 +17,7 @@ features are everywhere).
 """
 
 import cmath
+import copy
 import math
 
 import numpy as np
@@ -135,8 +136,11 @@ def test_a_map_file_from_a_configuration_alone(tmp_path):
     escapes flagged with finite sums (no inf or NaN in the file), N and p recorded; the
     equilibria stage writes the fixed points."""
     config = map_config(tiles=2)
+    # the flow's defaults (tau, time, the integrator's) taken out: validating again changes nothing
+    assert validate_config(copy.deepcopy(config)) == config
     parameters = parameters_from_config(config, "ld", "h")
-    assert "tau" not in parameters and parameters["integrator"] == {"escape_radius": 50.0}
+    assert "tau" not in parameters and "time" not in parameters
+    assert parameters["integrator"] == {"escape_radius": 50.0}
     tiles = [run_ld_tile(**parameters, output=tmp_path / f"tile-{tile}.nc", equilibria=None, tile=tile, tiles=2,
                          show_progress=False) for tile in range(2)]
     gathered = run_ld_gather(tiles=tiles, output=tmp_path / "gathered.nc")

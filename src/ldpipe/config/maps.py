@@ -191,6 +191,18 @@ FLOW_ONLY_MAP_KEYS = {
 }
 
 
+def drop_flow_defaults(config: dict) -> None:
+    """Take out of each discrete map's ``ld_maps`` entry what the schema filled in for a flow in
+    time (``tau``, ``time``, the integrator's settings but the escape radius), once
+    :func:`check_ld_maps` has passed it: its parameters and file record only what a map reads,
+    and validating the configuration again finds nothing it was not given."""
+    for spec in config["ld_maps"].values():
+        if is_discrete_map(config["systems"][spec["system"]]):
+            for key in ("tau", "time"):
+                spec.pop(key, None)
+            spec["integrator"] = {"escape_radius": spec["integrator"]["escape_radius"]}
+
+
 def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict[str, set]) -> None:
     """An LD map of a discrete map: ``iterations`` instead of ``tau``, no time, energy or region,
     two axes and every other coordinate fixed; of the integrator's settings the escape radius alone."""

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .figures import figure_settings
-from ..systems import equilibrium_box, is_discrete_map, system_coordinates, system_spec
+from ..systems import equilibrium_box, system_coordinates, system_spec
 
 
 @dataclass(frozen=True)
@@ -80,12 +80,6 @@ def _map_entry(config: dict, entry: dict) -> None:
         axis["points"] = _capped(axis["points"], config)
     if entry.get("refine", False) is None:  # a full map, as if the block were left out
         del entry["refine"]
-    if is_discrete_map(config["systems"][entry["system"]]):
-        # a map counts iterations: the flow's time keys (the schema's defaults) do not apply, and
-        # of the integrator's settings it reads the escape radius alone
-        for key in ("tau", "time"):
-            entry.pop(key, None)
-        entry["integrator"] = {"escape_radius": entry["integrator"]["escape_radius"]}
 
 
 def _equilibria(config: dict, system_name: str, entry: dict) -> dict:
