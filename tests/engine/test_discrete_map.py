@@ -46,9 +46,10 @@ def saddle_halves(x0, y0, n: int, p: float) -> tuple[float, float]:
             scale * (abs(y0) ** p * grow + abs(x0) ** p * shrink))
 
 
-@pytest.mark.parametrize("p", [0.5, 1.0])
+@pytest.mark.parametrize("p", [0.5, 1.0, 0.3])
 def test_linear_saddle_map_ld_is_its_closed_form(saddle, p):
-    """Every pixel's halves equal the geometric sums (to rounding: a few ulps of ~N terms)."""
+    """Every pixel's halves equal the geometric sums (to rounding: a few ulps of ~N terms); the
+    driver's square root (p = 1/2), absolute value (p = 1) and power (any other p) each."""
     n = 12
     ld = ldpipe.ld_map(saddle, section=ldpipe.section(x=(-1.0, 0.75, 8), y=(-0.8, 0.6, 9)), iterations=n, p=p,
                        integrator={"escape_radius": 1e6})

@@ -22,7 +22,7 @@ from ..systems import SYSTEM_KINDS, system_coordinates, system_kind
 from ..systems.kinds import kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .figures import check_figures
-from .maps import check_interval, check_ld_maps, given_map_keys
+from .maps import check_interval, check_ld_maps, drop_flow_defaults, given_map_keys
 from .studies import (
     check_accuracy_cost,
     check_nhim,
@@ -219,6 +219,7 @@ def validate_config(config: dict) -> dict:
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
     _check_semantics(config)
     check_ld_maps(config, given)
+    drop_flow_defaults(config)
     check_orbits(config)
     check_nhim_sampling(config)
     check_figures(config)

@@ -9,8 +9,8 @@ module is the system's kernel source (``step``, and ``inverse`` when the map has
 starts on every thread (:func:`ldpipe.engine.integrator.run_units`; the driver releases the GIL).
 
 A compiled loop, not numpy over the whole grid: a step of the Hénon map is a few flops, and
-numpy would pass over the grid's arrays once per operation per iteration
-(``benchmarks/map_ld.py`` measures both).
+numpy passes over the grid's arrays once per operation per iteration; on a 1000 x 1000 grid
+the loop takes a seventh of numpy's CPU time (``benchmarks/map_ld.py``, ``benchmarks/HISTORY.md``).
 """
 
 from __future__ import annotations

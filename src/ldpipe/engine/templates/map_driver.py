@@ -47,7 +47,12 @@ def map_process(states, start, stop, iterations, p, radius, backward, o_ld, o_it
                 else:
                     difference = value - x[i]
                 y[i] = value
-                increment += abs(difference) ** p
+                if p == 0.5:  # the default exponent: a square root costs a fraction of a power
+                    increment += math.sqrt(abs(difference))
+                elif p == 1.0:
+                    increment += abs(difference)
+                else:
+                    increment += abs(difference) ** p
             if escaped:
                 break
             total += increment
