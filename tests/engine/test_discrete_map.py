@@ -1,18 +1,10 @@
 """The discrete LD of maps x_{n+1} = f(x_n) against closed forms, and the map kind's refusals.
 
 The discrete LD (Lopesino et al. 2015) is M_p = sum_{n=-N}^{N-1} sum_i |x^i_{n+1} - x^i_n|^p;
-ld_forward holds n = 0 .. N-1, ld_backward n = -N .. -1.
-
-The linear saddle map x -> l x, y -> y / l (l > 1; inverse x -> x / l, y -> l y) has the orbit
-x_n = l^n x0, y_n = l^-n y0, so |x_{n+1} - x_n| = |x0| l^n (l - 1) and |y_{n+1} - y_n| =
-|y0| l^-(n+1) (l - 1). With S(r, N) = sum_{n=0}^{N-1} r^n = (r^N - 1) / (r - 1):
-
-    forward  = (l - 1)^p (|x0|^p S(l^p, N) + |y0|^p l^-p S(l^-p, N)),
-    backward = (l - 1)^p (|y0|^p S(l^p, N) + |x0|^p l^-p S(l^-p, N))
-
-(backward: n = -m, m = 1 .. N: |x_{n+1} - x_n| = |x0| (l - 1) l^-m and |y_{n+1} - y_n| =
-|y0| (l - 1) l^(m-1)). An orbit that escapes the radius R holds the k iterations whose iterate
-stays inside: the forward half with N replaced by k = min(N, floor(log(R / |x0|) / log l)).
+ld_forward holds n = 0 .. N-1, ld_backward n = -N .. -1. The linear saddle map's halves are
+geometric sums (derived in ``support/linear_saddle_map.py``); an orbit that escapes the radius
+R holds the k iterations whose iterate stays inside: the half with N replaced by
+k = min(N, floor(log(R / |x0|) / log l)).
 """
 
 import math
@@ -24,26 +16,12 @@ import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.engine.discrete_map import iterate_map_ld
 from ldpipe.errors import ConfigError
-
-LAMBDA = 1.5
+from support.linear_saddle_map import LAMBDA, SPEC, saddle_halves
 
 
 @pytest.fixture(scope="module")
 def saddle():
-    return ldpipe.system(name="linear_saddle", map={"x": "l*x", "y": "y/l"}, inverse={"x": "x/l", "y": "l*y"},
-                         coordinates=["x", "y"], parameters={"l": LAMBDA})
-
-
-def geometric(r: float, n: int) -> float:
-    return n if r == 1 else (r**n - 1) / (r - 1)
-
-
-def saddle_halves(x0, y0, n: int, p: float) -> tuple[float, float]:
-    """The linear saddle map's forward and backward halves (the module docstring's closed form)."""
-    grow, shrink = geometric(LAMBDA**p, n), LAMBDA**-p * geometric(LAMBDA**-p, n)
-    scale = (LAMBDA - 1) ** p
-    return (scale * (abs(x0) ** p * grow + abs(y0) ** p * shrink),
-            scale * (abs(y0) ** p * grow + abs(x0) ** p * shrink))
+    return ldpipe.system(name="linear_saddle", **SPEC)
 
 
 @pytest.mark.parametrize("p", [0.5, 1.0, 0.3])

@@ -23,6 +23,8 @@ from .codegen import assemble, load_modules, template
 from .integrator import kept_runner, run_units
 
 ENTRY = "map_process"
+#: The fast Lyapunov indicator's driver, in the same module.
+FLI_ENTRY = "map_fli"
 # What a map without an inverse gives in its place: never called (the core refuses a backward
 # half first, naming the entry's inverse key), but the driver's source names it.
 NO_INVERSE = '''
@@ -47,17 +49,20 @@ class MapLDResult(NamedTuple):
 
 def map_modules(system):
     """The texts of the generated module of ``system``'s iteration (see the module docstring)."""
-    kernels = ("step", "inverse") if system.has_inverse else ("step",)
+    kernels = ("step", "inverse", "jacobian") if system.has_inverse else ("step", "jacobian")
     constants = {"N": system.n_state, "PERIODS": np.asarray(system.periods, dtype=float)}
     bodies = [] if system.has_inverse else [("no inverse", NO_INVERSE)]
-    bodies.append(("map_driver", template("map_driver")))
+    bodies += [("map_driver", template("map_driver")), ("map_tangent", template("map_tangent"))]
     title = f"ldpipe.engine.discrete_map: {system.n_state} coordinates"
     return assemble(system, f"map_engine_{system.engine_name}", title, kernels, constants, bodies)
 
 
-def get_map_runner(system):
-    """``map_process`` for ``system``, kept per live system (compiled lazily, or loaded from disk)."""
-    return kept_runner(system, ("discrete_map", ENTRY), lambda: getattr(load_modules(map_modules(system)), ENTRY))
+def get_map_runner(system, entry: str = ENTRY):
+    """``map_process`` (or ``map_fli``) for ``system``, kept per live system (compiled lazily, or
+    loaded from disk)."""
+    if entry not in (ENTRY, FLI_ENTRY):
+        raise ValueError(f"entry: expected {ENTRY!r} or {FLI_ENTRY!r}, got {entry!r}")
+    return kept_runner(system, ("discrete_map", entry), lambda: getattr(load_modules(map_modules(system)), entry))
 
 
 def iterate_map_ld(system, states: np.ndarray, iterations: int, p: float, direction: int,
@@ -88,3 +93,24 @@ def iterate_map_ld(system, states: np.ndarray, iterations: int, p: float, direct
         run_units(get_map_runner(system), states, max(1, min(4096, count // (8 * threads) or 1)), args, outputs,
                   threads)
     return MapLDResult(*outputs)
+
+
+def fast_lyapunov_indicator(system, states: np.ndarray, iterations: int, escape_radius: float) -> tuple[np.ndarray,
+                                                                                                       np.ndarray]:
+    """The fast Lyapunov indicator max_{n <= N} log10 |w_n| of each row of ``states`` over
+    ``iterations`` iterations of the tangent map (see the template ``map_tangent``), and whether
+    the orbit escaped ``escape_radius`` first: ``(fli, escaped)``."""
+    from numba import get_num_threads
+
+    n = system.n_state
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if states.ndim != 2 or states.shape[1] != n:
+        raise ValueError(f"states: expected shape (N, {n}) with rows {system.coordinates} for {system.name}, "
+                         f"got {states.shape}")
+    count = states.shape[0]
+    outputs = (np.zeros(count), np.zeros(count, dtype=np.bool_))
+    if count:
+        threads = get_num_threads()
+        run_units(get_map_runner(system, FLI_ENTRY), states, max(1, min(1024, count // (8 * threads) or 1)),
+                  (int(iterations), float(escape_radius)), outputs, threads)
+    return outputs

@@ -17,18 +17,19 @@ Formulas are checked by :mod:`ldpipe.systems.grammar` and parsed by
 :func:`ldpipe.systems.formula.parse_formulas` (never evaluated); the kernels
 
 ``step(state, out)``, ``inverse(state, out)``
-    write f(state) (f^-1(state)) into ``out``, periodic coordinates not yet wrapped,
+    write f(state) (f^-1(state)) into ``out``, periodic coordinates not yet wrapped;
+``jacobian(state, out)``
+    writes the tangent map Df(state), ``out[i, k] = df_i/dx_k`` (derived by sympy),
 
 are printed as source, which :mod:`ldpipe.engine.discrete_map` compiles into its iteration
-module, and compiled here too for the Python-level :meth:`DiscreteMapSystem.step`. The tangent
-map Df (``jacobian(state, out)``) is compiled when first asked for.
+module, and compiled here too (each on its first call) for :meth:`DiscreteMapSystem.step` and
+:meth:`DiscreteMapSystem.jacobian`.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Callable, ClassVar
 
 import numpy as np
@@ -151,15 +152,22 @@ def _function_source(name: str, coordinates, outputs) -> str:
 
 
 def _kernel_source(name: str, coordinates, forward, inverse, key: str) -> str:
+    import sympy
     from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
-    functions = [("step", "map", forward)] + ([("inverse", "inverse", inverse)] if inverse is not None else [])
+    symbols = [sympy.Symbol(c, real=True) for c in coordinates]
+    functions = [("step", "map", [(f"out[{i}]", f) for i, f in enumerate(forward)])]
+    functions += [("inverse", "inverse", [(f"out[{i}]", f) for i, f in enumerate(inverse)])] if inverse is not None else []
+    # the tangent map Df, out[i, k] = df_i/dx_k: what the chaos indicators' deviation vectors iterate
+    functions.append(("jacobian", "map", [(f"out[{i}, {k}]", sympy.diff(f, s))
+                                          for i, f in enumerate(forward) for k, s in enumerate(symbols)]))
     parts = []
-    for function, place, expressions in functions:
+    for function, place, outputs in functions:
         try:
-            parts.append(_function_source(function, coordinates, [(f"out[{i}]", f) for i, f in enumerate(expressions)]))
+            parts.append(_function_source(function, coordinates, outputs))
         except PrintMethodNotImplementedError as error:
-            raise ConfigError(f"config key '{key}.{place}': a term cannot be compiled ({error})") from None
+            raise ConfigError(f"config key '{key}.{place}': a term of the map or its tangent map cannot be compiled "
+                              f"({error}); the map must be differentiable in the allowed functions") from None
     return "import math\n\n\n" + "\n\n".join(parts)
 
 
@@ -169,7 +177,8 @@ class DiscreteMapSystem(Unbounded):
 
     ``expressions`` are the components of f (parameters substituted), ``inverse_expressions``
     those of f^-1 (None: no inverse given); ``periods`` one per coordinate (0: not periodic);
-    ``kernel_source`` the source of ``step`` (and ``inverse``), undecorated.
+    ``kernel_source`` the source of ``step`` (and ``inverse``) and ``jacobian``, undecorated;
+    ``kernels`` those functions compiled, in that order.
     """
 
     name: str
@@ -239,20 +248,10 @@ class DiscreteMapSystem(Unbounded):
         self.kernels[0 if direction == 1 else 1](np.ascontiguousarray(state, dtype=np.float64), out)
         return self.wrap(out)
 
-    @cached_property
-    def _jacobian_kernel(self) -> Callable:
-        import sympy
-
-        symbols = [sympy.Symbol(c, real=True) for c in self.coordinates]
-        outputs = [(f"out[{i}, {k}]", sympy.diff(f, s))
-                   for i, f in enumerate(self.expressions) for k, s in enumerate(symbols)]
-        source = "import math\n\n\n" + _function_source("jacobian", self.coordinates, outputs)
-        return njit_functions(source, ("jacobian",), f"map_jacobian_{self.name}")[0]
-
     def jacobian(self, state: np.ndarray) -> np.ndarray:
         """Df at ``state`` (the tangent map), ``out[i, k] = df_i/dx_k``."""
         out = np.empty((self.n_state, self.n_state))
-        self._jacobian_kernel(np.ascontiguousarray(state, dtype=np.float64), out)
+        self.kernels[-1](np.ascontiguousarray(state, dtype=np.float64), out)
         return out
 
 
@@ -268,7 +267,7 @@ def make_discrete_map_system(name: str, spec: dict, key: str) -> DiscreteMapSyst
         inverse_expressions = parse_formulas({f"inverse.{c}": inverse[c] for c in coordinates}, coordinates,
                                              parameters, key, RESERVED_NAMES)
     source = _kernel_source(name, coordinates, expressions, inverse_expressions, key)
-    names = ("step", "inverse") if inverse is not None else ("step",)
+    names = ("step", "inverse", "jacobian") if inverse is not None else ("step", "jacobian")
     kernels = tuple(njit_functions(source, names, f"map_{name}"))
     if isinstance(spec["map"], str):
         text = MAP_BUILTINS[spec["map"]]["title"]

@@ -147,7 +147,8 @@ class MapModel(SystemModel, Protocol):
     """A discrete map x_{n+1} = f(x_n), iterated by ``ldpipe.engine.discrete_map``, with an
     optional inverse for backward iterations (:class:`ldpipe.systems.discrete_map.DiscreteMapSystem`)."""
 
-    #: The source of ``step(state, out)`` and (with an inverse) ``inverse(state, out)``, undecorated.
+    #: The source of ``step(state, out)``, (with an inverse) ``inverse(state, out)`` and the tangent
+    #: map's ``jacobian(state, out)``, undecorated.
     kernel_source: str
     #: The inverse map is given: backward iterations are possible.
     has_inverse: bool
