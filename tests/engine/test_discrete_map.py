@@ -116,10 +116,12 @@ def test_a_map_refuses_a_flows_keys_naming_them(saddle, keys, message):
         ldpipe.ld_map(saddle, section=section, **keys)
 
 
-def test_a_flow_refuses_iterations():
+def test_a_flow_refuses_a_maps_keys():
     flow = ldpipe.system(name="flow_saddle", vector_field={"x": "x", "y": "-y"}, coordinates=["x", "y"])
     with pytest.raises(ConfigError, match="argument 'iterations': .*flow in time"):
         ldpipe.ld_map(flow, section=ldpipe.section(x=(-1.0, 1.0, 3), y=(-1.0, 1.0, 3)), iterations=4)
+    with pytest.raises(ConfigError, match="argument 'chaos_indicators': .*flow in time"):
+        ldpipe.ld_map(flow, section=ldpipe.section(x=(-1.0, 1.0, 3), y=(-1.0, 1.0, 3)), chaos_indicators={})
 
 
 @pytest.mark.parametrize("spec, message", [

@@ -163,3 +163,42 @@ def test_a_map_file_from_a_configuration_alone(tmp_path):
                                            output=tmp_path / "equilibria.nc"), stage="flow_equilibria")
     np.testing.assert_allclose(fixed.position.values, [point for point, _ in henon_fixed_points(1.4, 0.3)],
                                rtol=1e-12)
+
+
+def test_a_maps_chaos_indicators_in_its_file_are_the_cores_tile_by_tile():
+    """A standard-map LD map with ``chaos_indicators``: each point's indicators and FLI are those
+    of ``chaos_indicators`` on the same starts (bit for bit: the same engine calls per point), two
+    tiles gathered equal one, and the whole map's classifications and agreements are recorded."""
+    from ldpipe.core.maps.chaos import INDICATORS, chaos_indicators
+
+    standard = ldpipe.system(name="standard", map="standard")
+    section = ldpipe.section(theta=(0.0, 6.0, 24), p=(0.0, 6.0, 20))
+    keys = {"iterations": 40, "chaos_indicators": {"sigma": 1e-5, "fli_iterations": 300}}
+    whole = ldpipe.ld_map(standard, section=section, **keys)
+    tiled = ldpipe.ld_map(standard, section=section, tiles=2, **keys)
+    for name in whole.data_vars:
+        np.testing.assert_array_equal(tiled[name].values, whole[name].values, err_msg=name)
+    theta, momentum = np.meshgrid(whole.theta.values, whole.p.values, indexing="ij")
+    core = chaos_indicators(standard, np.column_stack([theta.ravel(), momentum.ravel()]), iterations=40,
+                            sigma=1e-5, reference_iterations=300)
+    for name in (*INDICATORS, "fli"):
+        np.testing.assert_array_equal(whole[name].values.ravel(), core[name].values, err_msg=name)
+    for name in INDICATORS:
+        np.testing.assert_array_equal(whole[f"chaotic_{name}"].values.ravel(), core[f"chaotic_{name}"].values)
+        assert whole.attrs[f"agreement_{name}"] == core.attrs[f"agreement_{name}"] > 0.5
+    assert whole.attrs["fli_regular_bound"] == pytest.approx(2 * math.log10(300))
+
+
+def test_the_guides_map_configurations_validate():
+    """docs/guide/maps-discrete.md's blocks, as a user would paste them into one configuration."""
+    import yaml
+
+    from support.workflow import documented_yaml
+
+    systems = {**yaml.safe_load(documented_yaml("Hénon's values, the defaults"))["systems"],
+               **yaml.safe_load(documented_yaml('inverse: {x: "x/l"'))["systems"]}
+    maps = {**yaml.safe_load(documented_yaml("henon_ld:"))["ld_maps"],
+            **yaml.safe_load(documented_yaml("standard_chaos:"))["ld_maps"]}
+    config = validate_config({"systems": systems, "ld_maps": maps})
+    assert sorted(config["systems"]) == ["henon", "saddle", "standard"]
+    assert parameters_from_config(config, "ld", "standard_chaos")["chaos_indicators"]["fli_iterations"] == 1000

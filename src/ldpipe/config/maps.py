@@ -74,6 +74,9 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
         if "iterations" in spec:
             raise ConfigError(f"config key '{key}.iterations': system {spec['system']!r} is a flow in time; its map "
                               "integrates over the time tau (iterations are of a discrete map)")
+        if spec.get("chaos_indicators") is not None:
+            raise ConfigError(f"config key '{key}.chaos_indicators': system {spec['system']!r} is a flow in time; "
+                              "the LD chaos indicators are of a discrete map's LD map")
         coordinates = system_coordinates(system)
         phase = system_phase_coordinates(system)
         axes = [axis["name"] for axis in spec["section"]["axes"]]

@@ -26,6 +26,7 @@ from ...logs import get_logger
 from ...systems import is_discrete_map, on_sphere, system_phase_coordinates
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
+from .chaos import add_map_classification
 from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
@@ -312,5 +313,6 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
+    add_map_classification(joined)  # a discrete map's chaos indicators, over the whole map
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})

@@ -102,6 +102,25 @@ def regular_fli_bound(reference_iterations: int) -> float:
     return 2 * float(np.log10(reference_iterations))
 
 
+def classify(indicators: dict[str, np.ndarray], defined: np.ndarray, fli: np.ndarray | None,
+             reference_iterations: int | None) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """Each indicator's classification (chaotic where log10 of it is above its Otsu threshold,
+    among the ``defined`` starts), and as attributes the thresholds and, with the ``fli`` over
+    ``reference_iterations``, each one's agreement with the FLI's classification."""
+    chaotic, attributes = {}, {}
+    reference = None if fli is None else fli > regular_fli_bound(reference_iterations)
+    for name in INDICATORS:
+        values = indicators[name]
+        logarithm = np.log10(np.where(defined & (values > 0), values, 1.0))
+        usable = defined & (values > 0)
+        threshold = otsu_threshold(logarithm[usable]) if usable.any() else 0.0
+        chaotic[name] = usable & (logarithm > threshold)
+        attributes[f"threshold_log10_{name}"] = threshold
+        if reference is not None and usable.any():
+            attributes[f"agreement_{name}"] = float(np.mean(chaotic[name][usable] == reference[usable]))
+    return chaotic, attributes
+
+
 def chaos_indicators(system, states: np.ndarray, *, iterations: int, sigma: float, reference_iterations: int,
                      p: float = 0.5, escape_radius: float = 100.0) -> xr.Dataset:
     """The LD indicators of ``states`` (one row a start) beside the FLI over ``reference_iterations``,
@@ -123,14 +142,28 @@ def chaos_indicators(system, states: np.ndarray, *, iterations: int, sigma: floa
     }
     attributes = {"iterations": iterations, "p": p, "sigma": sigma, "reference_iterations": reference_iterations,
                   "fli_regular_bound": bound, "escape_radius": escape_radius, "defined_starts": int(defined.sum())}
+    chaotic, classified = classify(found, defined, fli, reference_iterations)
     for name, text in INDICATORS.items():
-        logarithm = np.log10(np.where(defined & (found[name] > 0), found[name], np.nan))
-        usable = np.isfinite(logarithm)
-        threshold = otsu_threshold(logarithm[usable])
-        chaotic = usable & (logarithm > threshold)
         variables[name] = (("start",), found[name], {"long_name": text, "comment": "0 where not defined"})
-        variables[f"chaotic_{name}"] = (("start",), chaotic, {"long_name": f"chaotic by {name} (log10 above its "
-                                                                           "Otsu threshold)"})
-        attributes[f"threshold_log10_{name}"] = threshold
-        attributes[f"agreement_{name}"] = float(np.mean(chaotic[usable] == reference[usable]))
-    return xr.Dataset(variables, coords={"coordinate": list(system.coordinates)}, attrs=attributes)
+        variables[f"chaotic_{name}"] = (("start",), chaotic[name], {"long_name": f"chaotic by {name} (log10 above "
+                                                                                 "its Otsu threshold)"})
+    return xr.Dataset(variables, coords={"coordinate": list(system.coordinates)}, attrs={**attributes, **classified})
+
+
+def add_map_classification(dataset: xr.Dataset) -> None:
+    """A whole map file's classifications by its indicators (``chaotic_<indicator>``) and their
+    thresholds and agreements with its FLI, where it holds one, as attributes
+    (:func:`classify`): of the whole map, so after its tiles are gathered."""
+    if "ld_difference" not in dataset:
+        return
+    dims = dataset.allowed.dims
+    defined = dataset.indicator_defined.values
+    fli = dataset.fli.values if "fli" in dataset else None
+    if fli is not None:
+        defined = defined & ~dataset.fli_escaped.values
+    chaotic, attributes = classify({name: dataset[name].values for name in INDICATORS}, defined, fli,
+                                   dataset.attrs.get("fli_iterations"))
+    for name in INDICATORS:
+        dataset[f"chaotic_{name}"] = (dims, chaotic[name], {"long_name": f"chaotic by {name} (log10 above its Otsu "
+                                                                          "threshold over the whole map)"})
+    dataset.attrs.update(attributes)

@@ -11,7 +11,9 @@ beyond the escape radius, or not finite) is flagged (``escaped_*``): its half ho
 iterations before it left (``iterations_*``), never an infinity. The grid is the section's (two
 axes, every other coordinate fixed), split in tiles of rows as a flow's map is; the file has
 the variables and attributes of a flow's map where they apply (:mod:`ldpipe.core.maps.assembly`
-gathers and records it), with ``iterations`` and ``p`` recorded.
+gathers and records it), with ``iterations`` and ``p`` recorded. A ``chaos_indicators`` block
+adds each point's LD chaos indicators and, if asked, its FLI (:mod:`ldpipe.core.maps.chaos`);
+the whole map's classifications and their agreement are added when it is finished.
 """
 
 from __future__ import annotations
@@ -19,11 +21,12 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ...engine.discrete_map import iterate_map_ld
+from ...engine.discrete_map import fast_lyapunov_indicator, iterate_map_ld
 from ...engine.integrands import descriptor_attribute
 from ...logs import get_logger
 from ...systems import make_system
 from ..sections import Section, section_states
+from .chaos import INDICATORS, ld_indicators, regular_fli_bound
 from .grid import tile_rows
 
 log = get_logger(__name__)
@@ -68,10 +71,17 @@ def discrete_ld_dataset(parameters: dict, *, tile: int = 0, tiles: int = 1) -> x
         variables[f"escaped_{label}"] = (dims, result.escaped.reshape(shape), {
             "long_name": f"orbit escaped ({label}): an iterate beyond the escape radius, or not finite"})
     variables["allowed"] = (dims, allowed, {"long_name": "point iterated (a map: every point)"})
+    chaos = parameters.get("chaos_indicators")
+    if chaos is not None:
+        variables.update(indicator_variables(system, states, shape, dims, iterations, p, radius, chaos))
     coords = {name: (name, values, {"long_name": f"coordinate {name}"})
               for name, values in zip(section.axes, (section.axis_values()[0][rows], section.axis_values()[1]))}
     dataset = xr.Dataset(variables, coords=coords)
     periodic = [f"{c} mod {period!r}" for c, period in zip(system.coordinates, system.periods) if period]
+    if chaos is not None:
+        dataset.attrs.update({"sigma": chaos["sigma"], "fli_iterations": chaos["fli_iterations"] or 0,
+                              "fli_regular_bound": regular_fli_bound(chaos["fli_iterations"])
+                              if chaos["fli_iterations"] else 0.0})
     dataset.attrs.update({
         "map": parameters["map_name"],
         "system": parameters["system_name"],
@@ -86,3 +96,23 @@ def discrete_ld_dataset(parameters: dict, *, tile: int = 0, tiles: int = 1) -> x
         "tiles": tiles,
     })
     return dataset
+
+
+def indicator_variables(system, states: np.ndarray, shape: tuple, dims: tuple, iterations: int, p: float,
+                        radius: float, chaos: dict) -> dict:
+    """The map's ``chaos_indicators`` block made variables: each point's LD indicators from its
+    neighbours at ``sigma`` (:func:`ldpipe.core.maps.chaos.ld_indicators`, a point at a time, so
+    tiles change nothing), and its FLI over ``fli_iterations`` where asked for."""
+    found = ld_indicators(system, states, iterations, p, chaos["sigma"], radius)
+    variables = {name: (dims, found[name].reshape(shape), {"long_name": text, "comment": "0 where not defined"})
+                 for name, text in INDICATORS.items()}
+    variables["indicator_defined"] = (dims, found["defined"].reshape(shape), {
+        "long_name": "the LD indicators are defined: L > 0 and no orbit of the point or its neighbours escaped"})
+    if chaos["fli_iterations"]:
+        fli, escaped = fast_lyapunov_indicator(system, states, chaos["fli_iterations"], radius)
+        variables["fli"] = (dims, fli.reshape(shape), {
+            "long_name": f"fast Lyapunov indicator over {chaos['fli_iterations']} iterations of the tangent map",
+            "comment": "max over n of log10 |w_n|; chaotic above fli_regular_bound"})
+        variables["fli_escaped"] = (dims, escaped.reshape(shape), {
+            "long_name": "the orbit escaped before the FLI's iterations ended"})
+    return variables
