@@ -202,3 +202,26 @@ def test_the_guides_map_configurations_validate():
     config = validate_config({"systems": systems, "ld_maps": maps})
     assert sorted(config["systems"]) == ["henon", "saddle", "standard"]
     assert parameters_from_config(config, "ld", "standard_chaos")["chaos_indicators"]["fli_iterations"] == 1000
+
+
+def test_the_command_line_computes_a_maps_ld_from_its_options(tmp_path, capsys):
+    """``ldpipe ld --system`` on a map: --iterations instead of --tau (refused, naming it), the
+    file the configuration's entry gives."""
+    import yaml
+
+    from ldpipe.cli import main
+
+    config = tmp_path / "maps.yaml"
+    config.write_text(yaml.safe_dump({"systems": {"henon": {"map": "henon"}}}))
+    options = ["ld", "--config", str(config), "--system", "henon", "--axis", "x=-1.5:1.5:31", "--axis", "y=-0.6:0.6:17"]
+    assert main([*options, "--tau", "3", "-o", str(tmp_path / "x.nc")]) == 2
+    assert "--tau: system 'henon' is a discrete map" in capsys.readouterr().err
+    assert main([*options, "-o", str(tmp_path / "x.nc")]) == 2
+    assert "--iterations: system 'henon' is a discrete map" in capsys.readouterr().err
+    assert not (tmp_path / "x.nc").exists()
+    assert main([*options, "--iterations", "8", "--escape-radius", "50", "-o", str(tmp_path / "cli.nc")]) == 0
+    expected = run_ld_map(**parameters_from_config(map_config(), "ld", "h"), output=tmp_path / "h.nc",
+                          equilibria=None, show_progress=False)
+    differences = compare_files(tmp_path / "cli.nc", expected)
+    assert {d.where for d in differences} <= {"attribute 'map'", "attribute 'parameters'", "attribute 'title'",
+                                              "attribute 'history'"}, [str(d) for d in differences]
