@@ -134,6 +134,7 @@ def test_a_flow_refuses_a_maps_keys():
     ({"map": {"x": "__import__('os')"}, "coordinates": ["x"]}, "systems.m.map.x'"),
     ({"map": {"x": "2*x"}, "inverse": {"x": "x/t"}, "coordinates": ["x"]}, r"systems.m.inverse.x': unknown names \['t'\]"),
     ({"map": "standard", "periodic": {"q": 1.0}}, "systems.m.periodic.q': not a coordinate"),
+    ({"map": "standard", "periodic": {"theta": 1.0}}, "systems.m.periodic.theta': .*period 6.28318"),
     ({"map": "standard", "masses": {"p": 2.0}}, "systems.m': a system needs .*a map takes no 'masses'"),
     ({"formula": "x**2", "coordinates": ["x"], "periodic": {"x": 1.0}},
      "systems.m': a system needs .*a formula.* take no 'inverse' or 'periodic'"),

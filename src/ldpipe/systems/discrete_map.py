@@ -105,6 +105,10 @@ def map_parts(spec: dict, key: str) -> tuple[tuple[str, ...], dict, dict | None,
         coordinates, forward, inverse = builtin["coordinates"], builtin["map"], builtin["inverse"]
         parameters = {**builtin["defaults"], **given}
         periods = {**builtin["periodic"], **(spec.get("periodic") or {})}
+        changed = [c for c, period in builtin["periodic"].items() if periods[c] != period]
+        if changed:
+            raise ConfigError(f"config key '{key}.periodic.{changed[0]}': the built-in map {spec['map']!r} has "
+                              f"{changed[0]} of period {builtin['periodic'][changed[0]]!r}; leave it out")
         if spec["map"] == "henon" and parameters["b"] == 0:
             raise ConfigError(f"config key '{key}.parameters.b': the Hénon map with b = 0 is not invertible "
                               "(it folds the plane onto a line); give b != 0")
