@@ -115,7 +115,7 @@ def test_henon_ld_features_lie_on_the_saddles_manifolds(a, b, iterations, halves
         for half in halves:
             manifold, tangent = manifolds[half]
             normal = np.array([-tangent[1], tangent[0]])
-            distance, shifted, spacing = manifold_distances(ld_map, half, manifold, centre, half_width, normal)
+            distance, shifted, _ = manifold_distances(ld_map, half, manifold, centre, half_width, normal)
             assert len(distance) > 1000, (half, points)  # the manifold crosses the window
             assert distance.max() < FEATURE_TOLERANCE, (half, points, distance.max())
             assert np.mean(shifted < FEATURE_TOLERANCE) < 0.05, (half, points)
