@@ -94,11 +94,18 @@ def test_standard_map_ld_is_periodic_in_the_angle():
 
 
 def test_a_map_without_its_inverse_refuses_the_backward_half_naming_the_key():
+    """... and computes the forward half alone (``directions: forward``) without it."""
     forward_only = ldpipe.system(name="forward_only", map={"x": "2*x", "y": "y/2"}, coordinates=["x", "y"])
-    with pytest.raises(ConfigError, match=r"config key 'systems.forward_only.inverse': .*gives no inverse"):
-        ldpipe.ld_map(forward_only, section=ldpipe.section(x=(0.0, 1.0, 3), y=(0.0, 1.0, 3)), iterations=3)
+    section = ldpipe.section(x=(0.0, 1.0, 3), y=(0.0, 1.0, 3))
+    for directions in ("both", "backward"):
+        with pytest.raises(ConfigError, match=r"config key 'systems.forward_only.inverse': .*gives no inverse"):
+            ldpipe.ld_map(forward_only, section=section, iterations=3, directions=directions)
     with pytest.raises(ConfigError, match="systems.forward_only.inverse"):
         forward_only.step(np.array([1.0, 1.0]), -1)
+    forward = ldpipe.ld_map(forward_only, section=section, iterations=3, directions="forward")
+    assert "ld_backward" not in forward and forward.attrs["directions"] == "forward"
+    # x -> 2x, y -> y/2 from (1, 1): increments 1, 2, 4 and 1/2, 1/4, 1/8, each to the power 1/2
+    assert forward.ld_forward.values[2, 2] == pytest.approx(1 + 2**0.5 + 2 + 0.5**0.5 + 0.5 + 0.125**0.5, rel=1e-14)
 
 
 @pytest.mark.parametrize("keys, message", [
@@ -109,6 +116,7 @@ def test_a_map_without_its_inverse_refuses_the_backward_half_naming_the_key():
     ({"iterations": 5, "integrator": {"scheme": "rk4"}}, "argument 'integrator.scheme': .*escape_radius alone"),
     ({"iterations": 5, "p": "arclength"}, "argument 'p': .*arc length is of a flow"),
     ({"iterations": 5, "ftle": True}, "argument 'ftle'"),
+    ({"iterations": 5, "directions": "forward", "chaos_indicators": {}}, "argument 'chaos_indicators': .*two halves"),
 ])
 def test_a_map_refuses_a_flows_keys_naming_them(saddle, keys, message):
     section = ldpipe.section(x=(-1.0, 1.0, 3), y=(-1.0, 1.0, 3))

@@ -27,7 +27,7 @@ from ...logs import get_logger
 from ...systems import make_system
 from ..sections import Section, section_states
 from .chaos import INDICATORS, ld_indicators, regular_fli_bound
-from .grid import tile_rows
+from .grid import directions_setting, map_directions, tile_rows
 
 log = get_logger(__name__)
 
@@ -48,10 +48,13 @@ def resolve_discrete_map(parameters: dict) -> tuple:
 
 def discrete_ld_dataset(parameters: dict, *, tile: int = 0, tiles: int = 1) -> xr.Dataset:
     """One tile (or, with ``tiles`` 1, the whole) of a discrete map's LD map, with its attributes
-    (see the module docstring); the backward half is refused, naming the system's ``inverse``
-    key, for a map without its inverse."""
+    (see the module docstring): both halves, or the one its ``directions`` names; the backward
+    half is refused, naming the system's ``inverse`` key, for a map without its inverse."""
     system, section = resolve_discrete_map(parameters)
-    system.require_inverse(f"the LD map {parameters['map_name']!r}")
+    directions = map_directions(directions_setting(parameters))
+    if any(sign < 0 for sign, _ in directions):
+        system.require_inverse(f"the backward half of the LD map {parameters['map_name']!r} (directions: "
+                               f"{directions_setting(parameters)}; forward alone needs none)")
     rows = tile_rows(section.shape[0], tile, tiles)
     states, allowed, _ = section_states(system, section, None, rows)
     iterations, p = int(parameters["iterations"]), float(parameters["p"])
@@ -61,10 +64,11 @@ def discrete_ld_dataset(parameters: dict, *, tile: int = 0, tiles: int = 1) -> x
     dims = section.axes
     shape = allowed.shape
     variables = {}
-    for direction, label, sums in ((1, "forward", "n = 0 .. N-1"), (-1, "backward", "n = -N .. -1")):
+    sums = {"forward": "n = 0 .. N-1", "backward": "n = -N .. -1"}
+    for direction, label in directions:
         result = iterate_map_ld(system, states, iterations, p, direction, radius)
         variables[f"ld_{label}"] = (dims, result.ld.reshape(shape), {
-            "long_name": f"discrete Lagrangian descriptor, {label} iterations ({sums})",
+            "long_name": f"discrete Lagrangian descriptor, {label} iterations ({sums[label]})",
             "comment": "the iterations before the orbit escaped where it did (see escaped and iterations)"})
         variables[f"iterations_{label}"] = (dims, result.iterations.reshape(shape), {
             "long_name": f"{label} iterations the LD holds: N, or those before the orbit escaped"})
@@ -88,6 +92,8 @@ def discrete_ld_dataset(parameters: dict, *, tile: int = 0, tiles: int = 1) -> x
         "discrete_map": system.description,
         "iterations": iterations,
         "p": p,
+        # the halves computed (a map of one has only that half's variables)
+        "directions": directions_setting(parameters),
         "descriptor": descriptor_attribute(p),
         "ld_definition": DEFINITION,
         "escape_radius": radius,
