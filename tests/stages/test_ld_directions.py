@@ -167,10 +167,13 @@ def test_the_documented_example_is_a_forward_map():
 
 
 def test_schema_lists_the_engine_directions():
-    # one home: the schema's values and default are the map code's
+    # one home: the schema's values are the map code's; its default is the code's and is not
+    # filled in, so a map that leaves the key out records the parameters it recorded before it existed
     setting = load_schema()["$defs"]["ld_map"]["properties"]["directions"]
-    assert setting["enum"] == list(grid.DIRECTIONS) and setting["default"] == grid.BOTH
-    assert setting["description"]
+    assert setting["enum"] == list(grid.DIRECTIONS) and "default" not in setting
+    assert f"Left out: {grid.BOTH}" in " ".join(setting["description"].split())
+    config = validate_config(config_with({}))
+    assert "directions" not in parameters_from_config(config, "ld", "m")
 
 
 def config_with(map_keys: dict, **sections):
