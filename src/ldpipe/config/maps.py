@@ -245,9 +245,9 @@ def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict
     for name, why in FLOW_ONLY_MAP_KEYS.items():
         if name in spec and not (name == "refine" and spec[name] is None):
             raise ConfigError(f"config key '{key}.{name}': {where}, and {why}; leave {name} out")
-    if spec.get("chaos_indicators") is not None and spec["directions"] != BOTH:
+    if spec.get("chaos_indicators") is not None and spec.get("directions", BOTH) != BOTH:
         raise ConfigError(f"config key '{key}.chaos_indicators': the indicators are of the LD's two halves summed, and "
-                          f"the map computes one (directions: {spec['directions']}); give directions: {BOTH}")
+                          f"the map computes one (directions: {spec.get('directions', BOTH)}); give directions: {BOTH}")
     other = sorted(given["integrator"] - {"escape_radius"})
     if other:
         raise ConfigError(f"config key '{key}.integrator.{other[0]}': {where}, iterated without an integrator; of "
