@@ -62,7 +62,7 @@ def test_defaults_are_filled():
          ["systems.b.parameters", "gamma", "omega_x"]),
         ({"builtin": "barbanis_3dof"}, ["systems.b.builtin", "barbanis_contopoulos_3dof"]),
         ({"builtin": "barbanis_2dof", "colour": "red"}, ["systems.b", "unknown keys ['colour']"]),
-        ({"formula": "x**2"}, ["systems.b", "exactly one of 'builtin', 'formula', 'vector_field' or 'velocity_data'",
+        ({"formula": "x**2"}, ["systems.b", "exactly one of 'builtin', 'formula', 'vector_field', 'velocity_data' or 'map'",
                                "a formula or a vector field also needs 'coordinates'"]),
     ],
 )

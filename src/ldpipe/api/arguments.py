@@ -20,16 +20,16 @@ from ..config.parameters import parameters_from_config
 from ..errors import ConfigError, LdpipeError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
-from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
+from ..systems import SYSTEM_CLASSES, DiscreteMapSystem, System, VectorFieldSystem, VelocityDataSystem
 from ..systems.velocity_data.calendar import is_date, is_duration, numeric_duration, numeric_time
 from .keywords import keyword_docs
 
-AnySystem = System | VectorFieldSystem | VelocityDataSystem
+AnySystem = System | VectorFieldSystem | VelocityDataSystem | DiscreteMapSystem
 
 #: What several functions' docstrings say alike, written once: ``%(NAME)s`` in a docstring, at
 #: the indentation of a numpydoc section's entry, stands for the entry NAME (:func:`shared_docs`).
 SHARED_DOCS = {
-    "system": """system : System, VectorFieldSystem or VelocityDataSystem
+    "system": """system : System, VectorFieldSystem, VelocityDataSystem or DiscreteMapSystem
         The entry's system, from :func:`ldpipe.system` (the entry's ``system`` name replaced by
         the object).""",
     "equilibria": """equilibria : xarray.Dataset, optional

@@ -50,7 +50,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
         a date (``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of
         them) and ``tau`` a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the
         file records the numbers (in the data's time units) and the dates (``t0_date``,
-        ``tau_duration``, ISO 8601).
+        ``tau_duration``, ISO 8601). Of a discrete map (``ldpipe.system(map=...)``): ``section``,
+        ``iterations`` (N: the LD sums over n from -N to N-1; no ``tau``), ``p``,
+        ``integrator={"escape_radius": R}`` and ``tiles``.
 
     Returns
     -------
@@ -70,6 +72,9 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     >>> m = ldpipe.ld_map(hh, section=ldpipe.section(y=(-0.45, 0.8, 41), py=(-0.5, 0.5, 41),
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
+    >>> henon = ldpipe.system(map="henon")
+    >>> d = ldpipe.ld_map(henon, section=ldpipe.section(x=(-1.5, 1.5, 101), y=(-0.5, 0.5, 101)),
+    ...                   iterations=10)  # doctest: +SKIP
     """
     key = entry_key("ld_map", "ld_maps", name)
     with arguments_of("ld_map", key):

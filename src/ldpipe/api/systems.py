@@ -36,11 +36,13 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
         with the entry's other keys, or the DataArrays ``(u, v)``, ``(u, v, w)``, or
         ``{"u": u, "v": v, "coordinates": "sphere"}``; the grid's coordinates not named are read
         from u's dimensions (time, [z,] y, x));
+        or ``map`` (a discrete map x_{n+1} = f(x_n): ``"henon"``, ``"standard"``, or formulas with
+        ``coordinates``, an ``inverse`` and ``periodic`` coordinates);
         ``parameters``, ``masses`` or ``mass_matrix``, ``equilibria`` (the equilibrium search).
 
     Returns
     -------
-    System, VectorFieldSystem or VelocityDataSystem
+    System, VectorFieldSystem, VelocityDataSystem or DiscreteMapSystem
         The compiled system; its ``spec`` is the validated entry, defaults filled in.
 
     Raises
@@ -56,7 +58,7 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     >>> hh.coordinates
     ('x', 'y')
     """
-    builtin = spec.get("builtin")
+    builtin = spec.get("builtin", spec.get("map"))
     # a built-in's name names its entry, unless it is no name at all (then the entry's error says so)
     name = name or (builtin if isinstance(builtin, str) and builtin.isidentifier() else None) or "system"
     with arguments_of("system", entry_key("system", "systems", name)):

@@ -91,6 +91,8 @@ class System(Unbounded):
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
 
     def __repr__(self) -> str:
         return system_repr(self, "builtin" if "builtin" in self.spec else "formula")

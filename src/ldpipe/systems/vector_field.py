@@ -84,6 +84,8 @@ class VectorFieldSystem(Unbounded):
 
     #: No Hamiltonian: energies, energy sections and orbit corrections do not apply.
     hamiltonian: ClassVar[bool] = False
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
     #: The LD is taken in the state's own units: the flow engine adds no metric section.
     ld_metric_source: ClassVar[str] = ""
 

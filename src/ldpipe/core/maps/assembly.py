@@ -8,6 +8,7 @@ energy over the critical energy of an index-1 saddle, and its fixed coordinates 
 (the saddle's value), both read from the system's equilibria. :func:`ld_map_dataset` is the
 whole map; :func:`ld_map_tile` and :func:`gather_ld_map` the same map in tiles, each a job of
 the workflow. Each returns the Dataset its file holds (:func:`ldpipe.io.datafile.stage_dataset`).
+A discrete map's LD map (:mod:`ldpipe.core.maps.discrete`) is tiled, gathered and recorded the same way.
 """
 
 from __future__ import annotations
@@ -24,10 +25,12 @@ from ...errors import ConfigError
 from ...io.contracts import FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ...io.datafile import MANAGED_ATTRIBUTES, stage_dataset, stage_parameters
 from ...logs import get_logger
-from ...systems import on_sphere, system_phase_coordinates
+from ...systems import is_discrete_map, on_sphere, system_phase_coordinates
 from ...systems.velocity_data import calendar_attributes
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
+from .chaos import add_map_classification
+from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
 from .grid import (BOTH, DIRECTIONS, add_ftle, add_variational_ftle, directions_setting, gather_tiles, ld_grid_dataset,
@@ -125,6 +128,10 @@ def compute_ld_map(
     by differences is left to whoever joins the bands, and it is not piloted
     (:func:`ldpipe.core.maps.pilot.check_map_time`: a block's time says nothing of the map's)."""
     use_threads(threads)
+    if is_discrete_map(parameters["system_spec"]):  # iterated, not integrated: no time, energy or engine settings
+        dataset = discrete_ld_dataset(parameters, tile=tile, tiles=tiles)
+        note_allowed_points(dataset, whole_map=tiles == 1)
+        return dataset
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
         index, band, bands = start_time_band(starts, tile, tiles)
@@ -334,5 +341,6 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
     joined.attrs.update(calendar_attributes(common["system_spec"], f"systems.{common['system_name']}",
                                             joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0),
                                             joined.attrs["tau"]))
+    add_map_classification(joined)  # a discrete map's chaos indicators, over the whole map
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})

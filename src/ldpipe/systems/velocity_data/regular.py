@@ -168,6 +168,8 @@ class VelocityDataSystem:
     _windows: dict = field(default_factory=dict, repr=False)
 
     hamiltonian: ClassVar[bool] = False
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
     time_dependent: ClassVar[bool] = True
     #: Land and the data's edge stop trajectories: :meth:`stop_flags` says which, :meth:`stop_lines` where.
     has_stop_flags: ClassVar[bool] = True
