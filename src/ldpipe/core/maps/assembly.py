@@ -337,10 +337,12 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
-    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units)
-    joined.attrs.update(calendar_attributes(common["system_spec"], f"systems.{common['system_name']}",
-                                            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0),
-                                            joined.attrs["tau"]))
+    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units;
+    # a discrete map counts iterations, not time)
+    if "tau" in joined.attrs:
+        joined.attrs.update(calendar_attributes(
+            common["system_spec"], f"systems.{common['system_name']}",
+            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0), joined.attrs["tau"]))
     add_map_classification(joined)  # a discrete map's chaos indicators, over the whole map
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})
