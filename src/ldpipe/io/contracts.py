@@ -78,6 +78,8 @@ NORMAL_FORM = StageFile("normal_form", (
     "excess_energy", "flux", "flux_truncation_error", "flux_by_order", "flux_harmonic", "smallest_divisor",
     "nhim_state",
 ))
+#: Curves extracted from an LD map (a CF contiguous ragged array): per point and per curve.
+STRUCTURES = StageFile("structures", ("point_count", "strength", "value", "source", "manifold"))
 #: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
 ACCURACY_COST = StageFile(
     "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
@@ -86,5 +88,5 @@ ACCURACY_COST = StageFile(
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
     EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
-    TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST,
+    TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST, STRUCTURES,
 )}
