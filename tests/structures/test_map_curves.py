@@ -224,3 +224,19 @@ def test_steady_double_gyre_separatrix_and_walls():
             worst.append(d["from_reference"]["p95"] * h[1])
     # the lines covered ever more closely as the grid refines
     assert max(worst[2:]) < min(worst[:2]) / 4, worst
+
+
+def test_structures_api_names_a_bad_argument(saddle_maps):
+    import ldpipe
+    from ldpipe.errors import ConfigError
+
+    dataset = saddle_maps[25]
+    with pytest.raises(ConfigError, match=r"ldpipe.structures: argument 'threshold': 1.5; expected a fraction"):
+        ldpipe.structures(dataset, threshold=1.5)
+    with pytest.raises(ConfigError, match=r"argument 'fields': \['ftle_forward'\] are not|the map has no"):
+        ldpipe.structures(dataset, fields=["ftle_forward"])
+    with pytest.raises(ConfigError, match=r"argument 'ld_map': expected an LD map"):
+        ldpipe.structures("map.nc")
+    # the API's Dataset is the product function's, but for when it was written
+    found = ldpipe.structures(dataset, min_points=5)
+    assert found.attrs["min_points"] == 5 and found.attrs["ldpipe_stage"] == "structures"

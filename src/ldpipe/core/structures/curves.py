@@ -32,29 +32,30 @@ MANIFOLDS = ("stable", "unstable")
 DEFAULTS = {"threshold": 0.1, "min_points": 10, "ld_kind": "valley", "fields": None}
 
 
-def check_structure_parameters(parameters: dict, where: str = "structures") -> dict:
-    """``parameters`` with the defaults filled and each checked; a ConfigError naming the key."""
+def check_structure_parameters(parameters: dict, where: str = "structures", key: str = "key") -> dict:
+    """``parameters`` with the defaults filled and each checked; a ConfigError beginning with
+    ``where`` and naming the bad one as a ``key`` (from the API: an 'argument')."""
     unknown = sorted(set(parameters) - set(DEFAULTS))
     if unknown:
-        raise ConfigError(f"{where}: unknown keys {unknown}; allowed are {sorted(DEFAULTS)}")
+        raise ConfigError(f"{where}: unknown {key}s {unknown}; allowed are {sorted(DEFAULTS)}")
     checked = {**DEFAULTS, **parameters}
     threshold = checked["threshold"]
     if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0 < threshold < 1:
-        raise ConfigError(f"{where}: key 'threshold': {threshold!r}; expected a fraction of the sharpest "
+        raise ConfigError(f"{where}: {key} 'threshold': {threshold!r}; expected a fraction of the sharpest "
                           "point's sharpness, between 0 and 1")
     min_points = checked["min_points"]
     if isinstance(min_points, bool) or not isinstance(min_points, int) or min_points < 2:
-        raise ConfigError(f"{where}: key 'min_points': {min_points!r}; expected an integer of at least 2")
+        raise ConfigError(f"{where}: {key} 'min_points': {min_points!r}; expected an integer of at least 2")
     if checked["ld_kind"] not in ("valley", "ridge"):
-        raise ConfigError(f"{where}: key 'ld_kind': {checked['ld_kind']!r}; expected 'valley' (the minima of "
+        raise ConfigError(f"{where}: {key} 'ld_kind': {checked['ld_kind']!r}; expected 'valley' (the minima of "
                           "a p-norm LD with p <= 1) or 'ridge'")
     fields = checked["fields"]
     if fields is not None:
         if isinstance(fields, str) or not all(isinstance(f, str) for f in fields) or not fields:
-            raise ConfigError(f"{where}: key 'fields': {fields!r}; expected a list of {sorted(SOURCES)}")
+            raise ConfigError(f"{where}: {key} 'fields': {fields!r}; expected a list of {sorted(SOURCES)}")
         bad = sorted(set(fields) - set(SOURCES))
         if bad:
-            raise ConfigError(f"{where}: key 'fields': {bad} are not map fields structures are taken from; "
+            raise ConfigError(f"{where}: {key} 'fields': {bad} are not map fields structures are taken from; "
                               f"expected some of {sorted(SOURCES)}")
         checked["fields"] = list(fields)
     return {**checked, "threshold": float(threshold)}
@@ -73,16 +74,17 @@ def _defined(ld_map: xr.Dataset, field: str) -> np.ndarray:
     return defined
 
 
-def map_curves(ld_map: xr.Dataset, parameters: dict) -> dict[str, list[Curve]]:
+def map_curves(ld_map: xr.Dataset, parameters: dict, where: str = "structures",
+               key: str = "key") -> dict[str, list[Curve]]:
     """The curves of every field of ``ld_map`` that ``parameters['fields']`` names (default: every
     LD and FTLE field the map holds), by field."""
     fields = parameters["fields"] or [name for name in SOURCES if name in ld_map.data_vars]
-    axes = tuple(ld_map[field].dims for field in fields)
     missing = [name for name in fields if name not in ld_map.data_vars]
     if missing:
-        raise ConfigError(f"structures: key 'fields': the map has no {missing}")
+        raise ConfigError(f"{where}: {key} 'fields': the map has no {missing}")
+    axes = tuple(ld_map[field].dims for field in fields)
     if any(len(dims) != 2 for dims in axes):
-        raise ConfigError(f"structures: the map's fields have dimensions {axes[0]}; structures are curves of "
+        raise ConfigError(f"{where}: the map's fields have dimensions {axes[0]}; structures are curves of "
                           "a map of two axes")
     found = {}
     for field in fields:
@@ -125,17 +127,18 @@ def ragged_curves(curves: dict[str, list[Curve]], axes: tuple[str, str]) -> xr.D
     return xr.Dataset({name: xr.Variable((dim,), data, attrs) for name, (dim, data, attrs) in variables.items()})
 
 
-def structures_dataset(parameters: dict, ld_map) -> xr.Dataset:
+def structures_dataset(parameters: dict, ld_map, *, where: str = "structures", key: str = "key") -> xr.Dataset:
     """The structures file of ``ld_map`` (an LD map's file or Dataset, with or without its FTLE):
     its curves (:func:`map_curves`) as a ragged array, the extraction's parameters as attributes.
 
     ``parameters``: ``threshold`` (a point's sharpness as a fraction of the sharpest pixel's, per
     field), ``min_points`` (shorter curves dropped), ``ld_kind`` (``valley`` or ``ridge``: which
-    singular features of the LD), ``fields`` (default every LD and FTLE field of the map).
+    singular features of the LD), ``fields`` (default every LD and FTLE field of the map). A
+    ConfigError begins with ``where`` and names a bad parameter as a ``key``.
     """
-    parameters = check_structure_parameters(dict(parameters))
+    parameters = check_structure_parameters(dict(parameters), where, key)
     source = open_stage_file(ld_map, stage=LD_GRID.stage)
-    curves = map_curves(source, parameters)
+    curves = map_curves(source, parameters, where, key)
     first = next(iter(curves), None)
     axes = tuple(source[first].dims) if first else tuple(source["allowed"].dims)
     dataset = ragged_curves(curves, axes)
