@@ -240,3 +240,25 @@ def test_structures_api_names_a_bad_argument(saddle_maps):
     # the API's Dataset is the product function's, but for when it was written
     found = ldpipe.structures(dataset, min_points=5)
     assert found.attrs["min_points"] == 5 and found.attrs["ldpipe_stage"] == "structures"
+
+
+def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
+    # identity of the drawing: the lines on the axes are the file's curves, stable and unstable
+    # in their colours (the map drawn underneath as the LD panel draws it)
+    import matplotlib.pyplot as plt
+
+    from ldpipe.figures import style
+
+    dataset = saddle_maps[25]
+    found = structures_dataset({}, dataset)
+    figure, (over, alone) = plt.subplots(1, 2)
+    try:
+        dataset.ldpipe.plot(over, structures=found)
+        found.ldpipe.plot(alone)
+        for ax in (over, alone):
+            drawn = {line.get_color(): np.column_stack([line.get_xdata(), line.get_ydata()]) for line in ax.lines}
+            np.testing.assert_array_equal(drawn[style.STABLE_COLOR], curves_of(found, manifold="stable")[0])
+            np.testing.assert_array_equal(drawn[style.UNSTABLE_COLOR], curves_of(found, manifold="unstable")[0])
+        assert over.images  # the map itself
+    finally:
+        plt.close(figure)
