@@ -8,6 +8,7 @@ import xarray as xr
 
 from ..core.structures.curves import structures_dataset
 from ..errors import ConfigError
+from .arguments import shared_docs
 
 
 def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 10, ld_kind: str = "valley",
@@ -56,6 +57,7 @@ def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 
     return structures_dataset(given, ld_map, where="ldpipe.structures", key="argument")
 
 
+@shared_docs
 def fsle(system, *, section: dict, final_separation: float, max_time: float, initial_separation: float | None = None,
          interval: float | None = None, t0: float = 0.0, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
@@ -81,6 +83,7 @@ def fsle(system, *, section: dict, final_separation: float, max_time: float, ini
         Start time.
     integrator : dict, optional
         Some of ``rtol``, ``atol``, ``escape_radius``, ``max_steps``.
+    %(threads)s
 
     Returns
     -------
@@ -107,6 +110,7 @@ def fsle(system, *, section: dict, final_separation: float, max_time: float, ini
     return fsle_dataset(system, section, parameters, threads=threads, where="ldpipe.fsle", key="argument")
 
 
+@shared_docs
 def lavd(system, *, section: dict, duration: float, interval: float | None = None, t0: float = 0.0,
          levels: int = 100, convexity_deficiency: float = 0.01, min_points: int = 8, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
@@ -131,6 +135,7 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
         may have, the fewest points a contour may have.
     integrator : dict, optional
         Some of ``rtol``, ``atol``, ``escape_radius``, ``max_steps``.
+    %(threads)s
 
     Returns
     -------

@@ -64,6 +64,7 @@ def check_ld_maps(config: dict) -> None:
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
         check_variational_ftle(spec, key, system)
+        check_structures(spec, key)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -86,6 +87,19 @@ def check_ld_maps(config: dict) -> None:
                 "use at most one tile per row of the first axis"
             )
         check_region(spec, key, coordinates)
+
+
+def check_structures(spec: dict, key: str) -> None:
+    """The fields a map's ``structures`` names must be fields the map holds."""
+    block = spec.get("structures")
+    if not isinstance(block, dict) or "fields" not in block:
+        return
+    held = (["ld_forward", "ld_backward"] if spec.get("ld", True) else []) + (
+        ["ftle_forward", "ftle_backward"] if spec.get("ftle") else [])
+    missing = [name for name in block["fields"] if name not in held]
+    if missing:
+        raise ConfigError(f"config key '{key}.structures.fields': the map holds no {missing} (it holds {held}); "
+                          "give ftle: true for FTLE ridges, or name only the fields it holds")
 
 
 def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:

@@ -144,7 +144,7 @@ def structures_dataset(parameters: dict, ld_map, *, where: str = "structures", k
     dataset = ragged_curves(curves, axes)
     spacing = [float(np.diff(source[dim].values[:2])[0]) if source.sizes[dim] > 1 else 0.0 for dim in axes]
     dataset.attrs.update({
-        "map": input_name(ld_map), "map_title": source.attrs.get("title", ""), "system": source.attrs.get("system", ""),
+        "map_title": source.attrs.get("title", ""), "system": source.attrs.get("system", ""),
         "axes": " ".join(axes), "grid_spacing": np.array(spacing), "grid_shape": np.array([source.sizes[d] for d in axes]),
         "fields": " ".join(curves), "threshold": parameters["threshold"], "min_points": parameters["min_points"],
         "ld_kind": parameters["ld_kind"], "criterion": "second-derivative ridge: grad g . e_min = 0, "
@@ -154,7 +154,7 @@ def structures_dataset(parameters: dict, ld_map, *, where: str = "structures", k
         if key in source.attrs:
             dataset.attrs[f"map_{key}"] = source.attrs[key]
     return stage_dataset(dataset, stage=STRUCTURES, title=f"structures of {source.attrs.get('title', 'an LD map')}",
-                         parameters={k: v for k, v in parameters.items()})
+                         parameters={**parameters, "map": input_name(ld_map)})
 
 
 def curves_of(structures: xr.Dataset, source: str | None = None, manifold: str | None = None) -> list[np.ndarray]:
