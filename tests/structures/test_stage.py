@@ -78,3 +78,12 @@ def test_the_workflow_plans_the_structures_of_a_map_with_the_option(tmp_path):
                         "config.quick.yaml", "user.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     assert job_counts(run.stdout) == {"ld_map": 1, "structures": 1}
+
+
+def test_the_documented_option_validates():
+    from support.workflow import documented_yaml
+
+    entry = yaml.safe_load(documented_yaml("structures: {threshold: 0.1"))
+    cfg = validate_config({"systems": copy.deepcopy(SYSTEMS), **entry})
+    assert parameters_from_config(cfg, "structures", "saddle")["fields"] == ["ld_forward", "ld_backward",
+                                                                            "ftle_forward"]
