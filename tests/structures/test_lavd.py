@@ -105,3 +105,22 @@ def test_a_boundary_must_be_convex_enough(amplitude, convex):
         lax = coherent_vortices(field, np.ones(field.shape, bool), (axis, axis),
                                 {**settings, "convexity_deficiency": 0.2})
         assert len(lax) == 1 and 0.01 < lax[0]["convexity_deficiency"] < 0.2
+
+
+def test_the_quadrature_along_trajectories_is_second_order():
+    # x' = x + y^2, y' = -y: the vorticity -2y changes along a trajectory, y = y0 e^(-t), and its
+    # mean over the particles is -2 ybar0 e^(-t), so the LAVD over T is 2 |y0 - ybar0| (1 - e^(-T))
+    # (closed form); the trapezoidal rule over steps h misses it by about h^2/12 of it
+    system = ldpipe.system(name="stretched_shear", vector_field={"x": "x + y**2", "y": "-y"}, coordinates=["x", "y"])
+    section = ldpipe.section(x=(-1.0, 1.0, 5), y=(-1.0, 0.9, 6))
+    errors = []
+    for step in (0.2, 0.1):
+        result = ldpipe.lavd(system, section=section, duration=2.0, interval=step,
+                             integrator={"rtol": 1e-12, "atol": 1e-12})
+        y = result.y.values[None, :] + 0 * result.x.values[:, None]
+        exact = 2 * np.abs(y - y.mean()) * (1 - math.exp(-2.0))
+        relative = np.abs(result.lavd.values - exact)[exact > 0] / exact[exact > 0]
+        # h^2/12 (h/2 coth(h/2) - 1 exactly): 3.3e-3 and 8.3e-4
+        assert relative.max() == pytest.approx(step / 2 / math.tanh(step / 2) - 1, rel=1e-3)
+        errors.append(relative.max())
+    assert errors[0] / errors[1] == pytest.approx(4.0, rel=0.01)

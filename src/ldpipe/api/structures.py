@@ -129,7 +129,8 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
     duration : float
         The integration time T (negative: backward).
     interval : float, optional
-        The step of the vorticity's quadrature along the trajectories (default |T| / 100).
+        The step of the vorticity's quadrature along the trajectories (default: a hundredth of the
+        duration).
     levels, convexity_deficiency, min_points
         Contour levels tried from each maximum down, the largest convexity deficiency a boundary
         may have, the fewest points a contour may have.
