@@ -65,3 +65,13 @@ def test_bad_fsle_arguments_are_named(saddle):
         ldpipe.fsle(saddle, section=ldpipe.section(x=(0, 1, 3), z=(0, 1, 3)), max_time=1.0, final_separation=0.1)
     with pytest.raises(ConfigError, match=r"Hamiltonian"):
         ldpipe.fsle(ldpipe.system(builtin="barbanis_2dof"), section=SECTION, max_time=1.0, final_separation=0.1)
+
+
+def test_a_uniform_fsle_has_no_ridge(saddle):
+    # the FSLE is lam at every point (closed form, above): its file is taken by ldpipe.structures
+    # like a map's, and a ridge found in it would be spurious
+    result = ldpipe.fsle(saddle, section=ldpipe.section(x=(-0.5, 0.5, 12), y=(-0.4, 0.6, 12)), max_time=5.0,
+                         interval=0.37, **SETTINGS)
+    found = ldpipe.structures(result, min_points=2)
+    assert found.attrs["fields"] == "fsle_forward fsle_backward"
+    assert found.sizes["curve"] == 0

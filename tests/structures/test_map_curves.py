@@ -262,3 +262,17 @@ def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
         assert over.images  # the map itself
     finally:
         plt.close(figure)
+
+
+def test_rounding_noise_is_no_ridge_but_a_small_ridge_on_a_large_field_is():
+    # a field flat but for noise at 1e-13 of it: the relative threshold alone would make ridges of
+    # the noise; a Gaussian ridge of 1e-6 of the field's magnitude (a curvature of 8e-8 of it per
+    # cell squared, above the noise floor of 1e-8) is still found, on its line x = 0.01
+    rng = np.random.default_rng(1)
+    x, y = np.linspace(-1, 1, 101), np.linspace(-1, 1, 81)
+    X, _ = np.meshgrid(x, y, indexing="ij")
+    flat = 1000.0 * (1 + 1e-13 * rng.standard_normal(X.shape))
+    assert ridge_curves(flat, (x, y), np.ones(X.shape, bool)) == []
+    ridge = 1000.0 + 1e-3 * np.exp(-(((X - 0.01) / 0.1) ** 2))
+    (curve,) = ridge_curves(ridge, (x, y), np.ones(X.shape, bool))
+    assert np.abs(curve.points[:, 0] - 0.01).max() < 0.01 * (x[1] - x[0])

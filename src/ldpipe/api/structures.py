@@ -20,7 +20,8 @@ def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 
     Parameters
     ----------
     ld_map : xarray.Dataset
-        A map of two axes, with or without its FTLE (``ftle: true``).
+        A map of two axes, with or without its FTLE (``ftle: true``), or an FSLE file
+        (:func:`fsle`).
     threshold : float
         The sharpness a point needs, as a fraction of the sharpest pixel's in its field.
     min_points : int
@@ -29,8 +30,8 @@ def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 
         Which singular features of the LD: the V-shaped minima of a p-norm LD with p <= 1 on a
         manifold (default), or sharp maxima.
     fields : list of str, optional
-        Some of ``ld_forward``, ``ld_backward``, ``ftle_forward``, ``ftle_backward``; default every
-        one the map holds.
+        Some of ``ld_forward``, ``ld_backward``, ``ftle_forward``, ``ftle_backward``,
+        ``fsle_forward``, ``fsle_backward``; default every one the file holds.
 
     Returns
     -------

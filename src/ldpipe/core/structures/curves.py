@@ -2,7 +2,7 @@
 
 From a forward map come stable structures, from a backward map unstable ones: the singular
 features of the LD (Mancho et al. 2013; valleys of a p-norm LD with p ≤ 1 by default) and the
-ridges of the FTLE (Shadden, Lekien & Marsden 2005), each extracted by
+ridges of the FTLE (Shadden, Lekien & Marsden 2005) or of the FSLE, each extracted by
 :func:`ldpipe.core.structures.ridges.ridge_curves`. The file stores the curves as a CF contiguous
 ragged array: the points of every curve one after another along the ``point`` dimension, and per
 curve (``curve`` dimension) its number of points (``point_count``, whose ``sample_dimension`` is
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ...errors import ConfigError
-from ...io.contracts import LD_GRID, STRUCTURES
+from ...errors import ConfigError, StageFileError
+from ...io.contracts import FSLE, LD_GRID, STRUCTURES
 from ...io.datafile import input_name, open_stage_file, stage_dataset
 from .ridges import Curve, ridge_curves
 
@@ -26,6 +26,8 @@ SOURCES = {
     "ld_backward": (1, "unstable"),
     "ftle_forward": (2, "stable"),
     "ftle_backward": (3, "unstable"),
+    "fsle_forward": (4, "stable"),
+    "fsle_backward": (5, "unstable"),
 }
 MANIFOLDS = ("stable", "unstable")
 #: The defaults of :func:`structures_dataset`'s parameters.
@@ -65,6 +67,9 @@ def _defined(ld_map: xr.Dataset, field: str) -> np.ndarray:
     """Where the map's ``field`` is defined: the FTLE's own flag; for the LD the points integrated
     whose trajectory no safety limit stopped."""
     direction = field.rsplit("_", 1)[1]
+    if field.startswith("fsle"):
+        return ld_map[f"fsle_defined_{direction}"].values.astype(bool) & \
+            ld_map[f"fsle_reached_{direction}"].values.astype(bool)
     if field.startswith("ftle"):
         return ld_map[f"ftle_defined_{direction}"].values.astype(bool)
     defined = ld_map["allowed"].values.astype(bool)
@@ -90,7 +95,7 @@ def map_curves(ld_map: xr.Dataset, parameters: dict, where: str = "structures",
     for field in fields:
         dims = ld_map[field].dims
         coordinates = tuple(np.asarray(ld_map[dim].values, dtype=float) for dim in dims)
-        kind = parameters["ld_kind"] if field.startswith("ld") else "ridge"
+        kind = parameters["ld_kind"] if field.startswith("ld_") else "ridge"
         found[field] = ridge_curves(ld_map[field].values, coordinates, _defined(ld_map, field), kind=kind,
                                     threshold=parameters["threshold"], min_points=parameters["min_points"])
     return found
@@ -128,7 +133,8 @@ def ragged_curves(curves: dict[str, list[Curve]], axes: tuple[str, str]) -> xr.D
 
 
 def structures_dataset(parameters: dict, ld_map, *, where: str = "structures", key: str = "key") -> xr.Dataset:
-    """The structures file of ``ld_map`` (an LD map's file or Dataset, with or without its FTLE):
+    """The structures file of ``ld_map`` (an LD map's file or Dataset, with or without its FTLE,
+    or an FSLE file, whose ridges are taken where the final separation was reached):
     its curves (:func:`map_curves`) as a ragged array, the extraction's parameters as attributes.
 
     ``parameters``: ``threshold`` (a point's sharpness as a fraction of the sharpest pixel's, per
@@ -137,7 +143,12 @@ def structures_dataset(parameters: dict, ld_map, *, where: str = "structures", k
     ConfigError begins with ``where`` and names a bad parameter as a ``key``.
     """
     parameters = check_structure_parameters(dict(parameters), where, key)
-    source = open_stage_file(ld_map, stage=LD_GRID.stage)
+    try:
+        source = open_stage_file(ld_map, stage=LD_GRID.stage)
+    except StageFileError as error:
+        if "written by the 'fsle' stage" not in str(error):
+            raise
+        source = open_stage_file(ld_map, stage=FSLE.stage)
     curves = map_curves(source, parameters, where, key)
     first = next(iter(curves), None)
     axes = tuple(source[first].dims) if first else tuple(source["allowed"].dims)

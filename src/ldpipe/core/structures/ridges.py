@@ -31,6 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 
+#: Sharpness below this fraction of the field's largest magnitude is noise, whatever the threshold.
+NOISE = 1e-8
+
+
 @dataclass(frozen=True)
 class Curve:
     """One extracted curve: ``points`` (n, 2) in the grid's axis units, ``strength`` (n,) the
@@ -126,7 +130,9 @@ def ridge_curves(field: np.ndarray, axes: tuple[np.ndarray, np.ndarray], valid: 
     regular grid ``axes`` (n0,), (n1,), where ``valid`` (n0, n1) is True, as polylines.
 
     ``threshold`` is the sharpness a point needs, as a fraction of the sharpest pixel's −λ over
-    the field's defined pixels; curves of fewer than ``min_points`` points are dropped.
+    the field's defined pixels, and never less than :data:`NOISE` times the field's largest
+    magnitude (a field flat to rounding has no ridge); curves of fewer than ``min_points`` points
+    are dropped.
     """
     if kind not in ("ridge", "valley"):
         raise ValueError(f"kind: {kind!r}; expected 'ridge' or 'valley'")
@@ -134,9 +140,12 @@ def ridge_curves(field: np.ndarray, axes: tuple[np.ndarray, np.ndarray], valid: 
     g = field if kind == "ridge" else -field
     d = derivatives(g, np.asarray(valid, dtype=bool))
     sharpest = float(np.max(-d.smallest[d.defined], initial=0.0))
-    if sharpest <= 0:
+    # a second difference of values known to a relative precision eps is uncertain by some
+    # 4 eps |f|: below NOISE |f| a curvature is rounding (or the integrator's tolerance), not a ridge
+    floor = NOISE * float(np.max(np.abs(field[d.defined]), initial=0.0))
+    if sharpest <= floor:
         return []
-    cutoff = threshold * sharpest
+    cutoff = max(threshold * sharpest, floor)
     n0, n1 = field.shape
     hits, offsets, strengths, values = zip(*(_edge_points(g, d, cutoff, axis) for axis in (0, 1)))
     # every edge's point, numbered: edges along axis 0 first ((n0 - 1) × n1), then along axis 1
