@@ -92,6 +92,9 @@ def check_ld_maps(config: dict) -> None:
 def check_structures(spec: dict, key: str) -> None:
     """The fields a map's ``structures`` names must be fields the map holds."""
     block = spec.get("structures")
+    if block and isinstance(spec.get("t0"), (list, dict)):
+        raise ConfigError(f"config key '{key}.structures': the map has a start-time dimension (t0 is a list or a "
+                          "range); structures are extracted from maps of one start time (give t0 a number)")
     if not isinstance(block, dict) or "fields" not in block:
         return
     held = (["ld_forward", "ld_backward"] if spec.get("ld", True) else []) + (
