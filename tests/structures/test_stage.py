@@ -66,6 +66,8 @@ def test_a_bad_structures_block_names_its_key():
     with pytest.raises(ConfigError, match=r"ld_maps\.m\.structures"):
         config(structures={"threshold": 1.5})
     config(ftle=True, structures={"fields": ["ftle_forward"]})
+    with pytest.raises(ConfigError, match=r"structures\.fields': the map holds no \['ld_backward'\]"):
+        config(directions="forward", structures={"fields": ["ld_backward"]})
     with pytest.raises(ConfigError, match=r"ld_maps\.m\.structures': the map has a start-time dimension"):
         config(t0=[0.0, 1.0])
 
