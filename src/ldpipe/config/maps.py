@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
-from ..core.maps.grid import BOTH
+from ..core.maps.grid import BOTH, DIRECTIONS
 from ..core.maps.symmetry import SETTING_KEY
 from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
                        system_phase_coordinates)
@@ -93,6 +93,7 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
         check_variational_ftle(spec, key, system)
+        check_structures(spec, key)
         check_directions(spec, key)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
@@ -116,6 +117,23 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                 "use at most one tile per row of the first axis"
             )
         check_region(spec, key, coordinates)
+
+
+def check_structures(spec: dict, key: str) -> None:
+    """The fields a map's ``structures`` names must be fields the map holds."""
+    block = spec.get("structures")
+    if block and isinstance(spec.get("t0"), (list, dict)):
+        raise ConfigError(f"config key '{key}.structures': the map has a start-time dimension (t0 is a list or a "
+                          "range); structures are extracted from maps of one start time (give t0 a number)")
+    if not isinstance(block, dict) or "fields" not in block:
+        return
+    directions = [label for _, label in DIRECTIONS[spec.get("directions", BOTH)]]
+    held = ([f"ld_{label}" for label in directions] if spec.get("ld", True) else []) + (
+        [f"ftle_{label}" for label in directions] if spec.get("ftle") else [])
+    missing = [name for name in block["fields"] if name not in held]
+    if missing:
+        raise ConfigError(f"config key '{key}.structures.fields': the map holds no {missing} (it holds {held}); "
+                          "give ftle: true for FTLE ridges, or name only the fields it holds")
 
 
 def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
