@@ -8,9 +8,10 @@ import xarray as xr
 
 from ..core.structures.curves import structures_dataset
 from ..errors import ConfigError
-from .arguments import shared_docs
+from .arguments import api_function
 
 
+@api_function()
 def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 10, ld_kind: str = "valley",
                fields: Sequence[str] | None = None) -> xr.Dataset:
     """The structures of an LD map (:func:`ld_map`, or its file opened): the singular curves of its
@@ -58,7 +59,7 @@ def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 
     return structures_dataset(given, ld_map, where="ldpipe.structures", key="argument")
 
 
-@shared_docs
+@api_function()
 def fsle(system, *, section: dict, final_separation: float, max_time: float, initial_separation: float | None = None,
          interval: float | None = None, t0: float = 0.0, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
@@ -111,7 +112,7 @@ def fsle(system, *, section: dict, final_separation: float, max_time: float, ini
     return fsle_dataset(system, section, parameters, threads=threads, where="ldpipe.fsle", key="argument")
 
 
-@shared_docs
+@api_function()
 def lavd(system, *, section: dict, duration: float, interval: float | None = None, t0: float = 0.0,
          levels: int = 100, convexity_deficiency: float = 0.01, min_points: int = 8, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
@@ -132,7 +133,9 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
     interval : float, optional
         The step of the vorticity's quadrature along the trajectories (default: a hundredth of the
         duration).
-    levels, convexity_deficiency, min_points
+    t0 : float
+        The start time of every trajectory.
+    levels, convexity_deficiency, min_points : int, float, int
         Contour levels tried from each maximum down, the largest convexity deficiency a boundary
         may have, the fewest points a contour may have.
     integrator : dict, optional
