@@ -11,9 +11,9 @@ by the expected stage, holding the variables the stage's contract
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import os
-import functools
 import subprocess
 import sys
 from collections.abc import Callable
