@@ -11,6 +11,7 @@ from __future__ import annotations
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
 from ..systems import is_vector_field, on_sphere, system_coordinates, system_kind, system_phase_coordinates
+from ..systems.noise import check_noise
 
 
 def check_interval(value, key: str) -> None:
@@ -63,6 +64,7 @@ def check_ld_maps(config: dict) -> None:
                               "velocity_data names w), whose FTLE would mix degrees of arc with the vertical "
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
+        check_noisy_map(spec, key, system)
         check_variational_ftle(spec, key, system)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
@@ -98,6 +100,28 @@ def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     if not vector_field:
         raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
                           f"{spec['system']!r} is a Hamiltonian (leave ld out)")
+
+
+def check_noisy_map(spec: dict, key: str, system: dict) -> None:
+    """A map with noise: a fixed-time full LD map of a vector field or of velocity data on the plane,
+    its noise block well formed (:func:`ldpipe.systems.noise.check_noise`)."""
+    noise = spec.get("noise")
+    if noise is None:
+        return
+    if not is_vector_field(system):
+        raise ConfigError(f"config key '{key}.noise': noise is added to a vector field or velocity data; system "
+                          f"{spec['system']!r} is a Hamiltonian")
+    if on_sphere(system):
+        raise ConfigError(f"config key '{key}.noise': system {spec['system']!r} is velocity data on the sphere, "
+                          "whose state is in degrees; noise is supported on the plane only")
+    for name, refused, why in (("time", spec["time"] != "fixed", "give time: fixed"),
+                               ("refine", spec.get("refine") is not None, "give refine: null"),
+                               ("ftle", bool(spec.get("ftle")), "leave ftle out"),
+                               ("ld", not spec.get("ld", True), "leave ld out")):
+        if refused:
+            raise ConfigError(f"config key '{key}.{name}': a map with noise is a fixed-time map of the LD along "
+                              f"each noisy path; {why}")
+    check_noise(noise, system_coordinates(system), system.get("parameters") or {}, f"{key}.noise")
 
 
 def check_variational_ftle(spec: dict, key: str, system: dict) -> None:

@@ -100,6 +100,36 @@ def _formula_rows(value, coordinates, key: str) -> tuple[dict[str, object], int]
     return {f"diffusion.{i}.{j}": value[i][j] for i in range(n) for j in range(m)}, m
 
 
+def check_noise(spec: dict, coordinates, parameters: dict, key: str) -> dict[str, object] | None:
+    """Check a ``noise:`` block ``spec`` for a flow of state ``coordinates`` and ``parameters``
+    without compiling anything: one of diffusivity and diffusion, formulas in the grammar
+    (:func:`ldpipe.systems.grammar.check_formulas`), walls of state variables. Returns the diffusion
+    formulas by their place under ``key`` (None for a diffusivity); ConfigErrors name the key."""
+    from .grammar import check_formulas
+
+    given = [name for name in ("diffusivity", "diffusion") if spec.get(name) is not None]
+    if len(given) != 1:
+        raise ConfigError(f"config key '{key}': give exactly one of diffusivity (additive noise) and diffusion "
+                          f"(a matrix by formula), got {given or 'neither'}")
+    _walls(spec.get("reflect") or {}, coordinates, key)
+    if given == ["diffusivity"]:
+        _diffusivity_rows(spec["diffusivity"], coordinates, key)
+        return None
+    formulas, _ = _formula_rows(spec["diffusion"], coordinates, key)
+    check_formulas(formulas, coordinates, noise_parameters(spec, parameters, key), key, TIME)
+    return formulas
+
+
+def noise_parameters(spec: dict, parameters: dict, key: str) -> dict[str, float]:
+    """The names the diffusion formulas may use: the system's parameters and the block's own."""
+    own = dict(spec.get("parameters") or {})
+    shared = sorted(set(own) & set(parameters))
+    if shared:
+        raise ConfigError(f"config key '{key}.parameters': {shared} are parameters of the system already; "
+                          "give the noise's own parameters other names")
+    return {**parameters, **own}
+
+
 def parse_noise(spec: dict, system, key: str) -> Noise:
     """The :class:`Noise` of a map's ``noise:`` block ``spec`` for ``system`` (a flow: its state
     variables, parameters and time); ``key`` names the block in error messages."""
@@ -109,26 +139,17 @@ def parse_noise(spec: dict, system, key: str) -> Noise:
 
     coordinates = tuple(system.coordinates)
     n = len(coordinates)
-    given = [name for name in ("diffusivity", "diffusion") if spec.get(name) is not None]
-    if len(given) != 1:
-        raise ConfigError(f"config key '{key}': give exactly one of diffusivity (additive noise) and diffusion "
-                          f"(a matrix by formula), got {given or 'neither'}")
-    if given == ["diffusivity"]:
+    formulas = check_noise(spec, coordinates, dict(system.parameters), key)
+    if formulas is None:
         rows, description = _diffusivity_rows(spec["diffusivity"], coordinates, key)
         expressions = [[sympy.Float(v, 17) if v else sympy.Integer(0) for v in row] for row in rows]
         m = n
     else:
-        formulas, m = _formula_rows(spec["diffusion"], coordinates, key)
-        own = dict(spec.get("parameters") or {})
-        shared = sorted(set(own) & set(system.parameters))
-        if shared:
-            raise ConfigError(f"config key '{key}.parameters': {shared} are parameters of the system already; "
-                              "give the noise's own parameters other names")
+        m = len(formulas) // n
         parsed = parse_formulas({place: str(text) for place, text in formulas.items()}, coordinates,
-                                {**system.parameters, **own}, key, NOISE_RESERVED, time=TIME)
+                                noise_parameters(spec, dict(system.parameters), key), key, NOISE_RESERVED, time=TIME)
         expressions = [parsed[i * m:(i + 1) * m] for i in range(n)]
-        shown = spec["diffusion"]
-        description = f"diffusion matrix G = {shown}"
+        description = f"diffusion matrix G = {spec['diffusion']}"
     symbols = [sympy.Symbol(c, real=True) for c in coordinates]
     additive = all(not (e.free_symbols & set(symbols)) for row in expressions for e in row)
     diagonal = m == n and all(expressions[i][j] == 0 for i in range(n) for j in range(m) if i != j) and all(

@@ -29,6 +29,7 @@ from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, mach
 from .ftle import VARIATIONAL
 from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
                    start_time_band, tile_rows)
+from .stochastic import noise_attributes, resolve_noise, stochastic_grid_dataset
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
 log = get_logger(__name__)
@@ -135,7 +136,11 @@ def compute_ld_map(
         where, settings.tau, parameters["time"], settings.scheme,
     )
     ftle = parameters.get("ftle", False)
-    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
+    noisy = parameters.get("noise") is not None
+    if noisy:  # an ensemble of noisy paths per point (ldpipe.core.maps.stochastic)
+        noise, stochastic = resolve_noise(parameters, system)
+        dataset = stochastic_grid_dataset(system, section, settings, noise, stochastic, rows=rows, t0=info["t0"])
+    elif parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
         refine = RefineSettings.from_config(parameters["refine"])
         dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
                                       show_progress=show_progress, t0=info["t0"])
@@ -149,6 +154,10 @@ def compute_ld_map(
     elif ftle and tiles == 1:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
+    if noisy:  # the SDE scheme's settings in place of the deterministic integrator's
+        for name in ("rtol", "atol", "taylor_order", "quadrature_window", "quad_nodes"):
+            dataset.attrs.pop(name)
+        dataset.attrs.update(noise_attributes(noise, stochastic, settings.tau))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     add_ld_units(dataset, system, settings.p)
