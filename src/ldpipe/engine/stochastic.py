@@ -15,6 +15,7 @@ thread count or worker count, and whatever order its starts are given in.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -112,6 +113,7 @@ def stochastic_modules(system, noise):
     return assemble(system, f"sde_engine_{system.engine_name}", title, KERNELS, constants, bodies, PHILOX_LAYER)
 
 
+@functools.cache
 def philox_module():
     """The compiled Philox generator (the common module every stochastic engine imports)."""
     from ..jitcache import load_generated_module
@@ -131,6 +133,17 @@ def path_normals(seed: int, t0: float, trajectory: int, member: int, direction: 
     philox_module().stream_normals(key0, key1, np.uint64(0), blocks * steps, np.uint64(trajectory),
                                    np.uint64(member), np.uint64(DIRECTION_WORDS[direction]), out)
     return out.reshape(steps, 4 * blocks)[:, :n_noise]
+
+
+def brownian_endpoints(seed: int, t0: float, trajectory: int, members: int, direction: int, steps: int,
+                       h: float, n_noise: int) -> np.ndarray:
+    """W at the end of each member's path (members 0 .. members - 1 of one trajectory), shape
+    (members, n_noise): sqrt(h) times the sum of the normal numbers of its ``steps`` steps."""
+    out = np.zeros((members, n_noise))
+    key0, key1 = stream_key(seed, t0)
+    philox_module().stream_sums(key0, key1, np.uint64(trajectory), members, np.uint64(DIRECTION_WORDS[direction]),
+                                steps, n_noise, out)
+    return math.sqrt(h) * out
 
 
 def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, settings: StochasticSettings,

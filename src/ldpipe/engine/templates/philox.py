@@ -82,6 +82,23 @@ def stream_normals(key0, key1, block0, blocks, c1, c2, c3, out):
 
 
 @njit(nogil=True, **JIT)
+def stream_sums(key0, key1, c1, members, c3, steps, n_noise, out):
+    """The sum over ``steps`` steps of each of a path's ``n_noise`` normal numbers, for members
+    0 .. members - 1 of trajectory c1 in direction word c3, into ``out[member, 0:n_noise]``: a path's
+    Brownian motion at its end is sqrt(h) times it."""
+    blocks = (n_noise + 3) // 4
+    xi = np.zeros(4 * blocks)
+    for m in range(members):
+        for j in range(n_noise):
+            out[m, j] = 0.0
+        for s in range(steps):
+            for b in range(blocks):
+                normals(key0, key1, np.uint64(s * blocks + b), c1, np.uint64(m), c3, xi[4 * b:4 * b + 4])
+            for j in range(n_noise):
+                out[m, j] += xi[j]
+
+
+@njit(nogil=True, **JIT)
 def raw_blocks(key0, key1, block0, blocks, c1, c2, c3, out):
     """The raw Philox words of counters (block0 + b, c1, c2, c3) into ``out[b, 0:4]``."""
     for b in range(blocks):
