@@ -90,8 +90,9 @@ def _formula_rows(value, coordinates, key: str) -> tuple[dict[str, object], int]
         if set(value) != set(coordinates):
             raise ConfigError(f"config key '{key}.diffusion': expected one formula for each state variable "
                               f"{list(coordinates)} (a diagonal G), got {list(value)}")
-        return {f"diffusion.{c}.{j}": (value[c] if i == j else 0) for i, c in enumerate(coordinates)
-                for j in range(n)}, n
+        # the diagonal's formulas under their own keys; the zeros off it are never wrong
+        return {(f"diffusion.{c}" if i == j else f"diffusion.{c}.{j}"): (value[c] if i == j else 0)
+                for i, c in enumerate(coordinates) for j in range(n)}, n
     if (not isinstance(value, list) or len(value) != n or not all(isinstance(r, list) and r for r in value)
             or len({len(r) for r in value}) != 1):
         raise ConfigError(f"config key '{key}.diffusion': expected a mapping variable -> formula, or {n} rows "

@@ -1,0 +1,84 @@
+"""Stochastic LD maps through the map machinery: the member dimension, its mean and spread, the
+same bits in any tiling and with several start times, the file written and read back, and the
+configuration's refusals naming their keys.
+
+The system and noise are those of tests/engine/test_stochastic.py (OU in x, GBM in y), so the
+engine module compiled there serves here.
+"""
+
+import numpy as np
+import pytest
+
+import ldpipe
+from ldpipe.errors import ConfigError
+from ldpipe.io.datafile import open_stage_file, write_stage_file
+from ldpipe.io.contracts import LD_GRID
+
+NOISE = {"diffusion": {"x": "sigma", "y": "beta*y"}, "parameters": {"sigma": 0.5, "beta": 1.0}, "members": 3,
+         "seed": 42, "dt": 0.05, "scheme": "milstein"}
+
+
+@pytest.fixture(scope="module")
+def system():
+    return ldpipe.system(name="sde_ou_gbm", vector_field={"x": "-theta*x", "y": "mu*y"}, coordinates=["x", "y"],
+                         parameters={"theta": 1.0, "mu": 1.0})
+
+
+def noisy_map(system, **keys):
+    spec = {"section": ldpipe.section(x=(-1, 1, 6), y=(0.5, 1.5, 4)), "tau": 0.5, "p": 0.5, "noise": NOISE, **keys}
+    return ldpipe.ld_map(system, **spec)
+
+
+def test_member_dimension_mean_and_spread(system, tmp_path):
+    whole = noisy_map(system)
+    assert whole.ld_forward.dims == ("member", "x", "y") and whole.sizes["member"] == 3
+    assert whole.ld_forward_mean.dims == ("x", "y")
+    # the mean and spread are those of the member dimension (n - 1 in the spread's denominator)
+    for label in ("forward", "backward"):
+        np.testing.assert_allclose(whole[f"ld_{label}_mean"], whole[f"ld_{label}"].mean("member"), rtol=1e-14)
+        np.testing.assert_allclose(whole[f"ld_{label}_spread"], whole[f"ld_{label}"].std("member", ddof=1),
+                                   rtol=1e-12)
+    assert np.all(whole.ld_forward_spread > 0)  # members differ: each has its own noise
+    assert whole.attrs["scheme"] == "milstein" and whole.attrs["members"] == 3 and whole.attrs["dt"] == 0.05
+    assert whole.attrs["steps"] == 10 and whole.attrs["seed"] == "42" and "rtol" not in whole.attrs
+    # the file: written and read back with the LD map's contract, bit for bit
+    path = tmp_path / "noisy.nc"
+    write_stage_file(whole, path)
+    with open_stage_file(path, stage=LD_GRID) as back:
+        for name in whole.data_vars:
+            np.testing.assert_array_equal(back[name].values, whole[name].values)
+
+
+def test_tiles_and_start_times_give_the_same_bits(system):
+    # Each point's noise is counted by its index in the whole grid: 3 tiles compute the whole map's bits;
+    # a map of two start times holds at each the map of that start time alone.
+    whole = noisy_map(system)
+    tiled = noisy_map(system, tiles=3)
+    for name in whole.data_vars:
+        np.testing.assert_array_equal(tiled[name].values, whole[name].values)
+    both = noisy_map(system, t0=[0.0, 0.3], tiles=2)
+    later = noisy_map(system, t0=0.3)
+    for name in whole.data_vars:
+        np.testing.assert_array_equal(both[name].sel(t0=0.0).values, whole[name].values)
+        np.testing.assert_array_equal(both[name].sel(t0=0.3).values, later[name].values)
+    assert not np.array_equal(later.ld_forward.values, whole.ld_forward.values)
+
+
+@pytest.mark.parametrize("keys, where", [
+    ({"ftle": True}, "'ftle': a map with noise"),
+    ({"time": "variable", "region": {"x": [-2, 2], "y": [-2, 2]}}, "'time': a map with noise"),
+    ({"noise": {**NOISE, "diffusion": {"x": "sigma*y", "y": "beta*y"}}}, "'noise.scheme': milstein needs diagonal"),
+    ({"noise": {**NOISE, "diffusion": {"x": "open(sigma)", "y": "1"}}}, "'noise.diffusion.x': unknown functions"),
+    ({"noise": {**NOISE, "members": 0}}, "'noise.members'"),
+])
+def test_refusals_name_their_key(system, keys, where):
+    # the API names the argument the configuration key stands for
+    with pytest.raises(ConfigError, match=where.replace(".", r"\.")):
+        noisy_map(system, **keys)
+
+
+def test_noise_on_a_hamiltonian_is_refused():
+    oscillator = ldpipe.system(name="sde_refused", formula="(x**2 + y**2)/2", coordinates=["x", "y"])
+    section = ldpipe.section(x=(-1, 1, 3), px=(-1, 1, 3), fixed={"y": 0.0}, solve="py")
+    with pytest.raises(ConfigError, match=r"argument 'noise'.*Hamiltonian"):
+        ldpipe.ld_map(oscillator, section=section, energy=1.0, noise={"diffusivity": 0.1})
