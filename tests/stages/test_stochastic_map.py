@@ -11,6 +11,7 @@ import pytest
 
 import ldpipe
 from ldpipe.errors import ConfigError
+from ldpipe.figures.data import load_ld_map
 from ldpipe.io.datafile import open_stage_file, write_stage_file
 from ldpipe.io.contracts import LD_GRID
 
@@ -41,6 +42,9 @@ def test_member_dimension_mean_and_spread(system, tmp_path):
     assert np.all(whole.ld_forward_spread > 0)  # members differ: each has its own noise
     assert whole.attrs["scheme"] == "milstein" and whole.attrs["members"] == 3 and whole.attrs["dt"] == 0.05
     assert whole.attrs["steps"] == 10 and whole.attrs["seed"] == "42" and "rtol" not in whole.attrs
+    # a figure draws the ensemble mean (ldpipe.figures.data.load_ld_map)
+    drawn = load_ld_map(whole, "total").values
+    np.testing.assert_allclose(drawn, whole.ld_forward_mean + whole.ld_backward_mean, rtol=1e-14)
     # the file: written and read back with the LD map's contract, bit for bit
     path = tmp_path / "noisy.nc"
     write_stage_file(whole, path)

@@ -70,11 +70,14 @@ def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDM
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
     dataset = open_stage_file(path, stage=LD_GRID, only=True)
-    axes = tuple(dataset.ld_forward.dims)
+    fields = {"forward": dataset.ld_forward, "backward": dataset.ld_backward}
+    if "member" in dataset.ld_forward.dims:  # a map with noise is drawn as its ensemble mean
+        fields = {label: field.mean("member") for label, field in fields.items()}
+    axes = tuple(fields["forward"].dims)
     if descriptor == "total":
-        values = dataset.ld_forward.values + dataset.ld_backward.values
+        values = fields["forward"].values + fields["backward"].values
     else:
-        values = dataset[f"ld_{descriptor}"].values
+        values = fields[descriptor].values
     allowed = dataset.allowed.values.astype(bool)
     return LDMap(
         name=str(dataset.attrs["map"]) if "map" in dataset.attrs else Path(path).stem,
