@@ -104,7 +104,8 @@ def stream_key(seed: int, t0: float) -> tuple[np.uint64, np.uint64]:
 def stochastic_modules(system, noise):
     """The texts of the stochastic engine's modules for ``system`` with ``noise`` (module docstring)."""
     m = noise.n_noise
-    constants = {"N": system.n_state, "M_NOISE": m, "BLOCKS": (m + 3) // 4, **KINDS}
+    constants = {"N": system.n_state, "M_NOISE": m, "BLOCKS": (m + 3) // 4, "LAST_PAIRS": 2 if m % 4 in (0, 3) else 1,
+                 **KINDS}
     title = f"ldpipe.engine.stochastic: {system.n_state} state variables, {m} Wiener processes"
     from .codegen import template
 
@@ -188,7 +189,7 @@ def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, 
         key0, key1 = stream_key(settings.seed, t0)
         args = (index, members, key0, key1, np.uint64(DIRECTION_WORDS[direction]), float(t0), float(direction), h,
                 n_steps, code, integrand.kind, integrand.p_exponent(p), np.asarray(noise.lower, dtype=np.float64),
-                np.asarray(noise.upper, dtype=np.float64), noise.reflecting, float(escape_radius))
+                np.asarray(noise.upper, dtype=np.float64), noise.reflecting, float(escape_radius), noise.constant)
         threads = threads or get_num_threads()
         with system.time_window(t0, t0 + direction * tau):
             run_units(runner, items, max(1, min(256, total // (8 * threads) or 1)), args, outputs, threads)

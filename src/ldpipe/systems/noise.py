@@ -60,6 +60,11 @@ class Noise:
         return len(self.expressions[0])
 
     @property
+    def constant(self) -> bool:
+        """G depends on neither the state nor the time."""
+        return all(not e.free_symbols for row in self.expressions for e in row)
+
+    @property
     def reflecting(self) -> np.ndarray:
         """Which state variables have walls."""
         return np.isfinite(np.asarray(self.lower)) | np.isfinite(np.asarray(self.upper))

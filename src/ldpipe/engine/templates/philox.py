@@ -7,9 +7,9 @@ batch or tile computes it. This is the variant numpy names ``numpy.random.Philox
 64-bit words, ten rounds); its raw output for a key and counter equals numpy's for that key and
 the counter one before (numpy increments its counter before each block of four).
 
-``normals(key0, key1, c0, c1, c2, c3, out)`` writes four standard normal numbers: the four words
-made uniforms on the open interval (0, 1) with 53 bits each, then the Box-Muller transform on
-two pairs. Header names used: njit, JIT, math, np.
+``normals(key0, key1, c0, c1, c2, c3, out, pairs)`` writes four (or two) standard normal
+numbers: the four words made uniforms on the open interval (0, 1) with 53 bits each, then the
+Box-Muller transform on two pairs (or the first). Header names used: njit, JIT, math, np.
 """
 # ruff: noqa: F821  (njit, JIT, math and np come from the generated header)
 
@@ -60,17 +60,20 @@ def open_uniform(word):
 
 
 @njit(**JIT)
-def normals(key0, key1, c0, c1, c2, c3, out):
-    """Four independent standard normal numbers into ``out[0:4]`` from one Philox block."""
+def normals(key0, key1, c0, c1, c2, c3, out, pairs):
+    """Independent standard normal numbers into ``out[0:2 pairs]`` (``pairs`` 1 or 2) from one
+    Philox block: the first pair from its words 0 and 1, the second from 2 and 3 (a caller that
+    needs two numbers skips the second transform; the first two are the same either way)."""
     w0, w1, w2, w3 = philox4x64(key0, key1, c0, c1, c2, c3)
     r = math.sqrt(-2.0 * math.log(open_uniform(w0)))
     angle = TWO_PI * open_uniform(w1)
     out[0] = r * math.cos(angle)
     out[1] = r * math.sin(angle)
-    r = math.sqrt(-2.0 * math.log(open_uniform(w2)))
-    angle = TWO_PI * open_uniform(w3)
-    out[2] = r * math.cos(angle)
-    out[3] = r * math.sin(angle)
+    if pairs > 1:
+        r = math.sqrt(-2.0 * math.log(open_uniform(w2)))
+        angle = TWO_PI * open_uniform(w3)
+        out[2] = r * math.cos(angle)
+        out[3] = r * math.sin(angle)
 
 
 @njit(nogil=True, **JIT)
@@ -78,7 +81,7 @@ def stream_normals(key0, key1, block0, blocks, c1, c2, c3, out):
     """``4 * blocks`` normal numbers of counters (block0 + b, c1, c2, c3), b = 0 .. blocks - 1, into
     ``out`` (tests and benchmarks read a trajectory's stream with it)."""
     for b in range(blocks):
-        normals(key0, key1, block0 + np.uint64(b), c1, c2, c3, out[4 * b:4 * b + 4])
+        normals(key0, key1, block0 + np.uint64(b), c1, c2, c3, out[4 * b:4 * b + 4], 2)
 
 
 @njit(nogil=True, **JIT)
@@ -93,7 +96,7 @@ def stream_sums(key0, key1, c1, members, c3, steps, n_noise, out):
             out[m, j] = 0.0
         for s in range(steps):
             for b in range(blocks):
-                normals(key0, key1, np.uint64(s * blocks + b), c1, np.uint64(m), c3, xi[4 * b:4 * b + 4])
+                normals(key0, key1, np.uint64(s * blocks + b), c1, np.uint64(m), c3, xi[4 * b:4 * b + 4], 2)
             for j in range(n_noise):
                 out[m, j] += xi[j]
 

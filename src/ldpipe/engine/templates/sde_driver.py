@@ -21,7 +21,12 @@ integrand, sum |f_i|^p or ||f||, at the step's ends (the drift, not the path's v
 Brownian path does not have). A trajectory whose state leaves the escape radius, or is not finite,
 stops there, flagged, with its LD and time up to the last state inside.
 
-Header names used: N, M_NOISE, BLOCKS, KIND_HALF, KIND_ONE, KIND_ARCLENGTH, the kernels rhs,
+``constant``: G depends on neither the state nor the time, and is evaluated once per path. Only
+the normal numbers a step uses are transformed (``LAST_PAIRS`` Box-Muller pairs of the last
+Philox block); the others of the block are drawn and left, so a path's numbers are those of
+``philox.py``'s stream whatever m is.
+
+Header names used: N, M_NOISE, BLOCKS, LAST_PAIRS, KIND_HALF, KIND_ONE, KIND_ARCLENGTH, the kernels rhs,
 diffusion, diffusion_slope, and ``normals`` of ``philox.py``.
 """
 # ruff: noqa: F821  (the upper-case constants, njit, JIT, np, math and the kernels come from the generated module)
@@ -72,7 +77,7 @@ def outside(x, lo, hi, reflecting, radius):
 @njit(nogil=True, **JIT)
 def sde_process(
     states, start, stop, index, members, key0, key1, direction_word, t0, direction, h, n_steps, scheme,
-    kind, p, lo, hi, reflecting, radius,
+    kind, p, lo, hi, reflecting, radius, constant,
     o_ld, o_time, o_escaped, o_started, o_end,
 ):  # fmt: skip
     x = np.zeros(N)
@@ -91,6 +96,8 @@ def sde_process(
         o_escaped[k] = False
         o_started[k] = not outside(x, lo, hi, reflecting, radius)
         if o_started[k]:
+            if constant:  # G depends on neither the state nor the time: once per path
+                diffusion(x, t0, g)
             rhs(x, t0, f)
             value = drift_integrand(f, kind, p)
             ld = 0.0
@@ -98,8 +105,9 @@ def sde_process(
                 t = t0 + direction * s * h
                 for b in range(BLOCKS):
                     normals(key0, key1, np.uint64(s * BLOCKS + b), trajectory, member, direction_word,
-                            xi[4 * b:4 * b + 4])
-                diffusion(x, t, g)
+                            xi[4 * b:4 * b + 4], 2 if b < BLOCKS - 1 else LAST_PAIRS)
+                if not constant:
+                    diffusion(x, t, g)
                 if scheme == 1:
                     diffusion_slope(x, t, slope)
                 for i in range(N):
