@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import ldpipe
+from ldpipe.core.maps import assembly
 from ldpipe.errors import ConfigError
 from ldpipe.figures.data import load_ld_map
 from ldpipe.io.datafile import open_stage_file, write_stage_file
@@ -86,3 +87,12 @@ def test_noise_on_a_hamiltonian_is_refused():
     section = ldpipe.section(x=(-1, 1, 3), px=(-1, 1, 3), fixed={"y": 0.0}, solve="py")
     with pytest.raises(ConfigError, match=r"argument 'noise'.*Hamiltonian"):
         ldpipe.ld_map(oscillator, section=section, energy=1.0, noise={"diffusivity": 0.1})
+
+
+def test_a_band_is_sized_by_its_paths(system, monkeypatch):
+    # On a machine of 1100 MB (1000 for the process, 200 bytes a path: ldpipe.core.maps.budget), 100 x 100
+    # points fit (2 MB) but not with 64 members a point (122 MB): refused before any path, naming tiles.
+    monkeypatch.setattr(assembly, "machine_memory_mb", lambda: 1100)
+    section = ldpipe.section(x=(-1, 1, 100), y=(0.5, 1.5, 100))
+    with pytest.raises(ConfigError, match=r"argument 'tiles'.*noisy paths \(64 members a grid point\)"):
+        ldpipe.ld_map(system, section=section, tau=0.1, noise={"diffusivity": 0.1, "members": 64, "dt": 0.1})

@@ -126,8 +126,11 @@ def compute_ld_map(
         return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
-    check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
-                      section.shape[0] * section.shape[1])
+    # a map with noise holds every member's fields: a path costs what a point does
+    members = parameters["noise"]["members"] if parameters.get("noise") is not None else 1
+    check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1] * members,
+                      section.shape[0] * section.shape[1] * members,
+                      what="grid points" if members == 1 else f"noisy paths ({members} members a grid point)")
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
              else f"E = {info['energy']:.12g} (dE = {info['excess_energy']:.6g})")
     log.info(
@@ -165,10 +168,12 @@ def compute_ld_map(
     return dataset
 
 
-def check_band_memory(map_name: str, points: int, map_points: int, available_mb: int | None = None) -> None:
-    """A ConfigError naming the map's ``tiles`` if a band of ``points`` grid points needs more memory
-    than this machine has (``available_mb``, default its physical memory): refused before any
-    trajectory is integrated, with the estimate and the tiles that would fit."""
+def check_band_memory(map_name: str, points: int, map_points: int, available_mb: int | None = None,
+                      what: str = "grid points") -> None:
+    """A ConfigError naming the map's ``tiles`` if a band of ``points`` grid points (or ``what``
+    they are: a map with noise counts its paths) needs more memory than this machine has
+    (``available_mb``, default its physical memory): refused before any trajectory is integrated,
+    with the estimate and the tiles that would fit."""
     available_mb = machine_memory_mb() if available_mb is None else available_mb
     need = band_memory_mb(points)
     if available_mb is None or need <= available_mb:
@@ -176,7 +181,7 @@ def check_band_memory(map_name: str, points: int, map_points: int, available_mb:
     tiles = fewest_tiles(map_points, available_mb)
     fix = (f"give tiles: {tiles} or more (the workflow runs each as a job of its own), or fewer points"
            if tiles else "give fewer points")
-    raise ConfigError(f"config key 'ld_maps.{map_name}.tiles': a band of {points} grid points needs about "
+    raise ConfigError(f"config key 'ld_maps.{map_name}.tiles': a band of {points} {what} needs about "
                       f"{need} MB ({BYTES_PER_POINT} bytes a point and {BASE_MB} MB for the process), more than "
                       f"this machine's {available_mb} MB; {fix}")
 

@@ -28,6 +28,9 @@ from ...errors import ConfigError
 from ...systems.noise import Noise, parse_noise
 from ..sections import Section, section_states
 
+#: Paths per engine call (the points of a call times its members): the engine's scratch stays
+#: bounded whatever the map's size; the paths' bits do not depend on it.
+PATHS_PER_CALL = 1 << 18
 #: The map variables that take a ``member`` dimension, and their long names.
 MEMBER_FIELDS = {
     "ld": "Lagrangian descriptor of the drift along the noisy path, {label} time",
@@ -65,10 +68,14 @@ def stochastic_grid_dataset(system, section: Section, settings: LDSettings, nois
     radius = engine_escape_radius(system, settings.escape_radius)
     dims = ("member", *section.axes)
     variables = {}
+    chunk = max(1, PATHS_PER_CALL // members)
     for direction, label in ((1, "forward"), (-1, "backward")):
-        result = compute_stochastic_ld(system, noise, states, direction, settings.tau, settings.p, stochastic,
-                                       radius, t0=t0, index=index)
-        values = {"ld": result.ld, "exit_time": result.time, "escaped": result.escaped | ~result.started}
+        parts = [compute_stochastic_ld(system, noise, states[start:start + chunk], direction, settings.tau, settings.p,
+                                       stochastic, radius, t0=t0, index=index[start:start + chunk])
+                 for start in range(0, max(len(states), 1), chunk)]
+        ld, time, escaped, started = (np.concatenate([getattr(part, name) for part in parts])
+                                      for name in ("ld", "time", "escaped", "started"))
+        values = {"ld": ld, "exit_time": time, "escaped": escaped | ~started}
         for name, per_path in values.items():
             full = np.zeros((members, *shape), dtype=per_path.dtype)
             full[:, allowed] = per_path.T
