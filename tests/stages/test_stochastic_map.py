@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import ldpipe
-from ldpipe.core.maps import assembly
+from ldpipe.core.maps import assembly, stochastic
 from ldpipe.errors import ConfigError
 from ldpipe.figures.data import load_ld_map
 from ldpipe.io.datafile import open_stage_file, write_stage_file
@@ -54,13 +54,17 @@ def test_member_dimension_mean_and_spread(system, tmp_path):
             np.testing.assert_array_equal(back[name].values, whole[name].values)
 
 
-def test_tiles_and_start_times_give_the_same_bits(system):
-    # Each point's noise is counted by its index in the whole grid: 3 tiles compute the whole map's bits;
-    # a map of two start times holds at each the map of that start time alone.
+def test_tiles_chunks_and_start_times_give_the_same_bits(system, monkeypatch):
+    # Each point's noise is counted by its index in the whole grid: 3 tiles, or engine calls of 7 paths,
+    # compute the whole map's bits; a map of two start times holds at each the map of that start time alone.
     whole = noisy_map(system)
     tiled = noisy_map(system, tiles=3)
+    with monkeypatch.context() as patch:
+        patch.setattr(stochastic, "PATHS_PER_CALL", 7)
+        chunked = noisy_map(system)
     for name in whole.data_vars:
         np.testing.assert_array_equal(tiled[name].values, whole[name].values)
+        np.testing.assert_array_equal(chunked[name].values, whole[name].values)
     both = noisy_map(system, t0=[0.0, 0.3], tiles=2)
     later = noisy_map(system, t0=0.3)
     for name in whole.data_vars:
