@@ -108,6 +108,23 @@ def test_a_full_diffusion_matrix_gives_covariance_g_gt_t(free):
     assert np.all(np.abs(sample - expected) < 4 * error)
 
 
+def test_velocity_data_drift_and_spread(tmp_path):
+    # Velocity data of a uniform current u = U (sampled on a grid: its cubic convolution is exact for a
+    # constant) with diffusivity K: mean displacement U t, variance 2 K t per axis, within 4 standard errors.
+    from support.gridded import write_velocity_file
+
+    current, diffusivity, tau, members = 0.1, 0.01, 10.0, 20_000
+    path = write_velocity_file(tmp_path / "current.nc", lambda x, y, t: (current + 0 * x, 0 * y),
+                               np.linspace(0, 10, 11), np.linspace(0, 5, 6), np.linspace(0, 20, 5))
+    data = make_system("sde_uniform_current", {"velocity_data": {"path": str(path)}})
+    noise = parse_noise({"diffusivity": diffusivity}, data, "test")
+    end = run((data, noise), [2.0, 2.5], tau, members, 0.5).end_state[0]
+    variance = 2 * diffusivity * tau
+    np.testing.assert_array_less(np.abs(end.mean(axis=0) - [2.0 + current * tau, 2.5]),
+                                 4 * math.sqrt(variance / members))
+    np.testing.assert_array_less(np.abs(end.var(axis=0, ddof=1) - variance), 4 * variance * math.sqrt(2 / members))
+
+
 def test_reflecting_box_keeps_mass_and_saturates_at_uniform_variance(free):
     # In a box of side L every member stays inside (no mass lost through a wall), and after many
     # relaxation times L^2 / (4 pi^2 K) (the slowest even mode) the law is uniform: variance L^2 / 12,
