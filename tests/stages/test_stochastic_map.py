@@ -13,8 +13,8 @@ import ldpipe
 from ldpipe.core.maps import assembly, stochastic
 from ldpipe.errors import ConfigError
 from ldpipe.figures.data import load_ld_map
-from ldpipe.io.datafile import open_stage_file, write_stage_file
 from ldpipe.io.contracts import LD_GRID
+from ldpipe.io.datafile import open_stage_file, write_stage_file
 
 NOISE = {"diffusion": {"x": "sigma", "y": "beta*y"}, "parameters": {"sigma": 0.5, "beta": 1.0}, "members": 3,
          "seed": 42, "dt": 0.05, "scheme": "milstein"}

@@ -66,7 +66,7 @@ class StochasticSettings:
             raise ValueError(f"members: expected an integer in [1, {MAX_MEMBERS}], got {self.members!r}")
 
     @classmethod
-    def from_config(cls, block: dict) -> "StochasticSettings":
+    def from_config(cls, block: dict) -> StochasticSettings:
         """From a map's ``noise:`` block (defaults filled by the schema, or these)."""
         return cls(**{name: block[name] for name in ("scheme", "dt", "seed", "members") if name in block})
 

@@ -100,7 +100,7 @@ def stochastic_grid_dataset(system, section: Section, settings: LDSettings, nois
 def noise_attributes(noise: Noise, stochastic: StochasticSettings, tau: float) -> dict:
     """What a stochastic map's file records of its noise and scheme (replacing the integrator's)."""
     steps, h = stochastic.steps(tau)
-    code, strong, strong_additive, weak = SDE_SCHEMES[stochastic.scheme]
+    _, strong, strong_additive, weak = SDE_SCHEMES[stochastic.scheme]
     return {
         "noise": noise.description,
         "noise_additive": int(noise.additive),
