@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 import ldpipe
+from ldpipe.config import validate_config
 from ldpipe.core.maps import assembly, stochastic
 from ldpipe.errors import ConfigError
 from ldpipe.figures.data import load_ld_map
 from ldpipe.io.contracts import LD_GRID
 from ldpipe.io.datafile import open_stage_file, write_stage_file
+from ldpipe.stages.plan import ld_map_points, ld_tile_points
 
 NOISE = {"diffusion": {"x": "sigma", "y": "beta*y"}, "parameters": {"sigma": 0.5, "beta": 1.0}, "members": 3,
          "seed": 42, "dt": 0.05, "scheme": "milstein"}
@@ -100,3 +102,14 @@ def test_a_band_is_sized_by_its_paths(system, monkeypatch):
     section = ldpipe.section(x=(-1, 1, 100), y=(0.5, 1.5, 100))
     with pytest.raises(ConfigError, match=r"argument 'tiles'.*noisy paths \(64 members a grid point\)"):
         ldpipe.ld_map(system, section=section, tau=0.1, noise={"diffusivity": 0.1, "members": 64, "dt": 0.1})
+
+
+def test_the_workflow_sizes_a_noisy_maps_jobs_by_its_paths():
+    # A tile job's memory and time limit are sized by what it integrates (workflow/rules/common.smk):
+    # 6 x 4 points in 2 tiles of 3 rows, 16 members a point: 3 * 4 * 16 paths a tile, 6 * 4 * 16 in the file.
+    config = validate_config({
+        "systems": {"s": {"vector_field": {"x": "-x", "y": "y"}, "coordinates": ["x", "y"]}},
+        "ld_maps": {"m": {"system": "s", "tiles": 2, "noise": {"diffusivity": 0.1, "members": 16}, "section": {
+            "axes": [{"name": "x", "range": [-1, 1], "points": 6}, {"name": "y", "range": [-1, 1], "points": 4}]}}}})
+    assert ld_tile_points(config, "m", 2) == 3 * 4 * 16
+    assert ld_map_points(config, "m") == 6 * 4 * 16

@@ -27,8 +27,8 @@ from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
-from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
-                   start_time_band, tile_rows)
+from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, paths_per_point,
+                   resolve_ld_map, start_time_band, tile_rows)
 from .stochastic import noise_attributes, resolve_noise, stochastic_grid_dataset
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
@@ -127,7 +127,7 @@ def compute_ld_map(
     system, section, settings, info = resolve_map(parameters, equilibria)
     rows = tile_rows(section.shape[0], tile, tiles)
     # a map with noise holds every member's fields: a path costs what a point does
-    members = parameters["noise"]["members"] if parameters.get("noise") is not None else 1
+    members = paths_per_point(parameters)
     check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1] * members,
                       section.shape[0] * section.shape[1] * members,
                       what="grid points" if members == 1 else f"noisy paths ({members} members a grid point)")
