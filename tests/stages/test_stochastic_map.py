@@ -73,6 +73,11 @@ def test_tiles_chunks_and_start_times_give_the_same_bits(system, monkeypatch):
         np.testing.assert_array_equal(both[name].sel(t0=0.0).values, whole[name].values)
         np.testing.assert_array_equal(both[name].sel(t0=0.3).values, later[name].values)
     assert not np.array_equal(later.ld_forward.values, whole.ld_forward.values)
+    # one direction of time: that direction's variables alone, the same bits as in the map of both
+    backward = noisy_map(system, directions="backward")
+    assert "ld_forward" not in backward and "ld_backward_mean" in backward
+    for name in ("ld_backward", "exit_time_backward", "ld_backward_mean", "ld_backward_spread"):
+        np.testing.assert_array_equal(backward[name].values, whole[name].values)
 
 
 @pytest.mark.parametrize("keys, where", [

@@ -27,6 +27,7 @@ from ...engine.stochastic import SDE_SCHEMES, StochasticSettings, compute_stocha
 from ...errors import ConfigError
 from ...systems.noise import Noise, parse_noise
 from ..sections import Section, section_states
+from .grid import BOTH, map_directions
 
 #: Paths per engine call (the points of a call times its members): the engine's scratch stays
 #: bounded whatever the map's size; the paths' bits do not depend on it.
@@ -57,8 +58,11 @@ def resolve_noise(parameters: dict, system) -> tuple[Noise, StochasticSettings]:
 
 
 def stochastic_grid_dataset(system, section: Section, settings: LDSettings, noise: Noise,
-                            stochastic: StochasticSettings, rows: slice | None = None, t0: float = 0.0) -> xr.Dataset:
-    """The stochastic map's Dataset on the section's grid (or the band ``rows``), see the module docstring."""
+                            stochastic: StochasticSettings, rows: slice | None = None, t0: float = 0.0,
+                            directions: str = BOTH) -> xr.Dataset:
+    """The stochastic map's Dataset on the section's grid (or the band ``rows``), see the module
+    docstring; ``directions`` (:data:`ldpipe.core.maps.grid.DIRECTIONS`): the directions of time
+    integrated, the file holding that direction's variables alone for one."""
     rows = rows if rows is not None else slice(0, section.shape[0])
     states, allowed, _ = section_states(system, section, None, rows)
     columns = section.shape[1]
@@ -69,7 +73,7 @@ def stochastic_grid_dataset(system, section: Section, settings: LDSettings, nois
     dims = ("member", *section.axes)
     variables = {}
     chunk = max(1, PATHS_PER_CALL // members)
-    for direction, label in ((1, "forward"), (-1, "backward")):
+    for direction, label in map_directions(directions):
         parts = [compute_stochastic_ld(system, noise, states[start:start + chunk], direction, settings.tau, settings.p,
                                        stochastic, radius, t0=t0, index=index[start:start + chunk])
                  for start in range(0, max(len(states), 1), chunk)]
