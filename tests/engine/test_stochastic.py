@@ -201,23 +201,29 @@ def test_additive_noise_milstein_is_euler_maruyama(ou_gbm):
     np.testing.assert_array_equal(a.ld, b.ld)
 
 
+@pytest.mark.parametrize("p", [0.5, 1.0, 0.3, "arclength"])
 @pytest.mark.parametrize("direction", [1, -1])
-def test_zero_noise_ld_is_the_linear_saddles(ou_gbm, direction):
+def test_zero_noise_ld_is_the_linear_saddles(ou_gbm, direction, p):
     # With G = 0 the steps are Euler's on x' = -x, y' = y (backward time: the drift reversed), whose path is
-    # geometric, x_n = x0 (1 -+ h)^n, y_n = y0 (1 +- h)^n, and the LD the trapezoidal sum of |x_n|^p + |y_n|^p:
-    # equal to rounding. As h -> 0 that is the linear saddle's M_1/2 in closed form (support.closed_forms,
-    # axes exchanged), here within Euler's first-order error (0.3 % at h = 0.01, tau = 2).
+    # geometric, x_n = x0 (1 -+ h)^n, y_n = y0 (1 +- h)^n, and the LD the trapezoidal sum of |x_n|^p + |y_n|^p
+    # (the arc length: of sqrt(x_n^2 + y_n^2)): equal to rounding. As h -> 0 M_p is the linear saddle's in
+    # closed form (support.closed_forms, axes exchanged), here within Euler's first-order error.
     system, _ = ou_gbm
     silent = parse_noise({"diffusivity": 0}, system, "test")
     starts = np.array([[0.3, 0.2], [-0.1, 0.5]])
-    tau, h, p = 2.0, 0.01, 0.5
-    result = run(ou_gbm, starts, tau, 2, h, noise=silent, direction=direction)
+    tau, h = 2.0, 0.01
+    settings = StochasticSettings(dt=h, members=2)
+    result = compute_stochastic_ld(system, silent, starts, direction, tau, p, settings, FAR)
     n = np.arange(201)
     for k, (x0, y0) in enumerate(starts):
-        g = np.abs(x0 * (1 - direction * h) ** n) ** p + np.abs(y0 * (1 + direction * h) ** n) ** p
+        x, y = x0 * (1 - direction * h) ** n, y0 * (1 + direction * h) ** n
+        g = np.hypot(x, y) if p == "arclength" else np.abs(x) ** p + np.abs(y) ** p
         np.testing.assert_allclose(result.ld[k], h * (g[:-1] + g[1:]).sum() / 2, rtol=1e-12)
-        np.testing.assert_allclose(result.end_state[k, :, 0], x0 * (1 - direction * h) ** 200, rtol=1e-12)
-        np.testing.assert_allclose(result.ld[k], linear_saddle_ld(y0, x0, 1.0, tau, p, direction), rtol=4e-3)
+        np.testing.assert_allclose(result.end_state[k, :, 0], x[-1], rtol=1e-12)
+        if p != "arclength":
+            # Euler's x_n^p is off by at most p tau h / 2 relative: ln (1 + h)^n = t - t h / 2 + ...
+            np.testing.assert_allclose(result.ld[k], linear_saddle_ld(y0, x0, 1.0, tau, p, direction),
+                                       rtol=p * tau * h / 2)
 
 
 def test_paths_are_the_same_bits_in_any_order_tiling_and_thread_count(ou_gbm):
