@@ -82,6 +82,7 @@ def test_tiles_chunks_and_start_times_give_the_same_bits(system, monkeypatch):
 
 @pytest.mark.parametrize("keys, where", [
     ({"ftle": True}, "'ftle': a map with noise"),
+    ({"structures": True}, "'structures': a map with noise"),
     ({"time": "variable", "region": {"x": [-2, 2], "y": [-2, 2]}}, "'time': a map with noise"),
     ({"noise": {**NOISE, "diffusion": {"x": "sigma*y", "y": "beta*y"}}}, "'noise.scheme': milstein needs diagonal"),
     ({"noise": {**NOISE, "diffusion": {"x": "open(sigma)", "y": "1"}}}, "'noise.diffusion.x': unknown functions"),
@@ -91,6 +92,19 @@ def test_refusals_name_their_key(system, keys, where):
     # the API names the argument the configuration key stands for
     with pytest.raises(ConfigError, match=where.replace(".", r"\.")):
         noisy_map(system, **keys)
+
+
+def test_noise_in_dask_blocks_is_refused(system):
+    pytest.importorskip("dask")
+    with pytest.raises(ConfigError, match=r"'chunks': a map with noise"):
+        noisy_map(system, chunks=8)
+
+
+def test_noise_on_a_discrete_map_is_refused():
+    henon = ldpipe.system(map="henon")
+    with pytest.raises(ConfigError, match=r"argument 'noise'.*discrete map"):
+        ldpipe.ld_map(henon, section=ldpipe.section(x=(-1, 1, 3), y=(-1, 1, 3)), iterations=5,
+                      noise={"diffusivity": 0.1})
 
 
 def test_noise_on_a_hamiltonian_is_refused():
