@@ -15,6 +15,7 @@ from ..core.maps.grid import BOTH, DIRECTIONS
 from ..core.maps.symmetry import SETTING_KEY
 from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
                        system_phase_coordinates)
+from ..systems.noise import check_noise
 
 
 def check_interval(value, key: str) -> None:
@@ -92,6 +93,7 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                               "velocity_data names w), whose FTLE would mix degrees of arc with the vertical "
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
+        check_noisy_map(spec, key, system)
         check_variational_ftle(spec, key, system)
         check_structures(spec, key)
         check_directions(spec, key)
@@ -146,6 +148,30 @@ def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     if not vector_field:
         raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
                           f"{spec['system']!r} is a Hamiltonian (leave ld out)")
+
+
+def check_noisy_map(spec: dict, key: str, system: dict) -> None:
+    """A map with noise: a fixed-time full LD map of a vector field or of velocity data on the plane,
+    its noise block well formed (:func:`ldpipe.systems.noise.check_noise`)."""
+    noise = spec.get("noise")
+    if noise is None:
+        return
+    if not is_vector_field(system):
+        raise ConfigError(f"config key '{key}.noise': noise is added to a vector field or velocity data; system "
+                          f"{spec['system']!r} is a Hamiltonian")
+    if on_sphere(system):
+        raise ConfigError(f"config key '{key}.noise': system {spec['system']!r} is velocity data on the sphere, "
+                          "whose state is in degrees; noise is supported on the plane only")
+    for name, refused, why in (("time", spec["time"] != "fixed", "give time: fixed"),
+                               ("refine", spec.get("refine") is not None, "give refine: null"),
+                               ("ftle", bool(spec.get("ftle")), "leave ftle out"),
+                               ("ld", not spec.get("ld", True), "leave ld out"),
+                               ("structures", bool(spec.get("structures")),
+                                "leave structures out (they are traced on one field, not on an ensemble)")):
+        if refused:
+            raise ConfigError(f"config key '{key}.{name}': a map with noise is a fixed-time map of the LD along "
+                              f"each noisy path; {why}")
+    check_noise(noise, system_coordinates(system), system.get("parameters") or {}, f"{key}.noise")
 
 
 def check_directions(spec: dict, key: str) -> None:
@@ -231,6 +257,7 @@ FLOW_ONLY_MAP_KEYS = {
     "region": "a map's orbits stop only at the escape radius", "ftle": "a map has no flow map over a time",
     "refine": "a map's LD map is computed at every point", "quad_nodes": "a map's LD is a sum, not a quadrature",
     "ld": "a map's file is its LD", "backward_by_symmetry": "a map's backward half iterates its inverse",
+    "noise": "noise is added to a flow's dx = f dt (a stochastic map of a map is not implemented)",
 }
 
 
@@ -261,7 +288,7 @@ def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict
         raise ConfigError(f"config key '{key}.time': {where}; every orbit runs its iterations (or escapes): leave "
                           "time out")
     for name, why in FLOW_ONLY_MAP_KEYS.items():
-        if name in spec and not (name == "refine" and spec[name] is None):
+        if name in spec and not (name in ("refine", "noise") and spec[name] is None):
             raise ConfigError(f"config key '{key}.{name}': {where}, and {why}; leave {name} out")
     if spec.get("chaos_indicators") is not None and spec.get("directions", BOTH) != BOTH:
         raise ConfigError(f"config key '{key}.chaos_indicators': the indicators are of the LD's two halves summed, and "
