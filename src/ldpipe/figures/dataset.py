@@ -2,9 +2,10 @@
 
 An LD map with the paper's colour scale (the ``section_maps`` figure's panel), a periodic-orbit
 family in the configuration plane, a Poincaré section with its energy boundary, the curves where
-manifolds cut their section, or the equilibria (of a Hamiltonian or a vector field) in the plane of
-the first two coordinates. The options an LD map
-takes are the figure keys of the same names, with their defaults from the configuration schema.
+manifolds cut their section, the curves extracted from a map (a structures file), or the
+equilibria (of a Hamiltonian or a vector field) in the plane of the first two coordinates. The
+options an LD map takes are the figure keys of the same names, with their defaults from the
+configuration schema.
 """
 
 from __future__ import annotations
@@ -16,11 +17,12 @@ import xarray as xr
 from ..config import load_schema
 from ..core.maps.grid import BOTH, require_directions
 from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, STRUCTURES, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
 from . import style
 from .data import DESCRIPTORS, descriptor_directions, load_orbits
 from .section_maps import draw_manifold_curves, draw_poincare, energy_title
+from .structures import draw_structure_curves
 
 #: The figure keys an LD map or a Poincaré section takes as options.
 MAP_OPTIONS = ("descriptor", "color_percentiles", "color_limits")
@@ -89,7 +91,8 @@ def _horizontal_vertical(dims: tuple, x: str | None, y: str | None) -> tuple[str
     return x, y if y is not None else next(d for d in dims if d != x)
 
 
-def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds=(), **options) -> None:
+def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds=(), structures=(),
+                 **options) -> None:
     """A field of an LD map as xarray's ``dataset[variable].plot()`` draws it (the same dimension
     horizontal, the same cells), with missing points in the figures' neutral grey, the figures'
     robust colour scale unless ``vmin``, ``vmax`` or ``norm`` say otherwise, and the axes and
@@ -118,10 +121,24 @@ def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds
     ax.set_ylabel(_with_units(style.symbol(vertical), dataset[vertical].attrs))
     if manifolds:
         draw_manifold_curves(ax, list(manifolds), (horizontal, vertical))
+    draw_structure_curves(ax, [structures] if isinstance(structures, xr.Dataset) else list(structures),
+                          along=(horizontal, vertical))
+    ax.set_title("")
+    if "iterations" in dataset.attrs:  # a discrete map's: no time, N iterations each way
+        ax.set_title(rf"$N = {int(dataset.attrs['iterations'])}$", loc="right")
+        return
     where = (energy_title(float(dataset.attrs["excess_energy"]), float(dataset.attrs["energy"]))
              if "energy" in dataset.attrs else rf"$t_0 = {float(dataset.attrs.get('t0', 0.0)):g}$")
-    ax.set_title("")
     ax.set_title(where + (rf", $\tau = {float(dataset.attrs['tau']):g}$" if "tau" in dataset.attrs else ""), loc="right")
+
+
+def _draw_structures(ax, dataset: xr.Dataset) -> None:
+    """The curves of a structures file alone, stable and unstable, over the map's window."""
+    axes = draw_structure_curves(ax, [dataset])
+    style.label_axes(ax, *axes)
+    if dataset.sizes["curve"]:
+        ax.legend(loc="best")
+    ax.set_title(f"structures of {dataset.attrs.get('map_title', 'an LD map')}", loc="right")
 
 
 def _draw_orbits(ax, dataset: xr.Dataset) -> None:
@@ -170,9 +187,10 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, variable: str | None = None, *
     default the LD ``descriptor``: the total, or for a map of one direction that direction's LD)
     as ``dataset[variable].plot()`` does, the same dimension horizontal, with missing points grey.
     It takes ``descriptor``, ``color_percentiles``, ``color_limits`` (the figure keys),
-    ``manifolds`` (manifold files drawn over it) and matplotlib's ``cmap``, ``vmin``, ``vmax``,
-    ``norm``, ``add_colorbar``, and xarray's ``x``, ``y`` (which coordinate is horizontal,
-    vertical). A Poincaré section takes ``point_size``.
+    ``manifolds`` (manifold files drawn over it), ``structures`` (structures files, or one, whose
+    curves are drawn over it) and matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``,
+    ``add_colorbar``, and xarray's ``x``, ``y`` (which coordinate is horizontal, vertical). A
+    Poincaré section takes ``point_size``.
     """
     stage = dataset.attrs.get(STAGE_ATTRIBUTE)
     if variable is not None and stage != LD_GRID.stage:
@@ -183,6 +201,7 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, variable: str | None = None, *
         UPO.stage: lambda: _draw_orbits(ax, dataset, **options),
         MANIFOLDS.stage: lambda: _draw_manifolds(ax, dataset, **options),
         EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
+        STRUCTURES.stage: lambda: _draw_structures(ax, dataset, **options),
         FLOW_EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
     }
     if stage not in drawings:

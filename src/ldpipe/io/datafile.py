@@ -11,6 +11,7 @@ by the expected stage, holding the variables the stage's contract
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import os
 import subprocess
@@ -42,8 +43,11 @@ MANAGED_ATTRIBUTES = (
 )
 
 
+@functools.cache
 def git_commit() -> str:
-    """The commit of the source tree ldpipe runs from, with ``-dirty`` if it has edits; '' if unknown."""
+    """The commit of the source tree ldpipe runs from, with ``-dirty`` if it has edits; '' if unknown.
+    Read once per process: the code a process runs is what it imported, and two ``git`` calls cost
+    tens of milliseconds, which a map written in many blocks would pay for each."""
     source = Path(__file__).resolve().parent
     try:
         commit = subprocess.run(
@@ -78,8 +82,9 @@ def declares_missing_values(variable: xr.Variable | xr.DataArray) -> bool:
     return fill is not None and np.issubdtype(np.asarray(fill).dtype, np.floating) and bool(np.isnan(fill))
 
 
-def _check_finite(dataset: xr.Dataset, where) -> None:
-    """Refuse inf anywhere, and NaN in a variable that does not declare it a missing value."""
+def check_finite(dataset: xr.Dataset, where) -> None:
+    """A ValueError naming ``where`` and the variable if any floating-point variable holds inf, or
+    NaN where it does not declare NaN a missing value (:func:`declares_missing_values`)."""
     for name, variable in dataset.variables.items():
         if not np.issubdtype(variable.dtype, np.floating):
             continue
@@ -121,7 +126,7 @@ def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, pa
     missing value (:func:`missing_value_encoding`).
     """
     stage = stage.stage if isinstance(stage, StageFile) else stage
-    _check_finite(dataset, f"the {stage!r} stage's data")
+    check_finite(dataset, f"the {stage!r} stage's data")
     dataset = dataset.copy()
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     command = " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]) if sys.argv else "python"
@@ -175,7 +180,7 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
     elif STAGE_ATTRIBUTE not in dataset.attrs:
         raise ValueError(f"{path}: the dataset is not a stage product (no {STAGE_ATTRIBUTE!r} attribute); "
                          "give stage, title and parameters")
-    _check_finite(dataset, path)
+    check_finite(dataset, path)
     # the contract given, else the one registered for the stage the dataset names
     contract = stage if isinstance(stage, StageFile) else CONTRACTS.get(dataset.attrs[STAGE_ATTRIBUTE])
     compression = {} if contract is not None and contract.intermediate else COMPRESSION

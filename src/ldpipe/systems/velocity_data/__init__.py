@@ -15,6 +15,9 @@ convolution of ``kernels/gridded_velocity.py`` (cubic in space and time), compil
 flow engine like a formula's right-hand side; its data reach the compiled code through
 :mod:`ldpipe.systems.data_pointer`, so one compiled engine serves every dataset.
 
+The data may instead be given in memory, from Python (:mod:`.memory`): an ``xarray.Dataset``,
+lazy or not, or the DataArrays u, v (and w), kept in the process under the hash of their values.
+
 Only the window an engine call needs is read (xarray opens the file lazily): the times covering
 [t0, t0 +- tau] with the stencil's neighbours, over the spatial ``window`` if given (else the
 whole grid). Land (missing values) and the grid's edge are boundaries: a trajectory stops on
@@ -33,10 +36,12 @@ from __future__ import annotations
 from ...errors import ConfigError
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
-from .source import DataSource, open_source, velocity_data_coordinates
+from .calendar import calendar_attributes
+from .memory import is_in_memory, memory_entry
+from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 
-__all__ = ["DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
-           "open_source", "velocity_data_coordinates"]
+__all__ = ["DEFAULTS", "calendar_attributes", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "is_in_memory",
+           "make_velocity_data_system", "memory_entry", "open_source", "velocity_data_coordinates"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:

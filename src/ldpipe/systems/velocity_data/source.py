@@ -21,6 +21,7 @@ import xarray as xr
 
 from ...errors import ConfigError
 from .. import kernels
+from .memory import memory_dataset
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
 # coordinates (planning, figures) without it.
@@ -150,7 +151,7 @@ class DataSource:
     value, the mean spacing and the count.
     """
 
-    path: str
+    path: str  # empty for a dataset in memory
     u: str
     v: str
     x: str
@@ -172,16 +173,25 @@ class DataSource:
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
+    memory: str = ""  # the hash of a dataset given in memory (:mod:`.memory`), no path
+    time_reference: str = ""  # the time coordinate's units as written ("days since 2000-01-01"), if any
+    calendar: str = ""  # its CF calendar attribute, if any
+
+    @property
+    def label(self) -> str:
+        """Where the data are, for messages and captions: the path, or the in-memory dataset's hash."""
+        return self.path or f"the in-memory dataset {self.memory[:23]}"
 
     @contextlib.contextmanager
     def open(self) -> Iterator[xr.Dataset]:
         """The dataset, opened lazily; a read in the block that fails (a damaged block of a file
         whose coordinates read well) is a ConfigError naming the file."""
-        with open_dataset(self.path) as dataset:
+        with dataset_of({"path": self.path, "memory": {"hash": self.memory}} if self.memory else
+                        {"path": self.path}, "velocity_data") as dataset:
             try:
                 yield dataset
             except READ_ERRORS as error:
-                raise unreadable(self.path, error) from None
+                raise unreadable(self.label, error) from None
 
     def axis_values(self, which: str) -> np.ndarray:
         if self.nodes is not None:
@@ -200,6 +210,17 @@ class DataSource:
             return self.nodes[-1][0], self.nodes[-1][-1]
         first, step, count = self.t_grid
         return first, first + step * (count - 1)
+
+
+@contextlib.contextmanager
+def dataset_of(entry: dict, key: str) -> Iterator[xr.Dataset]:
+    """The dataset of a ``velocity_data`` entry: the one in memory its ``memory`` block names, or
+    its file opened lazily (and closed after the block)."""
+    if entry.get("memory"):
+        yield memory_dataset(entry["memory"], key)
+        return
+    with open_dataset(str(entry["path"])) as dataset:
+        yield dataset
 
 
 def vertical_sign(entry: dict, dataset: xr.Dataset, key: str) -> float:
@@ -228,14 +249,14 @@ def open_source(spec: dict, key: str) -> DataSource:
         return _checked_source(spec, key)
     except ConfigError as error:
         path = spec.get("path") if isinstance(spec, dict) else None
-        if not path or str(path) in str(error):
+        if not path or str(path) in str(error) or spec.get("memory"):
             raise
         raise ConfigError(f"{error} (in {path})") from None
 
 
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -248,15 +269,19 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     if three_d:
         entry.setdefault("z", VERTICAL_AXIS[sphere])
     path = entry.get("path")
-    if not path or not Path(path).exists():
+    memory = entry.get("memory")
+    if memory and path:
+        raise ConfigError(f"config key '{key}': both a path and a dataset in memory; give one")
+    if not memory and (not path or not Path(path).exists()):
         raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
+    where = path if not memory else "the dataset"
     velocities = ("u", "v", "w") if three_d else ("u", "v")
     axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
-    with open_dataset(str(path)) as dataset:
+    with dataset_of(entry, key) as dataset:
         for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
-                raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
+                raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {where} (it has "
                                   f"{sorted(map(str, dataset.variables))})")
         nodes = {role: increasing_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
@@ -289,6 +314,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                               f"{entry['time']!r} not understood; expected one of {sorted(TIMES)}, or 'UNIT since "
                               "DATE' (or no units: the velocity's time unit)")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
+        calendar = dataset[entry["time"]].attrs.get("calendar")
         velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
             time_units = time_coordinate_units.strip().split()[0]
@@ -310,12 +336,14 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     x_global = False
     if sphere and regular:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
-    return DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
+    return DataSource(path=str(path) if path else "", memory=memory["hash"] if memory else "", u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
-                      x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
+                      x_global=x_global, time_reference=time_coordinate_units or "",
+                      calendar=str(calendar or ""),
+                      metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
 
 
@@ -367,7 +395,7 @@ def check_speeds(source: DataSource, arrays: list[np.ndarray]) -> None:
         finite = np.abs(array[np.isfinite(array)])
         fastest = float(finite.max()) if finite.size else 0.0
         if fastest * factor > LIGHT_SPEED:
-            raise ConfigError(f"velocity data {source.path}: variable {name!r} holds a speed of {fastest:.3g} "
+            raise ConfigError(f"velocity data {source.label}: variable {name!r} holds a speed of {fastest:.3g} "
                               f"({fastest * factor:.3g} m/s by its units), faster than light: damaged or "
                               "mis-scaled data")
 
