@@ -244,7 +244,8 @@ def test_structures_api_names_a_bad_argument(saddle_maps):
 
 def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
     # identity of the drawing: the lines on the axes are the file's curves, stable and unstable
-    # in their colours (the map drawn underneath as the LD panel draws it)
+    # in their colours; over the map, drawn as xarray draws it (its second axis across), with the
+    # curves' coordinates in that order, and alone in the file's
     import matplotlib.pyplot as plt
 
     from ldpipe.figures import style
@@ -255,11 +256,12 @@ def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
     try:
         dataset.ldpipe.plot(over, structures=found)
         found.ldpipe.plot(alone)
-        for ax in (over, alone):
+        for ax, order in ((over, [1, 0]), (alone, [0, 1])):
             drawn = {line.get_color(): np.column_stack([line.get_xdata(), line.get_ydata()]) for line in ax.lines}
-            np.testing.assert_array_equal(drawn[style.STABLE_COLOR], curves_of(found, manifold="stable")[0])
-            np.testing.assert_array_equal(drawn[style.UNSTABLE_COLOR], curves_of(found, manifold="unstable")[0])
-        assert over.images  # the map itself
+            for manifold, colour in (("stable", style.STABLE_COLOR), ("unstable", style.UNSTABLE_COLOR)):
+                np.testing.assert_array_equal(drawn[colour], curves_of(found, manifold=manifold)[0][:, order])
+        assert over.get_xlabel() == f"${dataset.allowed.dims[1]}$"  # the map's second axis across
+        assert over.collections  # the map itself
     finally:
         plt.close(figure)
 
