@@ -112,6 +112,24 @@ def write_example(path: str | Path, **options) -> Path:
     return path
 
 
+def write_example_series(directory: str | Path, files: int, **options) -> list[Path]:
+    """Write :func:`example_dataset` split along time into ``files`` netCDF files of about equal
+    length (``example_000.nc``, ...) in ``directory``, each atomically: the many files of a model's
+    output, which a ``velocity_data`` entry reads as one (a glob or a list as its ``path``)."""
+    dataset = example_dataset(**options)
+    count = dataset.sizes["time"]
+    if not 1 <= files <= count:
+        raise ValueError(f"files: expected 1 to {count} (the example's times), got {files}")
+    directory = Path(directory)
+    paths = []
+    for index, part in enumerate(np.array_split(np.arange(count), files)):
+        path = directory / f"example_{index:03d}.nc"
+        with atomic_path(path) as temporary:
+            dataset.isel(time=slice(int(part[0]), int(part[-1]) + 1)).to_netcdf(temporary)
+        paths.append(path)
+    return paths
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m ldpipe.data.example", description=__doc__.splitlines()[0])
     parser.add_argument("output", help="the netCDF file to write")

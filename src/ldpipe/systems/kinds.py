@@ -27,7 +27,8 @@ from .kinetic import kinetic_matrix
 from .model import SystemModel
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field
 from .velocity_data import (
-    RectilinearVelocitySystem, VelocityDataSystem, make_velocity_data_system, velocity_data_coordinates,
+    RectilinearVelocitySystem, VelocityDataSystem, make_velocity_data_system, path_text, velocity_data_coordinates,
+    velocity_data_files,
 )
 
 # sympy (through .formula) is imported where a formula is parsed: the planning and the stages
@@ -191,8 +192,8 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
         excluded=("coordinates",), formulas=False, stop_flags=True,
         has_equilibria=lambda name, spec: False,  # data depend on time
         on_sphere=lambda spec: spec["velocity_data"].get("coordinates") == "sphere",
-        data_files=lambda spec: [spec["velocity_data"]["path"]],
-        caption=lambda spec: f"velocity data from {spec['velocity_data']['path']}",
+        data_files=lambda spec: velocity_data_files(spec["velocity_data"]["path"]),
+        caption=lambda spec: f"velocity data from {path_text(spec['velocity_data']['path'])}",
     ),
 }
 

@@ -2,7 +2,8 @@
 
 A ``systems:`` entry ``{"velocity_data": {"path": "currents.nc", "u": "u", "v": "v", "x": "x",
 "y": "y", "time": "time", "coordinates": "plane"}}`` names a CF dataset and its variables: the
-velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing. A regular grid
+velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing; ``path`` may be a
+glob or a list of files along time, read lazily as one dataset (:mod:`.files`). A regular grid
 (every axis uniform) makes a system of :mod:`.regular`; an uneven axis, or 3-D data (``w`` on
 (time, z, y, x)), one of :mod:`.rectilinear`; both read the dataset that :mod:`.source` opened and
 checked. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
@@ -33,10 +34,11 @@ from __future__ import annotations
 from ...errors import ConfigError
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
+from .files import path_text, velocity_data_files
 from .source import DataSource, open_source, velocity_data_coordinates
 
 __all__ = ["DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
-           "open_source", "velocity_data_coordinates"]
+           "open_source", "path_text", "velocity_data_coordinates", "velocity_data_files"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:

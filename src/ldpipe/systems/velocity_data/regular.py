@@ -111,8 +111,7 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
         region = {source.time: slice(lows[0], highs[0] + 1), source.y: slice(lows[1], highs[1] + 1)}
 
         def read(name: str, dims: tuple[str, ...]) -> np.ndarray:
-            parts = [np.asarray(dataset[name].isel({**{k: region[k] for k in dims}, source.x: run}).values)
-                     for run in columns]
+            parts = [dataset.read(name, {**{k: region[k] for k in dims}, source.x: run}) for run in columns]
             return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
 
         u = np.asarray(read(source.u, (source.time, source.y)), dtype=float)

@@ -14,13 +14,13 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
 from .. import kernels
+from .files import FileSeries, data_files, open_dataset, path_text, series_times
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
 # coordinates (planning, figures) without it.
@@ -116,30 +116,6 @@ def is_uniform(values: np.ndarray) -> bool:
     return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
 
 
-#: What xarray and its backends raise for a file they cannot read (truncated, damaged, not netCDF
-#: or zarr at all): netCDF4's OSError "NetCDF: HDF error", xarray's ValueError "did not find a
-#: match in any of xarray's currently installed IO backends", a zarr store's missing metadata.
-READ_ERRORS = (OSError, ValueError, RuntimeError, KeyError)
-
-
-def open_dataset(path: str) -> xr.Dataset:
-    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily; a
-    ConfigError naming the file if it cannot be read."""
-    try:
-        if path.rstrip("/").endswith(".zarr"):
-            return xr.open_zarr(path, decode_times=False)
-        return xr.open_dataset(path, decode_times=False)
-    except READ_ERRORS as error:
-        raise unreadable(path, error) from None
-
-
-def unreadable(path: str, error: BaseException) -> ConfigError:
-    """The error for a velocity-data file that cannot be read (its data read lazily, a damaged
-    block fails only when a window of it is read, during an integration)."""
-    reason = str(error).splitlines()[0] if str(error).strip() else type(error).__name__
-    return ConfigError(f"velocity data {path}: cannot read the file ({reason}); expected a netCDF file or a zarr store")
-
-
 @dataclass(frozen=True)
 class DataSource:
     """A dataset's variables and grid, checked, nothing read but the coordinates.
@@ -150,7 +126,7 @@ class DataSource:
     value, the mean spacing and the count.
     """
 
-    path: str
+    path: str  # the entry's path as given (a file, a glob, a list), for messages
     u: str
     v: str
     x: str
@@ -172,16 +148,16 @@ class DataSource:
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
+    files: tuple[str, ...] = ()  # the files along time, in order (one, for a single dataset)
+    file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
 
     @contextlib.contextmanager
-    def open(self) -> Iterator[xr.Dataset]:
-        """The dataset, opened lazily; a read in the block that fails (a damaged block of a file
-        whose coordinates read well) is a ConfigError naming the file."""
-        with open_dataset(self.path) as dataset:
-            try:
-                yield dataset
-            except READ_ERRORS as error:
-                raise unreadable(self.path, error) from None
+    def open(self) -> Iterator[FileSeries]:
+        """The files as one dataset along time, opened lazily (:class:`.files.FileSeries`); a read
+        in the block that fails (a damaged block of a file whose coordinates read well) is a
+        ConfigError naming the file."""
+        with FileSeries(self.files or (self.path,), self.file_starts, self.time) as series:
+            yield series
 
     def axis_values(self, which: str) -> np.ndarray:
         if self.nodes is not None:
@@ -227,8 +203,8 @@ def open_source(spec: dict, key: str) -> DataSource:
     try:
         return _checked_source(spec, key)
     except ConfigError as error:
-        path = spec.get("path") if isinstance(spec, dict) else None
-        if not path or str(path) in str(error):
+        path = path_text(spec.get("path")) if isinstance(spec, dict) and spec.get("path") else None
+        if not path or path in str(error):
             raise
         raise ConfigError(f"{error} (in {path})") from None
 
@@ -247,18 +223,22 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     three_d = "w" in entry
     if three_d:
         entry.setdefault("z", VERTICAL_AXIS[sphere])
-    path = entry.get("path")
-    if not path or not Path(path).exists():
-        raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
+    files = data_files(entry.get("path"), f"{key}.path")
+    path = files[0]
     velocities = ("u", "v", "w") if three_d else ("u", "v")
     axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
-    with open_dataset(str(path)) as dataset:
+    with open_dataset(path) as dataset:
         for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
                 raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
                                   f"{sorted(map(str, dataset.variables))})")
-        nodes = {role: increasing_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
+        times, file_starts = dataset[entry["time"]].values, (0,)
+        if len(files) > 1:  # the files along time, checked against the first
+            times, file_starts = series_times(files, tuple(entry[role] for role in velocities) + (
+                (entry["mask"],) if entry.get("mask") else ()), entry["time"], f"{key}.path")
+        nodes = {role: increasing_axis(times if role == "time" else dataset[entry[role]].values, entry[role],
+                                       f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
         scales = []
         for role in velocities:
@@ -310,7 +290,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     x_global = False
     if sphere and regular:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
-    return DataSource(path=str(path), u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
+    return DataSource(path=path_text(entry["path"]), files=tuple(files), file_starts=file_starts, u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
