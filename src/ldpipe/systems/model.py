@@ -124,6 +124,14 @@ class FlowModel(SystemModel, Protocol):
     def time_window(self, start: float, end: float) -> AbstractContextManager:
         """The context the compiled kernels run in over times [start, end]."""
 
+    def engine_states(self, states: np.ndarray) -> np.ndarray:
+        """``states`` (rows of the state variables) as the compiled kernels integrate them: the
+        same for most; a curvilinear grid's fractional indices. A section crossed by the engine
+        (``ldpipe.core.trajectories.integrate``) is a value of an engine state's component."""
+
+    def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
+        """Engine states back as the state variables (the inverse of :meth:`engine_states`)."""
+
 
 @runtime_checkable
 class DataFlowModel(FlowModel, Protocol):

@@ -32,12 +32,13 @@ seam. The LD is taken in km and the data's velocity units, by the engine section
 from __future__ import annotations
 
 from ...errors import ConfigError
+from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
 from .files import path_text, velocity_data_files
 from .source import DataSource, open_source, velocity_data_coordinates
 
-__all__ = ["DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
+__all__ = ["CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
            "open_source", "path_text", "velocity_data_coordinates", "velocity_data_files"]
 
 
@@ -48,6 +49,8 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     if not isinstance(entry, dict):
         raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
     source = open_source(entry, f"{key}.velocity_data")
+    if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
+        return make_curvilinear_system(name, source, spec, velocity_data_coordinates(entry))
     coordinates = (source.x, source.y)
     window = entry.get("window")
     if window is not None:

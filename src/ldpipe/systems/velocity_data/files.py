@@ -98,6 +98,9 @@ def series_times(files: list[str], variables: tuple[str, ...], time: str, key: s
     with open_dataset(files[0]) as first:
         reference = {name: (first[name].dims, _grid_of(first, name, time), first[name].attrs.get("units"))
                      for name in variables if name in first.variables}
+        # variables without time (a mask, a curvilinear grid's coordinates) are the grid: the same in every file
+        fixed = {name: np.asarray(first[name].values) for name in variables
+                 if name in first.variables and time not in first[name].dims}
         time_units = first[time].attrs.get("units") if time in first.variables else None
     count = 0
     for index, name in enumerate(files):
@@ -107,6 +110,10 @@ def series_times(files: list[str], variables: tuple[str, ...], time: str, key: s
             values = np.atleast_1d(np.asarray(dataset[time].values))
             if index:
                 _check_like_first(dataset, name, files[0], reference, time, time_units, key)
+                for variable, values in fixed.items():
+                    if not np.array_equal(np.asarray(dataset[variable].values), values, equal_nan=True):
+                        raise ConfigError(f"config key '{key}': the grids of {files[0]} and {name} differ (variable "
+                                          f"{variable!r}); every file of a series is on one grid")
         if values.dtype.kind in "iuf" and values.size:
             previous = files[index - 1] if index else None
             if previous is not None and not values[0] > times[-1][-1]:

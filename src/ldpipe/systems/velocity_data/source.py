@@ -20,6 +20,7 @@ import xarray as xr
 
 from ...errors import ConfigError
 from .. import kernels
+from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
 from .files import FileSeries, data_files, open_dataset, path_text, series_times
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
@@ -149,6 +150,12 @@ class DataSource:
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
     files: tuple[str, ...] = ()  # the files along time, in order (one, for a single dataset)
+    #: A curvilinear grid's 2-D x and y (longitude, latitude) variables; ``x``, ``y`` then name its
+    #: index dimensions, which ``x_grid``, ``y_grid`` count (first 0, spacing 1)
+    grid_coordinates: tuple[str, str] | None = None
+    components: str = "geographic"  # u, v east and north (x and y), or along the grid's i and j ("grid")
+    angle: str | None = None  # a variable holding the grid's rotation angle (grid components)
+    angle_scale: float = 1.0  # radians per unit of ``angle``
     file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
 
     @contextlib.contextmanager
@@ -209,9 +216,22 @@ def open_source(spec: dict, key: str) -> DataSource:
         raise ConfigError(f"{error} (in {path})") from None
 
 
+def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, str], three_d: bool, key: str) -> dict:
+    """What a :class:`DataSource` records of a curvilinear grid beyond its coordinates' names."""
+    if three_d:
+        raise ConfigError(f"config key '{key}.w': 3-D data on a curvilinear grid are not supported yet")
+    if entry.get("window") is not None:
+        raise ConfigError(f"config key '{key}.window': a window of a curvilinear grid is not supported yet; "
+                          "the whole grid is read")
+    components = velocity_components(entry, dataset, key)
+    angle = angle_variable({**entry, "components": components}, dataset, dataset[coordinates[0]].dims, key)
+    return {"components": components, "angle": angle[0] if angle else None, "angle_scale": angle[1] if angle else 1.0}
+
+
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive", "longitude",
+                                            "latitude", "components", "angle"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -228,7 +248,16 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     velocities = ("u", "v", "w") if three_d else ("u", "v")
     axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
     with open_dataset(path) as dataset:
-        for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
+        grid_coordinates = curvilinear_coordinates(entry, dataset, sphere, key)
+        curvilinear = {}
+        if grid_coordinates:  # the state's axes are the grid's index dimensions
+            curvilinear = curvilinear_entry(entry, dataset, grid_coordinates, three_d, key)
+            entry["y"], entry["x"] = dataset[grid_coordinates[0]].dims
+        elif {"components", "angle"} & set(entry):
+            raise ConfigError(f"config key '{key}': components and angle are of a curvilinear grid's velocities; "
+                              "this grid's coordinates are 1-D (u and v along them)")
+        checked = ("time",) if grid_coordinates else axis_roles
+        for role in velocities + checked + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
                 raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
@@ -236,16 +265,20 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         times, file_starts = dataset[entry["time"]].values, (0,)
         if len(files) > 1:  # the files along time, checked against the first
             times, file_starts = series_times(files, tuple(entry[role] for role in velocities) + (
-                (entry["mask"],) if entry.get("mask") else ()), entry["time"], f"{key}.path")
-        nodes = {role: increasing_axis(times if role == "time" else dataset[entry[role]].values, entry[role],
-                                       f"{key}.{role}") for role in axis_roles}
+                (entry["mask"],) if entry.get("mask") else ()) + tuple(grid_coordinates or ()) + (
+                (curvilinear["angle"],) if curvilinear.get("angle") else ()), entry["time"], f"{key}.path")
+        nodes = {role: increasing_axis(times if role == "time" else
+                                       np.arange(dataset.sizes[entry[role]]) if grid_coordinates else
+                                       dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
         scales = []
         for role in velocities:
             variable = dataset[entry[role]]
             if tuple(variable.dims) != expected:
+                staggered = (" (velocities on a staggered, Arakawa C, grid are not supported yet: give u and v at "
+                             "the coordinates' points)") if grid_coordinates else ""
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
-                                  f"{tuple(variable.dims)}; expected {expected}")
+                                  f"{tuple(variable.dims)}; expected {expected}{staggered}")
             if variable.dtype.kind not in "iuf":
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} holds {variable.dtype} "
                                   "values, not numbers")
@@ -278,7 +311,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
-            length = length_of(units_of(dataset, entry["x"], f"{key}.x"), entry["x"], f"{key}.x", metres)
+            x_name = grid_coordinates[0] if grid_coordinates else entry["x"]
+            length = length_of(units_of(dataset, x_name, f"{key}.x"), x_name, f"{key}.x", metres)
         vertical_scale = 0.0
         z_length = 1.0
         if three_d:
@@ -287,8 +321,11 @@ def _checked_source(spec: dict, key: str) -> DataSource:
             vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
     grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
     regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
+    if grid_coordinates and not regular:
+        raise ConfigError(f"config key '{key}.time': the times of {entry['time']!r} are unevenly spaced; a curvilinear "
+                          "grid's data are read at even times (not yet at uneven ones)")
     x_global = False
-    if sphere and regular:  # the seam is joined on the uniform kernel's grids only
+    if sphere and regular and not grid_coordinates:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
     return DataSource(path=path_text(entry["path"]), files=tuple(files), file_starts=file_starts, u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
@@ -296,7 +333,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
                       x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
-                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
+                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles),
+                      grid_coordinates=grid_coordinates, **curvilinear)
 
 
 #: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or
