@@ -112,3 +112,17 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
     with atomic_path(path) as temporary:
         dataset.to_netcdf(temporary)
     return path
+
+
+def rotated_pole_grid(half_extent: tuple[float, float], spacing: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudes and latitudes (degrees, each (eta, xi)) of a grid even in a rotated frame: nodes
+    every ``spacing`` degrees over [-half, half] of the frame's longitude and latitude, the frame
+    turned by ``tilt`` degrees about the axis through (lon 90, lat 0) (its equator's centre then at
+    (0, -tilt)); its i direction turns against east from node to node."""
+    lam = np.radians(np.arange(-half_extent[0], half_extent[0] + spacing / 2, spacing))
+    phi = np.radians(np.arange(-half_extent[1], half_extent[1] + spacing / 2, spacing))
+    PHI, LAM = np.meshgrid(phi, lam, indexing="ij")
+    r = np.array([np.cos(PHI) * np.cos(LAM), np.cos(PHI) * np.sin(LAM), np.sin(PHI)])
+    b = math.radians(tilt)
+    x, z = math.cos(b) * r[0] + math.sin(b) * r[2], -math.sin(b) * r[0] + math.cos(b) * r[2]
+    return np.degrees(np.arctan2(r[1], x)), np.degrees(np.arcsin(np.clip(z, -1.0, 1.0)))
