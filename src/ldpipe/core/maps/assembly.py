@@ -142,12 +142,13 @@ def compute_ld_map(
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
                                   t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
-                                  mirror=backward_mirror(parameters, system, section))
+                                  mirror=backward_mirror(parameters, system, section),
+                                  label=f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
     elif ftle and tiles == 1:
-        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]))
+        add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]), section.solve)
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
@@ -253,7 +254,7 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     if parameters.get("ftle", False) is True and len(datasets) > 1:  # by differences over the whole grid
         add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
-                 on_sphere(parameters["system_spec"]))
+                 on_sphere(parameters["system_spec"]), parameters["section"].get("solve"))
     return joined
 
 

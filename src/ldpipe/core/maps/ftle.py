@@ -9,6 +9,14 @@ Cauchy-Green tensor ``C = J^T J`` (2 x 2) has largest eigenvalue lambda_max, and
 
     FTLE = ln(lambda_max) / (2 |T|).
 
+On an energy surface's section, one coordinate S is solved from the energy, so a step (da, db)
+across the grid moves the start state by (da, db, dS) with dS = S_a da + S_b db: the initial
+separation is measured in phase space, not in the section's two coordinates alone. Otherwise the
+FTLE grows without bound at the rim of the energetically allowed region, where S ~ sqrt(distance
+to the rim) and its slope diverges: a bright rim that is the chart's, not the dynamics'. With the
+slope s = (S_a, S_b) (by the same differences as J), the largest stretching is the largest root of
+det(J^T J - lambda G^T G) = 0, with G^T G = I + s s^T (``chart_slope``).
+
 On the sphere (state longitude, latitude in degrees) lengths are great-circle ones: a
 longitude difference counts cos(latitude) times a latitude difference, at the start point for
 the grid's spacing and at the end point for the end states' (``sphere_metric``); the Earth's
@@ -48,6 +56,25 @@ def flow_map_gradient(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.
     return np.stack([d0, d1], axis=-1)
 
 
+def section_chart_slope(solved: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(dS/da, dS/db) of a section's solved coordinate S (n0, n1) by the same differences as
+    :func:`flow_map_gradient`: shape (n0, n1, 2)."""
+    return flow_map_gradient(np.asarray(solved, dtype=float)[..., None], axis_values)[..., 0, :]
+
+
+def largest_stretching_on_chart(gradient: np.ndarray, slope: np.ndarray) -> np.ndarray:
+    """The largest root lambda of det(C - lambda M) = 0, C = J^T J, M = I + s s^T: the largest
+    ratio |J v|^2 / |G v|^2 of squared separations after and before, G the chart's Jacobian."""
+    c00 = np.einsum("...i,...i->...", gradient[..., 0], gradient[..., 0])
+    c11 = np.einsum("...i,...i->...", gradient[..., 1], gradient[..., 1])
+    c01 = np.einsum("...i,...i->...", gradient[..., 0], gradient[..., 1])
+    m00, m11, m01 = 1.0 + slope[..., 0] ** 2, 1.0 + slope[..., 1] ** 2, slope[..., 0] * slope[..., 1]
+    det_m = m00 * m11 - m01**2
+    half_b = 0.5 * (c00 * m11 + c11 * m00 - 2.0 * c01 * m01)
+    det_c = c00 * c11 - c01**2
+    return (half_b + np.sqrt(np.maximum(half_b**2 - det_m * det_c, 0.0))) / det_m
+
+
 def largest_stretching(gradient: np.ndarray) -> np.ndarray:
     """lambda_max of C = J^T J for J of shape (..., n_state, 2): the 2 x 2 symmetric eigenvalue in closed form."""
     c00 = np.einsum("...i,...i->...", gradient[..., 0], gradient[..., 0])
@@ -85,10 +112,13 @@ def sphere_metric(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndar
 
 
 def ftle(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray], time: float,
-         complete: np.ndarray, metric: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+         complete: np.ndarray, metric: tuple[np.ndarray, np.ndarray] | None = None,
+         chart_slope: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(FTLE, defined) on the grid: see the module docstring; ``time`` is |T|, ``complete`` (n0, n1)
     where a trajectory ran the whole time; ``metric`` (optional) the length per unit of each end
-    state component (n0, n1, n_state) and of each axis at the grid points (n0, n1, 2)."""
+    state component (n0, n1, n_state) and of each axis at the grid points (n0, n1, 2);
+    ``chart_slope`` (an energy surface's section) the solved coordinate's slope
+    (:func:`section_chart_slope`)."""
     if not time > 0:
         raise ValueError(f"FTLE: expected a positive integration time, got {time!r}")
     defined = complete_neighbourhood(np.asarray(complete, dtype=bool))
@@ -96,7 +126,7 @@ def ftle(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray], tim
     if metric is not None:
         end_scale, axis_scale = metric
         gradient = gradient * end_scale[..., :, None] / axis_scale[..., None, :]
-    stretch = largest_stretching(gradient)
+    stretch = largest_stretching(gradient) if chart_slope is None else largest_stretching_on_chart(gradient, chart_slope)
     defined &= np.isfinite(stretch) & (stretch > 0)
     values = np.zeros(defined.shape)
     values[defined] = np.log(stretch[defined]) / (2.0 * time)

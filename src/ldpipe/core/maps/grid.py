@@ -10,6 +10,7 @@ batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 import numpy as np
@@ -21,7 +22,8 @@ from ...engine.schemes import check_scheme, get_scheme
 from ...errors import ConfigError
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
+from .ftle import END_STATE_NAME, ftle, section_chart_slope, sphere_metric, variational_ftle
+from .pilot import check_map_time
 from .symmetry import MapMirror
 from ...logs import get_logger, progress_output
 from ..sections import Section, section_states
@@ -210,6 +212,7 @@ def ld_grid_dataset(
     flow_map: bool = False,
     descriptor: bool = True,
     mirror: MapMirror | None = None,
+    label: str | None = None,
 ) -> xr.Dataset:
     """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
 
@@ -226,6 +229,9 @@ def ld_grid_dataset(
     the flow map :func:`add_ftle` differentiates). Without the ``descriptor`` (a vector field's
     fixed-time map, ``flow_map`` implied) only the flow map is integrated (:func:`ldpipe.core.trajectories.flow_map`):
     the file has no ``ld_*``, ``left_region_*`` (no region) variables.
+
+    With a ``label`` (the map's name in messages) a large map is first piloted and warned about
+    if it will run long (:func:`ldpipe.core.maps.pilot.check_map_time`).
     """
     rows = rows if rows is not None else slice(0, section.shape[0])
     states, allowed, solved = section_states(system, section, energy, rows)
@@ -234,6 +240,10 @@ def ld_grid_dataset(
         mirror = _checked_mirror(system, mirror, states, allowed, rows, section.shape[0],
                                  flow_map or not descriptor)
     directions = ((1, "forward"),) if mirror is not None else ((1, "forward"), (-1, "backward"))
+    if label is not None:
+        check_map_time(label, lambda sample, tau: integrate_points(
+            system, sample, 1, dataclasses.replace(settings, tau=tau), None, t0, descriptor),
+            states, settings.tau, len(directions))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
     stream, interval = progress_output(log)
@@ -366,7 +376,8 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
     return xr.Dataset(variables, coords=coords)
 
 
-def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False) -> xr.Dataset:
+def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False,
+             solved: str | None = None) -> xr.Dataset:
     """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
     that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.core.maps.ftle.ftle`.
 
@@ -374,6 +385,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     the map's integration time; a trajectory ran the whole time when its exit time is ``tau`` and
     it neither escaped, left the region, nor failed (nor, for data, stopped on land or the edge).
     ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.core.maps.ftle.sphere_metric`).
+    ``solved``: the coordinate an energy surface's section solves for (its variable in ``dataset``),
+    whose slope enters the initial separations (:func:`ldpipe.core.maps.ftle.section_chart_slope`).
     """
     dims = dataset.allowed.dims
     axes = tuple(dataset[d].values for d in dims)
@@ -381,7 +394,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = ran_whole_time(dataset, label, tau)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
-        values, defined = ftle(ends, axes, tau, complete, metric)
+        slope = section_chart_slope(dataset[solved].values, axes) if solved is not None else None
+        values, defined = ftle(ends, axes, tau, complete, metric, slope)
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",
             "units": "1/time",
