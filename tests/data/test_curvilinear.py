@@ -81,6 +81,21 @@ def test_solid_body_rotation_on_a_rotated_grid(tmp_path, components, write_angle
     assert backward.ld[3] < 2e-8
 
 
+def test_starts_off_the_grid_stay_where_they_are(tmp_path):
+    # beyond the grid's edge the velocity is 0 (the data's edge): a start there never moves, so it
+    # ends exactly where it started (its indices, found or not, are never mapped back), LD 0, flagged
+    x, y = plane_grid("rotated", 0.1)
+    path = write_dataset(curvilinear_dataset(rotation, x, y, np.arange(0.0, 6.01, 1.0)), tmp_path / "rotation.nc")
+    data = data_system(path, components="geographic")
+    starts = np.array([[2.9, 0.5], [1.0, -1.5], [40.0, -25.0], [1.5, 0.5]])  # just off, off, far off, on
+    result = compute_ld(data, starts, 1, LDSettings(tau=2.0, p=0.5, **TIGHT), t0=1.0)
+    np.testing.assert_array_equal(result.end_state[:3], starts[:3])
+    np.testing.assert_array_equal(result.ld[:3], 0.0)
+    assert result.ld[3] > 0.1 and np.all(np.isfinite(result.end_state))
+    flags = data.stop_flags(result.end_state, 1.0, 3.0)
+    np.testing.assert_array_equal(flags["left_data"], [True, True, True, False])
+
+
 def test_solid_body_rotation_on_a_rotated_pole_grid(tmp_path):
     # rotation about the polar axis, a turn in 40 days: u = omega R cos(lat), v = 0 (m/s, time in
     # days) on a grid even in a frame tilted 40 degrees: its i direction is 0 to 40 degrees from east

@@ -2,7 +2,7 @@
 
 - The example generator's jet split along time into files, given as a glob and as a list: the
   map equals the single file's bit for bit (an invariant of the reading: the same nodes reach
-  the same compiled kernel, so no tolerance).
+  the same compiled kernel, so no tolerance); so do a curvilinear grid's trajectories.
 - Inconsistent series are refused naming the files: a different grid, overlapping times,
   files out of time order, a glob that matches nothing.
 """
@@ -13,7 +13,9 @@ import pytest
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.data.curvilinear import double_gyre_dataset, write_dataset
 from ldpipe.data.example import example_dataset, write_example, write_example_series
+from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system, system_data_files
 
@@ -79,3 +81,20 @@ def test_inconsistent_series_are_refused_naming_the_files(tmp_path):
     with pytest.raises(ConfigError, match=r"time units of .*f\.nc \('hours since 2000-01-01'\) differ"):
         make_system("s", {"velocity_data": {"path": [first, _write(hours, tmp_path / "f.nc")],
                                             "coordinates": "sphere"}})
+
+
+def test_a_curvilinear_series_gives_the_single_files_trajectories(tmp_path):
+    gyre = double_gyre_dataset("curvilinear", 0.2, np.arange(0.0, 6.01, 0.5))
+    single = write_dataset(gyre, tmp_path / "gyre.nc")
+    parts = [str(write_dataset(gyre.isel(time=part), tmp_path / f"gyre{k}.nc"))
+             for k, part in enumerate((slice(0, 5), slice(5, 13)))]
+    starts = np.array([[0.3, 0.4], [1.2, 0.7], [1.7, 0.2]])
+    settings = LDSettings(tau=3.0, p=0.5, rtol=1e-9, atol=1e-9)
+    results = [compute_ld(make_system(name, {"velocity_data": {"path": path, "components": "geographic"}}), starts, 1,
+                          settings, t0=1.0) for name, path in (("one", str(single)), ("parts", parts))]
+    np.testing.assert_array_equal(results[0].ld, results[1].ld)
+    np.testing.assert_array_equal(results[0].end_state, results[1].end_state)
+    other = double_gyre_dataset("rotated", 0.2, np.arange(0.0, 6.01, 0.5)).isel(time=slice(5, 13))
+    with pytest.raises(ConfigError, match=r"grids of .*gyre0\.nc and .*rotated\.nc differ \(variable 'x_rho'\)"):
+        make_system("mixed", {"velocity_data": {"path": [parts[0], str(write_dataset(other, tmp_path / "rotated.nc"))],
+                                                "components": "geographic"}})

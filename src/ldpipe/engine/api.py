@@ -241,6 +241,7 @@ def states_at_end(system, states: np.ndarray, engine_states: np.ndarray, engine_
     if engine_states is states:
         return engine_ends
     ends = np.array(system.states_from_engine(engine_ends), dtype=np.float64)
-    unmoved = np.all(engine_ends == engine_states, axis=1)
+    same = (engine_ends == engine_states) | (np.isnan(engine_ends) & np.isnan(engine_states))  # NaN: not started
+    unmoved = np.all(same, axis=1)
     ends[unmoved] = states[unmoved]
     return ends

@@ -110,8 +110,8 @@ def series_times(files: list[str], variables: tuple[str, ...], time: str, key: s
             values = np.atleast_1d(np.asarray(dataset[time].values))
             if index:
                 _check_like_first(dataset, name, files[0], reference, time, time_units, key)
-                for variable, values in fixed.items():
-                    if not np.array_equal(np.asarray(dataset[variable].values), values, equal_nan=True):
+                for variable, grid_values in fixed.items():
+                    if not np.array_equal(np.asarray(dataset[variable].values), grid_values, equal_nan=True):
                         raise ConfigError(f"config key '{key}': the grids of {files[0]} and {name} differ (variable "
                                           f"{variable!r}); every file of a series is on one grid")
         if values.dtype.kind in "iuf" and values.size:

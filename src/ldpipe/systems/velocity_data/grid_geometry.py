@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -125,19 +126,28 @@ class GridGeometry:
         _, d_i, d_j = interpolate(self.padded, indices[:, 0], indices[:, 1])
         return np.stack([d_i, d_j], axis=-1)
 
-    def nearest_nodes(self, points: np.ndarray) -> np.ndarray:
-        """The indices (i, j) of the node nearest each point (rows (x, y)): on the sphere by chord."""
+    def _embedded(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Points as the node search measures them: (x, y) on the plane, unit vectors on the sphere."""
+        if not self.sphere:
+            return np.column_stack([np.ravel(x), np.ravel(y)])
+        lam, phi = np.radians(np.ravel(x)), np.radians(np.ravel(y))
+        return np.column_stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
+
+    @cached_property
+    def _node_tree(self):
+        """A k-d tree of the nodes (built once: every map's starts and ends are searched in it)."""
         from scipy.spatial import cKDTree
 
-        def embed(x, y):
-            if not self.sphere:
-                return np.column_stack([np.ravel(x), np.ravel(y)])
-            lam, phi = np.radians(np.ravel(x)), np.radians(np.ravel(y))
-            return np.column_stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
+        return cKDTree(self._embedded(self.x, self.y))
 
-        _, flat = cKDTree(embed(self.x, self.y)).query(embed(points[:, 0], points[:, 1]))
+    def nearest_nodes(self, points: np.ndarray) -> np.ndarray:
+        """The indices (i, j) of the node nearest each point (rows (x, y)): on the sphere by chord."""
+        usable = np.all(np.isfinite(points), axis=1)
+        out = np.full((len(points), 2), np.nan)
+        _, flat = self._node_tree.query(self._embedded(points[usable, 0], points[usable, 1]))
         j, i = np.unravel_index(flat, self.shape)
-        return np.column_stack([i, j]).astype(float)
+        out[usable] = np.column_stack([i, j])
+        return out
 
     def indices(self, points: np.ndarray) -> np.ndarray:
         """The fractional indices (i, j) where the interpolated coordinates are ``points`` (rows
@@ -146,9 +156,7 @@ class GridGeometry:
         points = np.atleast_2d(np.asarray(points, dtype=float)).copy()
         points[:, 0] = self.branch(points[:, 0])
         guess = self.nearest_nodes(points)
-        finite = np.all(np.isfinite(points), axis=1)
-        guess[~finite] = np.nan
-        active = finite.copy()
+        active = np.all(np.isfinite(points), axis=1)
         for _ in range(NEWTON_STEPS):
             if not active.any():
                 break
