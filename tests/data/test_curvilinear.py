@@ -96,22 +96,29 @@ def test_starts_off_the_grid_stay_where_they_are(tmp_path):
     np.testing.assert_array_equal(flags["left_data"], [True, True, True, False])
 
 
-def test_solid_body_rotation_on_a_rotated_pole_grid(tmp_path):
+@pytest.mark.parametrize("shift", [0.0, 180.0])
+def test_solid_body_rotation_on_a_rotated_pole_grid(tmp_path, shift):
     # rotation about the polar axis, a turn in 40 days: u = omega R cos(lat), v = 0 (m/s, time in
-    # days) on a grid even in a frame tilted 40 degrees: its i direction is 0 to 40 degrees from east
+    # days) on a grid even in a frame tilted 40 degrees: its i direction is 0 to 40 degrees from east.
+    # Shifted by 180 degrees of longitude (the rotation does not change) the grid straddles the
+    # dateline, its longitudes written in -180..180, so they jump by 360 inside the file.
     radius, omega = 6371000.0, 2 * math.pi / (40 * 86400.0)
     lon, lat = rotated_pole_grid((30.0, 20.0), 0.5, 40.0)
+    lon = np.mod(lon + shift + 180.0, 360.0) - 180.0
     path = write_dataset(curvilinear_dataset(lambda x, y, t: (omega * radius * np.cos(np.radians(y)) + 0 * t, 0 * y),
                                              lon, lat, np.arange(0.0, 4.01, 1.0), sphere=True,
                                              time_units="days since 2000-01-01"), tmp_path / "pole.nc")
     data = data_system(path, coordinates="sphere")  # the coordinates from CF, eastward/northward by standard names
     assert data.coordinates == ("lon", "lat") and data.source.grid_coordinates == ("lon_rho", "lat_rho")
-    starts = np.array([[-10.0, -45.0], [-5.0, -30.0], [0.0, -40.0], [8.0, -50.0]])
+    starts = np.array([[-10.0, -45.0], [-5.0, -30.0], [0.0, -40.0], [8.0, -50.0]]) + [shift, 0.0]
+    starts[1, 0] -= 360.0 * (shift > 0)  # 175 written as -185: a start in either convention
     result = compute_ld(data, starts, 1, LDSettings(tau=1.0, p="arclength", **TIGHT), t0=1.0)
     expected = starts + [math.degrees(omega * 86400.0), 0.0]
     # measured: 1.5e-6 degrees (4.3e-5 on a 2-degree grid, 1.6e-5 on a 1-degree: third order from
-    # there), the arc length 1.05e-8 relative (6.0e-7, 9.2e-8)
-    np.testing.assert_allclose(result.end_state, expected, rtol=0, atol=6e-6)
+    # there), the arc length 1.05e-8 relative (6.0e-7, 9.2e-8); longitudes compared modulo 360
+    np.testing.assert_allclose(np.mod(result.end_state[:, 0] - expected[:, 0] + 180.0, 360.0) - 180.0, 0.0,
+                               rtol=0, atol=6e-6)
+    np.testing.assert_allclose(result.end_state[:, 1], expected[:, 1], rtol=0, atol=6e-6)
     arc = omega * 86400.0 * radius * np.cos(np.radians(starts[:, 1])) / 1000.0
     np.testing.assert_allclose(result.ld, arc, rtol=5e-8)
     assert not data.stop_flags(result.end_state, 1.0, 2.0)["left_data"].any()
