@@ -198,10 +198,10 @@ def test_bad_curvilinear_data_is_refused_naming_the_variable(tmp_path):
     holes["x_rho"] = holes.x_rho.where(holes.x_rho < 1.5)
     with pytest.raises(ConfigError, match=r"2-D coordinate 'x_rho' has \d+ missing values \(the first at index"):
         data_system(write_dataset(holes, tmp_path / "holes.nc"), components="grid")
-    u_points = good.u.drop_vars(["x_rho", "y_rho"]).isel(xi=slice(0, -1)).rename(xi="xi_u")  # a C-grid's u
+    u_points = good.u.drop_vars(["x_rho", "y_rho"]).isel(xi=slice(0, -1)).rename(xi="xi_u")  # a C-grid's u, v not
     staggered = good.drop_vars("u").assign(u=u_points)
-    with pytest.raises(ConfigError, match=r"velocity_data\.u': variable 'u' has dimensions \('time', 'eta', 'xi_u'\); "
-                                          r"expected \('time', 'eta', 'xi'\) \(velocities on a staggered"):
+    with pytest.raises(ConfigError, match=r"velocity_data\.u': variables 'u' .*'xi_u': 14.* and 'v' .* fit neither "
+                                          r"the coordinates' points \(time, 13, 15\) nor an Arakawa C-grid's faces"):
         data_system(write_dataset(staggered, tmp_path / "staggered.nc"), components="grid",
                     x="x_rho", y="y_rho")
     with pytest.raises(ConfigError, match=r"velocity_data\.longitude': 2-D longitude and latitude are on the sphere"):

@@ -126,3 +126,38 @@ def rotated_pole_grid(half_extent: tuple[float, float], spacing: float, tilt: fl
     b = math.radians(tilt)
     x, z = math.cos(b) * r[0] + math.sin(b) * r[2], -math.sin(b) * r[0] + math.cos(b) * r[2]
     return np.degrees(np.arctan2(r[1], x)), np.degrees(np.arcsin(np.clip(z, -1.0, 1.0)))
+
+
+def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarray, *, land=None,
+                   land_faces: str = "zero") -> xr.Dataset:
+    """An Arakawa C-grid (ROMS's layout) on the plane: the cells' centres (x, y), each (eta, xi),
+    ``x_rho``/``y_rho``; u on the faces between centres (j, i) and (j, i + 1), (time, eta, xi_u),
+    and v on those between (j, i) and (j + 1, i), (time, eta_v, xi), the velocities normal to the
+    faces (along the grid's i and j), ``u_face(xm, ym, t)`` and ``v_face(xm, ym, t)`` at the
+    faces' midpoints; ``land(i, j)`` (node indices) True at land centres, ``mask_rho`` 0 there
+    and the faces by them 0 (``land_faces="zero"``, as ROMS writes them), or left as the field
+    gives them for u and missing for v (``"unmasked"``: only the mask and the missing values say
+    where the coast is)."""
+    T = np.asarray(times, dtype=float)[:, None, None]
+    xu, yu = (x[:, :-1] + x[:, 1:]) / 2, (y[:, :-1] + y[:, 1:]) / 2
+    xv, yv = (x[:-1] + x[1:]) / 2, (y[:-1] + y[1:]) / 2
+    u = np.broadcast_to(u_face(xu[None], yu[None], T), T.shape[:1] + xu.shape).astype(float)
+    v = np.broadcast_to(v_face(xv[None], yv[None], T), T.shape[:1] + xv.shape).astype(float)
+    J, I = np.meshgrid(np.arange(x.shape[0]), np.arange(x.shape[1]), indexing="ij")
+    water = np.ones(x.shape, dtype=bool) if land is None else ~np.asarray(land(I, J), dtype=bool)
+    if land_faces == "zero":
+        u = u * (water[:, :-1] & water[:, 1:])
+        v = v * (water[:-1] & water[1:])
+    elif land_faces == "unmasked":
+        v = np.where(water[:-1] & water[1:], v, np.nan)
+    else:
+        raise ValueError(f"land_faces: expected 'zero' or 'unmasked', got {land_faces!r}")
+    attrs = {"units": "m/s"}
+    return xr.Dataset(
+        {"u": (("time", "eta", "xi_u"), u, dict(attrs, long_name="velocity along the grid's i, on its faces")),
+         "v": (("time", "eta_v", "xi"), v, dict(attrs, long_name="velocity along the grid's j, on its faces")),
+         "mask_rho": (("eta", "xi"), water.astype(float), {"long_name": "1 at sea, 0 on land"})},
+        coords={"x_rho": (("eta", "xi"), x, {"standard_name": "projection_x_coordinate"}),
+                "y_rho": (("eta", "xi"), y, {"standard_name": "projection_y_coordinate"}),
+                "time": ("time", np.asarray(times, dtype=float), {"units": "s"})},
+        attrs={"Conventions": "CF-1.8", "source": "ldpipe.data.curvilinear (analytic, Arakawa C-grid)"})

@@ -27,7 +27,7 @@ from .kinetic import kinetic_matrix
 from .model import SystemModel
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field
 from .velocity_data import (
-    CurvilinearVelocitySystem, RectilinearVelocitySystem, VelocityDataSystem, make_velocity_data_system, path_text, velocity_data_coordinates,
+    CurvilinearVelocitySystem, RectilinearVelocitySystem, StaggeredVelocitySystem, VelocityDataSystem, make_velocity_data_system, path_text, velocity_data_coordinates,
     velocity_data_files,
 )
 
@@ -188,7 +188,8 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
     "velocity_data": SystemKind(
         key="velocity_data", noun="velocity data", hamiltonian=False, build=_build_velocity_data,
         coordinates=lambda spec: velocity_data_coordinates(spec["velocity_data"]),
-        classes=(VelocityDataSystem, RectilinearVelocitySystem, CurvilinearVelocitySystem), required=("velocity_data",),
+        classes=(VelocityDataSystem, RectilinearVelocitySystem, CurvilinearVelocitySystem, StaggeredVelocitySystem),
+        required=("velocity_data",),
         excluded=("coordinates",), formulas=False, stop_flags=True,
         has_equilibria=lambda name, spec: False,  # data depend on time
         on_sphere=lambda spec: spec["velocity_data"].get("coordinates") == "sphere",

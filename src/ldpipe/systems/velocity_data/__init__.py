@@ -37,9 +37,10 @@ from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
 from .files import path_text, velocity_data_files
 from .source import DataSource, open_source, velocity_data_coordinates
+from .staggered import StaggeredVelocitySystem, make_staggered_system
 
 __all__ = ["CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
-           "open_source", "path_text", "velocity_data_coordinates", "velocity_data_files"]
+           "StaggeredVelocitySystem", "open_source", "path_text", "velocity_data_coordinates", "velocity_data_files"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:
@@ -49,6 +50,8 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     if not isinstance(entry, dict):
         raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
     source = open_source(entry, f"{key}.velocity_data")
+    if source.staggered:  # a C-grid: its face velocities, a coast a wall
+        return make_staggered_system(name, source, spec, velocity_data_coordinates(entry))
     if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
         return make_curvilinear_system(name, source, spec, velocity_data_coordinates(entry))
     coordinates = (source.x, source.y)

@@ -185,13 +185,20 @@ def file_angle(source: DataSource, geometry: GridGeometry) -> np.ndarray | None:
     return values
 
 
-def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
-                            ) -> CurvilinearVelocitySystem:
-    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
+def curvilinear_parts(source: DataSource) -> tuple[GridGeometry, IndexVelocities, float]:
+    """A checked curvilinear ``source``'s geometry, its velocities' conversion and the LD's metric,
+    and the arc length's factor."""
     with source.open() as dataset:
         x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
     geometry = GridGeometry.from_coordinates(x, y, source.sphere)
     velocities, arc_factor = index_velocities(source, geometry, file_angle(source, geometry))
+    return geometry, velocities, arc_factor
+
+
+def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
+                            ) -> CurvilinearVelocitySystem:
+    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
+    geometry, velocities, arc_factor = curvilinear_parts(source)
     text = kernel_source()
     (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
     return CurvilinearVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,

@@ -156,6 +156,9 @@ class DataSource:
     components: str = "geographic"  # u, v east and north (x and y), or along the grid's i and j ("grid")
     angle: str | None = None  # a variable holding the grid's rotation angle (grid components)
     angle_scale: float = 1.0  # radians per unit of ``angle``
+    #: An Arakawa C-grid's velocities: u on the faces between nodes (j, i) and (j, i + 1), (ny, nx - 1),
+    #: v on those between (j, i) and (j + 1, i), (ny - 1, nx); the nodes the cells' centres
+    staggered: bool = False
     file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
 
     @contextlib.contextmanager
@@ -216,6 +219,24 @@ def open_source(spec: dict, key: str) -> DataSource:
         raise ConfigError(f"{error} (in {path})") from None
 
 
+def c_grid(dataset: xr.Dataset, entry: dict, expected: tuple[str, ...], key: str) -> bool:
+    """Whether u and v of a curvilinear grid whose nodes are on ``expected`` (time, y, x) sit on an
+    Arakawa C-grid's faces (u (time, ny, nx - 1), v (time, ny - 1, nx), as ROMS writes them)
+    rather than at the nodes; a ConfigError names the variables if they fit neither."""
+    u, v = dataset[entry["u"]], dataset[entry["v"]]
+    if tuple(u.dims) == expected and tuple(v.dims) == expected:
+        return False
+    ny, nx = dataset.sizes[expected[1]], dataset.sizes[expected[2]]
+    if (u.ndim == v.ndim == 3 and u.dims[0] == v.dims[0] == expected[0]
+            and u.shape[1:] == (ny, nx - 1) and v.shape[1:] == (ny - 1, nx)):
+        return True
+    raise ConfigError(f"config key '{key}.u': variables {entry['u']!r} {dict(u.sizes)} and {entry['v']!r} "
+                      f"{dict(v.sizes)} fit neither the coordinates' points ({expected[0]}, {ny}, {nx}) nor an "
+                      f"Arakawa C-grid's faces (u ({expected[0]}, {ny}, {nx - 1}), v ({expected[0]}, {ny - 1}, {nx}), "
+                      "ROMS's); give u and v at the points, or on the faces (a C-grid's coordinates are its cells' "
+                      "centres: name them, e.g. longitude: lon_rho, latitude: lat_rho)")
+
+
 def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, str], three_d: bool, key: str) -> dict:
     """What a :class:`DataSource` records of a curvilinear grid beyond its coordinates' names."""
     if three_d:
@@ -271,14 +292,16 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                                        np.arange(dataset.sizes[entry[role]]) if grid_coordinates else
                                        dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
+        staggered = bool(grid_coordinates) and c_grid(dataset, entry, expected, key)
+        if staggered and curvilinear["components"] != "grid":
+            raise ConfigError(f"config key '{key}.components': a C-grid's u and v are normal to its cells' faces; "
+                              "give components: grid")
         scales = []
         for role in velocities:
             variable = dataset[entry[role]]
-            if tuple(variable.dims) != expected:
-                staggered = (" (velocities on a staggered, Arakawa C, grid are not supported yet: give u and v at "
-                             "the coordinates' points)") if grid_coordinates else ""
+            if tuple(variable.dims) != expected and not staggered:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
-                                  f"{tuple(variable.dims)}; expected {expected}{staggered}")
+                                  f"{tuple(variable.dims)}; expected {expected}")
             if variable.dtype.kind not in "iuf":
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} holds {variable.dtype} "
                                   "values, not numbers")
@@ -334,7 +357,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
                       x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles),
-                      grid_coordinates=grid_coordinates, **curvilinear)
+                      grid_coordinates=grid_coordinates, staggered=staggered, **curvilinear)
 
 
 #: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or
