@@ -9,6 +9,9 @@ glob or a list of files along time, read lazily as one dataset (:mod:`.files`). 
 checked. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
 as eastward and northward velocities, with the Earth's radius ``earth_radius`` (metres).
 
+Coordinates that are 2-D make a curvilinear grid (:mod:`.grid_coordinates` finds them), integrated
+in its index space (:mod:`.curvilinear`; u and v on a C-grid's faces: :mod:`.staggered`).
+
 The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
 are converted from their units (``m/s``, ``km/day``, ...) to coordinate units per time unit
 (on the sphere, to degrees per time unit). The velocity between grid nodes is the cubic
