@@ -17,7 +17,7 @@ from scipy.integrate import quad
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
-from ldpipe.data.curvilinear import ROTATION, c_grid_dataset, plane_grid, write_dataset
+from ldpipe.data.curvilinear import ROTATION, c_grid_dataset, plane_grid, rotated_pole_grid, write_dataset
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
@@ -135,3 +135,44 @@ def test_staggered_shapes_that_fit_no_c_grid_are_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"velocity_data\.components': a C-grid's u and v are normal to its"):
         make_system("s", {"velocity_data": {"path": str(write_dataset(good, tmp_path / "good.nc")),
                                             **ENTRY, "components": "geographic"}})
+
+
+def test_a_c_grid_on_a_rotated_pole_grid(tmp_path):
+    # On the rotated-pole grid (spacing 0.5 degrees of the frame, tilted 40 degrees) u on every
+    # face is c times the great-circle distance between the centres it separates, which on the
+    # frame's latitude circle phi' is 2 R asin(cos phi' sin(h / 2)) (closed form), v = 0: the index
+    # velocity is c, so a start at frame (lam', phi') moves along its circle at c h degrees a second;
+    # the end point is the frame's (lam' + c h t, phi') turned by the tilt, the arc length
+    # R cos(phi') c h t (radians), in km. Time in seconds, c = 1e-5 per second.
+    radius, h, c, tilt = 6371000.0, 0.5, 1e-5, 40.0
+    lon, lat = rotated_pole_grid((30.0, 20.0), h, tilt)
+    phi = np.radians(np.arange(-20.0, 20.0 + h / 2, h))
+
+    def u_face(X, Y, T):
+        return np.broadcast_to(c * 2 * radius * np.arcsin(np.cos(phi)[:, None] * math.sin(math.radians(h) / 2)),
+                               np.broadcast_shapes(X.shape, T.shape))
+
+    dataset = c_grid_dataset(u_face, lambda X, Y, T: 0 * X + 0 * T, lon, lat, np.arange(0.0, 4e4 + 1, 1e4),
+                             sphere=True)
+    path = write_dataset(dataset, tmp_path / "pole_c_grid.nc")
+    system = make_system("pole_c_grid", {"velocity_data": {
+        "path": str(path), "coordinates": "sphere", "longitude": "lon_rho", "latitude": "lat_rho",
+        "components": "grid"}})
+    frame = np.array([[-10.0, -5.0], [0.0, 8.0], [12.0, 0.0]])  # (lam', phi') in degrees
+    t = 2e4
+    start, end = rotated_pole_point(frame, tilt), rotated_pole_point(frame + [c * h * t, 0.0], tilt)
+    result = compute_ld(system, start, 1, LDSettings(tau=t, p="arclength", rtol=1e-11, atol=1e-11), t0=1e4)
+    # measured: 1.2e-6 degrees (the coordinates' cubic between centres, mapping the start and the
+    # end), the arc length 1.1e-8 relative (the metric's cubic)
+    np.testing.assert_allclose(result.end_state, end, rtol=0, atol=4e-6)
+    arc = radius * np.cos(np.radians(frame[:, 1])) * math.radians(c * h * t) / 1000.0
+    np.testing.assert_allclose(result.ld, arc, rtol=4e-8)
+
+
+def rotated_pole_point(frame, tilt):
+    """(lon, lat) of frame points (lam', phi') (degrees), as ldpipe.data.curvilinear.rotated_pole_grid turns them."""
+    lam, phi = np.radians(frame[:, 0]), np.radians(frame[:, 1])
+    r = np.array([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
+    b = math.radians(tilt)
+    x, z = math.cos(b) * r[0] + math.sin(b) * r[2], -math.sin(b) * r[0] + math.cos(b) * r[2]
+    return np.column_stack([np.degrees(np.arctan2(r[1], x)), np.degrees(np.arcsin(z))])

@@ -129,9 +129,9 @@ def rotated_pole_grid(half_extent: tuple[float, float], spacing: float, tilt: fl
 
 
 def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarray, *, land=None,
-                   land_faces: str = "zero") -> xr.Dataset:
-    """An Arakawa C-grid (ROMS's layout) on the plane: the cells' centres (x, y), each (eta, xi),
-    ``x_rho``/``y_rho``; u on the faces between centres (j, i) and (j, i + 1), (time, eta, xi_u),
+                   land_faces: str = "zero", sphere: bool = False) -> xr.Dataset:
+    """An Arakawa C-grid (ROMS's layout): the cells' centres (x, y), each (eta, xi), ``x_rho``/
+    ``y_rho`` on the plane, ``lon_rho``/``lat_rho`` (degrees) on the ``sphere``; u on the faces between centres (j, i) and (j, i + 1), (time, eta, xi_u),
     and v on those between (j, i) and (j + 1, i), (time, eta_v, xi), the velocities normal to the
     faces (along the grid's i and j), ``u_face(xm, ym, t)`` and ``v_face(xm, ym, t)`` at the
     faces' midpoints; ``land(i, j)`` (node indices) True at land centres, ``mask_rho`` 0 there
@@ -157,7 +157,9 @@ def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarr
         {"u": (("time", "eta", "xi_u"), u, dict(attrs, long_name="velocity along the grid's i, on its faces")),
          "v": (("time", "eta_v", "xi"), v, dict(attrs, long_name="velocity along the grid's j, on its faces")),
          "mask_rho": (("eta", "xi"), water.astype(float), {"long_name": "1 at sea, 0 on land"})},
-        coords={"x_rho": (("eta", "xi"), x, {"standard_name": "projection_x_coordinate"}),
-                "y_rho": (("eta", "xi"), y, {"standard_name": "projection_y_coordinate"}),
+        coords={("lon_rho" if sphere else "x_rho"): (("eta", "xi"), x, {"units": "degrees_east"} if sphere else
+                                                     {"standard_name": "projection_x_coordinate"}),
+                ("lat_rho" if sphere else "y_rho"): (("eta", "xi"), y, {"units": "degrees_north"} if sphere else
+                                                     {"standard_name": "projection_y_coordinate"}),
                 "time": ("time", np.asarray(times, dtype=float), {"units": "s"})},
         attrs={"Conventions": "CF-1.8", "source": "ldpipe.data.curvilinear (analytic, Arakawa C-grid)"})
