@@ -46,7 +46,7 @@ def plane_grid(kind: str, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     (a, b) frame has nodes every ``spacing`` (see the module docstring)."""
     if kind not in GRIDS:
         raise ValueError(f"kind: expected one of {GRIDS}, got {kind!r}")
-    counts = [int(round(2 * half / spacing)) + 1 for half in HALF_EXTENT]
+    counts = [round(2 * half / spacing) + 1 for half in HALF_EXTENT]
     a = -HALF_EXTENT[0] + spacing * np.arange(counts[0])
     b = -HALF_EXTENT[1] + spacing * np.arange(counts[1])
     B, Aa = np.meshgrid(b, a, indexing="ij")

@@ -20,8 +20,8 @@ import xarray as xr
 
 from ...errors import ConfigError
 from .. import kernels
-from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
 from .files import FileSeries, data_files, open_dataset, path_text, series_times
+from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
 # coordinates (planning, figures) without it.
