@@ -22,6 +22,7 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
 
+pytestmark = pytest.mark.compiles  # the C-grid's kernel and engine are loaded by these tests alone
 H, U0, V0 = 0.1, 0.5, 0.3
 ENTRY = {"x": "x_rho", "y": "y_rho", "components": "grid", "mask": "mask_rho"}
 

@@ -34,7 +34,10 @@ from ldpipe.systems import make_system
 from support.double_gyre import DOUBLE_GYRE
 from support.gridded import write_velocity_file
 
-TIGHT = dict(rtol=1e-11, atol=1e-11)
+#: The curvilinear engine is loaded by these tests alone (and the curvilinear series of
+#: test_file_series, in the same xdist group so one worker compiles it).
+pytestmark = [pytest.mark.compiles, pytest.mark.xdist_group("curvilinear_grids")]
+TIGHT = {"rtol": 1e-11, "atol": 1e-11}
 OMEGA = 0.3  # the plane rotation's rate about the domain's centre (1, 0.5)
 
 

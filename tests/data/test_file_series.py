@@ -83,6 +83,8 @@ def test_inconsistent_series_are_refused_naming_the_files(tmp_path):
                                             "coordinates": "sphere"}})
 
 
+@pytest.mark.compiles
+@pytest.mark.xdist_group("curvilinear_grids")  # test_curvilinear's engine
 def test_a_curvilinear_series_gives_the_single_files_trajectories(tmp_path):
     gyre = double_gyre_dataset("curvilinear", 0.2, np.arange(0.0, 6.01, 0.5))
     single = write_dataset(gyre, tmp_path / "gyre.nc")
