@@ -209,6 +209,11 @@ def test_bad_curvilinear_data_is_refused_naming_the_variable(tmp_path):
                     x="x_rho", y="y_rho")
     with pytest.raises(ConfigError, match=r"velocity_data\.longitude': 2-D longitude and latitude are on the sphere"):
         data_system(tmp_path / "good.nc", components="grid", longitude="x_rho", latitude="y_rho")
+    lon, lat = rotated_pole_grid((30.0, 20.0), 2.0, 80.0)  # the frame tilted so far the south pole is inside
+    polar = curvilinear_dataset(lambda X, Y, T: (0 * X + T, 0 * Y), lon, lat, times, sphere=True)
+    with pytest.raises(ConfigError, match=r"curvilinear grid \('lon_rho', 'lat_rho'\) jumps by .* degrees of "
+                                          r"longitude .* round a pole.* not supported yet"):
+        data_system(write_dataset(polar, tmp_path / "polar.nc"), coordinates="sphere")
     regular = write_velocity_file(tmp_path / "regular.nc", rotation, np.linspace(0, 2, 5), np.linspace(0, 1, 5), times)
     with pytest.raises(ConfigError, match=r"velocity_data': components and angle are of a curvilinear grid"):
         data_system(regular, components="grid")

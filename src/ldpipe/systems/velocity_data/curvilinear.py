@@ -191,8 +191,27 @@ def curvilinear_parts(source: DataSource) -> tuple[GridGeometry, IndexVelocities
     with source.open() as dataset:
         x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
     geometry = GridGeometry.from_coordinates(x, y, source.sphere)
+    if source.sphere:
+        check_no_pole(source, geometry)
     velocities, arc_factor = index_velocities(source, geometry, file_angle(source, geometry))
     return geometry, velocities, arc_factor
+
+
+#: The largest jump of longitude (degrees) between neighbouring nodes of a grid that is neither
+#: round a pole nor all round the sphere (its longitudes on one branch about its centre).
+LONGITUDE_JUMP = 90.0
+
+
+def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
+    """A ConfigError naming the coordinates if a sphere's curvilinear grid reaches a pole, goes round
+    one, or goes all round the sphere: its longitudes are not one continuous branch (not yet read)."""
+    jumps = max(np.abs(np.diff(geometry.x, axis=axis)).max() for axis in (0, 1))
+    pole = np.abs(geometry.y).max() >= 90.0 - 1e-9
+    if pole or jumps > LONGITUDE_JUMP:
+        why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
+        raise ConfigError(f"velocity data {source.path}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
+                          "that reaches or goes round a pole, or all round the sphere (tripolar, a rotated pole "
+                          "inside it), is not supported yet")
 
 
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
