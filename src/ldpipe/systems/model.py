@@ -142,7 +142,8 @@ class DataFlowModel(FlowModel, Protocol):
 
     def stop_lines(self, end_states: np.ndarray, start: float,
                    end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The grid line each stopped trajectory crossed last: (state index, value, side)."""
+        """The grid line each stopped trajectory crossed last: (state index, value, side), the value
+        the engine state's (:meth:`FlowModel.engine_states`), where the crossing is located."""
 
 
 def protocol_members(protocol: type) -> set[str]:

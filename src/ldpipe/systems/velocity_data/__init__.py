@@ -36,14 +36,15 @@ from __future__ import annotations
 
 from ...errors import ConfigError
 from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
+from .files import path_text, velocity_data_files
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
-from .files import path_text, velocity_data_files
 from .source import DataSource, open_source, velocity_data_coordinates
 from .staggered import StaggeredVelocitySystem, make_staggered_system
 
-__all__ = ["CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "make_velocity_data_system",
-           "StaggeredVelocitySystem", "open_source", "path_text", "velocity_data_coordinates", "velocity_data_files"]
+__all__ = ["CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem",
+           "StaggeredVelocitySystem", "VelocityDataSystem", "make_velocity_data_system", "open_source", "path_text",
+           "velocity_data_coordinates", "velocity_data_files"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:
