@@ -100,3 +100,14 @@ def test_a_curvilinear_series_gives_the_single_files_trajectories(tmp_path):
     with pytest.raises(ConfigError, match=r"grids of .*gyre0\.nc and .*rotated\.nc differ \(variable 'x_rho'\)"):
         make_system("mixed", {"velocity_data": {"path": [parts[0], str(write_dataset(other, tmp_path / "rotated.nc"))],
                                                 "components": "geographic"}})
+
+
+def test_the_example_writer_splits_the_example_along_time(tmp_path):
+    from ldpipe.data.example import main
+
+    main([str(tmp_path / "series"), "--files", "3", "--days", "1.5"])
+    files = sorted((tmp_path / "series").glob("example_*.nc"))
+    assert [f.name for f in files] == ["example_000.nc", "example_001.nc", "example_002.nc"]
+    system = make_system("cli", {"velocity_data": {"path": str(tmp_path / "series" / "example_*.nc"),
+                                                   "coordinates": "sphere"}})
+    assert system.source.time_range == (0.0, 1.5) and system.source.t_grid[2] == 7  # every 6 hours, as one file
