@@ -177,3 +177,30 @@ def rotated_pole_point(frame, tilt):
     b = math.radians(tilt)
     x, z = math.cos(b) * r[0] + math.sin(b) * r[2], -math.sin(b) * r[0] + math.cos(b) * r[2]
     return np.column_stack([np.degrees(np.arctan2(r[1], x)), np.degrees(np.arcsin(z))])
+
+
+def test_nemos_layout_gives_romss_trajectories(c_grid, tmp_path):
+    # the same faces written NEMO's way: u and v on arrays of the centres' shape, the outer faces
+    # (east of the last column, north of the last row) appended with values that must not be read;
+    # with c_grid: nemo the trajectories equal the ROMS layout's bit for bit (the same numbers reach
+    # the same kernel: an invariant, no tolerance)
+    import xarray as xr
+
+    path, roms = c_grid
+    with xr.open_dataset(path) as dataset:
+        data = dataset.load()
+    outer_u = xr.full_like(data.u.isel(xi_u=slice(0, 1)), 7.0)
+    outer_v = xr.full_like(data.v.isel(eta_v=slice(0, 1)), -7.0)
+    nemo = data.assign(u=xr.concat([data.u, outer_u], "xi_u").rename(xi_u="xi"),
+                       v=xr.concat([data.v, outer_v], "eta_v").rename(eta_v="eta"))
+    nemo_path = write_dataset(nemo, tmp_path / "nemo.nc")
+    system = make_system("nemo", {"velocity_data": {"path": str(nemo_path), **ENTRY, "c_grid": "nemo"}})
+    starts = physical(np.array([[13.2, 14.9], [5.0, 20.0], [18.0, 3.0]]))
+    settings = LDSettings(tau=30.0, p=0.5, rtol=1e-10, atol=1e-10)
+    for direction, t0 in ((1, 10.0), (-1, 90.0)):
+        want = compute_ld(roms, starts, direction, settings, t0=t0)
+        got = compute_ld(system, starts, direction, settings, t0=t0)
+        np.testing.assert_array_equal(got.end_state, want.end_state)
+        np.testing.assert_array_equal(got.ld, want.ld)
+    with pytest.raises(ConfigError, match=r"velocity_data\.c_grid': NEMO's u and v are on arrays of the centres'"):
+        make_system("nemo_on_roms", {"velocity_data": {"path": str(path), **ENTRY, "c_grid": "nemo"}})

@@ -156,9 +156,10 @@ class DataSource:
     components: str = "geographic"  # u, v east and north (x and y), or along the grid's i and j ("grid")
     angle: str | None = None  # a variable holding the grid's rotation angle (grid components)
     angle_scale: float = 1.0  # radians per unit of ``angle``
-    #: An Arakawa C-grid's velocities: u on the faces between nodes (j, i) and (j, i + 1), (ny, nx - 1),
-    #: v on those between (j, i) and (j + 1, i), (ny - 1, nx); the nodes the cells' centres
-    staggered: bool = False
+    #: An Arakawa C-grid's layout (:data:`C_GRIDS`; "" for velocities at the nodes): u on the faces
+    #: between nodes (j, i) and (j, i + 1), v on those between (j, i) and (j + 1, i), the nodes the
+    #: cells' centres
+    staggered: str = ""
     file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
 
     @contextlib.contextmanager
@@ -219,17 +220,32 @@ def open_source(spec: dict, key: str) -> DataSource:
         raise ConfigError(f"{error} (in {path})") from None
 
 
-def c_grid(dataset: xr.Dataset, entry: dict, expected: tuple[str, ...], key: str) -> bool:
-    """Whether u and v of a curvilinear grid whose nodes are on ``expected`` (time, y, x) sit on an
-    Arakawa C-grid's faces (u (time, ny, nx - 1), v (time, ny - 1, nx), as ROMS writes them)
-    rather than at the nodes; a ConfigError names the variables if they fit neither."""
+#: The C-grid layouts read: ROMS's faces one fewer than the centres (found from the shapes), NEMO's
+#: on arrays of the centres' shape, the last column of u and row of v the outer faces (said by ``c_grid``).
+C_GRIDS = ("roms", "nemo")
+
+
+def c_grid(dataset: xr.Dataset, entry: dict, expected: tuple[str, ...], key: str) -> str:
+    """The C-grid layout (:data:`C_GRIDS`) of u and v of a curvilinear grid whose centres are on
+    ``expected`` (time, y, x), or "" for velocities at the centres: ROMS's faces (u (time, ny,
+    nx - 1), v (time, ny - 1, nx)) from the shapes, NEMO's (u, v of the centres' shape) when the
+    entry says ``c_grid: nemo``; a ConfigError names the variables if they fit neither."""
     u, v = dataset[entry["u"]], dataset[entry["v"]]
-    if tuple(u.dims) == expected and tuple(v.dims) == expected:
-        return False
     ny, nx = dataset.sizes[expected[1]], dataset.sizes[expected[2]]
-    if (u.ndim == v.ndim == 3 and u.dims[0] == v.dims[0] == expected[0]
-            and u.shape[1:] == (ny, nx - 1) and v.shape[1:] == (ny - 1, nx)):
-        return True
+    layout = entry.get("c_grid")
+    if layout not in (None,) + C_GRIDS:
+        raise ConfigError(f"config key '{key}.c_grid': expected one of {list(C_GRIDS)}, got {layout!r}")
+    timed = u.ndim == v.ndim == 3 and u.dims[0] == v.dims[0] == expected[0]
+    if layout == "nemo":
+        if timed and u.shape[1:] == v.shape[1:] == (ny, nx):
+            return "nemo"
+        raise ConfigError(f"config key '{key}.c_grid': NEMO's u and v are on arrays of the centres' shape "
+                          f"({expected[0]}, {ny}, {nx}); {entry['u']!r} is {dict(u.sizes)}, {entry['v']!r} "
+                          f"{dict(v.sizes)}")
+    if layout is None and tuple(u.dims) == expected and tuple(v.dims) == expected:
+        return ""
+    if timed and u.shape[1:] == (ny, nx - 1) and v.shape[1:] == (ny - 1, nx):
+        return "roms"
     raise ConfigError(f"config key '{key}.u': variables {entry['u']!r} {dict(u.sizes)} and {entry['v']!r} "
                       f"{dict(v.sizes)} fit neither the coordinates' points ({expected[0]}, {ny}, {nx}) nor an "
                       f"Arakawa C-grid's faces (u ({expected[0]}, {ny}, {nx - 1}), v ({expected[0]}, {ny - 1}, {nx}), "
@@ -252,7 +268,7 @@ def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, 
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
     unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive", "longitude",
-                                            "latitude", "components", "angle"}
+                                            "latitude", "components", "angle", "c_grid"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -274,8 +290,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if grid_coordinates:  # the state's axes are the grid's index dimensions
             curvilinear = curvilinear_entry(entry, dataset, grid_coordinates, three_d, key)
             entry["y"], entry["x"] = dataset[grid_coordinates[0]].dims
-        elif {"components", "angle"} & set(entry):
-            raise ConfigError(f"config key '{key}': components and angle are of a curvilinear grid's velocities; "
+        elif {"components", "angle", "c_grid"} & set(entry):
+            raise ConfigError(f"config key '{key}': components, angle and c_grid are of a curvilinear grid's velocities; "
                               "this grid's coordinates are 1-D (u and v along them)")
         checked = ("time",) if grid_coordinates else axis_roles
         for role in velocities + checked + (("mask",) if entry.get("mask") else ()):
@@ -292,7 +308,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                                        np.arange(dataset.sizes[entry[role]]) if grid_coordinates else
                                        dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
-        staggered = bool(grid_coordinates) and c_grid(dataset, entry, expected, key)
+        staggered = c_grid(dataset, entry, expected, key) if grid_coordinates else ""
         if staggered and curvilinear["components"] != "grid":
             raise ConfigError(f"config key '{key}.components': a C-grid's u and v are normal to its cells' faces; "
                               "give components: grid")

@@ -3,7 +3,9 @@
 ROMS and CROCO write u on the faces between the cells' centres (rho points) (j, i) and (j, i + 1),
 an array (ny, nx - 1), and v on those between (j, i) and (j + 1, i), (ny - 1, nx), each the
 velocity normal to its face (along the grid's i and j). A ``velocity_data`` entry on a curvilinear
-grid whose u and v have these shapes is read as such (:func:`.source.c_grid`), and integrated in
+grid whose u and v have these shapes is read as such (:func:`.source.c_grid`); NEMO's, on arrays of
+the centres' shape (their last column and row the outer faces, not read), when the entry says
+``c_grid: nemo``. Either is integrated in
 index space as :mod:`.curvilinear` does, with the staggered interpolant of
 ``kernels/staggered_velocity.py``: a face's velocity is the index velocity u / L, L the distance
 between the two centres it separates (on the sphere great-circle metres), linear across a cell
@@ -129,6 +131,8 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tup
         u = np.asarray(dataset.read(source.u, region), dtype=float)
         v = np.asarray(dataset.read(source.v, region), dtype=float)
         water = np.asarray(dataset.read(source.mask, {})) != 0 if source.mask else np.ones(geometry.shape, dtype=bool)
+    if source.staggered == "nemo":  # the outer faces east of the last column and north of the last row
+        u, v = u[:, :, :-1], v[:, :-1, :]
     check_speeds(source, [u, v])
     open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
     open_v = np.isfinite(v) & (water[:-1] & water[1:])
