@@ -27,6 +27,8 @@ extensions = [
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    # MathJax served from the site itself, so formulas render offline and in the tests' browser
+    "sphinx-mathjax-offline",
     "sphinx_gallery.gen_gallery",
     "schema_reference",
 ]

@@ -42,10 +42,13 @@ flux = ldpipe.transport(
 
 action = flux.flux_action.values
 islands = flux.flux_island_area  # the stable and the unstable tube's island
-fluxes = ["flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr", "flux_harmonic"]
-print(flux[fluxes].to_dataframe())
-print("island area / action - 1:",
-      (islands / flux.flux_action - 1).values.round(14).tolist())
+fluxes = ["flux_action", "flux_monte_carlo", "flux_monte_carlo_stderr",
+          "flux_harmonic"]
+print(f"{'excess energy':24}", np.array2string(flux.excess_energy.values, precision=7))
+for name in fluxes:
+    print(f"{name:24}", np.array2string(flux[name].values, precision=7))
+print("island area / action - 1 (an energy a row; the stable, the unstable tube):")
+print(np.array2string((islands / flux.flux_action - 1).values, precision=2))
 
 fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
 excess = flux.excess_energy.values

@@ -24,7 +24,7 @@ slices = np.linspace(2.45, 2.85, 3)  # values of z, around the saddle's z = 2.64
 
 
 def slice_map(z):
-    """The variable-time LD map of the x–p_x slice at this z (y at the saddle's, p_y = 0)."""
+    """The variable-time LD map of the x–p_x slice at z (y at the saddle's, p_y = 0)."""
     section = ldpipe.section(x=(9.0, 12.0, POINTS), px=(-0.6, 0.6, POINTS),
                              fixed={"y": "saddle", "z": float(z), "py": 0.0},
                              solve="pz")

@@ -4,7 +4,10 @@
   docs/ (with the README and the CHANGELOG it includes), and every gallery example runs while it builds, at a
   small size (``LDPIPE_EXAMPLE_POINTS``); each example's page shows its pictures and its runtime.
 - In headless Chromium the gallery page's pictures load (``naturalWidth > 0``) and are drawn: a
-  screenshot differs from the same page with the images hidden.
+  screenshot differs from the same page with the images hidden. On every page a reader reads
+  (the front page, getting started, the theory, the guide, the gallery's examples) the formulas
+  are typeset by MathJax (no raw ``$`` left) and nothing is wider than the page: no code block or
+  table scrolls sideways in a 1400-pixel window.
 - Every ```python block of the README and the pages runs as written, and the README's picture is
   what its example draws.
 - What a user reads has no dates, machine loads or tracker references (the changelog may date
@@ -26,7 +29,7 @@ import numpy as np
 import pytest
 from matplotlib import image
 
-from support.browser import browse, chromium, ink
+from support.browser import browse, chromium, ink, served
 from support.workflow import BUILD_DOCS, BUILT, DOCUMENTATION, ROOT
 
 EXAMPLES = sorted(p.stem for p in (ROOT / "docs/examples").glob("plot_*.py"))
@@ -150,6 +153,92 @@ def test_the_gallery_page_shows_its_pictures_in_a_browser(site, tmp_path):
         assert width > 50 and height > 30 and top + height <= shot.shape[0], f"{src}: drawn at {width} x {height}"
         drawn = differs[top:top + height, left:left + width].mean()
         assert drawn > 0.03, f"{src}: only {drawn:.1%} of its box on the screen shows it"
+
+
+#: Loads each page a reader reads (PAGES) in a 1400-pixel-wide iframe, one after another, and once
+#: its scripts (MathJax) have finished records the formulas typeset, text that still holds TeX
+#: delimiters outside code, and code blocks or tables wider than their box; the results go to the
+#: title, which the dumped DOM carries back.
+READING_PROBE = """<!doctype html><html><head><title>waiting</title></head><body style="margin: 0"><script>
+const pages = PAGES;
+function read(url) {
+  return new Promise(resolve => {
+    const frame = document.createElement('iframe');
+    Object.assign(frame.style, {width: '1400px', height: '1800px', border: '0'});
+    frame.onload = async () => {
+      const view = frame.contentWindow, page = frame.contentDocument;
+      if (view.MathJax && view.MathJax.startup) { await view.MathJax.startup.promise; }
+      const article = page.querySelector('article') || page.body;
+      const walker = page.createTreeWalker(article, NodeFilter.SHOW_TEXT);
+      const raw = [];
+      while (walker.nextNode()) {
+        const node = walker.currentNode;
+        if (node.parentElement.closest('pre, code, script, style, mjx-container')) continue;
+        if (/\\$[^$\\s]|\\\\\\(|\\\\\\[/.test(node.textContent)) raw.push(node.textContent.trim().slice(0, 80));
+      }
+      const wide = [];
+      for (const box of article.querySelectorAll('pre, table')) {
+        if (box.scrollWidth > box.clientWidth + 1) {
+          wide.push(`${box.tagName} ${box.scrollWidth - box.clientWidth} px too wide: ${box.textContent.trim().slice(0, 60)}`);
+        }
+      }
+      const overflow = page.documentElement.scrollWidth - page.documentElement.clientWidth;
+      const math = page.querySelectorAll('mjx-container').length;
+      frame.remove();
+      resolve({math, raw, wide, overflow});
+    };
+    frame.src = url;
+    document.body.appendChild(frame);
+  });
+}
+(async () => {
+  const readings = {};
+  for (const url of pages) { readings[url] = await read(url); }
+  document.title = 'reading:' + JSON.stringify(readings);
+})();
+</script></body></html>"""
+
+
+def _reader_pages(html: Path) -> list[str]:
+    pages = [html / "index.html", html / "getting-started.html", html / "theory.html",
+             *sorted((html / "guide").glob("*.html")), *sorted((html / "gallery").glob("plot_*.html"))]
+    return [str(page.relative_to(html)) for page in pages]
+
+
+def _states_math(page: str) -> bool:
+    """Whether the page's source writes a formula in dollar math (outside code)."""
+    source = ROOT / "docs" / Path(page).with_suffix(".md")
+    if not source.is_file():
+        return False
+    prose = re.sub(r"^```.*?^```", "", source.read_text(), flags=re.S | re.M)
+    return re.search(r"\$[^$\s][^$]*\$", prose) is not None
+
+
+@pytest.mark.slow
+def test_formulas_are_typeset_and_no_page_is_wider_than_the_window(site, tmp_path):
+    html, built = site
+    assert built.returncode == 0, built.stderr[-3000:]
+    browser = chromium()
+    if browser is None:
+        pytest.skip("no chromium on this machine (.ci/run installs Debian's chromium where it runs as root)")
+    pages = _reader_pages(html)
+    assert len(pages) > 20 and all((html / page).is_file() for page in pages)
+    (html / "reading.html").write_text(READING_PROBE.replace("PAGES", json.dumps(pages)))
+    with served(html) as site_url:
+        dom = browse(browser, f"{site_url}/reading.html", tmp_path / "chromium-profile")
+    found = re.search(r"<title>reading:(.*?)</title>", dom, flags=re.S)
+    assert found, "the pages' scripts never finished"
+    text = found.group(1)
+    for entity, character in (("&quot;", '"'), ("&lt;", "<"), ("&gt;", ">"), ("&amp;", "&")):
+        text = text.replace(entity, character)
+    readings = json.loads(text)
+    assert sorted(readings) == sorted(pages)
+    for page, reading in readings.items():
+        assert not reading["raw"], f"{page}: TeX left untypeset: {reading['raw']}"
+        assert reading["overflow"] <= 0 and not reading["wide"], f"{page}: wider than the window: {reading['wide']}"
+        if _states_math(page):
+            assert reading["math"] > 0, f"{page}: its formulas were not typeset"
+    assert readings["theory.html"]["math"] >= 40  # every formula of the theory page typeset
 
 
 # ------------------------------------------------------------------------ the pages' Python

@@ -3,9 +3,13 @@
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import shutil
 import subprocess
+import threading
 from concurrent.futures import ThreadPoolExecutor
+from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +55,26 @@ def browse_all(browser: str, launches: list[tuple[str, Path | None]], profiles: 
 
     with ThreadPoolExecutor(at_once) as pool:
         return list(pool.map(launch, range(len(launches)), *zip(*launches)))
+
+
+class _QuietHandler(SimpleHTTPRequestHandler):
+    def log_message(self, *arguments) -> None:  # the test's output is the assertions', not each request
+        pass
+
+
+@contextlib.contextmanager
+def served(folder: Path):
+    """``folder`` served over HTTP on localhost while the block runs; yields its base URL. A page
+    that reads other pages' DOM through iframes must share their origin, which file:// pages do not."""
+    server = ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(_QuietHandler, directory=str(folder)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join()
 
 
 def ink(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:

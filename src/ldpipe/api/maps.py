@@ -14,7 +14,8 @@ from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, en
 @shared_docs
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
            threads: int | None = None, **spec) -> xr.Dataset:
-    """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry.
+    """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry;
+    with ``directions="forward"`` (or ``"backward"``) that direction alone, at half the trajectories.
 
     Parameters
     ----------
@@ -28,12 +29,14 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
-        ``saddle_near``, ``integrator``, ``tiles``, ...
+        ``saddle_near``, ``integrator``, ``tiles``, ``directions`` (``"both"``, the default;
+        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ...
 
     Returns
     -------
     xarray.Dataset
-        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...;
+        The map's file (contract ``ld_grid``): ``ld_forward``, ``ld_backward``, ``allowed`` ...
+        (with one direction, only its variables; the attribute ``directions`` says which);
         with ``ld=False`` (a vector field's fixed-time map with ``ftle=True``) the flow map and
         its FTLE alone (contract ``flow_map``).
 

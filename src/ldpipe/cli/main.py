@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .._version import __version__
 from ..config import load_config, validate_config
+from ..core.maps.grid import DIRECTIONS
 from ..engine import SCHEMES, DescriptorSettings, IntegratorSettings, StoppingRules
 from ..engine.integrands import ARCLENGTH
 from ..errors import ConfigError, LdpipeError
@@ -34,6 +35,7 @@ examples:
       --fixed y=-7.0 --solve py --excess-energy 0.125 --tau 50 --p 0.5 \\
       --time variable --region x=4.5:6.5 --region y=-8.5:-5.5 --saddle-near 5.5,-7 -o slice.nc
   ldpipe ld --config config.yaml --map fig4_k-7.0 --refine-tolerance 0.002 --coarse-spacing 16 -o fig4a.nc
+  ldpipe ld --config config.yaml --map fig4_k-7.0 --directions forward -o fig4a_forward.nc
 """
 
 
@@ -189,12 +191,15 @@ def _run_ld(args: argparse.Namespace) -> None:
         config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field)
         config = validate_config(config)
         args.map = "cli"
-    if args.refine_tolerance is not None or args.coarse_spacing is not None:
+    if args.refine_tolerance is not None or args.coarse_spacing is not None or args.directions is not None:
         config = copy.deepcopy(config)
-        refine = config["ld_maps"][args.map].setdefault("refine", {})
-        for key, value in (("tolerance", args.refine_tolerance), ("coarse_spacing", args.coarse_spacing)):
-            if value is not None:
-                refine[key] = value
+        if args.refine_tolerance is not None or args.coarse_spacing is not None:
+            refine = config["ld_maps"][args.map].setdefault("refine", {})
+            for key, value in (("tolerance", args.refine_tolerance), ("coarse_spacing", args.coarse_spacing)):
+                if value is not None:
+                    refine[key] = value
+        if args.directions is not None:
+            config["ld_maps"][args.map]["directions"] = args.directions
         config = validate_config(config)
     parameters = parameters_from_config(config, "ld", args.map)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
@@ -307,6 +312,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "field's value range), interpolate elsewhere (see docs/guide/adaptive_maps.md)")
     ld.add_argument("--coarse-spacing", type=int, metavar="PIXELS",
                     help="an adaptive map's coarse lattice spacing in pixels (with --refine-tolerance, or alone)")
+    ld.add_argument("--directions", choices=tuple(DIRECTIONS),
+                    help="the directions of time integrated: both, or forward or backward alone (default: the "
+                         "map's directions, else both)")
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")
     ld.add_argument("--quiet", action="store_true", help="no progress bar")
     ld.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.nc", help="netCDF file to write")

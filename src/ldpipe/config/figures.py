@@ -9,6 +9,7 @@ import io
 
 from ..errors import ConfigError
 from ..systems import system_coordinates
+from ..core.maps.grid import BOTH
 from .maps import check_interval, check_names
 from .studies import check_family_energies, check_saddle_near, check_system_reference
 
@@ -68,6 +69,7 @@ def check_figures(config: dict) -> None:
                 check_interval(interval, f"{key}.plane.{coordinate}")
         if kind in ("section_maps", "ld_slices", "ld_ftle", "ld_animation"):
             check_names(spec["ld_maps"], "ld_maps", f"{key}.ld_maps", config)
+            check_descriptor_directions(config, spec, key)
         if kind in ("section_maps", "ld_slices", "ld_ftle"):
             for map_name in spec["ld_maps"]:
                 if isinstance(config["ld_maps"][map_name].get("t0"), (list, dict)):
@@ -136,6 +138,20 @@ def check_figures(config: dict) -> None:
         if not low < high:
             raise ConfigError(f"config key '{key}.color_percentiles': expected [low, high] with low < high, got {[low, high]}")
 
+
+
+def check_descriptor_directions(config: dict, spec: dict, key: str) -> None:
+    """The LD a figure draws (``descriptor``: total, forward or backward) is of directions its maps
+    integrated: a map of one direction (``directions``) is drawn with that descriptor."""
+    descriptor = spec.get("descriptor", "total")
+    for map_name in spec["ld_maps"]:
+        directions = config["ld_maps"][map_name].get("directions", BOTH)
+        if directions != BOTH and descriptor != directions:
+            raise ConfigError(f"config key '{key}.descriptor': {descriptor} needs the map's {descriptor} LD"
+                              + (" (forward plus backward)" if descriptor == "total" else "")
+                              + f", and map {map_name!r} integrates {directions} time alone (config key "
+                              f"ld_maps.{map_name}.directions: {directions}); give descriptor: {directions}, "
+                              f"or the map directions: {BOTH}")
 
 
 def check_caption(text: str, key: str) -> None:

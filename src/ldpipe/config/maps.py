@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
+from ..core.maps.grid import BOTH
+from ..core.maps.symmetry import SETTING_KEY
 from ..systems import is_vector_field, on_sphere, system_coordinates, system_kind, system_phase_coordinates
 
 
@@ -64,6 +66,7 @@ def check_ld_maps(config: dict) -> None:
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
         check_variational_ftle(spec, key, system)
+        check_directions(spec, key)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
             continue
@@ -98,6 +101,25 @@ def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     if not vector_field:
         raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
                           f"{spec['system']!r} is a Hamiltonian (leave ld out)")
+
+
+def check_directions(spec: dict, key: str) -> None:
+    """A map of one direction (``directions``) has no backward fields to take from its forward ones."""
+    directions = spec.get("directions", BOTH)
+    if directions != BOTH and spec.get(SETTING_KEY) is True:
+        raise ConfigError(f"config key '{key}.{SETTING_KEY}': true takes the backward fields from the forward ones, "
+                          f"and the map integrates one direction (directions: {directions}); leave "
+                          f"{SETTING_KEY} out, or give directions: {BOTH}")
+
+
+def check_both_directions(config: dict, map_name: str, key: str, what: str) -> None:
+    """A ConfigError naming ``key`` and the map's ``directions`` if map ``map_name``, which ``what``
+    (a study, a figure) reads, integrates one direction of time and ``what`` needs both."""
+    directions = config["ld_maps"][map_name].get("directions", BOTH)
+    if directions != BOTH:
+        raise ConfigError(f"config key {key!r}: map {map_name!r} integrates one direction of time (config key "
+                          f"ld_maps.{map_name}.directions: {directions}), and {what} needs both; give the map "
+                          f"directions: {BOTH}")
 
 
 def check_variational_ftle(spec: dict, key: str, system: dict) -> None:

@@ -9,7 +9,8 @@ from ..errors import ConfigError
 from ..systems import is_vector_field, system_coordinates
 from ..systems.kinds import hamiltonian_kinds_text
 from ..systems.kinetic import kinetic_matrix
-from .maps import check_energy_surface_grid, check_interval, check_names, check_vector_field_poincare
+from .maps import (check_both_directions, check_energy_surface_grid, check_interval, check_names,
+                   check_vector_field_poincare)
 
 
 def check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]:
@@ -124,6 +125,7 @@ def check_nhim_sampling(config: dict) -> None:
         if map_spec["time"] != "variable":
             raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; NHIM sampling needs "
                               f"variable time (a saddle region)")
+        check_both_directions(config, map_name, f"{key}.base_map", "NHIM sampling (forward and backward fates)")
         section = map_spec["section"]
         if not str(section["solve"]).startswith("p"):
             raise ConfigError(f"config key '{key}.base_map': map {map_name!r} solves {section['solve']!r}; NHIM "
@@ -163,6 +165,7 @@ def check_nhim(config: dict) -> None:
             if is_vector_field(config["systems"][config["ld_maps"][map_name]["system"]]):
                 raise ConfigError(f"config key {where!r}: map {map_name!r} is of a vector field (no energy); NHIM "
                                   "detection needs a Hamiltonian system's map")
+            check_both_directions(config, map_name, where, "NHIM detection (the forward plus backward LD)")
             systems.add(config["ld_maps"][map_name]["system"])
         if len(systems) > 1:
             raise ConfigError(f"config key {where!r}: maps of several systems {sorted(systems)}; one system per study")
@@ -194,6 +197,7 @@ def check_nhim_orbit_validation(config: dict, key: str, spec: dict) -> None:
     check_names([map_name], "ld_maps", f"{key}.base_map", config, "LD map")
     if config["ld_maps"][map_name]["time"] != "variable":
         raise ConfigError(f"config key '{key}.base_map': map {map_name!r} is fixed time; the fates need its saddle region")
+    check_both_directions(config, map_name, f"{key}.base_map", "the orbit validation (forward and backward fates)")
     system = config["ld_maps"][map_name]["system"]
     check_names(spec["orbits"], "periodic_orbits", f"{key}.orbits", config, "family")
     for family in spec["orbits"]:
@@ -251,6 +255,7 @@ def check_accuracy_cost(config: dict) -> None:
     if nhim_map is not None:
         key = "accuracy_cost.nhim.map"
         check_names([nhim_map], "ld_maps", key, config, "LD map")
+        check_both_directions(config, nhim_map, key, "the NHIM detection")
         map_spec = config["ld_maps"][nhim_map]
         if map_spec["time"] != "variable" or len(map_spec["section"]["fixed"]) != 1:
             raise ConfigError(

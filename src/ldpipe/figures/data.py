@@ -14,15 +14,21 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..io.contracts import EQUILIBRIA, LD_GRID, MANIFOLDS, UPO
+from ..io.contracts import EQUILIBRIA, MANIFOLDS, UPO
 from ..io.datafile import open_stage_file, stage_parameters
 from ..core.equilibria.potential import select_saddle
+from ..core.maps.grid import open_map_file
 from ..errors import ConfigError
 from ..core.sections import Section, section_states
 from ..systems import System, make_system
 
 #: The LD fields a figure may draw: forward plus backward (the paper's maps), or one direction.
 DESCRIPTORS = ("total", "forward", "backward")
+
+
+def descriptor_directions(descriptor: str) -> tuple[str, ...]:
+    """The directions of time the LD ``descriptor`` (one of :data:`DESCRIPTORS`) adds up."""
+    return ("forward", "backward") if descriptor == "total" else (descriptor,)
 
 
 @dataclass
@@ -69,8 +75,8 @@ def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDM
     """An LD map from a file of the ``ld_grid`` stage (``descriptor`` one of :data:`DESCRIPTORS`)."""
     if descriptor not in DESCRIPTORS:
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
-    dataset = open_stage_file(path, stage=LD_GRID, only=True)
-    axes = tuple(dataset.ld_forward.dims)
+    dataset = open_map_file(path, f"a figure of descriptor {descriptor!r}", descriptor_directions(descriptor))
+    axes = tuple(dataset.allowed.dims)
     if descriptor == "total":
         values = dataset.ld_forward.values + dataset.ld_backward.values
     else:

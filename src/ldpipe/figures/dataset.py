@@ -14,6 +14,7 @@ import numpy as np
 import xarray as xr
 
 from ..config import load_schema
+from ..core.maps.grid import BOTH
 from ..errors import ConfigError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
@@ -40,6 +41,9 @@ def _options(given: dict, keys: tuple[str, ...], stage: str) -> dict:
 
 
 def _draw_ld_map(ax, dataset: xr.Dataset, manifolds=(), **options) -> None:
+    directions = str(dataset.attrs.get("directions", BOTH))
+    if "descriptor" not in options and directions != BOTH:  # a map of one direction: its LD by default
+        options = {**options, "descriptor": directions}
     settings = _options(options, MAP_OPTIONS, LD_GRID.stage)
     draw_ld_panel(ax, dataset, settings, list(manifolds))
 
@@ -86,7 +90,8 @@ def _draw_equilibria(ax, dataset: xr.Dataset) -> None:
 def draw_stage_file(dataset: xr.Dataset, ax=None, **options):
     """Draw the stage file ``dataset`` on ``ax`` (a new figure's if None) and return the axes.
 
-    Options: an LD map takes ``descriptor``, ``color_percentiles``, ``color_limits`` (the figure
+    Options: an LD map takes ``descriptor`` (default its total, or for a map of one direction that
+    direction's LD), ``color_percentiles``, ``color_limits`` (the figure
     keys) and ``manifolds`` (manifold files drawn over it); a Poincaré section ``point_size``.
     """
     stage = dataset.attrs.get(STAGE_ATTRIBUTE)

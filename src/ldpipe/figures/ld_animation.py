@@ -17,10 +17,10 @@ import numpy as np
 import xarray as xr
 from matplotlib.animation import PillowWriter
 
+from ..core.maps.grid import open_map_file
 from ..io.atomic import atomic_path
-from ..io.contracts import LD_GRID
-from ..io.datafile import open_stage_file
 from . import style
+from .data import descriptor_directions
 
 #: Frames shown per row of the still figure.
 COLUMNS = 4
@@ -28,8 +28,9 @@ COLUMNS = 4
 
 def ld_frames(path: str | Path, descriptor: str) -> tuple[xr.Dataset, np.ma.MaskedArray, list[float]]:
     """(dataset, frames (n, n0, n1) masked where not integrated, start times) of an ``ld_grid`` file."""
-    dataset = open_stage_file(path, stage=LD_GRID)
-    stacked = "t0" in dataset.ld_forward.dims
+    dataset = open_map_file(path, f"an animation of descriptor {descriptor!r}", descriptor_directions(descriptor),
+                            only=False)
+    stacked = "t0" in dataset.allowed.dims
     if descriptor == "total":
         values = dataset.ld_forward.values + dataset.ld_backward.values
     else:

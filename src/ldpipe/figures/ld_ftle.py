@@ -1,7 +1,7 @@
 """Figure kind ``ld_ftle``: each LD map beside its forward and backward FTLE fields.
 
 One row per map (a map computed with ``ftle: true``): the LD (``descriptor``), the forward FTLE
-and the backward FTLE, on the map's grid. Ridges of the forward FTLE mark repelling
+and the backward FTLE, on the map's grid (a map of one direction, ``directions``: its FTLE alone). Ridges of the forward FTLE mark repelling
 Lagrangian coherent structures, of the backward FTLE attracting ones (Shadden et al. 2005); the
 LD's singular features lie along the same stable and unstable manifolds. Points where the
 FTLE is not defined (a trajectory, or a grid neighbour's, stopped early: land, the data's
@@ -15,12 +15,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..core.maps.grid import computed_directions, open_map_file
 from ..errors import ConfigError
-from ..io.contracts import LD_GRID
-from ..io.datafile import open_stage_file
 from ..logs import get_logger
 from . import style
-from .data import load_ld_map
+from .data import descriptor_directions, load_ld_map
 
 log = get_logger(__name__)
 
@@ -30,24 +29,31 @@ def draw_ld_ftle(settings: dict, *, ld_maps: list[str | Path]) -> plt.Figure:
     figure, grid = plt.subplots(len(ld_maps), 3, figsize=(11.5, 3.3 * len(ld_maps)), squeeze=False)
     for row, path in enumerate(ld_maps):
         ld_map = load_ld_map(path, settings["descriptor"])
-        dataset = open_stage_file(path, stage=LD_GRID)
-        if "ftle_forward" not in dataset:
+        dataset = open_map_file(path, "figure kind 'ld_ftle'", descriptor_directions(settings["descriptor"]),
+                                only=False)
+        labels = computed_directions(dataset)
+        if f"ftle_{labels[0]}" not in dataset:
             raise ConfigError(f"figure kind 'ld_ftle': map {ld_map.name!r} ({path}) has no FTLE; "
                               f"compute it with ftle: true (config key ld_maps.{ld_map.name}.ftle)")
-        # a start on land: stopped at once both ways (a trajectory that reached land keeps its LD)
+        # a start on land: stopped at once in every direction integrated (a trajectory that reached
+        # land keeps its LD)
         land = np.zeros(ld_map.values.shape, dtype=bool)
-        if "on_land_forward" in dataset:
-            land = (dataset.on_land_forward.values.astype(bool) & dataset.on_land_backward.values.astype(bool)
-                    & (dataset.exit_time_forward.values == float(ld_map.attrs["tau"]))
-                    & (dataset.ld_forward.values == 0) & (dataset.ld_backward.values == 0))
+        if f"on_land_{labels[0]}" in dataset:
+            land = dataset[f"exit_time_{labels[0]}"].values == float(ld_map.attrs["tau"])
+            for label in labels:
+                land = land & dataset[f"on_land_{label}"].values.astype(bool) & (dataset[f"ld_{label}"].values == 0)
         ld_values = np.ma.masked_array(ld_map.values, mask=np.ma.getmaskarray(ld_map.values) | land)
         panels = [(ld_values, style.LD_LABEL[settings["descriptor"]])]
-        for label in ("forward", "backward"):
+        for label in labels:
             values = np.ma.masked_array(dataset[f"ftle_{label}"].values,
                                         mask=~dataset[f"ftle_defined_{label}"].values.astype(bool))
             panels.append((values, f"FTLE, {label}"))
-        for column, (values, label) in enumerate(panels):
+        for column in range(3):
             ax = grid[row][column]
+            if column >= len(panels):  # a map of one direction: no other direction's FTLE
+                ax.set_axis_off()
+                continue
+            values, label = panels[column]
             limits = style.color_limits(values, settings["color_percentiles"])
             style.draw_map(ax, ld_map.first, ld_map.second, values, limits=limits, colorbar_label=label)
             style.label_axes(ax, *ld_map.axes)

@@ -53,10 +53,9 @@ offset, and that it is sharp; choose ``coarse_spacing`` at most twice the narrow
 feature, in pixels.
 
 Cells are global (the lattice of the whole map), so a tile (a band of rows) refines the cells
-that reach into its rows, whole, and a rerun gives the same bits. The engine's LD of a
-trajectory can depend on the other trajectories of its batch in the last bit or two (measured:
-3 of 200,000 Barbanis trajectories when the batch is permuted); a computed pixel then differs
-from the full map's by that much, and a tiled map from the untiled one likewise.
+that reach into its rows, whole, and a rerun gives the same bits. The engine's result for a
+trajectory does not depend on the other trajectories of its batch, so a computed pixel equals
+the full map's, and a tiled map the untiled one, bit for bit.
 """
 
 from __future__ import annotations
@@ -73,7 +72,7 @@ from tqdm import tqdm
 
 from ...engine import LDSettings
 from ...jitcache import njit_functions
-from .grid import MAP_FIELDS, integrate_points, fields_dataset
+from .grid import BOTH, MAP_FIELDS, fields_dataset, integrate_points, map_directions
 from ...logs import get_logger, progress_output
 from ..sections import Section, section_states
 from ...systems import System
@@ -356,12 +355,14 @@ def adaptive_ld_dataset(
     rows: slice | None = None,
     show_progress: bool = False,
     t0: float = 0.0,
+    directions: str = BOTH,
 ) -> xr.Dataset:
     """:func:`ldpipe.core.maps.grid.ld_grid_dataset` refined adaptively: the same variables, integrated where
     the criterion asks and interpolated elsewhere (see the module docstring), each direction refined
     on its own; plus the masks ``computed_forward`` and ``computed_backward`` and the attributes
     ``refine_*`` (``refine_trajectories``: trajectories integrated over both directions;
-    ``refine_trajectories_forward``, ``refine_trajectories_backward``: each direction's)."""
+    ``refine_trajectories_forward``, ``refine_trajectories_backward``: each direction's). ``directions``:
+    as the full map's (one direction: only its variables, masks and counts)."""
     shape = section.shape
     rows = rows if rows is not None else slice(0, shape[0])
     first, last = band_bounds(rows, shape[0], refine.coarse_spacing)
@@ -371,8 +372,8 @@ def adaptive_ld_dataset(
     stream, interval = progress_output(log)
     progress = tqdm(unit="traj", desc="LD (adaptive)", disable=not show_progress, file=stream,
                     mininterval=interval, ascii=stream is not sys.stderr)
-    count = {"forward": 0, "backward": 0}
-    directions = ((1, "forward"), (-1, "backward"))
+    directions = map_directions(directions)
+    count = {label: 0 for _, label in directions}
 
     def evaluate_states(chosen: np.ndarray, direction: int, label: str) -> dict[str, np.ndarray]:
         result = integrate_points(system, chosen, direction, settings, progress, t0)

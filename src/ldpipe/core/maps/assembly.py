@@ -12,6 +12,8 @@ the workflow. Each returns the Dataset its file holds (:func:`ldpipe.io.datafile
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import xarray as xr
 
@@ -27,8 +29,8 @@ from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
-from .grid import (add_ftle, add_variational_ftle, gather_tiles, ld_grid_dataset, map_start_times, resolve_ld_map,
-                   start_time_band, tile_rows)
+from .grid import (BOTH, DIRECTIONS, add_ftle, add_variational_ftle, directions_setting, gather_tiles, ld_grid_dataset,
+                   map_directions, map_start_times, resolve_ld_map, start_time_band, tile_rows)
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
 log = get_logger(__name__)
@@ -70,6 +72,8 @@ def _common_attributes(parameters: dict, settings: LDSettings, info: dict) -> di
         # a map without its LD (ld: false) holds the flow map and its FTLE only
         "descriptor": descriptor_attribute(settings.p) if parameters.get("ld", True) else "none",
         "time_mode": parameters["time"],
+        # the directions of time integrated (a map of one has only that direction's variables)
+        "directions": directions_setting(parameters),
         "region_lower": np.asarray(settings.region_lower if settings.region_lower else []),
         "region_upper": np.asarray(settings.region_upper if settings.region_upper else []),
         "scheme": settings.scheme,
@@ -138,11 +142,13 @@ def compute_ld_map(
     if parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
         refine = RefineSettings.from_config(parameters["refine"])
         dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
-                                      show_progress=show_progress, t0=info["t0"])
+                                      show_progress=show_progress, t0=info["t0"],
+                                      directions=directions_setting(parameters))
     else:
         dataset = ld_grid_dataset(system, section, info["energy"], settings, rows=rows, show_progress=show_progress,
                                   t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
                                   mirror=backward_mirror(parameters, system, section),
+                                  directions=directions_setting(parameters),
                                   label=f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
@@ -180,7 +186,10 @@ def backward_mirror(parameters: dict, system, section) -> MapMirror | None:
     setting = parameters.get(SETTING_KEY, AUTO)
     if setting is False:
         return None
-    if parameters["time"] != "fixed":
+    directions = directions_setting(parameters)
+    if directions != BOTH:
+        mirror, reason = None, f"the map integrates one direction (directions: {directions})"
+    elif parameters["time"] != "fixed":
         mirror, reason = None, "the map is variable-time (only fixed-time maps are mirrored)"
     elif parameters.get("refine") is not None or parameters.get("ftle", False) or not parameters.get("ld", True):
         mirror, reason = None, "the map is adaptive or keeps its flow map (only a full LD map's fields are mirrored)"
@@ -207,10 +216,17 @@ def add_ld_units(dataset: xr.Dataset, system, p) -> None:
 
 
 def map_contract(parameters: dict, *, tile_file: bool):
-    """The contract of a map's tile or whole file: an LD map's, or (``ld: false``) a flow map's."""
+    """The contract of a map's tile or whole file: an LD map's, or (``ld: false``) a flow map's;
+    for a map of one direction (``directions``) without the other direction's variables."""
     if parameters.get("ld", True):
-        return LD_TILE if tile_file else LD_GRID
-    return FLOW_MAP_TILE if tile_file else FLOW_MAP
+        contract = LD_TILE if tile_file else LD_GRID
+    else:
+        contract = FLOW_MAP_TILE if tile_file else FLOW_MAP
+    computed = [label for _, label in map_directions(directions_setting(parameters))]
+    others = tuple(f"_{label}" for _, label in DIRECTIONS[BOTH] if label not in computed)
+    if not others:
+        return contract
+    return dataclasses.replace(contract, variables=tuple(v for v in contract.variables if not v.endswith(others)))
 
 
 def recorded_parameters(dataset: xr.Dataset, parameters: dict) -> dict:

@@ -3,9 +3,9 @@
 A grid of ``shape`` points is split into ``tiles`` bands of rows along the
 first axis; each tile is computed on its own (a separate Snakemake job) and
 :func:`gather_tiles` joins them. Every trajectory is integrated independently
-of the others, so the gathered grid equals the untiled one (but for the last bit
-or two of a rare LD, which can depend on the other trajectories of its engine
-batch: 3 of 200,000 Barbanis trajectories when a batch is permuted).
+of the others (its results depend on its start point and the settings alone, not
+on the trajectories that share its engine call or block), so the gathered grid
+equals the untiled one bit for bit, however the points are batched.
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from tqdm import tqdm
 
 from ...engine import DescriptorSettings, IntegratorSettings, LDSettings, StoppingRules, compute_ld
 from ...engine.schemes import check_scheme, get_scheme
-from ...errors import ConfigError
+from ...errors import ConfigError, StageFileError
+from ...io.contracts import LD_GRID
+from ...io.datafile import open_stage_file
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
 from .ftle import END_STATE_NAME, ftle, section_chart_slope, sphere_metric, variational_ftle
@@ -38,6 +40,54 @@ STOP_FLAGS = {"on_land": "stopped on land (a cell with a missing value)",
               "left_data": "stopped at the edge of the data (or of its window)"}
 #: The per-direction result fields an LD map holds (``fields`` of :func:`fields_dataset`: NAME_forward, NAME_backward).
 MAP_FIELDS = ("ld", "time", "escaped", "left_region", "energy_error", "steps", "failed")
+#: A map's ``directions`` setting: the directions of time it integrates, each as (sign, label).
+DIRECTIONS = {"both": ((1, "forward"), (-1, "backward")), "forward": ((1, "forward"),),
+              "backward": ((-1, "backward"),)}
+BOTH = "both"
+
+
+def map_directions(setting: str = BOTH) -> tuple[tuple[int, str], ...]:
+    """The (sign, label) of each direction of time a map's ``directions`` setting integrates."""
+    if setting not in DIRECTIONS:
+        raise ValueError(f"directions: expected one of {list(DIRECTIONS)}, got {setting!r}")
+    return DIRECTIONS[setting]
+
+
+def directions_setting(parameters: dict) -> str:
+    """A map's ``directions`` from its parameters (parameters recorded without it: both)."""
+    return parameters.get("directions", BOTH)
+
+
+def computed_directions(dataset: xr.Dataset) -> tuple[str, ...]:
+    """The labels (forward, backward) of the directions a map's Dataset holds (its exit times)."""
+    return tuple(label for _, label in DIRECTIONS[BOTH] if f"exit_time_{label}" in dataset)
+
+
+def require_directions(attributes, needed: tuple[str, ...], what: str) -> None:
+    """A ConfigError naming the map's ``directions`` key if the map whose file has ``attributes`` did not
+    compute every direction of ``needed`` (labels), which ``what`` (a figure, a study) needs."""
+    setting = str(attributes.get("directions", BOTH))
+    computed = [label for _, label in DIRECTIONS.get(setting, ())]
+    missing = [label for label in needed if label not in computed]
+    if missing:
+        name = attributes.get("map", "?")
+        raise ConfigError(f"config key 'ld_maps.{name}.directions': map {name!r} was computed with directions: "
+                          f"{setting}, and {what} needs the {' and '.join(missing)} direction too; give the map "
+                          f"directions: {BOTH if len(needed) > 1 else needed[0]}")
+
+
+def open_map_file(path, what: str, needed: tuple[str, ...] = ("forward", "backward"), *, only: bool = True,
+                  variables: tuple[str, ...] | None = None) -> xr.Dataset:
+    """An LD map's file (``ld_grid``; a path, or a Dataset in memory) with ``variables`` (default the LD
+    of each direction ``needed``, and ``allowed``; ``only``: those alone), for ``what`` (a figure, a
+    study): a ConfigError naming the map's ``directions`` (:func:`require_directions`) where it lacks
+    one of them because it integrated the other direction alone."""
+    variables = variables if variables is not None else (*(f"ld_{label}" for label in needed), "allowed")
+    try:
+        return open_stage_file(path, stage=LD_GRID, variables=variables, only=only)
+    except StageFileError:
+        require_directions(open_stage_file(path, stage=LD_GRID, variables=("allowed",), only=True).attrs, needed, what)
+        raise
 
 
 def tile_rows(rows: int, tile: int, tiles: int) -> slice:
@@ -148,7 +198,7 @@ def integrate_points(system: System, states: np.ndarray, direction: int, setting
                      progress: tqdm | None = None, t0: float = 0.0, descriptor: bool = True):
     """:func:`ldpipe.engine.compute_ld` of ``states`` (without the ``descriptor``, :func:`ldpipe.core.trajectories.flow_map`)
     in calls of at most :data:`CHUNK` points, updating ``progress`` (each trajectory is integrated on
-    its own; see the module docstring for the last bits a batch can change)."""
+    its own: the calls' sizes change no bit)."""
     if descriptor:
         def compute(chunk):
             return compute_ld(system, chunk, direction=direction, settings=settings, t0=t0)
@@ -212,9 +262,12 @@ def ld_grid_dataset(
     flow_map: bool = False,
     descriptor: bool = True,
     mirror: MapMirror | None = None,
+    directions: str = BOTH,
     label: str | None = None,
 ) -> xr.Dataset:
-    """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``.
+    """Forward and backward LD on the section's grid (or the band ``rows`` of it) at ``energy``;
+    ``directions`` (:data:`DIRECTIONS`) ``forward`` or ``backward``: that direction alone, integrated
+    and written (its variables only).
 
     With a ``mirror`` (a reversing symmetry of the section, :func:`ldpipe.core.maps.symmetry.map_mirror`)
     only the forward direction is integrated, and every backward field is the forward one at the
@@ -237,12 +290,15 @@ def ld_grid_dataset(
     states, allowed, solved = section_states(system, section, energy, rows)
     shape = allowed.shape
     if mirror is not None:
+        if directions != BOTH:
+            raise ValueError(f"mirror: a map of one direction (directions: {directions}) has no backward fields "
+                             "to mirror")
         mirror = _checked_mirror(system, mirror, states, allowed, rows, section.shape[0],
                                  flow_map or not descriptor)
-    directions = ((1, "forward"),) if mirror is not None else ((1, "forward"), (-1, "backward"))
+    directions = ((1, "forward"),) if mirror is not None else map_directions(directions)
     if label is not None:
         check_map_time(label, lambda sample, tau: integrate_points(
-            system, sample, 1, dataclasses.replace(settings, tau=tau), None, t0, descriptor),
+            system, sample, directions[0][0], dataclasses.replace(settings, tau=tau), None, t0, descriptor),
             states, settings.tau, len(directions))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
@@ -323,37 +379,34 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
     :data:`STOP_FLAGS` where the system has them) to arrays of the band's shape; ``ends`` the flow
     map's end states by direction, where kept."""
     first = section.axis_values()[0][rows]
-    descriptor = "ld_forward" in fields  # a vector field's map without its LD holds the flow map alone
+    labels = tuple(label for _, label in DIRECTIONS[BOTH] if f"time_{label}" in fields)
+    descriptor = f"ld_{labels[0]}" in fields  # a vector field's map without its LD holds the flow map alone
     dims = section.axes
     mask_note = "0 where the point is outside the energetically allowed region (see 'allowed')"
+    # each computed direction's variable of a field, forward first: (file name, field, long name, more attributes)
+    per_direction = [
+        ("ld_{}", "ld_{}", "Lagrangian descriptor, {} time", {"comment": mask_note}),
+        ("exit_time_{}", "time_{}", None, {}),
+        ("escaped_{}", "escaped_{}", "trajectory escaped ({})", {}),
+        ("left_region_{}", "left_region_{}", "trajectory left the saddle region ({})", {}),
+        ("failed_{}", "failed_{}", "integration stopped by a safety limit ({})", {}),
+        ("steps_{}", "steps_{}", "integrator step attempts ({})", {}),
+    ]
+    exit_names = {"forward": "forward integration time reached: tau, or the exit or escape time",
+                  "backward": "backward integration time reached (|t|): tau, or the exit or escape time"}
     variables = {}
-    if descriptor:
-        variables["ld_forward"] = (dims, fields["ld_forward"], {"long_name": "Lagrangian descriptor, forward time",
-                                                                "comment": mask_note})
-        variables["ld_backward"] = (dims, fields["ld_backward"], {"long_name": "Lagrangian descriptor, backward time",
-                                                                  "comment": mask_note})
-    variables.update({
-        "exit_time_forward": (dims, fields["time_forward"],
-                              {"long_name": "forward integration time reached: tau, or the exit or escape time"}),
-        "exit_time_backward": (dims, fields["time_backward"],
-                               {"long_name": "backward integration time reached (|t|): tau, or the exit or escape time"}),
-        "escaped_forward": (dims, fields["escaped_forward"], {"long_name": "trajectory escaped (forward)"}),
-        "escaped_backward": (dims, fields["escaped_backward"], {"long_name": "trajectory escaped (backward)"}),
-    })
-    if descriptor:  # a map without its LD has no region
-        variables["left_region_forward"] = (dims, fields["left_region_forward"],
-                                            {"long_name": "trajectory left the saddle region (forward)"})
-        variables["left_region_backward"] = (dims, fields["left_region_backward"],
-                                             {"long_name": "trajectory left the saddle region (backward)"})
-    variables.update({
-        "failed_forward": (dims, fields["failed_forward"], {"long_name": "integration stopped by a safety limit (forward)"}),
-        "failed_backward": (dims, fields["failed_backward"], {"long_name": "integration stopped by a safety limit (backward)"}),
-        "steps_forward": (dims, fields["steps_forward"], {"long_name": "integrator step attempts (forward)"}),
-        "steps_backward": (dims, fields["steps_backward"], {"long_name": "integrator step attempts (backward)"}),
-    })
+    for name, field, long_name, extra in per_direction:
+        if name in ("ld_{}", "left_region_{}") and not descriptor:  # a map without its LD has no region
+            continue
+        for label in labels:
+            text = exit_names[label] if long_name is None else long_name.format(label)
+            variables[name.format(label)] = (dims, fields[field.format(label)], {"long_name": text, **extra})
     if section.solve is not None:  # a Hamiltonian's section (a map with its LD)
-        variables["energy_error"] = (dims, np.maximum(fields["energy_error_forward"], fields["energy_error_backward"]),
-                                     {"long_name": "largest |H(end) - H(start)| of the two directions"})
+        errors = [fields[f"energy_error_{label}"] for label in labels]
+        largest = np.maximum(*errors) if len(errors) == 2 else errors[0]
+        text = ("largest |H(end) - H(start)| of the two directions" if len(errors) == 2
+                else f"|H(end) - H(start)| of the {labels[0]} trajectory")
+        variables["energy_error"] = (dims, largest, {"long_name": text})
     variables["allowed"] = (dims, allowed, {"long_name": "point lies in the energetically allowed region"})
     if section.solve is not None:
         variables[section.solve] = (dims, solved, {"long_name": f"{_long_name(section.solve)}, solved from the energy",
@@ -379,7 +432,8 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
 def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False,
              solved: str | None = None) -> xr.Dataset:
     """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
-    that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.core.maps.ftle.ftle`.
+    that keeps its flow map (``ld_grid_dataset(..., flow_map=True)``), by :func:`ldpipe.core.maps.ftle.ftle`
+    (of the directions it holds, :func:`computed_directions`).
 
     ``coordinates`` are the system's state variables (the end-state variables' names), ``tau``
     the map's integration time; a trajectory ran the whole time when its exit time is ``tau`` and
@@ -390,7 +444,7 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     """
     dims = dataset.allowed.dims
     axes = tuple(dataset[d].values for d in dims)
-    for label in ("forward", "backward"):
+    for label in computed_directions(dataset):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = ran_whole_time(dataset, label, tau)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
@@ -420,7 +474,7 @@ def ran_whole_time(dataset: xr.Dataset, label: str, tau: float) -> np.ndarray:
 def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: slice, tau: float, t0: float, *,
                          rtol: float, atol: float) -> xr.Dataset:
     """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a vector field's
-    map (or its band ``rows``) by the variational equations along each point's own trajectory
+    map (or its band ``rows``; the directions it holds) by the variational equations along each point's own trajectory
     (:func:`ldpipe.core.maps.ftle.variational_ftle`, scipy at ``rtol``, ``atol``, recorded as attributes):
     the exact gradient, no grid neighbours, so a tile computes its own points. A point is defined
     where its trajectory ran the whole time in the map (:func:`ran_whole_time`)."""
@@ -429,7 +483,9 @@ def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: sl
     states[allowed] = allowed_states
     axes = tuple(system.phase_coordinates.index(name) for name in section.axes)
     dims = dataset.allowed.dims
-    for label, direction in (("forward", 1), ("backward", -1)):
+    for direction, label in DIRECTIONS[BOTH]:
+        if label not in computed_directions(dataset):
+            continue
         defined = ran_whole_time(dataset, label, tau)
         values = np.zeros(defined.shape)
         if defined.any():

@@ -23,11 +23,11 @@ import xarray as xr
 
 from ...engine import use_threads
 from ...errors import ConfigError
-from ...io.contracts import EQUILIBRIA, LD_GRID, NHIM, UPO
+from ...io.contracts import EQUILIBRIA, NHIM, UPO
 from ...io.datafile import input_name, open_stage_file, stage_dataset, stage_parameters
 from ...logs import get_logger
 from ..maps.assembly import compute_ld_map
-from ..maps.grid import resolve_ld_map
+from ..maps.grid import open_map_file, resolve_ld_map
 from .detection import detect_global_argmax, detect_nhim_cell
 from .evidence import orbit_section_crossing, orbit_section_residual, residence_evidence
 from .fates import RefinementFailed, RefinementSettings
@@ -164,7 +164,7 @@ def nhim_study_dataset(parameters: dict, maps: Sequence[StageInput] = (), refere
     phase = None
     sources = []
     for path in maps:
-        data = open_stage_file(path, stage=LD_GRID, only=True)
+        data = open_map_file(path, f"NHIM study {study!r} (the forward plus backward LD)")
         sources.append((data, stage_parameters(data)))
     if derived:
         if equilibria is None:

@@ -138,14 +138,19 @@ def _minimum(DB, n):
         x = lo - da * (hi - lo) / (db - da if db != da else 1.0)
         DB[D_X * CBS + t] = x if ((lo < x) & (x < hi)) else 0.5 * (lo + hi)
         DB[D_STEP * CBS + t] = math.inf
+    # Each item stops at its own convergence: iterating a converged item on (because another
+    # item of the batch has not converged) could move its x by a rounding step, so an item's
+    # minimum, and its LD, would depend on which trajectories share its block.
     for _ in range(N_DIP_NEWTON):
-        largest = 0.0
+        moving = 0
         for t in range(n):
             x = DB[D_X * CBS + t]
             lo = DB[D_LO * CBS + t]
             hi = DB[D_HI * CBS + t]
+            step = DB[D_STEP * CBS + t]
+            converged = step <= DIP_CONVERGED
             _, d, dd = _slope_curvature(DB, t, x)
-            done = d == 0.0
+            done = (d == 0.0) | converged
             falls = (d < 0.0) == (DB[D_DA * CBS + t] < 0.0)
             lo = x if (falls & (~done)) else lo
             hi = x if ((~falls) & (~done)) else hi
@@ -154,12 +159,13 @@ def _minimum(DB, n):
             leaves = (dd == 0.0) | (((x_new < lo) | (x_new > hi)) & (abs(x_new - x) > DIP_CONVERGED))
             x_new = 0.5 * (lo + hi) if leaves else x_new
             x_new = x if done else x_new
-            DB[D_STEP * CBS + t] = abs(x_new - x)
-            largest = max(largest, abs(x_new - x))
+            step = step if converged else abs(x_new - x)
+            DB[D_STEP * CBS + t] = step
+            moving += 0 if step <= DIP_CONVERGED else 1
             DB[D_X * CBS + t] = x_new
             DB[D_LO * CBS + t] = lo
             DB[D_HI * CBS + t] = hi
-        if largest <= DIP_CONVERGED:
+        if moving == 0:
             break
 
 
