@@ -142,13 +142,13 @@ def test_bad_arguments_get_the_config_message_naming_the_argument(hh):
     # the same message, the argument named where the key was
     config_text = str(config_error.value).split("config key 'ld_maps.m.tau': ")[1]
     assert f"argument 'tau': {config_text}" in str(api_error.value)
-    assert str(api_error.value).startswith("ldpipe.ld_map: invalid arguments:")
-    unknown = r"ldpipe.ld_map: invalid arguments:\n  unknown arguments \['taux'\]; allowed are \[.*'tau'"
+    assert str(api_error.value).startswith("ldpipe.ld_map: argument 'tau': ")
+    unknown = r"ldpipe.ld_map: unknown arguments \['taux'\] \(did you mean 'tau'\?\); allowed are \[.*'tau'"
     with pytest.raises(ConfigError, match=unknown):
         ldpipe.ld_map(hh, section=section, energy=0.125, taux=1.0)
-    with pytest.raises(ConfigError, match=r"ldpipe.system: invalid arguments:\n  argument 'builtin': 'barbanis'"):
+    with pytest.raises(ConfigError, match=r"ldpipe.system: argument 'builtin': 'barbanis'"):
         ldpipe.system(builtin="barbanis")
-    with pytest.raises(ConfigError, match=r"ldpipe.equilibria: invalid arguments:\n  argument 'seeds_per_axis': 0"):
+    with pytest.raises(ConfigError, match=r"ldpipe.equilibria: argument 'seeds_per_axis': 0"):
         ldpipe.equilibria(hh, seeds_per_axis=0)
 
 

@@ -6,13 +6,15 @@ one function per stage (``ldpipe.equilibria``, ``ldpipe.ld_map``, ``ldpipe.perio
 ``ldpipe.manifolds``, ``ldpipe.poincare``, ``ldpipe.nhim``, ``ldpipe.orbit_validation``,
 ``ldpipe.nhim_sampling``, ``ldpipe.transport``, ``ldpipe.saddle_flux``, ``ldpipe.normal_form``,
 ``ldpipe.accuracy_cost``), ``ldpipe.open_dataset`` and ``ldpipe.plot``. Every Dataset has the
-accessor ``ds.ldpipe.plot()`` once ldpipe is imported.
+accessor ``ds.ldpipe.plot()`` once ldpipe is imported. Bad input raises :class:`ConfigError` (a
+:class:`LdpipeError`), whose one-line message names the argument and what was expected.
 """
 
 from importlib import import_module
 
 from . import accessor  # noqa: F401  (registers ds.ldpipe)
 from ._version import __version__
+from .errors import ConfigError, LdpipeError, OutputError, StageFileError
 
 #: The names :mod:`ldpipe.api` exports, available as ``ldpipe.NAME``.
 API = (
@@ -20,7 +22,7 @@ API = (
     "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
 )
 
-__all__ = ["__version__", *API]
+__all__ = ["ConfigError", "LdpipeError", "OutputError", "StageFileError", "__version__", *API]
 
 
 def __getattr__(name: str):
@@ -31,4 +33,5 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *API})
+    # what a user may call on: the API and the errors (the layers below are ldpipe's own)
+    return sorted(__all__)

@@ -14,7 +14,8 @@ import pytest
 from ldpipe.config import load_schema, validate_config
 from ldpipe.errors import ConfigError
 from ldpipe.systems import (
-    SYSTEM_CLASSES, SYSTEM_KINDS, DataFlowModel, FlowModel, HamiltonianModel, SystemModel, make_system, on_sphere,
+    SYSTEM_CLASSES, SYSTEM_KINDS, DataFlowModel, FlowModel, HamiltonianModel, MapModel, SystemModel, make_system,
+    on_sphere,
     require_hamiltonian, system_coordinates, system_data_files, system_kind, system_phase_coordinates,
 )
 from ldpipe.systems.model import protocol_members
@@ -89,13 +90,15 @@ def _class_members(cls) -> set[str]:
 
 def test_every_class_offers_its_protocol():
     for key, kind in SYSTEM_KINDS.items():
-        protocols = [SystemModel, HamiltonianModel if kind.hamiltonian else FlowModel]
+        family = HamiltonianModel if kind.hamiltonian else MapModel if kind.discrete else FlowModel
+        protocols = [SystemModel, family]
         protocols += [DataFlowModel] if kind.stop_flags else []
         for cls in kind.classes:
             for protocol in protocols:
                 missing = protocol_members(protocol) - _class_members(cls)
                 assert not missing, f"{key}: {cls.__name__} lacks {sorted(missing)} of {protocol.__name__}"
             assert cls.hamiltonian == kind.hamiltonian, (key, cls)
+            assert cls.discrete == kind.discrete, (key, cls)
             assert cls.has_stop_flags == kind.stop_flags, (key, cls)
             assert cls in SYSTEM_CLASSES
 
@@ -115,6 +118,8 @@ def test_built_systems_are_their_protocols(barbanis, oscillator):
     for system in (barbanis, oscillator):
         assert isinstance(system, SystemModel) and isinstance(system, HamiltonianModel)
     assert isinstance(flow, FlowModel) and not isinstance(flow, HamiltonianModel)
+    henon = make_system("henon", {"map": "henon"})
+    assert isinstance(henon, MapModel) and not isinstance(henon, (FlowModel, HamiltonianModel))
 
 
 def test_entry_helpers_ask_the_kind():

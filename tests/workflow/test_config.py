@@ -62,7 +62,7 @@ def test_defaults_are_filled():
          ["systems.b.parameters", "gamma", "omega_x"]),
         ({"builtin": "barbanis_3dof"}, ["systems.b.builtin", "barbanis_contopoulos_3dof"]),
         ({"builtin": "barbanis_2dof", "colour": "red"}, ["systems.b", "unknown keys ['colour']"]),
-        ({"formula": "x**2"}, ["systems.b", "exactly one of 'builtin', 'formula', 'vector_field' or 'velocity_data'",
+        ({"formula": "x**2"}, ["systems.b", "exactly one of 'builtin', 'formula', 'vector_field', 'velocity_data' or 'map'",
                                "a formula or a vector field also needs 'coordinates'"]),
     ],
 )
@@ -112,3 +112,56 @@ def test_a_caption_that_reads_a_file_or_pastes_html_is_refused(directive, tmp_pa
     with pytest.raises(ConfigError, match=r"figures\.fig1\.caption.*(disabled|deactivated)") as info:
         validate_config(config)
     assert "SECRET-CONTENT" not in str(info.value)
+
+
+def _schema_text() -> str:
+    from importlib import resources
+
+    from ldpipe.config import SCHEMA_RESOURCE
+
+    return resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
+
+
+def _parsed_descriptions(text: str) -> dict[int, str]:
+    """Every ``description`` of the schema as the YAML parser reads it, by the line its value starts on."""
+    found = {}
+
+    def walk(node):
+        if isinstance(node, yaml.MappingNode):
+            for key, value in node.value:
+                if (isinstance(key, yaml.ScalarNode) and key.value == "description"
+                        and isinstance(value, yaml.ScalarNode)):
+                    found[value.start_mark.line] = value.value
+                walk(value)
+        elif isinstance(node, yaml.SequenceNode):
+            for item in node.value:
+                walk(item)
+
+    walk(yaml.compose(text, Loader=yaml.SafeLoader))
+    return found
+
+
+def test_no_schema_description_is_cut_short():
+    # An unquoted description in a flow mapping ({type: number, description: A, B}) ends at its
+    # first comma (the rest becomes a key of its own): the help and the docs then print half a
+    # sentence. Two independent readings must agree: the text after "description:" on its line (a
+    # flow mapping's closing brace removed) against the parser's value, which must begin with it
+    # (a plain scalar in block style may go on over the next lines); and every description closes
+    # each bracket it opens and ends a sentence.
+    text = _schema_text()
+    parsed = _parsed_descriptions(text)
+    assert len(parsed) == text.count("description:")  # every description read, none a key of its own
+    for line_number, line in enumerate(text.splitlines()):
+        raw = line.partition("description:")[2].strip()
+        if not raw or raw[0] in "\"'>|":  # quoted or block scalars cannot be cut by a comma
+            continue
+        if "{" in line.partition("description:")[0]:  # the flow mappings' closing braces
+            raw = raw.rstrip("} ")
+        assert parsed[line_number].startswith(raw), (
+            f"schema line {line_number + 1}: description {raw!r} reads as {parsed[line_number]!r}: quote it")
+    for description in parsed.values():
+        text_only = description.strip()
+        # "(" and "[" counted together: a half-open interval (0, 1] opens with one and closes with the other
+        assert text_only.count("(") + text_only.count("[") == text_only.count(")") + text_only.count("]"), description
+        assert text_only.count("{") == text_only.count("}"), description
+        assert text_only.endswith((".", ".)", ":", "?")), description

@@ -14,18 +14,15 @@ where it is installed, a cluster that does not come up is a failure.
 
 import os
 import re
-import shutil
 import subprocess
-import tempfile
 from pathlib import Path
 
 import pytest
 
 from ldpipe.io.filediff import compare_files
+from support.slurm import slurm_environment  # noqa: F401 (a fixture)
 from support.workflow import ROOT, SNAKEMAKE, job_counts
 
-CLUSTER_SCRIPT = ROOT / "tests" / "workflow" / "local_cluster.sh"
-SLURM_DAEMONS = ("slurmctld", "slurmd", "munged")  # Debian's slurm-wlm and munge, as local_cluster.sh finds them
 pytestmark = pytest.mark.slow
 
 # What cannot be equal between two runs (the history attribute, measured wall times) is left out
@@ -44,39 +41,6 @@ CLUSTER_OPTIONS = (
     "--seconds-between-status-checks", "1",  # jobs take seconds; the default polls every 10 s
     "--jobs", "8",  # the node runs two at once; SLURM starts the queued ones as soon as one ends
 )
-
-
-@pytest.fixture(scope="session")
-def slurm_environment():
-    """Environment variables that point SLURM clients at a local cluster started for this session.
-
-    The cluster is stopped (its jobs cancelled, the daemons this fixture started stopped by
-    their pid files) and its folder removed at the end, also when a test fails.
-    """
-    missing = [daemon for daemon in SLURM_DAEMONS if shutil.which(daemon) is None]
-    if missing:
-        pytest.skip(f"SLURM is not installed (no {', '.join(missing)}; .ci/run installs Debian's slurm-wlm and munge)")
-    if os.geteuid() != 0:
-        pytest.skip("the local SLURM cluster needs root (SlurmUser=root, munged as the munge user)")
-    # The cluster's folder must be reachable by the munge user, which pytest's tmp_path is not.
-    state = Path(tempfile.mkdtemp(prefix="ldpipe-slurm-"))
-    try:
-        try:
-            started = subprocess.run(
-                ["bash", str(CLUSTER_SCRIPT), "start", str(state)], capture_output=True, text=True, timeout=120
-            )
-        except subprocess.TimeoutExpired:
-            pytest.fail("SLURM is installed but did not start within 120 s")
-        if started.returncode != 0:
-            pytest.fail(f"SLURM is installed but could not be started: {started.stderr.strip()}")
-        yield {
-            **os.environ,
-            "SLURM_CONF": str(state / "slurm.conf"),
-            "PATH": f"{state / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
-        }
-    finally:
-        subprocess.run(["bash", str(CLUSTER_SCRIPT), "stop", str(state)], capture_output=True, timeout=120)
-        shutil.rmtree(state, ignore_errors=True)
 
 
 def snakemake(workdir: Path, *arguments: str, env: dict | None = None) -> subprocess.Popen:

@@ -143,7 +143,8 @@ def ld_tile_runtime_min(wildcards, threads, attempt):
 
 def _ld_tile_runtime_min(map_name, tiles, threads, attempt):
     # A time limit that fits the tile (a scheduler starts short jobs sooner), doubled on a retry.
-    tau = parameters_from_config(config, "ld", map_name)["tau"]
+    # a discrete map (no tau) costs a few flops an iteration: far below a unit of a flow's time
+    tau = parameters_from_config(config, "ld", map_name).get("tau", 1.0)
     tile_points = ld_tile_points(config, map_name, tiles)
     core_seconds = tile_points * tau * LD_CORE_SECONDS_PER_POINT_TAU
     return (10 + math.ceil(core_seconds / threads / 60)) * attempt

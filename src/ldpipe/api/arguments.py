@@ -7,7 +7,9 @@ from __future__ import annotations
 import contextlib
 import copy
 import functools
+import inspect
 import re
+import textwrap
 from collections.abc import Callable, Iterator
 
 import xarray as xr
@@ -15,17 +17,19 @@ import xarray as xr
 from ..config import validate_config
 from ..config.loading import load_schema
 from ..config.parameters import parameters_from_config
-from ..errors import ConfigError, StageFileError
+from ..errors import ConfigError, LdpipeError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
-from ..systems import SYSTEM_CLASSES, System, VectorFieldSystem, VelocityDataSystem
+from ..systems import SYSTEM_CLASSES, DiscreteMapSystem, System, VectorFieldSystem, VelocityDataSystem
+from ..systems.velocity_data.calendar import is_date, is_duration, numeric_duration, numeric_time
+from .keywords import keyword_docs
 
-AnySystem = System | VectorFieldSystem | VelocityDataSystem
+AnySystem = System | VectorFieldSystem | VelocityDataSystem | DiscreteMapSystem
 
 #: What several functions' docstrings say alike, written once: ``%(NAME)s`` in a docstring, at
 #: the indentation of a numpydoc section's entry, stands for the entry NAME (:func:`shared_docs`).
 SHARED_DOCS = {
-    "system": """system : System, VectorFieldSystem or VelocityDataSystem
+    "system": """system : System, VectorFieldSystem, VelocityDataSystem or DiscreteMapSystem
         The entry's system, from :func:`ldpipe.system` (the entry's ``system`` name replaced by
         the object).""",
     "equilibria": """equilibria : xarray.Dataset, optional
@@ -48,17 +52,67 @@ def shared_docs(function: Callable) -> Callable:
     return function
 
 
+def api_function(schema: str | None = None, taken: tuple[str, ...] = ()) -> Callable[[Callable], Callable]:
+    """A function of the API: its docstring's ``%(NAME)s`` filled (:func:`shared_docs`), the keys
+    of the schema's block at ``schema`` (a JSON pointer, ``"$defs/ld_map"``) that it takes as
+    keyword arguments documented under ``Other Parameters`` (all but those ``taken``:
+    its own parameters, or the objects standing for a named entry), and its errors raised at
+    the caller (:func:`user_error`)."""
+
+    def decorate(function: Callable) -> Callable:
+        shared_docs(function)
+        if schema is not None:
+            section = textwrap.indent(keyword_docs(schema, taken), "    ").replace("\n    \n", "\n\n")
+            head, returns, tail = function.__doc__.partition("\n    Returns\n")
+            function.__doc__ = f"{head}\n{section}\n\n    Returns\n{tail}" if returns else f"{head}\n\n{section}\n"
+        function.schema_keywords = (schema, taken)
+        takes_system = next(iter(inspect.signature(function).parameters), None) == "system"
+
+        @functools.wraps(function)
+        def call(*args, **kwargs):
+            __tracebackhide__ = True  # noqa: F841  (IPython and pytest hide this frame)
+            try:
+                if takes_system:  # before its name is read: a string would fail as no attribute 'name'
+                    check_system(args[0] if args else kwargs.get("system"))
+                return function(*args, **kwargs)
+            except LdpipeError as error:
+                raise user_error(error, function.__name__) from None
+
+        return call
+
+    return decorate
+
+
+def check_system(system) -> None:
+    """A ConfigError naming the argument ``system`` unless it is a system object."""
+    if not isinstance(system, SYSTEM_CLASSES):
+        raise ConfigError(f"argument 'system': expected a system from ldpipe.system(...), got {type(system).__name__} "
+                          f"{system!r:.60}")
+
+
+def user_error(error: LdpipeError, function: str) -> LdpipeError:
+    """``error`` as the caller of ``ldpipe.<function>`` sees it: the same class, a one-line message
+    that names the function, and no traceback of ldpipe's own frames (the message is the whole
+    story: which argument, what was expected)."""
+    text = "; ".join(line.strip() for line in str(error).splitlines() if line.strip())
+    if not text.startswith("ldpipe."):
+        text = f"ldpipe.{function}: {text}"
+    return type(error)(text)
+
+
 @contextlib.contextmanager
 def arguments_of(function: str, key: str) -> Iterator[None]:
     """Turn a ConfigError about the entry at config key ``key`` into one about the arguments of
-    ``ldpipe.<function>``: the same message, naming the argument where it named the key."""
+    ``ldpipe.<function>``: the same message on one line, naming the argument where it named the key."""
     try:
         yield
     except ConfigError as error:
-        text = str(error).replace("invalid configuration:", "invalid arguments:")
+        text = str(error).replace("invalid configuration:", "").strip()
+        text = "; ".join(line.strip() for line in text.splitlines() if line.strip())
         text = re.sub(rf"config key '{re.escape(key)}\.([^']*)'", r"argument '\1'", text)
-        text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]); allowed keys are",
-                      r"unknown arguments \1; allowed are", text)
+        text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]( \(did you mean [^)]*\))?); "
+                      "allowed keys are", r"unknown arguments \1; allowed are", text)
+        text = text.replace("'system', ", "") if "unknown arguments" in text else text  # given as the object
         text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
         raise ConfigError(f"ldpipe.{function}: {text}") from None
 
@@ -87,6 +141,37 @@ def energy_shorthand(spec: dict) -> dict:
         spec["energy"] = {"total": spec["energy"]}
     if isinstance(spec.get("energies"), (list, tuple)):
         spec["energies"] = {"total": list(spec["energies"])}
+    return spec
+
+
+def calendar_times(system: AnySystem, spec: dict, key: str) -> dict:
+    """``spec`` with a date ``t0`` (one, a list, or a range's ``first`` and ``last``) and a
+    duration ``tau`` made numbers in the data's time units (a ConfigError naming the key when
+    the system's time is no calendar); numbers are left as they are."""
+    spec = dict(spec)
+    source = system.source if isinstance(system, VelocityDataSystem) else None
+
+    def start(value, where: str):
+        if not is_date(value):
+            return value
+        if source is None:
+            raise ConfigError(f"config key '{key}.{where}': {value!r} is a date, but system {system.name!r} has no "
+                              "calendar (only velocity data whose time units read 'UNIT since DATE' have); give "
+                              "t0 as a number")
+        return numeric_time(value, source, f"{key}.{where}")
+
+    t0 = spec.get("t0")
+    if isinstance(t0, dict):
+        spec["t0"] = {**t0, **{end: start(t0[end], f"t0.{end}") for end in ("first", "last") if end in t0}}
+    elif isinstance(t0, (list, tuple)):
+        spec["t0"] = [start(value, f"t0.{i}") for i, value in enumerate(t0)]
+    elif t0 is not None:
+        spec["t0"] = start(t0, "t0")
+    if is_duration(spec.get("tau")):
+        if source is None:
+            raise ConfigError(f"config key '{key}.tau': {spec['tau']!r} is a duration, but system {system.name!r} "
+                              "has no time unit (only velocity data have); give tau as a number")
+        spec["tau"] = numeric_duration(spec["tau"], source, f"{key}.tau")
     return spec
 
 

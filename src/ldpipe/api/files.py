@@ -7,7 +7,10 @@ from pathlib import Path
 import xarray as xr
 
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file
+from .arguments import api_function
 
+
+@api_function()
 def open_dataset(path: str | Path) -> xr.Dataset:
     """Any stage file, loaded into memory and checked to be one (its stage from its own attributes).
 
@@ -42,6 +45,7 @@ def open_dataset(path: str | Path) -> xr.Dataset:
     return open_stage_file(path, stage=str(stage))
 
 
+@api_function()
 def plot(dataset: xr.Dataset, ax=None, **options):
     """Draw what a stage file holds on ``ax`` (a new figure's if None); ``ds.ldpipe.plot()`` calls this.
 

@@ -12,12 +12,12 @@ from ..io.contracts import SADDLE_FLUX, TRANSPORT, StageFile
 from ..io.datafile import open_stage_file, stage_parameters
 from .systems import equilibria_input
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config, family_equilibria,
-    shared_docs, system_config,
+    AnySystem, api_function, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config,
+    family_equilibria, system_config,
 )
 
 
-@shared_docs
+@api_function("$defs/saddle_flux_study", taken=("system",))
 def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset | None = None,
                 threads: int | None = None, **spec) -> xr.Dataset:
     """The reactive flux over an index-1 saddle of a 2 or 3 DoF system (the saddle-flux stage),
@@ -48,7 +48,7 @@ def saddle_flux(system: AnySystem, *, name: str = "flux", equilibria: xr.Dataset
         return saddle_flux_dataset(parameters, equilibria_input(system, equilibria), threads=threads)
 
 
-@shared_docs
+@api_function("$defs/transport_study", taken=("orbits",))
 def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dataset | None = None,
               threads: int | None = None, **spec) -> xr.Dataset:
     """Transport over the saddle of a 2 DoF family (the transport stage): the flux by the orbit's
@@ -93,7 +93,7 @@ def transport(orbits: xr.Dataset, *, name: str = "transport", equilibria: xr.Dat
         return transport_dataset(parameters, orbits, family_equilibria(orbits, equilibria), threads=threads)
 
 
-@shared_docs
+@api_function("$defs/normal_form_study", taken=("system", "transport", "saddle_flux"))
 def normal_form(system: AnySystem, *, name: str = "normal_form", equilibria: xr.Dataset | None = None,
                 transport: xr.Dataset | None = None, saddle_flux: xr.Dataset | None = None,
                 **spec) -> xr.Dataset:

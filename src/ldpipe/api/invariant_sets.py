@@ -17,13 +17,13 @@ from ..errors import ConfigError
 from ..io.contracts import LD_GRID, UPO
 from ..io.datafile import open_stage_file, stage_parameters
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, family_config, family_equilibria, recorded_map_entry, shared_docs,
-    system_config,
+    AnySystem, api_function, arguments_of, energy_shorthand, family_config, family_equilibria,
+    recorded_map_entry, system_config,
 )
 from .systems import equilibria_input
 
 
-@shared_docs
+@api_function("$defs/nhim/properties/refinement")
 def nhim(maps: Sequence[xr.Dataset], *, study: str = "study", references: Sequence[xr.Dataset] = (),
          threads: int | None = None, **refinement) -> xr.Dataset:
     """NHIM points of variable-time LD maps, detected and refined (the NHIM study stage).
@@ -99,7 +99,7 @@ def refinement_argument(function: str, refinement: dict | None, config: dict) ->
     return refinement
 
 
-@shared_docs
+@api_function("$defs/nhim_orbit_validation", taken=("orbits", "base_map"))
 def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = "study",
                      base_map: xr.Dataset | dict, equilibria: xr.Dataset | None = None, refinement: dict | None = None,
                      threads: int | None = None, **spec) -> xr.Dataset:
@@ -172,7 +172,7 @@ def orbit_validation(orbits: xr.Dataset | Sequence[xr.Dataset], *, study: str = 
                                         threads=threads)
 
 
-@shared_docs
+@api_function("$defs/nhim_sampling_study", taken=("base_map",))
 def nhim_sampling(system: AnySystem, *, study: str = "study", base_map: xr.Dataset | dict,
                   equilibria: xr.Dataset | None = None, refinement: dict | None = None, threads: int | None = None,
                   **spec) -> xr.Dataset:

@@ -5,15 +5,18 @@ from __future__ import annotations
 import xarray as xr
 
 from ..core.maps.assembly import ld_map_dataset
+from ..core.maps.lazy import lazy_ld_map
+from ..core.maps.zarr_stream import stream_ld_map
+from ..errors import ConfigError
 from ..stages.plan import ld_map_tiles
 from .systems import equilibria_input
-from .arguments import (AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, shared_docs,
-                        system_config)
+from .arguments import (AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key,
+                        entry_parameters, system_config)
 
 
-@shared_docs
+@api_function("$defs/ld_map", taken=("system",))
 def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | None = None, progress: bool = False,
-           threads: int | None = None, **spec) -> xr.Dataset:
+           threads: int | None = None, chunks=None, client=None, store=None, **spec) -> xr.Dataset:
     """A Lagrangian-descriptor map, forward and backward (the LD stage), from an ``ld_maps:`` entry;
     with ``directions="forward"`` (or ``"backward"``) that direction alone, at half the trajectories.
 
@@ -26,11 +29,30 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     progress : bool
         Show a progress bar.
     %(threads)s
+    chunks : int or dict, optional
+        Compute the map on Dask, in blocks of about ``chunks`` start points (whole rows of the first
+        axis: ``chunks // columns`` rows, at least one), or of ``{first_axis: rows}``: the Dataset
+        returned at once holds dask arrays, and ``.compute()`` gives the map bit for bit as
+        without ``chunks`` (see the guide's Dask page). Needs ``pip install 'ldpipe[dask]'``.
+    client : distributed.Client, optional
+        With ``chunks``: the running client whose cluster computes the blocks, sent there now
+        (``client.persist``); default the active Dask scheduler, when the Dataset is computed.
+    store : str or path, optional
+        With ``chunks``: a zarr store each block is written to when it finishes; a store this
+        map's stream left unfinished is resumed (its finished blocks kept). Returns once the
+        map is in, as the store holds it (``xarray.open_zarr``).
     **spec
         The entry's keys: ``section`` (see :func:`section`), ``energy`` (``{"total": E}``,
         ``{"excess": dE}``, or a number for a total energy), ``tau``, ``p``, ``time``, ``region``,
         ``saddle_near``, ``integrator``, ``tiles``, ``directions`` (``"both"``, the default;
-        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ...
+        ``"forward"`` or ``"backward"``: only that direction integrated and in the file), ... On
+        velocity data whose time axis is a calendar (CF units ``UNIT since DATE``), ``t0`` may be
+        a date (``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``; a list or a range of
+        them) and ``tau`` a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``): the
+        file records the numbers (in the data's time units) and the dates (``t0_date``,
+        ``tau_duration``, ISO 8601). Of a discrete map (``ldpipe.system(map=...)``): ``section``,
+        ``iterations`` (N: the LD sums over n from -N to N-1; no ``tau``), ``p``,
+        ``integrator={"escape_radius": R}`` and ``tiles``.
 
     Returns
     -------
@@ -50,9 +72,23 @@ def ld_map(system: AnySystem, *, name: str = "map", equilibria: xr.Dataset | Non
     >>> m = ldpipe.ld_map(hh, section=ldpipe.section(y=(-0.45, 0.8, 41), py=(-0.5, 0.5, 41),
     ...                   fixed={"px": 0.0}, solve="x", root="largest"), energy=0.125, tau=2.0)  # doctest: +SKIP
     >>> m.ldpipe.plot()  # doctest: +SKIP
+    >>> henon = ldpipe.system(map="henon")
+    >>> d = ldpipe.ld_map(henon, section=ldpipe.section(x=(-1.5, 1.5, 101), y=(-0.5, 0.5, 101)),
+    ...                   iterations=10)  # doctest: +SKIP
     """
-    entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("ld_map", entry_key("ld_map", "ld_maps", name)):
+    key = entry_key("ld_map", "ld_maps", name)
+    with arguments_of("ld_map", key):
+        entry = {"system": system.name, **calendar_times(system, energy_shorthand(spec), key)}
         config, parameters = entry_parameters(entry, system_config(system), "ld_maps", name, "ld")
+        if chunks is not None and store is not None:
+            return stream_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, store=store,
+                                 client=client, threads=threads)
+        if chunks is not None:
+            return lazy_ld_map(parameters, equilibria_input(system, equilibria), chunks=chunks, client=client,
+                               threads=threads)
+        for argument, value in (("client", client), ("store", store)):
+            if value is not None:
+                raise ConfigError(f"config key 'ld_maps.{name}.{argument}': a map in blocks takes a {argument}; "
+                                  "give chunks too")
         return ld_map_dataset(parameters, equilibria_input(system, equilibria), tiles=ld_map_tiles(config, name),
                               threads=threads, show_progress=progress)

@@ -11,7 +11,7 @@ from ..config import validate_config
 from ..config.parameters import parameters_from_config
 from ..core.accuracy.measurement import accuracy_cost_dataset
 from ..errors import ConfigError
-from .arguments import arguments_of, family_config, recorded_map_entry
+from .arguments import api_function, arguments_of, family_config, recorded_map_entry
 from .invariant_sets import refinement_argument
 
 
@@ -27,6 +27,7 @@ def _map_entry(ld_map: xr.Dataset, argument: str, systems: dict) -> tuple[str, d
     return map_name, {"system": name, **entry}
 
 
+@api_function()
 def accuracy_cost(*, equilibria: xr.Dataset | Sequence[xr.Dataset], ld: dict | None = None, upo: dict | None = None,
                   nhim: dict | None = None, refinement: dict | None = None, threads: int | None = None) -> xr.Dataset:
     """What accuracy costs on this machine: the LD engine's, the periodic-orbit corrector's and the

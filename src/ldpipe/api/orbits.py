@@ -9,11 +9,12 @@ from ..core.orbits.manifolds import manifolds_dataset
 from ..core.orbits.poincare import poincare_dataset
 from .systems import equilibria_input
 from .arguments import (
-    AnySystem, arguments_of, energy_shorthand, entry_key, entry_parameters, family_config, shared_docs, system_config,
+    AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key, entry_parameters, family_config,
+    system_config,
 )
 
 
-@shared_docs
+@api_function("$defs/orbit_family", taken=("system",))
 def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.Dataset | None = None,
                     **spec) -> xr.Dataset:
     """A Lyapunov family of periodic orbits at target energies (the UPO stage), from a
@@ -46,7 +47,7 @@ def periodic_orbits(system: AnySystem, *, name: str = "family", equilibria: xr.D
         return periodic_orbits_dataset(parameters, equilibria_input(system, equilibria))
 
 
-@shared_docs
+@api_function("$defs/manifold_set", taken=("orbits",))
 def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | None = None, **spec) -> xr.Dataset:
     """The stable and unstable manifolds of one orbit of a family, cut by a section (the
     manifolds stage), from a ``manifolds:`` entry.
@@ -78,7 +79,7 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
         return manifolds_dataset(parameters, orbits, threads=threads)
 
 
-@shared_docs
+@api_function("$defs/poincare_section", taken=("system",))
 def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset | None = None,
              threads: int | None = None, **spec) -> xr.Dataset:
     """A Poincaré surface of section from a grid of initial conditions (the Poincaré stage), from
@@ -105,7 +106,8 @@ def poincare(system: AnySystem, *, name: str = "section", equilibria: xr.Dataset
     >>> p = ldpipe.poincare(b, initial_conditions=ldpipe.section(x=(4.8, 6.0, 10), px=(-0.6, 0.6, 10),
     ...                     fixed={"y": -7.0}, solve="py"), energy={"excess": 0.125})  # doctest: +SKIP
     """
-    entry = {"system": system.name, **energy_shorthand(spec)}
-    with arguments_of("poincare", entry_key("poincare", "poincare_sections", name)):
+    key = entry_key("poincare", "poincare_sections", name)
+    with arguments_of("poincare", key):
+        entry = {"system": system.name, **calendar_times(system, energy_shorthand(spec), key)}
         _, parameters = entry_parameters(entry, system_config(system), "poincare_sections", name, "poincare")
         return poincare_dataset(parameters, equilibria_input(system, equilibria), threads=threads)

@@ -13,12 +13,14 @@ from ..config.parameters import parameters_from_config
 from ..core.equilibria.study import equilibria_dataset
 from ..errors import ConfigError
 from ..systems import make_system, system_spec
-from .arguments import AnySystem, arguments_of, entry_key, equilibria_of, system_entry
+from ..systems.velocity_data import DEFAULTS as VELOCITY_DEFAULTS, is_in_memory, memory_entry
+from .arguments import AnySystem, api_function, arguments_of, entry_key, equilibria_of, system_entry
 
 #: The keys of a section block besides its axes (:func:`section`).
 SECTION_KEYS = ("fixed", "solve", "sign", "root", "search")
 
 
+@api_function("$defs/system")
 def system(*, name: str | None = None, **spec) -> AnySystem:
     """A model system, from the keys of a ``systems:`` entry.
 
@@ -29,12 +31,18 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     **spec
         The entry's keys: ``builtin`` (with ``parameters`` overriding the paper's values), or
         ``formula`` (a potential V(q)) or ``vector_field`` (dx/dt = f(x, t)) with ``coordinates``,
-        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables);
+        or ``velocity_data`` (currents on a grid: a netCDF or zarr dataset and its variables; or, in
+        memory, an ``xarray.Dataset``, lazy or not, a mapping ``{"dataset": ds, "u": "uo", ...}``
+        with the entry's other keys, or the DataArrays ``(u, v)``, ``(u, v, w)``, or
+        ``{"u": u, "v": v, "coordinates": "sphere"}``; the grid's coordinates not named are read
+        from u's dimensions (time, [z,] y, x));
+        or ``map`` (a discrete map x_{n+1} = f(x_n): ``"henon"``, ``"standard"``, or formulas with
+        ``coordinates``, an ``inverse`` and ``periodic`` coordinates);
         ``parameters``, ``masses`` or ``mass_matrix``, ``equilibria`` (the equilibrium search).
 
     Returns
     -------
-    System, VectorFieldSystem or VelocityDataSystem
+    System, VectorFieldSystem, VelocityDataSystem or DiscreteMapSystem
         The compiled system; its ``spec`` is the validated entry, defaults filled in.
 
     Raises
@@ -50,15 +58,19 @@ def system(*, name: str | None = None, **spec) -> AnySystem:
     >>> hh.coordinates
     ('x', 'y')
     """
-    builtin = spec.get("builtin")
+    builtin = spec.get("builtin", spec.get("map"))
     # a built-in's name names its entry, unless it is no name at all (then the entry's error says so)
     name = name or (builtin if isinstance(builtin, str) and builtin.isidentifier() else None) or "system"
     with arguments_of("system", entry_key("system", "systems", name)):
+        if is_in_memory(spec.get("velocity_data")):  # the data stay in this process, the entry records their hash
+            spec = {**spec, "velocity_data": memory_entry(spec["velocity_data"], f"systems.{name}.velocity_data",
+                                                          VELOCITY_DEFAULTS)}
         config = validate_config({"systems": {name: copy.deepcopy(spec)}})
         built = make_system(name, system_spec(config, name))
     return dataclasses.replace(built, spec=config["systems"][name])
 
 
+@api_function()
 def section(*, fixed: dict | None = None, solve: str | None = None, sign: int | None = None,
             root: str | dict | None = None, search: Sequence[float] | None = None,
             **axes: tuple[float, float, int]) -> dict:
@@ -99,6 +111,7 @@ def section(*, fixed: dict | None = None, solve: str | None = None, sign: int | 
     return block
 
 
+@api_function("$defs/system/properties/equilibria")
 def equilibria(system: AnySystem, **spec) -> xr.Dataset:
     """Every equilibrium of ``system`` in a box, with its energy, spectrum and type (the equilibria stage).
 

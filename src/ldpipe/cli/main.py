@@ -20,7 +20,7 @@ from ..engine.integrands import ARCLENGTH
 from ..errors import ConfigError, LdpipeError
 from ..io.atomic import check_writable
 from ..logs import log_to
-from ..systems import BUILTINS, is_vector_field
+from ..systems import BUILTINS, is_discrete_map, is_vector_field
 from ..text import short_number
 from . import nhim, orbits
 from .options import equilibria_file, finite_float, number
@@ -87,9 +87,10 @@ def _run_equilibria(args: argparse.Namespace) -> None:
         run_equilibria(**parameters_from_config(config, "equilibria", args.system), output=args.output)
 
 
-def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> dict:
+def _map_from_options(args: argparse.Namespace, vector_field: bool = False, discrete: bool = False) -> dict:
     """An ld_maps entry built from the command-line options (validated later with the schema);
-    ``vector_field``: the system is one (no energy, nothing solved, a start time)."""
+    ``vector_field``: the system is one (no energy, nothing solved, a start time); ``discrete``:
+    it is a discrete map (iterations, no time)."""
     if len(args.axis) != 2:
         raise ConfigError(f"--axis: give exactly two, NAME=LOW:HIGH:POINTS each; got {len(args.axis)}")
     axes = []
@@ -124,6 +125,25 @@ def _map_from_options(args: argparse.Namespace, vector_field: bool = False) -> d
             spec["region"][coordinate] = [number(low, f"--region {coordinate}"), number(high, f"--region {coordinate}")]
     if args.saddle_near:
         spec["saddle_near"] = [number(v, "--saddle-near") for v in args.saddle_near.split(",")]
+    if discrete:  # a map: iterations, no time, energy or integrator but the escape radius
+        given = [option for option, value in (("--solve", args.solve), ("--energy", args.energy),
+                                              ("--excess-energy", args.excess_energy), ("--root", args.root),
+                                              ("--search", args.search), ("--t0", args.t0),
+                                              ("--quad-nodes", args.quad_nodes), ("--saddle-near", args.saddle_near))
+                 if value is not None]
+        given += [option for option, value, default in (("--tau", args.tau, STOPPING.tau), ("--time", args.time, "fixed"),
+                                                        ("--scheme", args.scheme, INTEGRATOR.scheme))
+                  if value != default] + (["--region"] if args.region else [])
+        if given:
+            raise ConfigError(f"{given[0]}: system {args.system!r} is a discrete map, iterated: its map has two --axis, "
+                              "every other coordinate --fixed, --iterations, --p and --escape-radius")
+        if args.iterations is None:
+            raise ConfigError(f"--iterations: system {args.system!r} is a discrete map; give the N of its LD (the sum "
+                              "over n from -N to N-1)")
+        return {"system": args.system, "section": spec["section"], "iterations": args.iterations, "p": spec["p"],
+                "integrator": {"escape_radius": args.escape_radius}}
+    if args.iterations is not None:
+        raise ConfigError(f"--iterations: system {args.system!r} is a flow in time; give --tau")
     if vector_field:  # no energy, nothing solved; a start time
         given = [option for option, value in (("--solve", args.solve), ("--energy", args.energy),
                                               ("--excess-energy", args.excess_energy), ("--root", args.root),
@@ -188,7 +208,8 @@ def _run_ld(args: argparse.Namespace) -> None:
                 raise ConfigError(f"--system {args.system!r} is neither a built-in ({', '.join(sorted(BUILTINS))}) nor in --config")
             config["systems"][args.system] = {"builtin": args.system}
         vector_field = is_vector_field(config["systems"][args.system])
-        config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field)
+        config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field,
+                                                                    is_discrete_map(config["systems"][args.system]))
         config = validate_config(config)
         args.map = "cli"
     if args.refine_tolerance is not None or args.coarse_spacing is not None or args.directions is not None:
@@ -285,6 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--t0", type=finite_float, metavar="T0",
                     help="start time (a vector-field system declared in --config; default 0)")
     ld.add_argument("--tau", type=finite_float, default=STOPPING.tau, help=f"integration time each way (default {short_number(STOPPING.tau)})")
+    ld.add_argument("--iterations", type=int, metavar="N",
+                    help="a discrete map's iterations each way (its LD sums n from -N to N-1); instead of --tau")
     ld.add_argument("--p", default=str(DESCRIPTOR.p), metavar="P",
                     help=f"LD exponent in (0, 1], or {ARCLENGTH!r} (default {DESCRIPTOR.p})")
     ld.add_argument("--quad-nodes", type=int, metavar="N",

@@ -8,6 +8,7 @@ what is allowed there.
 from __future__ import annotations
 
 import copy
+import difflib
 import functools
 import math
 import re
@@ -22,7 +23,7 @@ from ..systems import SYSTEM_KINDS, system_coordinates, system_kind
 from ..systems.kinds import kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .figures import check_figures
-from .maps import check_interval, check_ld_maps
+from .maps import check_interval, check_ld_maps, drop_flow_defaults, given_map_keys
 from .studies import (
     check_accuracy_cost,
     check_nhim,
@@ -103,7 +104,9 @@ def _describe(error: jsonschema.ValidationError) -> str:
     if error.validator == "additionalProperties" and isinstance(error.instance, dict):
         allowed = sorted(error.schema.get("properties", {}))
         extra = sorted(set(error.instance) - set(allowed))
-        return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}; allowed keys are {allowed}"
+        guesses = [match for name in extra for match in difflib.get_close_matches(str(name), allowed, n=1)]
+        guess = f" (did you mean {', '.join(map(repr, dict.fromkeys(guesses)))}?)" if guesses else ""
+        return f"config key {_key(error.absolute_path)!r}: unknown keys {extra}{guess}; allowed keys are {allowed}"
     if error.validator == "oneOf" and error.absolute_path and "systems" in error.absolute_path:
         return f"config key {_key(error.absolute_path)!r}: a system needs exactly one of {_kinds_requirement()}"
     allowed = _allowed(error.schema)
@@ -120,9 +123,19 @@ def _kinds_requirement() -> str:
     for kind in SYSTEM_KINDS.values():
         for key in kind.excluded:
             refuses.setdefault(key, []).append(kind.noun)
+    refused_by = {}  # the keys the same kinds refuse, in one note
+    for key, nouns in refuses.items():
+        refused_by.setdefault(tuple(nouns), []).append(key)
     notes = [f"{' or '.join(nouns)} also needs '{key}'" for key, nouns in needs.items()]
-    notes += [f"{' or '.join(nouns)} takes no '{key}'" for key, nouns in refuses.items()]
+    notes += [f"{_listed(nouns, 'and')} take{'s' if len(nouns) == 1 else ''} no {_listed([repr(k) for k in keys], 'or')}"
+              for nouns, keys in refused_by.items()]
     return kinds_text() + (f" ({'; '.join(notes)})" if notes else "")
+
+
+def _listed(items, conjunction: str) -> str:
+    """``a, b and c``."""
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + f" {conjunction} " + items[-1]
 
 
 def _check_semantics(config: dict) -> None:
@@ -200,6 +213,7 @@ def validate_config(config: dict) -> dict:
     if not isinstance(config, dict):
         raise ConfigError(f"the configuration must be a mapping of keys to values, got {type(config).__name__}")
     validator = _schema_validator()
+    given = given_map_keys(config)  # before the schema fills defaults in: a map refuses a tau it was given
     # The deepest error names the key most precisely: list those first.
     errors = sorted(_schema_errors(config, validator), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
     check_finite(config)  # after _schema_errors, which reads '1e999' as the float it means
@@ -207,7 +221,8 @@ def validate_config(config: dict) -> dict:
         messages = [_describe(e) for e in errors]
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
     _check_semantics(config)
-    check_ld_maps(config)
+    check_ld_maps(config, given)
+    drop_flow_defaults(config)
     check_orbits(config)
     check_nhim_sampling(config)
     check_figures(config)

@@ -2,8 +2,9 @@
 Hamiltonian and vector-field systems alike (:func:`ldpipe.config.validate_config` calls them).
 
 A Hamiltonian's map has an energy and a coordinate solved from it; a vector field's has neither,
-only two state variables on the grid, the others fixed, and an optional start time ``t0``. The
-checks every configuration module shares (an interval, names of other entries) are here too.
+only two state variables on the grid, the others fixed, and an optional start time ``t0``; a
+discrete map's LD map counts ``iterations`` and has no time at all. The checks every
+configuration module shares (an interval, names of other entries) are here too.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
 from ..core.maps.grid import BOTH
 from ..core.maps.symmetry import SETTING_KEY
-from ..systems import is_vector_field, on_sphere, system_coordinates, system_kind, system_phase_coordinates
+from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
+                       system_phase_coordinates)
 
 
 def check_interval(value, key: str) -> None:
@@ -46,12 +48,37 @@ def check_energy_surface_grid(spec: dict, key: str, grid: str, what: str) -> Non
                           "coordinate solved from the energy")
 
 
-def check_ld_maps(config: dict) -> None:
-    """Every map: its system exists, its section splits the phase space (or state), tiles, region."""
+def given_map_keys(config) -> dict[str, dict[str, set]]:
+    """The keys each ``ld_maps`` entry of an unvalidated ``config`` gives, and those of its
+    ``integrator`` block, before the schema fills in its defaults: a discrete map's entry refuses
+    a ``tau`` or an integrator setting given, and takes the defaults filled in silently."""
+    maps = config.get("ld_maps") if isinstance(config, dict) else None
+    if not isinstance(maps, dict):
+        return {}
+    return {name: {"entry": set(entry), "integrator": set(entry.get("integrator") or {})
+                   if isinstance(entry.get("integrator"), dict) else set()}
+            for name, entry in maps.items() if isinstance(entry, dict)}
+
+
+def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) -> None:
+    """Every map: its system exists, its section splits the phase space (or state), tiles, region.
+
+    ``given``: the keys each entry gave before defaults (:func:`given_map_keys`); None: every key
+    it holds now."""
     for name, spec in config["ld_maps"].items():
         key = f"ld_maps.{name}"
         check_names([spec["system"]], "systems", f"{key}.system", config, "system")
         system = config["systems"][spec["system"]]
+        if is_discrete_map(system):
+            entry_given = (given or {}).get(name) or {"entry": set(spec), "integrator": set(spec["integrator"])}
+            check_discrete_map(spec, key, system_coordinates(system), entry_given)
+            continue
+        if "iterations" in spec:
+            raise ConfigError(f"config key '{key}.iterations': system {spec['system']!r} is a flow in time; its map "
+                              "integrates over the time tau (iterations are of a discrete map)")
+        if spec.get("chaos_indicators") is not None:
+            raise ConfigError(f"config key '{key}.chaos_indicators': system {spec['system']!r} is a flow in time; "
+                              "the LD chaos indicators are of a discrete map's LD map")
         coordinates = system_coordinates(system)
         phase = system_phase_coordinates(system)
         axes = [axis["name"] for axis in spec["section"]["axes"]]
@@ -180,9 +207,82 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
     check_region(spec, key, state)
 
 
+#: The keys of an ``ld_maps`` entry that a discrete map's LD map refuses, with why.
+FLOW_ONLY_MAP_KEYS = {
+    "energy": "a map has no energy", "saddle_near": "a map has no saddle", "t0": "a map has no time",
+    "region": "a map's orbits stop only at the escape radius", "ftle": "a map has no flow map over a time",
+    "refine": "a map's LD map is computed at every point", "quad_nodes": "a map's LD is a sum, not a quadrature",
+    "ld": "a map's file is its LD", "backward_by_symmetry": "a map's backward half iterates its inverse",
+}
+
+
+def drop_flow_defaults(config: dict) -> None:
+    """Take out of each discrete map's ``ld_maps`` entry what the schema filled in for a flow in
+    time (``tau``, ``time``, the integrator's settings but the escape radius), once
+    :func:`check_ld_maps` has passed it: its parameters and file record only what a map reads,
+    and validating the configuration again finds nothing it was not given."""
+    for spec in config["ld_maps"].values():
+        if is_discrete_map(config["systems"][spec["system"]]):
+            for key in ("tau", "time"):
+                spec.pop(key, None)
+            spec["integrator"] = {"escape_radius": spec["integrator"]["escape_radius"]}
+
+
+def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict[str, set]) -> None:
+    """An LD map of a discrete map: ``iterations`` instead of ``tau``, no time, energy or region,
+    two axes and every other coordinate fixed; of the integrator's settings the escape radius alone."""
+    system = spec["system"]
+    where = f"system {system!r} is a discrete map"
+    if "tau" in given["entry"]:
+        raise ConfigError(f"config key '{key}.tau': {where}, iterated, not integrated over a time; give iterations "
+                          "instead of tau")
+    if "iterations" not in spec:
+        raise ConfigError(f"config key '{key}.iterations': {where}; its LD sums over iterations: give iterations N "
+                          "(the LD then runs over n from -N to N-1)")
+    if "time" in given["entry"]:
+        raise ConfigError(f"config key '{key}.time': {where}; every orbit runs its iterations (or escapes): leave "
+                          "time out")
+    for name, why in FLOW_ONLY_MAP_KEYS.items():
+        if name in spec and not (name == "refine" and spec[name] is None):
+            raise ConfigError(f"config key '{key}.{name}': {where}, and {why}; leave {name} out")
+    if spec.get("chaos_indicators") is not None and spec.get("directions", BOTH) != BOTH:
+        raise ConfigError(f"config key '{key}.chaos_indicators': the indicators are of the LD's two halves summed, and "
+                          f"the map computes one (directions: {spec.get('directions', BOTH)}); give directions: {BOTH}")
+    other = sorted(given["integrator"] - {"escape_radius"})
+    if other:
+        raise ConfigError(f"config key '{key}.integrator.{other[0]}': {where}, iterated without an integrator; of "
+                          "the integrator block it reads escape_radius alone")
+    if spec["p"] == "arclength":
+        raise ConfigError(f"config key '{key}.p': {where}; its LD is the p-norm sum over iterations, with p in "
+                          "(0, 1]; the arc length is of a flow")
+    section = spec["section"]
+    solved = [name for name in ("solve", "root", "search") if name in section]
+    solved += ["sign"] if section.get("sign", 1) != 1 else []
+    if solved:
+        raise ConfigError(f"config key '{key}.section.{solved[0]}': {where} with no energy; its section has two axes "
+                          "and every other coordinate fixed, nothing solved")
+    for index, axis in enumerate(section["axes"]):
+        check_interval(axis["range"], f"{key}.section.axes.{index}.range")
+    axes = [axis["name"] for axis in section["axes"]]
+    named = [*axes, *section["fixed"]]
+    if sorted(named) != sorted(state):
+        raise ConfigError(
+            f"config key '{key}.section': the two axes and the fixed coordinates must name each of {list(state)} "
+            f"(the coordinates of the map {system!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
+        )
+    if any(value == "saddle" for value in section["fixed"].values()):
+        raise ConfigError(f"config key '{key}.section.fixed': a map's section has no saddle; give numbers")
+    if section["axes"][0]["points"] < spec["tiles"]:
+        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
+                          "use at most one tile per row of the first axis")
+
+
 def check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
     """A vector field's Poincaré section: no energy or saddle, initial conditions on a grid of two
     state variables with the others fixed, a surface x_i = value."""
+    if is_discrete_map(config["systems"][spec["system"]]):
+        raise ConfigError(f"config key '{key}.system': system {spec['system']!r} is a discrete map, whose orbits are "
+                          "sequences of points already; a Poincaré section is of a flow in time")
     state = system_coordinates(config["systems"][spec["system"]])
     start = spec["initial_conditions"]
     given = [f"{key}.{name}" for name in ("energy", "saddle_near") if name in spec]

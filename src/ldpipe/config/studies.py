@@ -6,7 +6,7 @@ energies are in the families named. :func:`ldpipe.config.validate_config` runs t
 from __future__ import annotations
 
 from ..errors import ConfigError
-from ..systems import is_vector_field, system_coordinates
+from ..systems import is_discrete_map, is_vector_field, system_coordinates
 from ..systems.kinds import hamiltonian_kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .maps import (check_both_directions, check_energy_surface_grid, check_interval, check_names,
@@ -18,7 +18,8 @@ def check_system_reference(config: dict, name: str, key: str) -> tuple[str, ...]
     Hamiltonian Poincaré sections, potential figures: they need a Hamiltonian, a vector field is refused)."""
     check_names([name], "systems", key, config, "system")
     if is_vector_field(config["systems"][name]):
-        raise ConfigError(f"config key '{key}': system {name!r} is a vector field (no Hamiltonian); this stage needs "
+        noun = "a discrete map" if is_discrete_map(config["systems"][name]) else "a vector field"
+        raise ConfigError(f"config key '{key}': system {name!r} is {noun} (no Hamiltonian); this stage needs "
                           f"a Hamiltonian system ({hamiltonian_kinds_text()})")
     return system_coordinates(config["systems"][name])
 

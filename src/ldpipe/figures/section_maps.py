@@ -86,10 +86,13 @@ def draw_ld_panel(ax, path: str | Path | xr.Dataset, settings: dict,
     ax.set_ylim(ld_map.second[0], ld_map.second[-1])
     style.label_axes(ax, *ld_map.axes)
     mode = ld_map.attrs.get("time_mode", "fixed")
-    where = (energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
-             if "energy" in ld_map.attrs else rf"$t_0 = {float(ld_map.attrs.get('t0', 0.0)):g}$")  # a vector field's
-    ax.set_title(where + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
-                 loc="right")
+    if "iterations" in ld_map.attrs:  # a discrete map's: no time, N iterations each way
+        ax.set_title(rf"$N = {int(ld_map.attrs['iterations'])}$", loc="right")
+    else:
+        where = (energy_title(float(ld_map.attrs["excess_energy"]), float(ld_map.attrs["energy"]))
+                 if "energy" in ld_map.attrs else rf"$t_0 = {float(ld_map.attrs.get('t0', 0.0)):g}$")  # a vector field's
+        ax.set_title(where + rf", $\tau = {float(ld_map.attrs['tau']):g}$" + ("" if mode == "fixed" else f" ({mode})"),
+                     loc="right")
     log.info("LD map %s: colour range %s", input_name(path), limits)
 
 

@@ -59,7 +59,8 @@ def git_commit() -> str:
     return commit + ("-dirty" if dirty else "")
 
 
-def _check_finite(dataset: xr.Dataset, where) -> None:
+def check_finite(dataset: xr.Dataset, where) -> None:
+    """A ValueError naming ``where`` and the variable if any floating-point variable holds NaN or inf."""
     for name, variable in dataset.variables.items():
         if np.issubdtype(variable.dtype, np.floating) and not np.all(np.isfinite(variable.values)):
             raise ValueError(f"{where}: variable {name!r} holds NaN or inf; refusing to write it")
@@ -94,7 +95,7 @@ def stage_dataset(dataset: xr.Dataset, *, stage: str | StageFile, title: str, pa
     writes. Floating-point data must be finite.
     """
     stage = stage.stage if isinstance(stage, StageFile) else stage
-    _check_finite(dataset, f"the {stage!r} stage's data")
+    check_finite(dataset, f"the {stage!r} stage's data")
     dataset = dataset.copy()
     now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     command = " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]) if sys.argv else "python"
@@ -148,7 +149,7 @@ def write_stage_file(dataset: xr.Dataset, path: str | os.PathLike, *, stage: str
     elif STAGE_ATTRIBUTE not in dataset.attrs:
         raise ValueError(f"{path}: the dataset is not a stage product (no {STAGE_ATTRIBUTE!r} attribute); "
                          "give stage, title and parameters")
-    _check_finite(dataset, path)
+    check_finite(dataset, path)
     # the contract given, else the one registered for the stage the dataset names
     contract = stage if isinstance(stage, StageFile) else CONTRACTS.get(dataset.attrs[STAGE_ATTRIBUTE])
     compression = {} if contract is not None and contract.intermediate else COMPRESSION

@@ -1,4 +1,4 @@
-"""Model systems declared as data: a built-in name, a formula, a vector field or velocity data.
+"""Model systems declared as data: a built-in name, a formula, a vector field, velocity data or a map.
 
 An entry's kind is the one key of :data:`~ldpipe.systems.kinds.SYSTEM_KINDS` it has; everything
 here asks the kind's record, never the entry's keys.
@@ -17,14 +17,15 @@ from ..errors import ConfigError
 from .base import Kernels, System
 from .builtin import BUILTINS
 from .kinds import SYSTEM_KINDS, SystemKind, check_builtin_parameters, require_hamiltonian, system_kind
-from .model import DataFlowModel, FlowModel, HamiltonianModel, SystemModel
+from .discrete_map import DiscreteMapSystem
+from .model import DataFlowModel, FlowModel, HamiltonianModel, MapModel, SystemModel
 from .vector_field import VectorFieldSystem
 from .velocity_data import VelocityDataSystem
 
 __all__ = [
-    "BUILTINS", "DataFlowModel", "FlowModel", "HamiltonianModel", "Kernels", "SYSTEM_CLASSES", "SYSTEM_KINDS", "System",
+    "BUILTINS", "DataFlowModel", "DiscreteMapSystem", "FlowModel", "HamiltonianModel", "Kernels", "MapModel", "SYSTEM_CLASSES", "SYSTEM_KINDS", "System",
     "SystemKind", "SystemModel", "VectorFieldSystem", "VelocityDataSystem", "check_builtin_parameters",
-    "equilibrium_box", "has_equilibria", "is_vector_field", "make_system", "on_sphere", "require_hamiltonian",
+    "equilibrium_box", "has_equilibria", "is_discrete_map", "is_vector_field", "make_system", "on_sphere", "require_hamiltonian",
     "system_coordinates", "system_data_files", "system_from_config", "system_kind", "system_phase_coordinates",
     "system_spec",
 ]
@@ -44,9 +45,11 @@ def make_system(name: str, spec: dict, key: str | None = None) -> SystemModel:
         Either ``{"builtin": NAME, "parameters": {...}}`` (parameters override the
         paper's values), ``{"formula": "...", "coordinates": [...], "parameters": {...}}`` (a
         potential), ``{"vector_field": {coordinate: "..."}, "coordinates": [...], "parameters":
-        {...}}`` (a general flow dx/dt = f(x, t), see :mod:`ldpipe.systems.vector_field`) or
-        ``{"velocity_data": {"path": ..., ...}}`` (see :mod:`ldpipe.systems.velocity_data`): one
-        of :data:`~ldpipe.systems.kinds.SYSTEM_KINDS`.
+        {...}}`` (a general flow dx/dt = f(x, t), see :mod:`ldpipe.systems.vector_field`),
+        ``{"velocity_data": {"path": ..., ...}}`` (see :mod:`ldpipe.systems.velocity_data`) or
+        ``{"map": {coordinate: "..."}, "inverse": {...}, "coordinates": [...]}`` or ``{"map":
+        "henon"}`` (a discrete map, see :mod:`ldpipe.systems.discrete_map`): one of
+        :data:`~ldpipe.systems.kinds.SYSTEM_KINDS`.
     key : str, optional
         Where the entry sits in the configuration, for error messages.
     """
@@ -86,8 +89,14 @@ def system_spec(config: dict, name: str) -> dict:
 
 
 def is_vector_field(spec: dict) -> bool:
-    """Whether a ``systems:`` entry is a general flow (no Hamiltonian): formulas or velocity data."""
+    """Whether a ``systems:`` entry has no Hamiltonian: a general flow (formulas or velocity data),
+    or a discrete map (:func:`is_discrete_map` tells them apart)."""
     return not system_kind(spec).hamiltonian
+
+
+def is_discrete_map(spec: dict) -> bool:
+    """Whether a ``systems:`` entry is a discrete map x_{n+1} = f(x_n) (iterated, no time)."""
+    return system_kind(spec).discrete
 
 
 def has_equilibria(name: str, spec: dict) -> bool:

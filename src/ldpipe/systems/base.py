@@ -29,7 +29,7 @@ from typing import Callable, ClassVar, NamedTuple
 import numpy as np
 
 from ..jitcache import njit_functions
-from .model import Unbounded
+from .model import Unbounded, system_repr
 from .kinetic import inverse_of
 
 
@@ -91,6 +91,11 @@ class System(Unbounded):
 
     #: A natural Hamiltonian (:class:`ldpipe.systems.VectorFieldSystem` is not).
     hamiltonian: ClassVar[bool] = True
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
+
+    def __repr__(self) -> str:
+        return system_repr(self, "builtin" if "builtin" in self.spec else "formula")
 
     @property
     def n_dof(self) -> int:

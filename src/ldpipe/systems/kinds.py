@@ -22,6 +22,7 @@ from typing import Callable
 from ..errors import ConfigError
 from .base import System
 from .builtin import BUILTINS, make_builtin
+from .discrete_map import DiscreteMapSystem, check_map, make_discrete_map_system, map_caption, map_coordinates
 from .grammar import check_formulas
 from .kinetic import kinetic_matrix
 from .model import SystemModel
@@ -51,7 +52,7 @@ class SystemKind:
     key: str
     #: What an entry of this kind is, in messages ("a vector field").
     noun: str
-    #: A natural Hamiltonian (phase space (q, p), energies) or a general flow.
+    #: A natural Hamiltonian (phase space (q, p), energies) or not (a general flow, a map).
     hamiltonian: bool
     build: Callable[[str, dict, dict[str, float], str], SystemModel]
     coordinates: Callable[[dict], tuple[str, ...]]
@@ -73,6 +74,8 @@ class SystemKind:
     data_files: Callable[[dict], list[str]] = lambda spec: []
     #: ``check(spec, key)``: what a schema cannot say of a (validated) entry, checked without building it.
     check: Callable[[dict, str], None] = lambda spec, key: None
+    #: A discrete map x_{n+1} = f(x_n) (iterated; its classes satisfy ``MapModel``), not a flow in time.
+    discrete: bool = False
 
     def phase_coordinates(self, spec: dict) -> tuple[str, ...]:
         """The integrated state's names: (q..., p...) of a Hamiltonian, a flow's state variables."""
@@ -139,6 +142,10 @@ def _build_velocity_data(name: str, spec: dict, parameters: dict[str, float], ke
     return make_velocity_data_system(name, spec, key)
 
 
+def _build_map(name: str, spec: dict, parameters: dict[str, float], key: str) -> DiscreteMapSystem:
+    return make_discrete_map_system(name, spec, key)
+
+
 def _autonomous(name: str, spec: dict) -> bool:
     """A vector field that does not depend on the time (a time-dependent flow has no fixed equilibria)."""
     parameters = {k: float(v) for k, v in (spec.get("parameters") or {}).items()}
@@ -166,35 +173,58 @@ def _vector_field_caption(spec: dict) -> str:
     return "vector field " + ", ".join(f"d{c}/dt = {f}" for c, f in spec["vector_field"].items())
 
 
+def _velocity_data_caption(spec: dict) -> str:
+    entry = spec["velocity_data"]
+    if "path" in entry:
+        return f"velocity data from {path_text(entry['path'])}"
+    memory = entry.get("memory") or {}
+    return f"velocity data from memory ({', '.join(memory.get('variables', []))}; {memory.get('hash', '')[:23]})"
+
+
+def _check_velocity_data(spec: dict, key: str) -> None:
+    """A file's path, or (from the Python API) a dataset in memory: one of them."""
+    entry = spec["velocity_data"]
+    if ("path" in entry) == ("memory" in entry):
+        raise ConfigError(f"config key '{key}.velocity_data.path': " + (
+            "a path and a dataset in memory both given; give one" if "path" in entry else
+            "required: the dataset's file (netCDF, or a .zarr store), or, in Python, the xarray.Dataset itself"))
+
+#: The keys only a map's entry takes (its inverse, its periodic coordinates).
+MAP_KEYS = ("inverse", "periodic")
+
 #: The registry: config key -> record, in the order messages list the kinds.
 SYSTEM_KINDS: dict[str, SystemKind] = {
     "builtin": SystemKind(
         key="builtin", noun="a built-in", hamiltonian=True, build=_build_builtin,
         coordinates=lambda spec: BUILTINS[spec["builtin"]]["coordinates"], classes=(System,),
-        required=("builtin",), caption=lambda spec: f"built-in {spec['builtin']}",
+        required=("builtin",), caption=lambda spec: f"built-in {spec['builtin']}", excluded=MAP_KEYS,
         check=lambda spec, key: check_builtin_parameters(spec["builtin"], spec["parameters"], key),
     ),
     "formula": SystemKind(
         key="formula", noun="a formula", hamiltonian=True, build=_build_formula,
         coordinates=lambda spec: tuple(spec["coordinates"]), classes=(System,),
-        required=("formula", "coordinates"), caption=_formula_caption, check=_check_formula,
+        required=("formula", "coordinates"), caption=_formula_caption, check=_check_formula, excluded=MAP_KEYS,
     ),
     "vector_field": SystemKind(
         key="vector_field", noun="a vector field", hamiltonian=False, build=_build_vector_field,
         coordinates=lambda spec: tuple(spec["coordinates"]), classes=(VectorFieldSystem,),
         required=("vector_field", "coordinates"), has_equilibria=_autonomous, caption=_vector_field_caption,
-        check=_check_vector_field,
+        check=_check_vector_field, excluded=MAP_KEYS,
     ),
     "velocity_data": SystemKind(
         key="velocity_data", noun="velocity data", hamiltonian=False, build=_build_velocity_data,
         coordinates=lambda spec: velocity_data_coordinates(spec["velocity_data"]),
         classes=(VelocityDataSystem, RectilinearVelocitySystem, CurvilinearVelocitySystem, StaggeredVelocitySystem),
-        required=("velocity_data",),
-        excluded=("coordinates",), formulas=False, stop_flags=True,
+        required=("velocity_data",), excluded=("coordinates", *MAP_KEYS), formulas=False, stop_flags=True,
         has_equilibria=lambda name, spec: False,  # data depend on time
         on_sphere=lambda spec: spec["velocity_data"].get("coordinates") == "sphere",
-        data_files=lambda spec: velocity_data_files(spec["velocity_data"]["path"]),
-        caption=lambda spec: f"velocity data from {path_text(spec['velocity_data']['path'])}",
+        data_files=lambda spec: velocity_data_files(spec["velocity_data"]["path"]) if "path" in spec["velocity_data"] else [],
+        caption=_velocity_data_caption, check=_check_velocity_data,
+    ),
+    "map": SystemKind(
+        key="map", noun="a map", hamiltonian=False, build=_build_map, coordinates=map_coordinates,
+        classes=(DiscreteMapSystem,), required=("map",), excluded=("masses", "mass_matrix"), caption=map_caption,
+        check=check_map, discrete=True,  # its equilibria are its fixed points
     ),
 }
 
@@ -226,6 +256,7 @@ def require_hamiltonian(system: SystemModel, what: str, key: str | None = None) 
     if not system.hamiltonian:
         where = f"config key '{key}': " if key else ""
         raise ConfigError(
-            f"{where}system {system.name!r} is a vector field (no Hamiltonian); {what} needs a Hamiltonian "
+            f"{where}system {system.name!r} is {'a discrete map' if system.discrete else 'a vector field'} (no "
+            f"Hamiltonian); {what} needs a Hamiltonian "
             f"system ({hamiltonian_kinds_text()})"
         )

@@ -4,7 +4,8 @@ Every system object, whatever its kind (:data:`ldpipe.systems.kinds.SYSTEM_KINDS
 :class:`SystemModel`; a Hamiltonian (a built-in, a potential formula) is a
 :class:`HamiltonianModel` and is integrated in (q, p); a flow (a vector field, velocity data) is a
 :class:`FlowModel` and is integrated by the flow engine; a flow whose trajectories data boundaries
-stop (velocity data: land, the grid's edge) is a :class:`DataFlowModel`. Code reads the
+stop (velocity data: land, the grid's edge) is a :class:`DataFlowModel`; a discrete map
+x_{n+1} = f(x_n) is a :class:`MapModel` and is iterated, not integrated. Code reads the
 attributes, never probes for them: every class has every attribute of its protocol, so
 ``system.hamiltonian`` or ``system.ld_units(...)`` needs no default (``tests/systems/test_kinds.py``
 checks each registered class against its protocol).
@@ -17,7 +18,18 @@ from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "SystemModel", "Unbounded", "protocol_members"]
+__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "MapModel", "SystemModel", "Unbounded", "protocol_members",
+           "system_repr"]
+
+
+def system_repr(system: Any, kind: str, **more: Any) -> str:
+    """One line for a system object (a notebook prints it): its class, name, kind, coordinates
+    and parameters, and ``more`` (say, a data file): not its compiled kernels or their source."""
+    words = [repr(system.name), kind, f"coordinates={tuple(system.coordinates)!r}"]
+    if system.parameters:
+        words.append(f"parameters={dict(system.parameters)!r}")
+    words += [f"{key}={value!r}" for key, value in more.items()]
+    return f"{type(system).__name__}({', '.join(words)})"
 
 
 class Unbounded:
@@ -44,8 +56,10 @@ class SystemModel(Protocol):
     spec: dict
     #: The source of its compiled kernels, which the engine compiles into its own module.
     kernel_source: str
-    #: A natural Hamiltonian (integrated in (q, p), with an energy) or a general flow.
+    #: A natural Hamiltonian (integrated in (q, p), with an energy) or not (a flow, a map).
     hamiltonian: bool
+    #: A discrete map x_{n+1} = f(x_n), iterated (no time, no vector field).
+    discrete: bool
     #: A bound on |x| of any trajectory that can move, to which the engine raises its escape radius (0: none).
     coordinate_bound: float
     #: Whether data boundaries stop trajectories (then it is a :class:`DataFlowModel`).
@@ -68,9 +82,6 @@ class SystemModel(Protocol):
     def check_times(self, start: float, end: float, key: str | None = None) -> None:
         """ConfigError if trajectories over times [start, end] leave what the system knows (data's times)."""
 
-    def vector_field(self, state: np.ndarray, *args: Any) -> np.ndarray:
-        """d(state)/dt at one state."""
-
 
 @runtime_checkable
 class HamiltonianModel(SystemModel, Protocol):
@@ -89,6 +100,8 @@ class HamiltonianModel(SystemModel, Protocol):
     def mass(self) -> np.ndarray: ...
     @property
     def inverse_mass(self) -> np.ndarray: ...
+    def vector_field(self, state: np.ndarray, *args: Any) -> np.ndarray:
+        """d(state)/dt at one state."""
     def potential(self, q: np.ndarray) -> float: ...
     def potentials(self, points: np.ndarray) -> np.ndarray: ...
     def gradient(self, q: np.ndarray) -> np.ndarray: ...
@@ -124,6 +137,9 @@ class FlowModel(SystemModel, Protocol):
     def time_window(self, start: float, end: float) -> AbstractContextManager:
         """The context the compiled kernels run in over times [start, end]."""
 
+    def vector_field(self, state: np.ndarray, *args: Any) -> np.ndarray:
+        """d(state)/dt at one state."""
+
     def engine_states(self, states: np.ndarray) -> np.ndarray:
         """``states`` (rows of the state variables) as the compiled kernels integrate them: the
         same for most; a curvilinear grid's fractional indices. A section crossed by the engine
@@ -144,6 +160,36 @@ class DataFlowModel(FlowModel, Protocol):
                    end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The grid line each stopped trajectory crossed last: (state index, value, side), the value
         the engine state's (:meth:`FlowModel.engine_states`), where the crossing is located."""
+
+
+@runtime_checkable
+class MapModel(SystemModel, Protocol):
+    """A discrete map x_{n+1} = f(x_n), iterated by ``ldpipe.engine.discrete_map``, with an
+    optional inverse for backward iterations (:class:`ldpipe.systems.discrete_map.DiscreteMapSystem`)."""
+
+    #: The source of ``step(state, out)``, (with an inverse) ``inverse(state, out)`` and the tangent
+    #: map's ``jacobian(state, out)``, undecorated.
+    kernel_source: str
+    #: The inverse map is given: backward iterations are possible.
+    has_inverse: bool
+    #: The period of each coordinate (0: not periodic); a periodic coordinate is kept in [0, period).
+    periods: tuple[float, ...]
+
+    @property
+    def n_state(self) -> int: ...
+
+    @property
+    def engine_name(self) -> str:
+        """What the generated iteration module's file is named after."""
+
+    def step(self, state: np.ndarray, direction: int = 1) -> np.ndarray:
+        """f(state) (``direction`` 1) or f^-1(state) (-1), periodic coordinates wrapped."""
+
+    def jacobian(self, state: np.ndarray) -> np.ndarray:
+        """Df at one state: the tangent map."""
+
+    def require_inverse(self, what: str) -> None:
+        """ConfigError naming the entry's ``inverse`` key if the map has none: ``what`` needs it."""
 
 
 def protocol_members(protocol: type) -> set[str]:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
-from .model import Unbounded
+from .model import Unbounded, system_repr
 
 # sympy (through .formula) is imported where formulas are parsed or printed, not with this module:
 # the stages and the workflow's planning reach VectorFieldSystem and require_hamiltonian for
@@ -84,8 +84,13 @@ class VectorFieldSystem(Unbounded):
 
     #: No Hamiltonian: energies, energy sections and orbit corrections do not apply.
     hamiltonian: ClassVar[bool] = False
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
     #: The LD is taken in the state's own units: the flow engine adds no metric section.
     ld_metric_source: ClassVar[str] = ""
+
+    def __repr__(self) -> str:
+        return system_repr(self, "vector_field")
 
     @property
     def n_state(self) -> int:

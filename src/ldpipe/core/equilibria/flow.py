@@ -36,6 +36,21 @@ def classify_flow(eigenvalues: np.ndarray, tolerance: float) -> tuple[str, int, 
     return ("source" if unstable else "sink"), unstable, stable
 
 
+def sorted_spectrum(matrix: np.ndarray, keys) -> tuple[np.ndarray, np.ndarray]:
+    """The eigenvalues of ``matrix`` and its eigenvectors (rows, unit norm, phased so that their
+    largest component is real and positive), ordered by ``np.lexsort(keys(eigenvalues))``."""
+    eigenvalues, eigenvectors = np.linalg.eig(matrix)
+    order = np.lexsort(keys(eigenvalues))
+    values = eigenvalues[order].astype(complex)
+    vectors = np.zeros((len(order), len(order)), dtype=complex)
+    for mode, column in enumerate(order):
+        vector = eigenvectors[:, column].astype(complex)
+        vector /= np.linalg.norm(vector)
+        pivot = vector[np.argmax(np.abs(vector))]
+        vectors[mode] = vector * np.conj(pivot) / abs(pivot)
+    return values, vectors
+
+
 def flow_equilibrium_table(system, box: dict[str, list[float]], seeds_per_axis: int = 9,
                                     tolerance: float = 1e-10, key: str | None = None) -> xr.Dataset:
     """The equilibrium stage's result for an autonomous vector field (contract FLOW_EQUILIBRIA).
@@ -55,14 +70,7 @@ def flow_equilibrium_table(system, box: dict[str, list[float]], seeds_per_axis: 
     vectors = np.zeros((len(positions), n, n), dtype=complex)
     kinds, unstable, stable = [], [], []
     for index, x in enumerate(positions):
-        eigenvalues, eigenvectors = np.linalg.eig(system.jacobian(x))
-        order = np.lexsort((-eigenvalues.imag, -eigenvalues.real))
-        for mode, column in enumerate(order):
-            vector = eigenvectors[:, column].astype(complex)
-            vector /= np.linalg.norm(vector)
-            pivot = vector[np.argmax(np.abs(vector))]
-            vectors[index, mode] = vector * np.conj(pivot) / abs(pivot)
-            values[index, mode] = eigenvalues[column]
+        values[index], vectors[index] = sorted_spectrum(system.jacobian(x), lambda e: (-e.imag, -e.real))
         kind, u, s = classify_flow(values[index], tolerance)
         kinds.append(kind)
         unstable.append(u)

@@ -8,6 +8,7 @@ from ...io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA
 from ...io.datafile import stage_dataset
 from ...logs import get_logger
 from ...systems import make_system
+from .fixed_points import map_fixed_point_table
 from .flow import flow_equilibrium_table
 from .potential import equilibrium_table
 
@@ -20,10 +21,14 @@ def equilibria_dataset(parameters: dict) -> xr.Dataset:
 
     A Hamiltonian system: critical points of V with energies and types (contract EQUILIBRIA); a
     vector field: the roots of f and the Jacobian's spectrum (no energies; contract
-    FLOW_EQUILIBRIA); a time-dependent one is refused."""
+    FLOW_EQUILIBRIA); a time-dependent one is refused; a discrete map: its fixed points and
+    the tangent map's multipliers (the same contract)."""
     system = make_system(parameters["system_name"], parameters["system_spec"])
     log.info("system %s: %s", system.name, system.description)
-    table, stage = (equilibrium_table, EQUILIBRIA) if system.hamiltonian else (flow_equilibrium_table, FLOW_EQUILIBRIA)
+    if system.hamiltonian:
+        table, stage = equilibrium_table, EQUILIBRIA
+    else:  # a flow's roots of f, or a map's fixed points: the same file
+        table, stage = (map_fixed_point_table if system.discrete else flow_equilibrium_table), FLOW_EQUILIBRIA
     dataset = table(system, parameters["box"], seeds_per_axis=parameters["seeds_per_axis"],
                     tolerance=parameters["tolerance"])
     for index in range(dataset.sizes["equilibrium"]):

@@ -8,6 +8,7 @@ energy over the critical energy of an index-1 saddle, and its fixed coordinates 
 (the saddle's value), both read from the system's equilibria. :func:`ld_map_dataset` is the
 whole map; :func:`ld_map_tile` and :func:`gather_ld_map` the same map in tiles, each a job of
 the workflow. Each returns the Dataset its file holds (:func:`ldpipe.io.datafile.stage_dataset`).
+A discrete map's LD map (:mod:`ldpipe.core.maps.discrete`) is tiled, gathered and recorded the same way.
 """
 
 from __future__ import annotations
@@ -24,9 +25,12 @@ from ...errors import ConfigError
 from ...io.contracts import FLOW_MAP, FLOW_MAP_TILE, LD_GRID, LD_TILE
 from ...io.datafile import MANAGED_ATTRIBUTES, stage_dataset, stage_parameters
 from ...logs import get_logger
-from ...systems import on_sphere, system_phase_coordinates
+from ...systems import is_discrete_map, on_sphere, system_phase_coordinates
+from ...systems.velocity_data import calendar_attributes
 from ..equilibria.potential import select_saddle
 from .adaptive import RefineSettings, adaptive_ld_dataset
+from .chaos import add_map_classification
+from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
 from .grid import (BOTH, DIRECTIONS, add_ftle, add_variational_ftle, directions_setting, gather_tiles, ld_grid_dataset,
@@ -115,20 +119,31 @@ def compute_ld_map(
     tiles: int = 1,
     threads: int | None = None,
     show_progress: bool = True,
+    rows: slice | None = None,
 ) -> xr.Dataset:
-    """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes."""
+    """One tile (or, with ``tiles`` 1, the whole) of an LD map, with its attributes.
+
+    ``rows``: the band of first-axis rows to compute instead of the tile's (a block of the Dask
+    backend, :mod:`ldpipe.core.maps.lazy`, possibly empty); it is never the whole map, so the FTLE
+    by differences is left to whoever joins the bands, and it is not piloted
+    (:func:`ldpipe.core.maps.pilot.check_map_time`: a block's time says nothing of the map's)."""
     use_threads(threads)
+    if is_discrete_map(parameters["system_spec"]):  # iterated, not integrated: no time, energy or engine settings
+        dataset = discrete_ld_dataset(parameters, tile=tile, tiles=tiles)
+        note_allowed_points(dataset, whole_map=tiles == 1)
+        return dataset
     starts = map_start_times(parameters)
     if starts is not None:  # several start times: this tile is a band of one of them, given a t0 dimension
         index, band, bands = start_time_band(starts, tile, tiles)
         dataset = compute_ld_map({**parameters, "t0": starts[index]}, equilibria, tile=band, tiles=bands,
-                                 show_progress=show_progress)
+                                 show_progress=show_progress, rows=rows)
         dataset = dataset.expand_dims(t0=[starts[index]])
         dataset.attrs.pop("t0")
         dataset.attrs.update({"tile": tile, "tiles": tiles})
         return dataset
     system, section, settings, info = resolve_map(parameters, equilibria)
-    rows = tile_rows(section.shape[0], tile, tiles)
+    block, whole_map = rows is not None, tiles == 1 and rows is None
+    rows = tile_rows(section.shape[0], tile, tiles) if rows is None else rows
     check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
                       section.shape[0] * section.shape[1])
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
@@ -149,17 +164,17 @@ def compute_ld_map(
                                   t0=info["t0"], flow_map=bool(ftle), descriptor=parameters.get("ld", True),
                                   mirror=backward_mirror(parameters, system, section),
                                   directions=directions_setting(parameters),
-                                  label=f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
+                                  label=None if block else f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
-    elif ftle and tiles == 1:
+    elif ftle and whole_map:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]), section.solve)
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     add_ld_units(dataset, system, settings.p)
-    note_allowed_points(dataset, whole_map=tiles == 1)
+    note_allowed_points(dataset, whole_map=whole_map)
     return dataset
 
 
@@ -322,5 +337,10 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
+    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units)
+    joined.attrs.update(calendar_attributes(common["system_spec"], f"systems.{common['system_name']}",
+                                            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0),
+                                            joined.attrs["tau"]))
+    add_map_classification(joined)  # a discrete map's chaos indicators, over the whole map
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})

@@ -19,6 +19,9 @@ convolution of ``kernels/gridded_velocity.py`` (cubic in space and time), compil
 flow engine like a formula's right-hand side; its data reach the compiled code through
 :mod:`ldpipe.systems.data_pointer`, so one compiled engine serves every dataset.
 
+The data may instead be given in memory, from Python (:mod:`.memory`): an ``xarray.Dataset``,
+lazy or not, or the DataArrays u, v (and w), kept in the process under the hash of their values.
+
 Only the window an engine call needs is read (xarray opens the file lazily): the times covering
 [t0, t0 +- tau] with the stencil's neighbours, over the spatial ``window`` if given (else the
 whole grid). Land (missing values) and the grid's edge are boundaries: a trajectory stops on
@@ -35,16 +38,19 @@ seam. The LD is taken in km and the data's velocity units, by the engine section
 from __future__ import annotations
 
 from ...errors import ConfigError
+from .calendar import calendar_attributes
 from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
 from .files import path_text, velocity_data_files
+from .memory import is_in_memory, memory_entry
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
-from .source import DataSource, open_source, velocity_data_coordinates
+from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 from .staggered import StaggeredVelocitySystem, make_staggered_system
 
-__all__ = ["CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem",
-           "StaggeredVelocitySystem", "VelocityDataSystem", "make_velocity_data_system", "open_source", "path_text",
-           "velocity_data_coordinates", "velocity_data_files"]
+__all__ = ["DEFAULTS", "CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem",
+           "StaggeredVelocitySystem", "VelocityDataSystem", "calendar_attributes", "is_in_memory",
+           "make_velocity_data_system", "memory_entry", "open_source", "path_text", "velocity_data_coordinates",
+           "velocity_data_files"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:

@@ -69,7 +69,7 @@ def index_velocities(source: DataSource, geometry: GridGeometry,
     determinant = jacobian[..., 0, 0] * jacobian[..., 1, 1] - jacobian[..., 0, 1] * jacobian[..., 1, 0]
     if not np.all(np.abs(determinant) > 0.0):
         j, i = np.argwhere(~(np.abs(determinant) > 0.0))[0]
-        raise ConfigError(f"velocity data {source.path}: the curvilinear grid {source.grid_coordinates} folds or "
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds or "
                           f"collapses at node (j, i) = ({j}, {i}): its cells must not degenerate")
     inverse = np.linalg.inv(jacobian)
     rate = np.full(geometry.shape + (2,), source.velocity_scale)
@@ -112,7 +112,7 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
     @property
     def description(self) -> str:
         kind = "longitude/latitude" if self.source.sphere else "plane"
-        return (f"velocity data {self.source.u}, {self.source.v} from {self.source.path} ({kind}, curvilinear grid "
+        return (f"velocity data {self.source.u}, {self.source.v} from {self.source.label} ({kind}, curvilinear grid "
                 f"{self.source.grid_coordinates[0]}, {self.source.grid_coordinates[1]})")
 
     @property
@@ -174,11 +174,11 @@ def file_angle(source: DataSource, geometry: GridGeometry) -> np.ndarray | None:
     with source.open() as dataset:
         values = np.asarray(dataset.read(source.angle, {}), dtype=float) * source.angle_scale
     if not np.all(np.isfinite(values)):
-        raise ConfigError(f"velocity data {source.path}: the angle variable {source.angle!r} has missing values")
+        raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} has missing values")
     difference = np.abs(wrapped(values - angle_from_coordinates(geometry)))
     if difference.max() > ANGLE_TOLERANCE:
         j, i = np.unravel_index(int(np.argmax(difference)), difference.shape)
-        raise ConfigError(f"velocity data {source.path}: the angle variable {source.angle!r} differs from the grid "
+        raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} differs from the grid "
                           f"coordinates' rotation by {difference.max():.3g} rad at node (j, i) = ({j}, {i}) (read "
                           f"with its units as {source.angle_scale:g} rad per unit): is it in the wrong unit, or of "
                           "another grid?")
@@ -209,7 +209,7 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
     pole = np.abs(geometry.y).max() >= 90.0 - 1e-9
     if pole or jumps > LONGITUDE_JUMP:
         why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
-        raise ConfigError(f"velocity data {source.path}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
                           "that reaches or goes round a pole, or all round the sphere (tripolar, a rotated pole "
                           "inside it), is not supported yet")
 

@@ -155,9 +155,11 @@ class FileSeries:
     ``time``: a time slice opens only the files that hold it. A read that fails is a
     ConfigError naming the file."""
 
-    def __init__(self, files: tuple[str, ...], starts: tuple[int, ...], time: str):
+    def __init__(self, files: tuple[str, ...], starts: tuple[int, ...], time: str, dataset: xr.Dataset | None = None):
+        # a dataset given (in memory) is the one "file", named by ``files[0]``, and not closed here
         self.files, self.starts, self.time = files, starts, time
         self._open: dict[int, xr.Dataset] = {}
+        self._given = dataset
 
     def __enter__(self) -> FileSeries:
         return self
@@ -168,6 +170,8 @@ class FileSeries:
         self._open.clear()
 
     def dataset(self, index: int) -> xr.Dataset:
+        if self._given is not None:
+            return self._given
         if index not in self._open:
             self._open[index] = open_dataset(self.files[index])
         return self._open[index]

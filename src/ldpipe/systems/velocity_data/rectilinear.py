@@ -132,7 +132,7 @@ def read_rectilinear_window(source: DataSource, ranges: dict[str, tuple[int, int
     return RectilinearWindow(np.ascontiguousarray(buffer), mask[(slice(1, -1),) * len(space)] > 0, window_nodes)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)  # the one-line repr of VelocityDataSystem
 class RectilinearVelocitySystem(VelocityDataSystem):
     """A flow interpolated from data on a rectilinear grid, 2-D or 3-D (module docstring)."""
 
@@ -162,7 +162,7 @@ class RectilinearVelocitySystem(VelocityDataSystem):
     def description(self) -> str:
         kind = "longitude/latitude" if self.source.sphere else "plane"
         components = ", ".join(c for c in (self.source.u, self.source.v, self.source.w) if c)
-        return f"velocity data {components} from {self.source.path} ({kind}, rectilinear grid)"
+        return f"velocity data {components} from {self.source.label} ({kind}, rectilinear grid)"
 
     @property
     def coordinate_bound(self) -> float:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
+from ..model import system_repr
 from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
@@ -172,9 +173,14 @@ class VelocityDataSystem:
     _windows: dict = field(default_factory=dict, repr=False)
 
     hamiltonian: ClassVar[bool] = False
+    #: A flow in continuous time, not a discrete map.
+    discrete: ClassVar[bool] = False
     time_dependent: ClassVar[bool] = True
     #: Land and the data's edge stop trajectories: :meth:`stop_flags` says which, :meth:`stop_lines` where.
     has_stop_flags: ClassVar[bool] = True
+
+    def __repr__(self) -> str:
+        return system_repr(self, "velocity_data", data=self.source.label)
 
     @property
     def engine_name(self) -> str:
@@ -216,7 +222,7 @@ class VelocityDataSystem:
     @property
     def description(self) -> str:
         kind = "longitude/latitude" if self.source.sphere else "plane"
-        return f"velocity data {self.source.u}, {self.source.v} from {self.source.path} ({kind})"
+        return f"velocity data {self.source.u}, {self.source.v} from {self.source.label} ({kind})"
 
     def kinetic_attributes(self) -> dict[str, str]:
         return {}
@@ -239,7 +245,7 @@ class VelocityDataSystem:
         if low < first - 1e-9 * abs(first) or high > last + 1e-9 * abs(last):
             where = f"config key '{key}': " if key else ""
             raise ConfigError(f"{where}the trajectories need times [{low:.12g}, {high:.12g}], outside the time range "
-                              f"[{first:.12g}, {last:.12g}] of {self.source.path} (variable {self.source.time!r})")
+                              f"[{first:.12g}, {last:.12g}] of {self.source.label} (variable {self.source.time!r})")
 
     def data_window(self, start: float, end: float) -> DataWindow:
         """The window of the data [start, end] needs (read once; the last one is kept)."""

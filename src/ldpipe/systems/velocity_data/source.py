@@ -22,6 +22,7 @@ from ...errors import ConfigError
 from .. import kernels
 from .files import FileSeries, data_files, open_dataset, path_text, series_times
 from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
+from .memory import memory_dataset
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
 # coordinates (planning, figures) without it.
@@ -127,7 +128,7 @@ class DataSource:
     value, the mean spacing and the count.
     """
 
-    path: str  # the entry's path as given (a file, a glob, a list), for messages
+    path: str  # the entry's path as given (a file, a glob, a list), for messages; empty for a dataset in memory
     u: str
     v: str
     x: str
@@ -161,13 +162,22 @@ class DataSource:
     #: cells' centres
     staggered: str = ""
     file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
+    memory: str = ""  # the hash of a dataset given in memory (:mod:`.memory`), no path
+    time_reference: str = ""  # the time coordinate's units as written ("days since 2000-01-01"), if any
+    calendar: str = ""  # its CF calendar attribute, if any
+
+    @property
+    def label(self) -> str:
+        """Where the data are, for messages and captions: the path, or the in-memory dataset's hash."""
+        return self.path or f"the in-memory dataset {self.memory[:23]}"
 
     @contextlib.contextmanager
     def open(self) -> Iterator[FileSeries]:
-        """The files as one dataset along time, opened lazily (:class:`.files.FileSeries`); a read
-        in the block that fails (a damaged block of a file whose coordinates read well) is a
-        ConfigError naming the file."""
-        with FileSeries(self.files or (self.path,), self.file_starts, self.time) as series:
+        """The data as one dataset along time (:class:`.files.FileSeries`): the files opened lazily,
+        or the dataset in memory; a read in the block that fails (a damaged block of a file whose
+        coordinates read well) is a ConfigError naming the file."""
+        in_memory = memory_dataset({"hash": self.memory}, "velocity_data") if self.memory else None
+        with FileSeries(self.files or (self.label,), self.file_starts, self.time, dataset=in_memory) as series:
             yield series
 
     def axis_values(self, which: str) -> np.ndarray:
@@ -187,6 +197,17 @@ class DataSource:
             return self.nodes[-1][0], self.nodes[-1][-1]
         first, step, count = self.t_grid
         return first, first + step * (count - 1)
+
+
+@contextlib.contextmanager
+def dataset_of(entry: dict, key: str, path: str | None = None) -> Iterator[xr.Dataset]:
+    """The dataset of a ``velocity_data`` entry: the one in memory its ``memory`` block names, or
+    its file ``path`` (the first of a series) opened lazily (and closed after the block)."""
+    if entry.get("memory"):
+        yield memory_dataset(entry["memory"], key)
+        return
+    with open_dataset(str(path or entry["path"])) as dataset:
+        yield dataset
 
 
 def vertical_sign(entry: dict, dataset: xr.Dataset, key: str) -> float:
@@ -215,7 +236,7 @@ def open_source(spec: dict, key: str) -> DataSource:
         return _checked_source(spec, key)
     except ConfigError as error:
         path = path_text(spec.get("path")) if isinstance(spec, dict) and spec.get("path") else None
-        if not path or path in str(error):
+        if not path or path in str(error) or spec.get("memory"):
             raise
         raise ConfigError(f"{error} (in {path})") from None
 
@@ -267,8 +288,8 @@ def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, 
 
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "x", "y", "window", "mask", "w", "z", "positive", "longitude",
-                                            "latitude", "components", "angle", "c_grid"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive",
+                                            "longitude", "latitude", "components", "angle", "c_grid"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -280,11 +301,15 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     three_d = "w" in entry
     if three_d:
         entry.setdefault("z", VERTICAL_AXIS[sphere])
-    files = data_files(entry.get("path"), f"{key}.path")
-    path = files[0]
+    path = entry.get("path")
+    memory = entry.get("memory")
+    if memory and path:
+        raise ConfigError(f"config key '{key}': both a path and a dataset in memory; give one")
+    files = [] if memory else data_files(path, f"{key}.path")
+    where = files[0] if files else "the dataset"
     velocities = ("u", "v", "w") if three_d else ("u", "v")
     axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
-    with open_dataset(path) as dataset:
+    with dataset_of(entry, key, where if files else None) as dataset:
         grid_coordinates = curvilinear_coordinates(entry, dataset, sphere, key)
         curvilinear = {}
         if grid_coordinates:  # the state's axes are the grid's index dimensions
@@ -297,7 +322,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         for role in velocities + checked + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
-                raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {path} (it has "
+                raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {where} (it has "
                                   f"{sorted(map(str, dataset.variables))})")
         times, file_starts = dataset[entry["time"]].values, (0,)
         if len(files) > 1:  # the files along time, checked against the first
@@ -341,6 +366,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                               f"{entry['time']!r} not understood; expected one of {sorted(TIMES)}, or 'UNIT since "
                               "DATE' (or no units: the velocity's time unit)")
         data_seconds = time_unit_seconds(time_coordinate_units) or seconds
+        calendar = dataset[entry["time"]].attrs.get("calendar")
         velocity_units = units_of(dataset, entry["u"], f"{key}.u")
         if time_unit_seconds(time_coordinate_units):
             time_units = time_coordinate_units.strip().split()[0]
@@ -366,12 +392,16 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     x_global = False
     if sphere and regular and not grid_coordinates:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
-    return DataSource(path=path_text(entry["path"]), files=tuple(files), file_starts=file_starts, u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
+    return DataSource(path=path_text(path) if path else "", memory=memory["hash"] if memory else "",
+                      files=tuple(files), file_starts=file_starts, u=entry["u"], v=entry["v"], x=entry["x"],
+                      y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
                       vertical_scale=vertical_scale, z_metres=z_length, velocity_units=velocity_units, time_units=time_units,
-                      x_global=x_global, metres_per_second=tuple(metres / seconds for metres, seconds in scales),
+                      x_global=x_global, time_reference=time_coordinate_units or "",
+                      calendar=str(calendar or ""),
+                      metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles),
                       grid_coordinates=grid_coordinates, staggered=staggered, **curvilinear)
 
@@ -424,7 +454,7 @@ def check_speeds(source: DataSource, arrays: list[np.ndarray]) -> None:
         finite = np.abs(array[np.isfinite(array)])
         fastest = float(finite.max()) if finite.size else 0.0
         if fastest * factor > LIGHT_SPEED:
-            raise ConfigError(f"velocity data {source.path}: variable {name!r} holds a speed of {fastest:.3g} "
+            raise ConfigError(f"velocity data {source.label}: variable {name!r} holds a speed of {fastest:.3g} "
                               f"({fastest * factor:.3g} m/s by its units), faster than light: damaged or "
                               "mis-scaled data")
 
