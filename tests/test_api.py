@@ -74,7 +74,7 @@ def test_import_is_cheap_and_names_the_api():
 # job that only reads files (an LD gather, the NHIM validation, most figures) never pays for it
 # (the design, not a measurement; transport, saddle flux, normal form and accuracy need theirs).
 LAZY_STAGES = ("equilibria", "figures", "ld", "manifolds", "nhim", "nhim_orbits", "nhim_sampling", "nhim_validation",
-               "upo")
+               "structures", "upo")
 
 
 def test_stage_modules_import_the_engine_and_the_algebra_on_first_use():

@@ -25,7 +25,7 @@ PLACES = {
     "ldpipe.io": 0,
     "ldpipe.systems": 1,
     "ldpipe.engine": 2,
-    "ldpipe.core": 3, "ldpipe.testing": 3, "ldpipe.data": 3,
+    "ldpipe.core": 3, "ldpipe.core.structures": 3, "ldpipe.testing": 3, "ldpipe.data": 3,
     "ldpipe.config": 4,
     "ldpipe.figures": 5,
     "ldpipe": 6, "ldpipe.accessor": 6, "ldpipe.api": 6, "ldpipe.stages": 6, "ldpipe.cli": 6,

@@ -5,9 +5,10 @@ The Python API (:mod:`ldpipe.api`) is re-exported here and imported on first use
 one function per stage (``ldpipe.equilibria``, ``ldpipe.ld_map``, ``ldpipe.periodic_orbits``,
 ``ldpipe.manifolds``, ``ldpipe.poincare``, ``ldpipe.nhim``, ``ldpipe.orbit_validation``,
 ``ldpipe.nhim_sampling``, ``ldpipe.transport``, ``ldpipe.saddle_flux``, ``ldpipe.normal_form``,
-``ldpipe.accuracy_cost``), ``ldpipe.open_dataset`` and ``ldpipe.plot``. Every Dataset has the
-accessor ``ds.ldpipe.plot()`` once ldpipe is imported. Bad input raises :class:`ConfigError` (a
-:class:`LdpipeError`), whose one-line message names the argument and what was expected.
+``ldpipe.accuracy_cost``, ``ldpipe.structures``, ``ldpipe.fsle``, ``ldpipe.lavd``),
+``ldpipe.open_dataset`` and ``ldpipe.plot``. Every Dataset has the accessor ``ds.ldpipe.plot()``
+once ldpipe is imported. Bad input raises :class:`ConfigError` (a :class:`LdpipeError`), whose
+one-line message names the argument and what was expected.
 """
 
 from importlib import import_module
@@ -18,8 +19,9 @@ from .errors import ConfigError, LdpipeError, OutputError, StageFileError
 
 #: The names :mod:`ldpipe.api` exports, available as ``ldpipe.NAME``.
 API = (
-    "accuracy_cost", "equilibria", "ld_map", "manifolds", "nhim", "nhim_sampling", "normal_form", "open_dataset",
-    "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section", "system", "transport",
+    "accuracy_cost", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
+    "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section",
+    "structures", "system", "transport",
 )
 
 __all__ = ["ConfigError", "LdpipeError", "OutputError", "StageFileError", "__version__", *API]

@@ -235,3 +235,17 @@ def test_the_ftle_of_a_rotation_on_a_rotated_grid_is_zero(tmp_path):
         assert dataset[f"ftle_defined_{label}"].values.all()
         # measured: 4.8e-12 (the integrator's tolerance, differentiated over the map's spacing)
         assert np.max(np.abs(dataset[f"ftle_{label}"].values)) < 3e-11, label
+
+
+def test_noise_on_a_curvilinear_grid_is_refused(tmp_path):
+    # the engine's noise would be of the grid's indices, not of x and y: refused before any integration
+    x, y = plane_grid("rotated", 0.2)
+    path = write_dataset(curvilinear_dataset(rotation, x, y, np.arange(0.0, 6.01, 1.0)), tmp_path / "rotation.nc")
+    spec = {"system": "rot", "t0": 3.0, "tau": 1.0, "p": 0.5,
+            "noise": {"diffusion": {"x": "0.01", "y": "0.01"}, "members": 2, "seed": 1, "dt": 0.1},
+            "section": {"axes": [{"name": "x", "range": [0.8, 1.2], "points": 2},
+                                 {"name": "y", "range": [0.4, 0.6], "points": 2}]}}
+    config = validate_config({"systems": {"rot": {"velocity_data": {"path": str(path), "components": "geographic"}}},
+                              "ld_maps": {"r": spec}})
+    with pytest.raises(ValueError, match=r"noise on a curvilinear grid .* is not supported yet"):
+        compute_ld_map(parameters_from_config(config, "ld", "r"), None, show_progress=False)

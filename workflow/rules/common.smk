@@ -31,6 +31,8 @@ LD_MAPS = sorted(config["ld_maps"])
 # A map of one tile is computed and finished by one job (rule ld_map); the others by tile jobs and a gather.
 ONE_TILE_MAPS = [name for name in LD_MAPS if ld_map_tiles(config, name) == 1]
 TILED_MAPS = [name for name in LD_MAPS if name not in ONE_TILE_MAPS]
+# Maps whose structures (singular curves, FTLE ridges) are extracted into a file of their own.
+STRUCTURE_MAPS = [name for name in LD_MAPS if config["ld_maps"][name].get("structures")]
 UPO_FAMILIES = sorted(config["periodic_orbits"])
 MANIFOLD_SETS = sorted(config["manifolds"])
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
@@ -72,6 +74,7 @@ def all_targets():
     return [
         *expand(f"{RESULTS}/{{system}}/equilibria.nc", system=EQUILIBRIUM_SYSTEMS),
         *expand(f"{RESULTS}/ld/{{map}}.nc", map=LD_MAPS),
+        *expand(f"{RESULTS}/structures/{{map}}.nc", map=STRUCTURE_MAPS),
         *expand(f"{RESULTS}/upo/{{family}}.nc", family=UPO_FAMILIES),
         *expand(f"{RESULTS}/manifolds/{{manifold}}.nc", manifold=MANIFOLD_SETS),
         *expand(f"{RESULTS}/poincare/{{section}}.nc", section=POINCARE_SECTIONS),
@@ -162,6 +165,10 @@ def ld_map_memory_mb(wildcards):
 
 def ld_map_runtime_min(wildcards, threads, attempt):
     return _ld_tile_runtime_min(wildcards.map, 1, threads, attempt)
+
+
+def structures_params(wildcards):
+    return parameters_from_config(config, "structures", wildcards.map)
 
 
 def upo_params(wildcards):

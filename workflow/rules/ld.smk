@@ -72,3 +72,29 @@ rule ld_gather:
         runtime=10,
     script:
         "../scripts/ld_gather.py"
+
+
+rule structures:
+    """An LD map's structures: its singular curves and FTLE ridges as polylines."""
+    input:
+        ld_map=f"{RESULTS}/ld/{{map}}.nc",
+        code=library_code("ldpipe.stages.structures"),
+    output:
+        f"{RESULTS}/structures/{{map}}.nc",
+    wildcard_constraints:
+        map=_one_of(STRUCTURE_MAPS),
+    params:
+        stage=structures_params,
+    log:
+        f"{RESULTS}/logs/structures/{{map}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/structures/{{map}}.tsv"
+    conda:
+        "../envs/ldpipe.yaml"
+    threads: 1
+    resources:
+        mem_mb=ld_gather_memory_mb,
+        runtime=10,
+    script:
+        "../scripts/structures.py"
+

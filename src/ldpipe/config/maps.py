@@ -11,10 +11,11 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
-from ..core.maps.grid import BOTH
+from ..core.maps.grid import BOTH, DIRECTIONS
 from ..core.maps.symmetry import SETTING_KEY
 from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
                        system_phase_coordinates)
+from ..systems.noise import check_noise
 
 
 def check_interval(value, key: str) -> None:
@@ -92,7 +93,9 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                               "velocity_data names w), whose FTLE would mix degrees of arc with the vertical "
                               "coordinate's units; it is not supported (on the plane it is)")
         check_flow_map_only(spec, key, is_vector_field(system))
+        check_noisy_map(spec, key, system)
         check_variational_ftle(spec, key, system)
+        check_structures(spec, key)
         check_directions(spec, key)
         if is_vector_field(system):
             check_vector_field_map(spec, key, phase)
@@ -118,6 +121,23 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
         check_region(spec, key, coordinates)
 
 
+def check_structures(spec: dict, key: str) -> None:
+    """The fields a map's ``structures`` names must be fields the map holds."""
+    block = spec.get("structures")
+    if block and isinstance(spec.get("t0"), (list, dict)):
+        raise ConfigError(f"config key '{key}.structures': the map has a start-time dimension (t0 is a list or a "
+                          "range); structures are extracted from maps of one start time (give t0 a number)")
+    if not isinstance(block, dict) or "fields" not in block:
+        return
+    directions = [label for _, label in DIRECTIONS[spec.get("directions", BOTH)]]
+    held = ([f"ld_{label}" for label in directions] if spec.get("ld", True) else []) + (
+        [f"ftle_{label}" for label in directions] if spec.get("ftle") else [])
+    missing = [name for name in block["fields"] if name not in held]
+    if missing:
+        raise ConfigError(f"config key '{key}.structures.fields': the map holds no {missing} (it holds {held}); "
+                          "give ftle: true for FTLE ridges, or name only the fields it holds")
+
+
 def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     """A map without its LD (``ld: false``) is a fixed-time map of a vector field with its FTLE."""
     if spec.get("ld", True):
@@ -128,6 +148,30 @@ def check_flow_map_only(spec: dict, key: str, vector_field: bool) -> None:
     if not vector_field:
         raise ConfigError(f"config key '{key}.ld': a map without its LD is of a vector-field system; system "
                           f"{spec['system']!r} is a Hamiltonian (leave ld out)")
+
+
+def check_noisy_map(spec: dict, key: str, system: dict) -> None:
+    """A map with noise: a fixed-time full LD map of a vector field or of velocity data on the plane,
+    its noise block well formed (:func:`ldpipe.systems.noise.check_noise`)."""
+    noise = spec.get("noise")
+    if noise is None:
+        return
+    if not is_vector_field(system):
+        raise ConfigError(f"config key '{key}.noise': noise is added to a vector field or velocity data; system "
+                          f"{spec['system']!r} is a Hamiltonian")
+    if on_sphere(system):
+        raise ConfigError(f"config key '{key}.noise': system {spec['system']!r} is velocity data on the sphere, "
+                          "whose state is in degrees; noise is supported on the plane only")
+    for name, refused, why in (("time", spec["time"] != "fixed", "give time: fixed"),
+                               ("refine", spec.get("refine") is not None, "give refine: null"),
+                               ("ftle", bool(spec.get("ftle")), "leave ftle out"),
+                               ("ld", not spec.get("ld", True), "leave ld out"),
+                               ("structures", bool(spec.get("structures")),
+                                "leave structures out (they are traced on one field, not on an ensemble)")):
+        if refused:
+            raise ConfigError(f"config key '{key}.{name}': a map with noise is a fixed-time map of the LD along "
+                              f"each noisy path; {why}")
+    check_noise(noise, system_coordinates(system), system.get("parameters") or {}, f"{key}.noise")
 
 
 def check_directions(spec: dict, key: str) -> None:
@@ -213,6 +257,7 @@ FLOW_ONLY_MAP_KEYS = {
     "region": "a map's orbits stop only at the escape radius", "ftle": "a map has no flow map over a time",
     "refine": "a map's LD map is computed at every point", "quad_nodes": "a map's LD is a sum, not a quadrature",
     "ld": "a map's file is its LD", "backward_by_symmetry": "a map's backward half iterates its inverse",
+    "noise": "noise is added to a flow's dx = f dt (a stochastic map of a map is not implemented)",
 }
 
 
@@ -243,7 +288,7 @@ def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict
         raise ConfigError(f"config key '{key}.time': {where}; every orbit runs its iterations (or escapes): leave "
                           "time out")
     for name, why in FLOW_ONLY_MAP_KEYS.items():
-        if name in spec and not (name == "refine" and spec[name] is None):
+        if name in spec and not (name in ("refine", "noise") and spec[name] is None):
             raise ConfigError(f"config key '{key}.{name}': {where}, and {why}; leave {name} out")
     if spec.get("chaos_indicators") is not None and spec.get("directions", BOTH) != BOTH:
         raise ConfigError(f"config key '{key}.chaos_indicators': the indicators are of the LD's two halves summed, and "

@@ -162,6 +162,14 @@ def _nhim_sampling(config: dict, study: str, entry: dict) -> dict:
     }
 
 
+def _structures(config: dict, name: str, entry: dict) -> dict:
+    """A map's ``structures`` block (true: every default) as the structures stage's parameters."""
+    block = entry.get("structures")
+    if not block:
+        raise ValueError(f"map {name!r} has no structures: block; its file has no structures to extract")
+    return {"map_name": name, **({} if block is True else block)}
+
+
 def _figure(config: dict, name: str, entry: dict) -> dict:
     # The settings the drawing reads; the caption, which the report alone prints, is added by
     # ldpipe.stages.figures.figure_parameters (it reads other stages' parameters from here).
@@ -188,7 +196,8 @@ def _accuracy(config: dict, _: None, entry: dict) -> dict:
 #: How each stage's parameters come from the configuration, by stage module (``ldpipe.stages.NAME``).
 STAGES: dict[str, StageEntries] = {
     "equilibria": StageEntries(("systems",), "system_name", build=_equilibria),
-    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles",), adjust=_map_entry),
+    "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles", "structures"), adjust=_map_entry),
+    "structures": StageEntries(("ld_maps",), "map_name", build=_structures),
     "upo": StageEntries(("periodic_orbits",), "family"),
     "manifolds": StageEntries(("manifolds",), "name", system_via="orbits"),
     "poincare": StageEntries(("poincare_sections",), "name"),

@@ -77,10 +77,13 @@ def load_ld_map(path: str | Path | xr.Dataset, descriptor: str = "total") -> LDM
         raise ConfigError(f"descriptor {descriptor!r}: expected one of {list(DESCRIPTORS)}")
     dataset = open_map_file(path, f"a figure of descriptor {descriptor!r}", descriptor_directions(descriptor))
     axes = tuple(dataset.allowed.dims)
+    # a map with noise is drawn as its ensemble mean
+    fields = {label: dataset[f"ld_{label}"].mean("member") if "member" in dataset[f"ld_{label}"].dims
+              else dataset[f"ld_{label}"] for label in descriptor_directions(descriptor)}
     if descriptor == "total":
-        values = dataset.ld_forward.values + dataset.ld_backward.values
+        values = fields["forward"].values + fields["backward"].values
     else:
-        values = dataset[f"ld_{descriptor}"].values
+        values = fields[descriptor].values
     allowed = dataset.allowed.values.astype(bool)
     return LDMap(
         name=str(dataset.attrs["map"]) if "map" in dataset.attrs else Path(path).stem,

@@ -2,9 +2,10 @@
 
 An LD map with the paper's colour scale (the ``section_maps`` figure's panel), a periodic-orbit
 family in the configuration plane, a Poincaré section with its energy boundary, the curves where
-manifolds cut their section, or the equilibria (of a Hamiltonian or a vector field) in the plane of
-the first two coordinates. The options an LD map
-takes are the figure keys of the same names, with their defaults from the configuration schema.
+manifolds cut their section, the curves extracted from a map (a structures file), or the
+equilibria (of a Hamiltonian or a vector field) in the plane of the first two coordinates. The
+options an LD map takes are the figure keys of the same names, with their defaults from the
+configuration schema.
 """
 
 from __future__ import annotations
@@ -16,11 +17,12 @@ import xarray as xr
 from ..config import load_schema
 from ..core.maps.grid import BOTH
 from ..errors import ConfigError
-from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, UPO
+from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, STRUCTURES, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, stage_parameters
 from . import style
 from .data import load_orbits
 from .section_maps import draw_ld_panel, draw_manifold_curves, draw_poincare
+from .structures import draw_structure_curves
 
 #: The figure keys an LD map or a Poincaré section takes as options.
 MAP_OPTIONS = ("descriptor", "color_percentiles", "color_limits")
@@ -40,12 +42,22 @@ def _options(given: dict, keys: tuple[str, ...], stage: str) -> dict:
     return {**_figure_defaults(keys), **given}
 
 
-def _draw_ld_map(ax, dataset: xr.Dataset, manifolds=(), **options) -> None:
+def _draw_ld_map(ax, dataset: xr.Dataset, manifolds=(), structures=(), **options) -> None:
     directions = str(dataset.attrs.get("directions", BOTH))
     if "descriptor" not in options and directions != BOTH:  # a map of one direction: its LD by default
         options = {**options, "descriptor": directions}
     settings = _options(options, MAP_OPTIONS, LD_GRID.stage)
     draw_ld_panel(ax, dataset, settings, list(manifolds))
+    draw_structure_curves(ax, [structures] if isinstance(structures, xr.Dataset) else list(structures))
+
+
+def _draw_structures(ax, dataset: xr.Dataset) -> None:
+    """The curves of a structures file alone, stable and unstable, over the map's window."""
+    axes = draw_structure_curves(ax, [dataset])
+    style.label_axes(ax, *axes)
+    if dataset.sizes["curve"]:
+        ax.legend(loc="best")
+    ax.set_title(f"structures of {dataset.attrs.get('map_title', 'an LD map')}", loc="right")
 
 
 def _draw_orbits(ax, dataset: xr.Dataset) -> None:
@@ -91,8 +103,9 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, **options):
     """Draw the stage file ``dataset`` on ``ax`` (a new figure's if None) and return the axes.
 
     Options: an LD map takes ``descriptor`` (default its total, or for a map of one direction that
-    direction's LD), ``color_percentiles``, ``color_limits`` (the figure
-    keys) and ``manifolds`` (manifold files drawn over it); a Poincaré section ``point_size``.
+    direction's LD), ``color_percentiles``, ``color_limits`` (the figure keys), ``manifolds``
+    (manifold files drawn over it) and ``structures`` (structures files, or one, whose curves are
+    drawn over it); a Poincaré section ``point_size``.
     """
     stage = dataset.attrs.get(STAGE_ATTRIBUTE)
     drawings = {
@@ -101,6 +114,7 @@ def draw_stage_file(dataset: xr.Dataset, ax=None, **options):
         UPO.stage: lambda: _draw_orbits(ax, dataset, **options),
         MANIFOLDS.stage: lambda: _draw_manifolds(ax, dataset, **options),
         EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
+        STRUCTURES.stage: lambda: _draw_structures(ax, dataset, **options),
         FLOW_EQUILIBRIA.stage: lambda: _draw_equilibria(ax, dataset, **options),
     }
     if stage not in drawings:

@@ -78,6 +78,13 @@ NORMAL_FORM = StageFile("normal_form", (
     "excess_energy", "flux", "flux_truncation_error", "flux_by_order", "flux_harmonic", "smallest_divisor",
     "nhim_state",
 ))
+#: Curves extracted from an LD map (a CF contiguous ragged array): per point and per curve.
+STRUCTURES = StageFile("structures", ("point_count", "strength", "value", "source", "manifold"))
+#: The finite-size Lyapunov exponent of a flow over a grid, forward and backward.
+FSLE = StageFile("fsle", ("fsle_forward", "fsle_backward", "fsle_reached_forward", "fsle_reached_backward",
+                          "fsle_angle_forward", "fsle_angle_backward"))
+#: The LAVD of a flow over a grid and its rotationally coherent vortices (a ragged array of boundaries).
+LAVD = StageFile("lavd", ("lavd", "lavd_defined", "point_count", "area", "level", "convexity_deficiency"))
 #: The LD, orbit and NHIM parts are each optional; these are the LD and orbit parts' variables.
 ACCURACY_COST = StageFile(
     "accuracy_cost", ("wall_time", "ld_error_quantile", "energy_error_quantile", "orbit_wall_time", "orbit_closure_error")
@@ -86,5 +93,5 @@ ACCURACY_COST = StageFile(
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
     EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
-    TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST,
+    TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST, STRUCTURES, FSLE, LAVD,
 )}

@@ -11,6 +11,7 @@ by the expected stage, holding the variables the stage's contract
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import os
 import subprocess
@@ -42,8 +43,11 @@ MANAGED_ATTRIBUTES = (
 )
 
 
+@functools.cache
 def git_commit() -> str:
-    """The commit of the source tree ldpipe runs from, with ``-dirty`` if it has edits; '' if unknown."""
+    """The commit of the source tree ldpipe runs from, with ``-dirty`` if it has edits; '' if unknown.
+    Read once per process: the code a process runs is what it imported, and two ``git`` calls cost
+    tens of milliseconds, which a map written in many blocks would pay for each."""
     source = Path(__file__).resolve().parent
     try:
         commit = subprocess.run(

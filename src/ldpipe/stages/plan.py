@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..engine.codegen import engine_name
 from ..engine.settings import IntegratorSettings, integrator_ladder
-from ..core.maps.grid import ld_map_settings, map_start_times
+from ..core.maps.grid import ld_map_settings, map_start_times, paths_per_point
 from ..config.parameters import parameters_from_config
 
 
@@ -25,22 +25,26 @@ def ld_map_tiles(config: dict, map_name: str) -> int:
 
 def ld_map_points(config: dict, map_name: str) -> int:
     """The grid points of the map's file: the section's rows times its columns, for each start
-    time of a map with several."""
+    time of a map with several; for a map with noise, its paths (a path's fields cost what a
+    point's do)."""
     parameters = parameters_from_config(config, "ld", map_name)
     axes = parameters["section"]["axes"]
-    return axes[0]["points"] * axes[1]["points"] * len(map_start_times(parameters) or [None])
+    return (axes[0]["points"] * axes[1]["points"] * len(map_start_times(parameters) or [None])
+            * paths_per_point(parameters))
 
 
 def ld_tile_points(config: dict, map_name: str, tiles: int) -> int:
     """The grid points of the largest of the map's ``tiles`` tiles (what a tile job's memory and
     time limit are sized by). A map with several start times gives each start time
     ``tiles / starts`` bands (:func:`ldpipe.core.maps.grid.start_time_band`), so a tile is a band of
-    one start time's grid, not ``1 / tiles`` of one start time's grid."""
+    one start time's grid, not ``1 / tiles`` of one start time's grid. A map with noise counts
+    its paths (:func:`ldpipe.core.maps.grid.paths_per_point`)."""
     parameters = parameters_from_config(config, "ld", map_name)
     axes = parameters["section"]["axes"]
     rows, columns = axes[0]["points"], axes[1]["points"]
     bands = max(1, tiles // len(map_start_times(parameters) or [None]))
-    return -(-rows // bands) * columns  # the widest band of tile_rows holds ceil(rows / bands) rows
+    # the widest band of tile_rows holds ceil(rows / bands) rows; a map with noise counts its paths
+    return -(-rows // bands) * columns * paths_per_point(parameters)
 
 
 def nhim_study_inputs(config: dict, study: str) -> dict[str, list[str]]:

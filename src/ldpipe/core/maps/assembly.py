@@ -34,7 +34,8 @@ from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
 from .grid import (BOTH, DIRECTIONS, add_ftle, add_variational_ftle, directions_setting, gather_tiles, ld_grid_dataset,
-                   map_directions, map_start_times, resolve_ld_map, start_time_band, tile_rows)
+                   map_directions, map_start_times, paths_per_point, resolve_ld_map, start_time_band, tile_rows)
+from .stochastic import noise_attributes, resolve_noise, stochastic_grid_dataset
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
 log = get_logger(__name__)
@@ -144,8 +145,11 @@ def compute_ld_map(
     system, section, settings, info = resolve_map(parameters, equilibria)
     block, whole_map = rows is not None, tiles == 1 and rows is None
     rows = tile_rows(section.shape[0], tile, tiles) if rows is None else rows
-    check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1],
-                      section.shape[0] * section.shape[1])
+    # a map with noise holds every member's fields: a path costs what a point does
+    members = paths_per_point(parameters)
+    check_band_memory(parameters["map_name"], (rows.stop - rows.start) * section.shape[1] * members,
+                      section.shape[0] * section.shape[1] * members,
+                      what="grid points" if members == 1 else f"noisy paths ({members} members a grid point)")
     where = (f"t0 = {info['t0']:.12g}" if info["energy"] is None
              else f"E = {info['energy']:.12g} (dE = {info['excess_energy']:.6g})")
     log.info(
@@ -154,7 +158,12 @@ def compute_ld_map(
         where, settings.tau, parameters["time"], settings.scheme,
     )
     ftle = parameters.get("ftle", False)
-    if parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
+    noisy = parameters.get("noise") is not None
+    if noisy:  # an ensemble of noisy paths per point (ldpipe.core.maps.stochastic)
+        noise, stochastic = resolve_noise(parameters, system)
+        dataset = stochastic_grid_dataset(system, section, settings, noise, stochastic, rows=rows, t0=info["t0"],
+                                          directions=directions_setting(parameters))
+    elif parameters.get("refine") is not None:  # an adaptive map (ldpipe.core.maps.adaptive); never an FTLE map
         refine = RefineSettings.from_config(parameters["refine"])
         dataset = adaptive_ld_dataset(system, section, info["energy"], settings, refine, rows=rows,
                                       show_progress=show_progress, t0=info["t0"],
@@ -171,6 +180,10 @@ def compute_ld_map(
     elif ftle and whole_map:
         add_ftle(dataset, system.phase_coordinates, settings.tau, on_sphere(parameters["system_spec"]), section.solve)
     dataset.attrs.update(_attributes(parameters, settings, info, engine_escape_radius(system, settings.escape_radius)))
+    if noisy:  # the SDE scheme's settings in place of the deterministic integrator's
+        for name in ("rtol", "atol", "taylor_order", "quadrature_window", "quad_nodes"):
+            dataset.attrs.pop(name)
+        dataset.attrs.update(noise_attributes(noise, stochastic, settings.tau))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
     add_ld_units(dataset, system, settings.p)
@@ -178,10 +191,12 @@ def compute_ld_map(
     return dataset
 
 
-def check_band_memory(map_name: str, points: int, map_points: int, available_mb: int | None = None) -> None:
-    """A ConfigError naming the map's ``tiles`` if a band of ``points`` grid points needs more memory
-    than this machine has (``available_mb``, default its physical memory): refused before any
-    trajectory is integrated, with the estimate and the tiles that would fit."""
+def check_band_memory(map_name: str, points: int, map_points: int, available_mb: int | None = None,
+                      what: str = "grid points") -> None:
+    """A ConfigError naming the map's ``tiles`` if a band of ``points`` grid points (or ``what``
+    they are: a map with noise counts its paths) needs more memory than this machine has
+    (``available_mb``, default its physical memory): refused before any trajectory is integrated,
+    with the estimate and the tiles that would fit."""
     available_mb = machine_memory_mb() if available_mb is None else available_mb
     need = band_memory_mb(points)
     if available_mb is None or need <= available_mb:
@@ -189,7 +204,7 @@ def check_band_memory(map_name: str, points: int, map_points: int, available_mb:
     tiles = fewest_tiles(map_points, available_mb)
     fix = (f"give tiles: {tiles} or more (the workflow runs each as a job of its own), or fewer points"
            if tiles else "give fewer points")
-    raise ConfigError(f"config key 'ld_maps.{map_name}.tiles': a band of {points} grid points needs about "
+    raise ConfigError(f"config key 'ld_maps.{map_name}.tiles': a band of {points} {what} needs about "
                       f"{need} MB ({BYTES_PER_POINT} bytes a point and {BASE_MB} MB for the process), more than "
                       f"this machine's {available_mb} MB; {fix}")
 
@@ -337,10 +352,12 @@ def finish_ld_map(datasets: list[xr.Dataset], common: dict) -> xr.Dataset:
         if name in joined.attrs:  # an adaptive map: every tile's trajectories
             joined.attrs[name] = sum(int(d.attrs[name]) for d in datasets)
     note_allowed_points(joined, whole_map=True)
-    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units)
-    joined.attrs.update(calendar_attributes(common["system_spec"], f"systems.{common['system_name']}",
-                                            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0),
-                                            joined.attrs["tau"]))
+    # data on a calendar: the start times and tau in dates too (the numbers are the data's time units;
+    # a discrete map counts iterations, not time)
+    if "tau" in joined.attrs:
+        joined.attrs.update(calendar_attributes(
+            common["system_spec"], f"systems.{common['system_name']}",
+            joined["t0"].values if starts is not None else joined.attrs.get("t0", 0.0), joined.attrs["tau"]))
     add_map_classification(joined)  # a discrete map's chaos indicators, over the whole map
     return stage_dataset(joined, stage=map_contract(common, tile_file=False), title=map_title(common),
                          parameters={**common, "tiles": len(datasets)})

@@ -126,6 +126,13 @@ def map_start_times(parameters: dict) -> list[float] | None:
     return None
 
 
+def paths_per_point(parameters: dict) -> int:
+    """The trajectories a map integrates from each grid point in each direction: a map with noise
+    its ``members`` (:mod:`ldpipe.core.maps.stochastic`), any other map one."""
+    noise = parameters.get("noise")
+    return 1 if noise is None else noise["members"]
+
+
 def start_time_band(starts: list[float], tile: int, tiles: int) -> tuple[int, int, int]:
     """(start index, band, bands) of tile ``tile`` of ``tiles`` of a map with several start
     times: the tiles run over the start times, each split into the same number of bands of rows."""

@@ -109,6 +109,9 @@ class MapBlocks:
         if parameters.get("refine") is not None:
             raise ConfigError(f"config key '{key}.chunks': an adaptive map (refine) is not computed in blocks; "
                               "leave chunks or refine out")
+        if parameters.get("noise") is not None:
+            raise ConfigError(f"config key '{key}.chunks': a map with noise (its member dimension) is not computed "
+                              "in blocks; leave chunks out (tiles give the same bits)")
         if parameters.get("tiles", 1) != 1:
             raise ConfigError(f"config key '{key}.chunks': chunks cut the map into blocks instead of tiles; "
                               "leave tiles out")

@@ -1,0 +1,205 @@
+"""The finite-size Lyapunov exponent (FSLE) of a flow over a grid, forward and backward, as AVISO
+computes it (d'Ovidio et al. 2004).
+
+Each grid point is advected with its four neighbours at the initial separation δ0 along the two
+axes (±δ0 on each). The FSLE is λ = ln(δf / δ0) / τ, where τ is the first time any neighbour's
+distance from the point reaches the final separation δf; where none does within the maximum time,
+λ = 0 (AVISO's convention) and the point is flagged as not reached. Distances are Euclidean in the
+axes' own units (degrees for longitude and latitude, as AVISO's δ0 = 0.04° and δf = 0.6°).
+
+The particles are advanced by the flow map (:func:`ldpipe.core.trajectories.flow_map`) over
+checking intervals; between two checks the distance is taken as growing exponentially (linear in
+its logarithm), so a pair whose separation grows as e^(λt) reaches δf at exactly ln(δf/δ0)/λ.
+
+The direction of stretching: at the check where δf is reached, the deformation gradient by
+central differences of the four neighbours, F = [(x₊₀ − x₋₀), (x₊₁ − x₋₁)] / (2 δ0), and the
+eigenvector of the Cauchy–Green tensor FᵀF with the largest eigenvalue: the direction at the start
+that the flow stretches most, as an angle from the first axis in (−π/2, π/2].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import xarray as xr
+
+from ...errors import ConfigError
+from ...io.contracts import FSLE
+from ...io.datafile import stage_dataset
+from ..trajectories import COMPLETED, FlowSettings, flow_map
+
+#: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing).
+DEFAULTS = {"initial_separation": None, "final_separation": None, "max_time": None, "interval": None,
+            "t0": 0.0, "integrator": {}}
+INTEGRATOR_KEYS = ("rtol", "atol", "escape_radius", "max_steps")
+# the direction of a neighbour's offset from its point: (axis, sign) for the 4 neighbours
+NEIGHBOURS = ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))
+
+
+def _positive(value, key: str, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{where}: {key}: {value!r}; expected a finite number > 0")
+    return float(value)
+
+
+def check_fsle_parameters(parameters: dict, spacing: tuple[float, float], where: str = "fsle",
+                          key: str = "key") -> dict:
+    """``parameters`` with the defaults filled and checked; a ConfigError naming the key
+    (``key`` says what a key is called where the parameters come from: 'key', 'argument')."""
+    unknown = sorted(set(parameters) - set(DEFAULTS))
+    if unknown:
+        raise ConfigError(f"{where}: unknown {key}s {unknown}; allowed are {sorted(DEFAULTS)}")
+    checked = {**DEFAULTS, **parameters}
+    name = lambda k: f"{key} {k!r}"  # noqa: E731
+    for required in ("final_separation", "max_time"):
+        if checked[required] is None:
+            raise ConfigError(f"{where}: {name(required)} is required")
+    delta0 = min(spacing) if checked["initial_separation"] is None else checked["initial_separation"]
+    checked["initial_separation"] = _positive(delta0, name("initial_separation"), where)
+    checked["final_separation"] = _positive(checked["final_separation"], name("final_separation"), where)
+    if checked["final_separation"] <= checked["initial_separation"]:
+        raise ConfigError(f"{where}: {name('final_separation')}: {checked['final_separation']}; expected more "
+                          f"than the initial separation {checked['initial_separation']}")
+    checked["max_time"] = _positive(checked["max_time"], name("max_time"), where)
+    interval = checked["max_time"] / 100 if checked["interval"] is None else checked["interval"]
+    checked["interval"] = min(_positive(interval, name("interval"), where), checked["max_time"])
+    t0 = checked["t0"]
+    if isinstance(t0, bool) or not isinstance(t0, (int, float)) or not math.isfinite(t0):
+        raise ConfigError(f"{where}: {name('t0')}: {t0!r}; expected a finite number")
+    checked["t0"] = float(t0)
+    integrator = checked["integrator"] or {}
+    if not isinstance(integrator, dict) or set(integrator) - set(INTEGRATOR_KEYS):
+        raise ConfigError(f"{where}: {name('integrator')}: {integrator!r}; expected a mapping of some of "
+                          f"{list(INTEGRATOR_KEYS)}")
+    try:
+        FlowSettings(**integrator)
+    except ValueError as error:
+        raise ConfigError(f"{where}: {name('integrator')}: {error}") from None
+    checked["integrator"] = dict(integrator)
+    return checked
+
+
+def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray]], fixed: dict, direction: int,
+               parameters: dict, *, threads: int | None = None) -> dict[str, np.ndarray]:
+    """The FSLE of ``system`` (a vector field) over the grid ``axes`` ((name, values) twice; the
+    other coordinates at ``fixed``) in ``direction`` (+1 forward, -1 backward), with checked
+    ``parameters`` (:func:`check_fsle_parameters`): ``fsle``, ``reached``, ``time`` (τ, 0 where not
+    reached), ``angle`` (of stretching, 0 where not reached) and ``defined`` (False where a
+    particle stopped, escaped or failed, before its point reached δf), each (n0, n1)."""
+    names = [name for name, _ in axes]
+    coordinates = list(system.coordinates)
+    index = [coordinates.index(name) for name in names]
+    grid = np.meshgrid(*(np.asarray(values, float) for _, values in axes), indexing="ij")
+    shape = grid[0].shape
+    count = grid[0].size
+    base = np.zeros((count, len(coordinates)))
+    for name, value in fixed.items():
+        base[:, coordinates.index(name)] = float(value)
+    base[:, index[0]], base[:, index[1]] = grid[0].ravel(), grid[1].ravel()
+    delta0, delta_f = parameters["initial_separation"], parameters["final_separation"]
+    particles = np.repeat(base[:, None, :], 5, axis=1)  # the point, then its neighbours
+    for k, (axis, sign) in enumerate(NEIGHBOURS, start=1):
+        particles[:, k, index[axis]] += sign * delta0
+    settings = FlowSettings(**parameters["integrator"])
+    reached = np.zeros(count, dtype=bool)
+    stopped = np.zeros(count, dtype=bool)
+    time = np.zeros(count)
+    angle = np.zeros(count)
+    log_previous = np.full((count, 4), math.log(delta0))
+    interval, max_time = parameters["interval"], parameters["max_time"]
+    checks = max(1, math.ceil(max_time / interval - 1e-9))
+    elapsed = 0.0
+    for _ in range(checks):
+        active = np.flatnonzero(~reached & ~stopped)
+        if not len(active):
+            break
+        step = min(interval, max_time - elapsed)
+        moved = flow_map(system, particles[active].reshape(-1, len(coordinates)), direction * step, settings,
+                         t0=parameters["t0"] + direction * elapsed, threads=threads)
+        particles[active] = moved.end_state.reshape(len(active), 5, -1)
+        ok = (moved.status == COMPLETED).reshape(len(active), 5).all(axis=1)
+        plane = particles[active][:, :, index]
+        log_now = np.log(np.maximum(np.linalg.norm(plane[:, 1:] - plane[:, :1], axis=-1), 1e-300))
+        log_target = math.log(delta_f)
+        crossed = (log_now >= log_target) & ok[:, None]
+        hit = crossed.any(axis=1)
+        if hit.any():
+            before, after = log_previous[active][hit], log_now[hit]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                fraction = np.where(after > before, (log_target - before) / (after - before), 1.0)
+            fraction = np.where(crossed[hit], np.clip(fraction, 0.0, 1.0), np.inf)
+            time[active[hit]] = elapsed + step * fraction.min(axis=1)
+            reached[active[hit]] = True
+            angle[active[hit]] = _stretching_angle(plane[hit], delta0)
+        stopped[active[~ok]] = True
+        log_previous[active] = log_now
+        elapsed += step
+    stopped &= ~reached
+    with np.errstate(divide="ignore"):
+        fsle = np.where(reached, math.log(delta_f / delta0) / np.where(reached, time, 1.0), 0.0)
+    return {"fsle": fsle.reshape(shape), "reached": reached.reshape(shape), "time": time.reshape(shape),
+            "angle": angle.reshape(shape), "defined": (~stopped).reshape(shape)}
+
+
+def _stretching_angle(plane: np.ndarray, delta0: float) -> np.ndarray:
+    """The angle from the first axis of the initial direction stretched most: the largest
+    eigenvector of FᵀF, F from the neighbours' central differences (``plane`` (k, 5, 2))."""
+    columns = np.stack([(plane[:, 1] - plane[:, 2]), (plane[:, 3] - plane[:, 4])], axis=-1) / (2 * delta0)
+    cauchy_green = np.einsum("kij,kil->kjl", columns, columns)
+    vectors = np.linalg.eigh(cauchy_green)[1][:, :, -1]
+    angle = np.arctan2(vectors[:, 1], vectors[:, 0])
+    # a direction, not a vector: folded into (-pi/2, pi/2]
+    angle = np.where(angle > math.pi / 2, angle - math.pi, angle)
+    return np.where(angle <= -math.pi / 2, angle + math.pi, angle)
+
+
+def fsle_dataset(system, section: dict, parameters: dict, *, threads: int | None = None, where: str = "fsle",
+                 key: str = "key") -> xr.Dataset:
+    """The FSLE file of ``system`` over ``section`` (``{"axes": [{name, range, points}] × 2,
+    "fixed": {...}}``, as an LD map's section block): forward and backward fields, with the checked
+    ``parameters`` recorded as attributes. A ConfigError begins with ``where`` and names a bad
+    parameter as a ``key`` (or, from the API, an 'argument')."""
+    if system.hamiltonian:
+        raise ConfigError(f"{where}: system {system.name!r} is a Hamiltonian; the FSLE is computed for vector "
+                          "fields and velocity data")
+    axes_spec = section.get("axes", [])
+    if len(axes_spec) != 2:
+        raise ConfigError(f"{where}: section: expected two axes")
+    axes = tuple((axis["name"], np.linspace(*axis["range"], int(axis["points"]))) for axis in axes_spec)
+    fixed = dict(section.get("fixed") or {})
+    names = [name for name, _ in axes] + list(fixed)
+    unknown = sorted(set(names) - set(system.coordinates))
+    missing = sorted(set(system.coordinates) - set(names))
+    if unknown or missing or len(set(names)) != len(names):
+        raise ConfigError(f"{where}: section: axes and fixed must name each of {list(system.coordinates)} once "
+                          f"(unknown {unknown}, missing {missing})")
+    spacing = tuple(abs(float(values[1] - values[0])) if len(values) > 1 else math.inf for _, values in axes)
+    parameters = check_fsle_parameters(dict(parameters), spacing, where, key)
+    dims = tuple(name for name, _ in axes)
+    variables = {}
+    for label, direction in (("forward", 1), ("backward", -1)):
+        result = fsle_field(system, axes, fixed, direction, parameters, threads=threads)
+        variables[f"fsle_{label}"] = (dims, result["fsle"], {
+            "long_name": f"finite-size Lyapunov exponent, {label} time", "units": "1/time",
+            "comment": "ln(final_separation / initial_separation) / the first time a neighbour reaches the final "
+                       "separation; 0 where none does within max_time (see fsle_reached)"})
+        variables[f"fsle_reached_{label}"] = (dims, result["reached"], {
+            "long_name": f"a neighbour reached the final separation within max_time ({label})"})
+        variables[f"fsle_time_{label}"] = (dims, result["time"], {
+            "long_name": f"time to reach the final separation ({label}); 0 where not reached", "units": "time"})
+        variables[f"fsle_angle_{label}"] = (dims, result["angle"], {
+            "long_name": f"initial direction stretched most ({label}), from the first axis", "units": "radian",
+            "comment": "largest eigenvector of the Cauchy-Green tensor of the neighbours' deformation when the "
+                       "final separation is reached; 0 where not reached"})
+        variables[f"fsle_defined_{label}"] = (dims, result["defined"], {
+            "long_name": f"no particle of the point stopped before it reached the final separation ({label})"})
+    dataset = xr.Dataset(variables, coords={name: values for name, values in axes})
+    dataset.attrs.update({
+        "system": system.name, "t0": parameters["t0"], "initial_separation": parameters["initial_separation"],
+        "final_separation": parameters["final_separation"], "max_time": parameters["max_time"],
+        "interval": parameters["interval"], "neighbours": "the four at +-initial_separation along the two axes",
+        **{key: value for key, value in FlowSettings(**parameters["integrator"]).__dict__.items()},
+    })
+    return stage_dataset(dataset, stage=FSLE, title=f"FSLE of {system.name}",
+                         parameters={**parameters, "section": section})

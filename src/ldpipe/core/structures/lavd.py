@@ -1,0 +1,291 @@
+"""The Lagrangian-averaged vorticity deviation (LAVD, Haller et al. 2016) and rotationally coherent
+vortices: their centres and boundaries.
+
+    LAVD(x0) = ∫_{t0}^{t0+T} |ω(x(s), s) − ω̄(s)| ds,
+
+ω the vorticity ∂v/∂x − ∂u/∂y along the trajectory from x0 and ω̄(s) its mean over the region the
+grid's particles fill at time s (the mean over the particles: they start evenly spread and an
+incompressible flow keeps their areas). The particles are advanced by the flow map
+(:func:`ldpipe.core.trajectories.flow_map`) over ``interval`` steps, the vorticity taken at every
+step from the system's Jacobian, and the integral by the trapezoidal rule (error O(interval²) for
+a smooth integrand).
+
+A rotationally coherent vortex is centred on a maximum of the LAVD; its boundary is the outermost
+LAVD level whose superlevel set around the maximum is bounded by one closed curve, convex enough:
+its convexity deficiency, (area of its convex hull − its area) / its area, at most
+``convexity_deficiency``. Levels are tried from the maximum down in ``levels`` equal steps to the
+field's minimum; at each, of the closed contours around the maximum the innermost (the boundary
+of the superlevel component that holds the maximum) is taken.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import xarray as xr
+
+from ...errors import ConfigError
+from ...io.contracts import LAVD
+from ...io.datafile import stage_dataset
+from ..trajectories import COMPLETED, FlowSettings, flow_map
+
+DEFAULTS = {"duration": None, "interval": None, "t0": 0.0, "levels": 100, "convexity_deficiency": 0.01,
+            "min_points": 8, "integrator": {}}
+INTEGRATOR_KEYS = ("rtol", "atol", "escape_radius", "max_steps")
+
+
+def check_lavd_parameters(parameters: dict, where: str = "lavd", key: str = "key") -> dict:
+    """``parameters`` with the defaults filled and checked; a ConfigError naming the bad one."""
+    unknown = sorted(set(parameters) - set(DEFAULTS))
+    if unknown:
+        raise ConfigError(f"{where}: unknown {key}s {unknown}; allowed are {sorted(DEFAULTS)}")
+    checked = {**DEFAULTS, **parameters}
+
+    def number(name, positive=True):
+        value = checked[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                or (positive and value <= 0):
+            raise ConfigError(f"{where}: {key} {name!r}: {value!r}; expected a finite number"
+                              + (" > 0" if positive else ""))
+        return float(value)
+
+    if checked["duration"] is None:
+        raise ConfigError(f"{where}: {key} 'duration' is required (the integration time T, negative: backward)")
+    duration = checked["duration"]
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not math.isfinite(duration) \
+            or duration == 0:
+        raise ConfigError(f"{where}: {key} 'duration': {duration!r}; expected a finite nonzero number")
+    checked["duration"] = float(duration)
+    if checked["interval"] is None:
+        checked["interval"] = abs(checked["duration"]) / 100
+    checked["interval"] = min(number("interval"), abs(checked["duration"]))
+    checked["t0"] = number("t0", positive=False)
+    checked["convexity_deficiency"] = number("convexity_deficiency")
+    for name, low in (("levels", 2), ("min_points", 3)):
+        value = checked[name]
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise ConfigError(f"{where}: {key} {name!r}: {value!r}; expected an integer of at least {low}")
+    integrator = checked["integrator"] or {}
+    if not isinstance(integrator, dict) or set(integrator) - set(INTEGRATOR_KEYS):
+        raise ConfigError(f"{where}: {key} 'integrator': {integrator!r}; expected a mapping of some of "
+                          f"{list(INTEGRATOR_KEYS)}")
+    try:
+        FlowSettings(**integrator)
+    except ValueError as error:
+        raise ConfigError(f"{where}: {key} 'integrator': {error}") from None
+    checked["integrator"] = dict(integrator)
+    return checked
+
+
+def vorticity(system, states: np.ndarray, t: float, index: tuple[int, int]) -> np.ndarray:
+    """∂v/∂x − ∂u/∂y at each of ``states`` (k, n) and time ``t``, the plane's coordinates at
+    ``index``, from the system's Jacobian."""
+    i, k = index
+    return np.array([(lambda jac: jac[k, i] - jac[i, k])(system.jacobian(state, t)) for state in states])
+
+
+def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | None = None) -> dict[str, np.ndarray]:
+    """The LAVD over the grid ``axes`` ((name, values) twice, the other coordinates at ``fixed``):
+    ``lavd`` and ``defined`` (no particle of the grid stopped), each (n0, n1), and ``end`` (n0, n1,
+    2) where each point is after the duration."""
+    coordinates = list(system.coordinates)
+    index = tuple(coordinates.index(name) for name, _ in axes)
+    grid = np.meshgrid(*(np.asarray(values, float) for _, values in axes), indexing="ij")
+    shape = grid[0].shape
+    states = np.zeros((grid[0].size, len(coordinates)))
+    for name, value in fixed.items():
+        states[:, coordinates.index(name)] = float(value)
+    states[:, index[0]], states[:, index[1]] = grid[0].ravel(), grid[1].ravel()
+    settings = FlowSettings(**parameters["integrator"])
+    duration, t0 = parameters["duration"], parameters["t0"]
+    sign = 1.0 if duration > 0 else -1.0
+    checks = max(1, math.ceil(abs(duration) / parameters["interval"] - 1e-9))
+    times = t0 + sign * np.minimum(np.arange(checks + 1) * parameters["interval"], abs(duration))
+    defined = np.ones(len(states), dtype=bool)
+    previous = None
+    total = np.zeros(len(states))
+    for step in range(checks + 1):
+        if step:
+            moved = flow_map(system, states, times[step] - times[step - 1], settings, t0=times[step - 1],
+                             threads=threads)
+            states = moved.end_state
+            defined &= moved.status == COMPLETED
+        omega = vorticity(system, states, float(times[step]), index)
+        deviation = np.abs(omega - omega[defined].mean() if defined.any() else omega)
+        if previous is not None:
+            total += 0.5 * (previous + deviation) * abs(times[step] - times[step - 1])
+        previous = deviation
+    return {"lavd": np.where(defined, total, 0.0).reshape(shape), "defined": defined.reshape(shape),
+            "end": states[:, list(index)].reshape(*shape, 2)}
+
+
+def _area(ring: np.ndarray) -> float:
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _hull_area(points: np.ndarray) -> float:
+    """The area of the convex hull of ``points`` (Andrew's monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(points, 15))))
+    if len(pts) < 3:
+        return 0.0
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return _area(np.array(lower[:-1] + upper[:-1]))
+
+
+def _inside(ring: np.ndarray, point) -> bool:
+    """Whether ``point`` lies inside the closed polygon ``ring`` (even-odd rule)."""
+    x, y = point
+    xs, ys = ring[:, 0], ring[:, 1]
+    xn, yn = np.roll(xs, -1), np.roll(ys, -1)
+    crosses = (ys > y) != (yn > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        at = xs + (y - ys) * (xn - xs) / (yn - ys)
+    return bool(np.count_nonzero(crosses & (x < at)) % 2)
+
+
+def _maxima(field: np.ndarray, defined: np.ndarray) -> list[tuple[int, int]]:
+    """Interior pixels above all eight neighbours, every one defined; the highest first."""
+    n0, n1 = field.shape
+    found = []
+    for i in range(1, n0 - 1):
+        for j in range(1, n1 - 1):
+            block = field[i - 1:i + 2, j - 1:j + 2]
+            if defined[i - 1:i + 2, j - 1:j + 2].all() and field[i, j] == block.max() \
+                    and np.count_nonzero(block == field[i, j]) == 1:
+                found.append((i, j))
+    return sorted(found, key=lambda ij: -field[ij])
+
+
+def _peak(field: np.ndarray, axes, i: int, j: int) -> tuple[float, float]:
+    """The maximum to sub-pixel accuracy: the vertex of the quadratic through the 3 × 3 block."""
+    f = field
+    g = np.array([(f[i + 1, j] - f[i - 1, j]) / 2, (f[i, j + 1] - f[i, j - 1]) / 2])
+    h = np.array([[f[i + 1, j] - 2 * f[i, j] + f[i - 1, j],
+                   (f[i + 1, j + 1] - f[i + 1, j - 1] - f[i - 1, j + 1] + f[i - 1, j - 1]) / 4],
+                  [0.0, f[i, j + 1] - 2 * f[i, j] + f[i, j - 1]]])
+    h[1, 0] = h[0, 1]
+    try:
+        step = -np.linalg.solve(h, g)
+    except np.linalg.LinAlgError:
+        step = np.zeros(2)
+    step = np.clip(step, -0.5, 0.5)
+    return tuple(float(np.interp(index + s, np.arange(len(values)), values))
+                 for index, s, values in zip((i, j), step, axes))
+
+
+def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: dict) -> list[dict]:
+    """The rotationally coherent vortices of an LAVD field: for each maximum (highest first, none
+    inside an earlier vortex), its ``centre``, ``boundary`` (m, 2, closed), ``level``, ``area`` and
+    ``convexity_deficiency``; maxima with no acceptable contour are left out."""
+    import contourpy  # here: only the vortex search needs it
+
+    coordinates = [np.asarray(values, float) for values in axes]
+    masked = np.ma.masked_array(field, mask=~defined)
+    generator = contourpy.contour_generator(coordinates[0], coordinates[1], masked.T,
+                                            line_type=contourpy.LineType.Separate)
+    low = float(field[defined].min())
+    vortices = []
+    for i, j in _maxima(field, defined):
+        centre = _peak(field, coordinates, i, j)
+        if any(_inside(v["boundary"], centre) for v in vortices):
+            continue
+        best = None
+        for level in np.linspace(field[i, j], low, parameters["levels"] + 1)[1:-1]:
+            rings = [ring for ring in generator.lines(level)
+                     if len(ring) >= parameters["min_points"] and np.allclose(ring[0], ring[-1])
+                     and _inside(ring, centre)]
+            if not rings:
+                if best is None:  # a contour too small to draw yet, next to the maximum
+                    continue
+                break
+            ring = min(rings, key=_area)
+            area = _area(ring)
+            deficiency = (_hull_area(ring) - area) / area if area > 0 else math.inf
+            if deficiency > parameters["convexity_deficiency"]:
+                break
+            best = {"centre": centre, "boundary": ring, "level": float(level), "area": area,
+                    "convexity_deficiency": deficiency}
+        if best is not None:
+            vortices.append(best)
+    return vortices
+
+
+def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None = None, where: str = "lavd",
+                 key: str = "key") -> xr.Dataset:
+    """The LAVD file of ``system`` (a vector field with formulas) over ``section`` (two axes, the
+    other coordinates fixed): the field, and its coherent vortices as a CF contiguous ragged array
+    (per vortex its boundary's points along ``point``, ``point_count``, centre, area, level and
+    convexity deficiency)."""
+    if system.hamiltonian or not hasattr(system, "jacobian") or not hasattr(system, "expressions"):
+        raise ConfigError(f"{where}: system {system.name!r}: the LAVD takes the vorticity from a vector field's "
+                          "formulas")
+    axes_spec = section.get("axes", [])
+    if len(axes_spec) != 2:
+        raise ConfigError(f"{where}: section: expected two axes")
+    axes = tuple((axis["name"], np.linspace(*axis["range"], int(axis["points"]))) for axis in axes_spec)
+    fixed = dict(section.get("fixed") or {})
+    names = [name for name, _ in axes] + list(fixed)
+    if sorted(names) != sorted(system.coordinates):
+        raise ConfigError(f"{where}: section: axes and fixed must name each of {list(system.coordinates)} once")
+    parameters = check_lavd_parameters(dict(parameters), where, key)
+    result = lavd_field(system, axes, fixed, parameters, threads=threads)
+    values = [v for _, v in axes]
+    vortices = coherent_vortices(result["lavd"], result["defined"], values, parameters)
+    dims = tuple(name for name, _ in axes)
+    boundary = np.concatenate([v["boundary"] for v in vortices]) if vortices else np.zeros((0, 2))
+    per_vortex = lambda name: np.array([v[name] for v in vortices], dtype=float)  # noqa: E731
+    centres = np.array([v["centre"] for v in vortices]).reshape(-1, 2)
+    if len(centres):
+        fixed_columns = {name: np.full(len(centres), float(value)) for name, value in fixed.items()}
+        starts = np.zeros((len(centres), len(system.coordinates)))
+        for name, column in fixed_columns.items():
+            starts[:, system.coordinates.index(name)] = column
+        for k, name in enumerate(dims):
+            starts[:, system.coordinates.index(name)] = centres[:, k]
+        ends = flow_map(system, starts, parameters["duration"], FlowSettings(**parameters["integrator"]),
+                        t0=parameters["t0"], threads=threads).end_state
+        centre_end = ends[:, [system.coordinates.index(name) for name in dims]]
+    else:
+        centre_end = np.zeros((0, 2))
+    variables = {
+        "lavd": (dims, result["lavd"], {"long_name": "Lagrangian-averaged vorticity deviation",
+                                        "units": "vorticity * time",
+                                        "comment": "integral of |vorticity - its mean over the particles| along the "
+                                                   "trajectory; 0 where not defined (see lavd_defined)"}),
+        "lavd_defined": (dims, result["defined"], {"long_name": "the trajectory ran the whole duration"}),
+        f"boundary_{dims[0]}": (("point",), boundary[:, 0], {"long_name": f"{dims[0]} of the vortex boundary"}),
+        f"boundary_{dims[1]}": (("point",), boundary[:, 1], {"long_name": f"{dims[1]} of the vortex boundary"}),
+        "point_count": (("vortex",), np.array([len(v["boundary"]) for v in vortices], dtype=np.int64),
+                        {"long_name": "points of the vortex boundary (closed: the last repeats the first)",
+                         "sample_dimension": "point"}),
+        f"centre_{dims[0]}": (("vortex",), centres[:, 0], {"long_name": f"{dims[0]} of the LAVD maximum, at t0"}),
+        f"centre_{dims[1]}": (("vortex",), centres[:, 1], {"long_name": f"{dims[1]} of the LAVD maximum, at t0"}),
+        f"centre_end_{dims[0]}": (("vortex",), centre_end[:, 0], {"long_name": f"{dims[0]} of the centre advected "
+                                                                               "to t0 + duration"}),
+        f"centre_end_{dims[1]}": (("vortex",), centre_end[:, 1], {"long_name": f"{dims[1]} of the centre advected "
+                                                                               "to t0 + duration"}),
+        "area": (("vortex",), per_vortex("area"), {"long_name": "area inside the boundary, at t0"}),
+        "level": (("vortex",), per_vortex("level"), {"long_name": "the LAVD on the boundary"}),
+        "convexity_deficiency": (("vortex",), per_vortex("convexity_deficiency"), {
+            "long_name": "(convex hull area - area) / area of the boundary"}),
+    }
+    dataset = xr.Dataset(variables, coords={name: values for name, values in axes})
+    dataset.attrs.update({"system": system.name, "axes": " ".join(dims),
+                          **{k: v for k, v in parameters.items() if k != "integrator"},
+                          **FlowSettings(**parameters["integrator"]).__dict__})
+    return stage_dataset(dataset, stage=LAVD, title=f"LAVD of {system.name}", parameters={**parameters,
+                                                                                        "section": section})

@@ -1,0 +1,136 @@
+"""Template: ``sde_process``, fixed-step integration of dx = f(x, t) dt + G(x, t) dW and the LD
+of the drift along each noisy path.
+
+A work item k is one member of one trajectory: the start state ``states[k]``, the trajectory's
+index in its whole map ``index[k // MEMBERS_STRIDE]`` (``members`` items per trajectory), and its
+member ``k % members``. Its Brownian increments come from Philox (``philox.py``): the key is
+(seed, the start time's bits), the counter (draw block, trajectory index, member, direction), so
+an item's path depends on those numbers alone, never on the batch, thread or tile it runs in.
+
+The step (``h``, ``n_steps`` of them cover tau exactly), in the time s = |t - t0| with
+t = t0 + direction s (backward: the drift reversed, the noise as forward, fresh increments):
+
+- Euler-Maruyama (``scheme`` 0): x += direction f h + G dW, dW = sqrt(h) xi;
+- Milstein (``scheme`` 1, diagonal G with g_i depending on x_i alone, checked where the noise is
+  parsed): the same plus 1/2 g_i dg_i/dx_i (dW_i^2 - h), strong order one (Kloeden and Platen,
+  sec. 10.3). For additive noise the correction is zero and the two schemes agree bit for bit.
+
+After each step a closed box reflects the state: a coordinate beyond a wall is mirrored into
+the box (folded, so any overshoot lands inside). The LD is the trapezoidal sum of the drift's
+integrand, sum |f_i|^p or ||f||, at the step's ends (the drift, not the path's velocity, which a
+Brownian path does not have). A trajectory whose state leaves the escape radius, or is not finite,
+stops there, flagged, with its LD and time up to the last state inside.
+
+``constant``: G depends on neither the state nor the time, and is evaluated once per path. Only
+the normal numbers a step uses are transformed (``LAST_PAIRS`` Box-Muller pairs of the last
+Philox block); the others of the block are drawn and left, so a path's numbers are those of
+``philox.py``'s stream whatever m is.
+
+Header names used: N, M_NOISE, BLOCKS, LAST_PAIRS, KIND_HALF, KIND_ONE, KIND_ARCLENGTH, the kernels rhs,
+diffusion, diffusion_slope, and ``normals`` of ``philox.py``.
+"""
+# ruff: noqa: F821  (the upper-case constants, njit, JIT, np, math and the kernels come from the generated module)
+
+
+@njit(**JIT)
+def drift_integrand(f, kind, p):
+    """The LD's integrand of the drift f: the arc length's ||f||, or sum |f_i|^p."""
+    total = 0.0
+    if kind == KIND_ARCLENGTH:
+        for i in range(N):
+            total += f[i] * f[i]
+        return math.sqrt(total)
+    for i in range(N):
+        a = abs(f[i])
+        if kind == KIND_HALF:
+            total += math.sqrt(a)
+        elif kind == KIND_ONE:
+            total += a
+        else:
+            total += a ** p
+    return total
+
+
+@njit(**JIT)
+def reflect_into(x, lo, hi, reflecting):
+    """Mirror each reflected coordinate of ``x`` into [lo, hi] (folded for any overshoot)."""
+    for i in range(N):
+        if reflecting[i] and not (x[i] >= lo[i] and x[i] <= hi[i]):
+            width = hi[i] - lo[i]
+            y = (x[i] - lo[i]) % (2.0 * width)
+            if y > width:
+                y = 2.0 * width - y
+            x[i] = lo[i] + y
+
+
+@njit(**JIT)
+def outside(x, lo, hi, reflecting, radius):
+    """The state is not finite, beyond the escape radius, or outside the reflecting box."""
+    for i in range(N):
+        if not (abs(x[i]) <= radius):
+            return True
+        if reflecting[i] and not (x[i] >= lo[i] and x[i] <= hi[i]):
+            return True
+    return False
+
+
+@njit(nogil=True, **JIT)
+def sde_process(
+    states, start, stop, index, members, key0, key1, direction_word, t0, direction, h, n_steps, scheme,
+    kind, p, lo, hi, reflecting, radius, constant,
+    o_ld, o_time, o_escaped, o_started, o_end,
+):  # fmt: skip
+    x = np.zeros(N)
+    f = np.zeros(N)
+    g = np.zeros((N, M_NOISE))
+    slope = np.zeros(N)
+    xi = np.zeros(4 * BLOCKS)
+    root_h = math.sqrt(h)
+    for k in range(start, stop):
+        trajectory = np.uint64(index[k // members])
+        member = np.uint64(k % members)
+        for i in range(N):
+            x[i] = states[k, i]
+        o_ld[k] = 0.0
+        o_time[k] = 0.0
+        o_escaped[k] = False
+        o_started[k] = not outside(x, lo, hi, reflecting, radius)
+        if o_started[k]:
+            if constant:  # G depends on neither the state nor the time: once per path
+                diffusion(x, t0, g)
+            rhs(x, t0, f)
+            value = drift_integrand(f, kind, p)
+            ld = 0.0
+            for s in range(n_steps):
+                t = t0 + direction * s * h
+                for b in range(BLOCKS):
+                    normals(key0, key1, np.uint64(s * BLOCKS + b), trajectory, member, direction_word,
+                            xi[4 * b:4 * b + 4], 2 if b < BLOCKS - 1 else LAST_PAIRS)
+                if not constant:
+                    diffusion(x, t, g)
+                if scheme == 1:
+                    diffusion_slope(x, t, slope)
+                for i in range(N):
+                    step = direction * h * f[i]
+                    for j in range(M_NOISE):
+                        step += g[i, j] * root_h * xi[j]
+                    if scheme == 1:
+                        dw = root_h * xi[i]
+                        step += 0.5 * g[i, i] * slope[i] * (dw * dw - h)
+                    o_end[k, i] = x[i] + step  # the candidate state, kept only if it stays inside
+                for i in range(N):
+                    f[i] = o_end[k, i]
+                reflect_into(f, lo, hi, reflecting)
+                if outside(f, lo, hi, reflecting, radius):
+                    o_escaped[k] = True
+                    break
+                for i in range(N):
+                    x[i] = f[i]
+                rhs(x, t0 + direction * (s + 1) * h, f)
+                after = drift_integrand(f, kind, p)
+                ld += 0.5 * h * (value + after)
+                value = after
+                o_time[k] = (s + 1) * h
+            o_ld[k] = ld
+        for i in range(N):
+            o_end[k, i] = x[i]
