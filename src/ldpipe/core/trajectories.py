@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..engine.api import states_at_end
 from ..engine.integrator import get_runner, run_units
 from ..engine.kinetic import to_engine_states, to_momenta
 from ..engine.settings import DEFAULT_ESCAPE_RADIUS, MAX_STEPS_CEILING, check_tolerances, engine_escape_radius
@@ -212,8 +213,12 @@ def _integrate_vector_field(system, states, duration, settings, section, max_cro
                 engine_escape_radius(system, settings.escape_radius), settings.max_steps, index, float(value),
                 float(direction))
         outputs = (crossings, crossing_times, n_cross, status, final_time, steps)
+        engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
         with system.time_window(t0, t0 + float(duration)):
-            run_units(runner, states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
+            run_units(runner, engine_states, max(1, min(64, count // (8 * threads))), args, outputs, threads)
+        if engine_states is not states:  # the crossings as state variables
+            found = np.arange(max_crossings)[None, :] < n_cross[:, None]
+            crossings[found] = system.states_from_engine(crossings[found])
     return Trajectories(np.zeros(0), np.zeros((count, 0, m)), np.zeros(count, dtype=np.int64), crossings,
                         crossing_times, n_cross, status, final_time, steps)
 
@@ -250,7 +255,9 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
         runner = get_vector_field_runner(system, ENDPOINTS)
         args = (float(t0), 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.rtol, settings.atol,
                 engine_escape_radius(system, settings.escape_radius), settings.max_steps)
+        engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
         with system.time_window(t0, t0 + float(duration)):
-            run_units(runner, states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+            run_units(runner, engine_states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+        outputs = (states_at_end(system, states, engine_states, outputs[0]),) + outputs[1:]
     end, status, elapsed, steps = outputs
     return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)

@@ -11,6 +11,9 @@ x = R cos(37.5 deg) (lon - lon_c), y = R (lat - 37.5 deg), is
 u = -d psi/dy, v = d psi/dx. Nothing here is fitted to observations: it looks like a western
 boundary current's extension and is known exactly.
 
+With ``--files N`` the example is written as N files along time (``example_000.nc``, ... in the
+directory OUTPUT), as a model writes its output, for a ``velocity_data`` entry's glob.
+
 With ``--depth N`` the currents are 3-D, on N depth levels from 0 to 1000 m spaced wider with
 depth (as ocean models' are): u, v decay as exp(-depth / 300 m) and w = 0 (each level's flow is
 divergence-free, so continuity with w = 0 at the surface gives w = 0 everywhere), over a shelf
@@ -112,15 +115,40 @@ def write_example(path: str | Path, **options) -> Path:
     return path
 
 
+def write_example_series(directory: str | Path, files: int, **options) -> list[Path]:
+    """Write :func:`example_dataset` split along time into ``files`` netCDF files of about equal
+    length (``example_000.nc``, ...) in ``directory``, each atomically: the many files of a model's
+    output, which a ``velocity_data`` entry reads as one (a glob or a list as its ``path``)."""
+    dataset = example_dataset(**options)
+    count = dataset.sizes["time"]
+    if not 1 <= files <= count:
+        raise ValueError(f"files: expected 1 to {count} (the example's times), got {files}")
+    directory = Path(directory)
+    paths = []
+    for index, part in enumerate(np.array_split(np.arange(count), files)):
+        path = directory / f"example_{index:03d}.nc"
+        with atomic_path(path) as temporary:
+            dataset.isel(time=slice(int(part[0]), int(part[-1]) + 1)).to_netcdf(temporary)
+        paths.append(path)
+    return paths
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m ldpipe.data.example", description=__doc__.splitlines()[0])
     parser.add_argument("output", help="the netCDF file to write")
     parser.add_argument("--days", type=float, default=40.0)
     parser.add_argument("--depth", type=int, default=0, metavar="N",
                         help="write 3-D currents (u, v, w) on N depth levels (see the module docstring); default 2-D")
+    parser.add_argument("--files", type=int, default=1, metavar="N",
+                        help="split the example along time into N files example_000.nc, ... in the directory OUTPUT")
     args = parser.parse_args(argv)
     if args.depth and args.depth < 3:
         parser.error(f"--depth {args.depth}: expected at least 3 levels")
+    if args.files > 1:
+        Path(args.output).mkdir(parents=True, exist_ok=True)
+        for path in write_example_series(args.output, args.files, days=args.days, depths=args.depth):
+            print(path)
+        return
     print(write_example(args.output, days=args.days, depths=args.depth))
 
 

@@ -210,6 +210,10 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
         raise ValueError(f"initial_states: expected shape (N, {n}) with rows {system.coordinates} for {system.name}, "
                          f"got {states.shape}")
     lo, hi = _region(settings, n, system.coordinates)
+    engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
+    if settings.variable_time and engine_states is not states:
+        raise ValueError(f"region_lower, region_upper: system {system.name!r} is integrated on its grid's indices, "
+                         "where a region box of its state variables is not a box; give a fixed-time LD")
     kind, p_exp = _kind(settings.p)
     glx, glw = legendre_rule(settings.nodes)
     gjx, gjf = folded_jacobi_rule(settings.nodes, p_exp)
@@ -224,6 +228,20 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
                 settings.quadrature_window)
         threads = get_num_threads()
         with system.time_window(t0, t0 + direction * settings.tau):
-            run_units(runner, states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
+            run_units(runner, engine_states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, left, steps, failed, end, face = outputs
+    end = states_at_end(system, states, engine_states, end)
     return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)
+
+
+def states_at_end(system, states: np.ndarray, engine_states: np.ndarray, engine_ends: np.ndarray) -> np.ndarray:
+    """The end states of a flow's trajectories as its state variables, from the engine's (a
+    curvilinear grid's indices mapped back); one that never moved ends where it started, exactly
+    (a start off the grid, whose indices have no coordinates)."""
+    if engine_states is states:
+        return engine_ends
+    ends = np.array(system.states_from_engine(engine_ends), dtype=np.float64)
+    same = (engine_ends == engine_states) | (np.isnan(engine_ends) & np.isnan(engine_states))  # NaN: not started
+    unmoved = np.all(same, axis=1)
+    ends[unmoved] = states[unmoved]
+    return ends

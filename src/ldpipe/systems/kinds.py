@@ -28,7 +28,8 @@ from .kinetic import kinetic_matrix
 from .model import SystemModel
 from .vector_field import TIME, VectorFieldSystem, make_vector_field_system, parse_vector_field
 from .velocity_data import (
-    RectilinearVelocitySystem, VelocityDataSystem, make_velocity_data_system, velocity_data_coordinates,
+    CurvilinearVelocitySystem, RectilinearVelocitySystem, StaggeredVelocitySystem, VelocityDataSystem, make_velocity_data_system, path_text, velocity_data_coordinates,
+    velocity_data_files,
 )
 
 # sympy (through .formula) is imported where a formula is parsed: the planning and the stages
@@ -175,7 +176,7 @@ def _vector_field_caption(spec: dict) -> str:
 def _velocity_data_caption(spec: dict) -> str:
     entry = spec["velocity_data"]
     if "path" in entry:
-        return f"velocity data from {entry['path']}"
+        return f"velocity data from {path_text(entry['path'])}"
     memory = entry.get("memory") or {}
     return f"velocity data from memory ({', '.join(memory.get('variables', []))}; {memory.get('hash', '')[:23]})"
 
@@ -213,11 +214,11 @@ SYSTEM_KINDS: dict[str, SystemKind] = {
     "velocity_data": SystemKind(
         key="velocity_data", noun="velocity data", hamiltonian=False, build=_build_velocity_data,
         coordinates=lambda spec: velocity_data_coordinates(spec["velocity_data"]),
-        classes=(VelocityDataSystem, RectilinearVelocitySystem), required=("velocity_data",),
-        excluded=("coordinates", *MAP_KEYS), formulas=False, stop_flags=True,
+        classes=(VelocityDataSystem, RectilinearVelocitySystem, CurvilinearVelocitySystem, StaggeredVelocitySystem),
+        required=("velocity_data",), excluded=("coordinates", *MAP_KEYS), formulas=False, stop_flags=True,
         has_equilibria=lambda name, spec: False,  # data depend on time
         on_sphere=lambda spec: spec["velocity_data"].get("coordinates") == "sphere",
-        data_files=lambda spec: [spec["velocity_data"]["path"]] if "path" in spec["velocity_data"] else [],
+        data_files=lambda spec: velocity_data_files(spec["velocity_data"]["path"]) if "path" in spec["velocity_data"] else [],
         caption=_velocity_data_caption, check=_check_velocity_data,
     ),
     "map": SystemKind(

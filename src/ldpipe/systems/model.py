@@ -140,6 +140,14 @@ class FlowModel(SystemModel, Protocol):
     def vector_field(self, state: np.ndarray, *args: Any) -> np.ndarray:
         """d(state)/dt at one state."""
 
+    def engine_states(self, states: np.ndarray) -> np.ndarray:
+        """``states`` (rows of the state variables) as the compiled kernels integrate them: the
+        same for most; a curvilinear grid's fractional indices. A section crossed by the engine
+        (``ldpipe.core.trajectories.integrate``) is a value of an engine state's component."""
+
+    def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
+        """Engine states back as the state variables (the inverse of :meth:`engine_states`)."""
+
 
 @runtime_checkable
 class DataFlowModel(FlowModel, Protocol):
@@ -150,7 +158,8 @@ class DataFlowModel(FlowModel, Protocol):
 
     def stop_lines(self, end_states: np.ndarray, start: float,
                    end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The grid line each stopped trajectory crossed last: (state index, value, side)."""
+        """The grid line each stopped trajectory crossed last: (state index, value, side), the value
+        the engine state's (:meth:`FlowModel.engine_states`), where the crossing is located."""
 
 
 @runtime_checkable

@@ -132,6 +132,13 @@ class VectorFieldSystem(Unbounded):
         self.rhs(np.ascontiguousarray(state, dtype=np.float64), float(t), out)
         return out
 
+    def engine_states(self, states: np.ndarray) -> np.ndarray:
+        """The engine integrates the state variables themselves."""
+        return states
+
+    def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
+        return engine_states
+
     @cached_property
     def _jacobian_kernel(self) -> Callable:
         import sympy

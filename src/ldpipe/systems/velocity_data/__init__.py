@@ -2,11 +2,15 @@
 
 A ``systems:`` entry ``{"velocity_data": {"path": "currents.nc", "u": "u", "v": "v", "x": "x",
 "y": "y", "time": "time", "coordinates": "plane"}}`` names a CF dataset and its variables: the
-velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing. A regular grid
+velocity components ``u``, ``v`` on (time, y, x), the coordinates increasing; ``path`` may be a
+glob or a list of files along time, read lazily as one dataset (:mod:`.files`). A regular grid
 (every axis uniform) makes a system of :mod:`.regular`; an uneven axis, or 3-D data (``w`` on
 (time, z, y, x)), one of :mod:`.rectilinear`; both read the dataset that :mod:`.source` opened and
 checked. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees and u, v
 as eastward and northward velocities, with the Earth's radius ``earth_radius`` (metres).
+
+Coordinates that are 2-D make a curvilinear grid (:mod:`.grid_coordinates` finds them), integrated
+in its index space (:mod:`.curvilinear`; u and v on a C-grid's faces: :mod:`.staggered`).
 
 The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
 are converted from their units (``m/s``, ``km/day``, ...) to coordinate units per time unit
@@ -34,14 +38,19 @@ seam. The LD is taken in km and the data's velocity units, by the engine section
 from __future__ import annotations
 
 from ...errors import ConfigError
+from .calendar import calendar_attributes
+from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
+from .files import path_text, velocity_data_files
+from .memory import is_in_memory, memory_entry
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import DataWindow, VelocityDataSystem, make_regular_system
-from .calendar import calendar_attributes
-from .memory import is_in_memory, memory_entry
 from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
+from .staggered import StaggeredVelocitySystem, make_staggered_system
 
-__all__ = ["DEFAULTS", "calendar_attributes", "DataSource", "DataWindow", "RectilinearVelocitySystem", "VelocityDataSystem", "is_in_memory",
-           "make_velocity_data_system", "memory_entry", "open_source", "velocity_data_coordinates"]
+__all__ = ["DEFAULTS", "CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem",
+           "StaggeredVelocitySystem", "VelocityDataSystem", "calendar_attributes", "is_in_memory",
+           "make_velocity_data_system", "memory_entry", "open_source", "path_text", "velocity_data_coordinates",
+           "velocity_data_files"]
 
 
 def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSystem:
@@ -51,6 +60,10 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     if not isinstance(entry, dict):
         raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
     source = open_source(entry, f"{key}.velocity_data")
+    if source.staggered:  # a C-grid: its face velocities, a coast a wall
+        return make_staggered_system(name, source, spec, velocity_data_coordinates(entry))
+    if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
+        return make_curvilinear_system(name, source, spec, velocity_data_coordinates(entry))
     coordinates = (source.x, source.y)
     window = entry.get("window")
     if window is not None:

@@ -104,8 +104,8 @@ def read_rectilinear_window(source: DataSource, ranges: dict[str, tuple[int, int
     region = {names[r]: slice(lows[r], highs[r] + 1) for r in order}
     velocities = (source.u, source.v) + ((source.w,) if source.w else ())
     with source.open() as dataset:
-        arrays = [np.asarray(dataset[name].isel(region).values, dtype=float) for name in velocities]
-        water = (np.asarray(dataset[source.mask].isel({names[r]: region[names[r]] for r in order[1:]}).values) != 0
+        arrays = [np.asarray(dataset.read(name, region), dtype=float) for name in velocities]
+        water = (dataset.read(source.mask, {names[r]: region[names[r]] for r in order[1:]}) != 0
                  if source.mask else True)
     check_speeds(source, arrays)
     finite = np.logical_and.reduce([np.isfinite(a) for a in arrays])

@@ -97,8 +97,12 @@ class DataWindow:
     y_grid: tuple[float, float, int]
 
 
-def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], y: tuple[int, int]) -> DataWindow:
-    """Read nodes ``times``, ``y``, ``x`` (inclusive index ranges) and their real neighbours, padded."""
+def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], y: tuple[int, int],
+                convert: Callable | None = None) -> DataWindow:
+    """Read nodes ``times``, ``y``, ``x`` (inclusive index ranges) and their real neighbours, padded;
+    ``convert(u, v, rows, columns)`` (rows, columns: the slices of the grid read) turns the
+    velocities read, land filled, into the ones the kernel interpolates (a curvilinear grid's
+    index velocities)."""
     (ta, tb), (ya, yb), (xa, xb) = times, y, x
     counts = (source.t_grid[2], source.y_grid[2], source.x_grid[2])
     lows = [max(0, lo - 1) for lo in (ta, ya, xa)]
@@ -112,8 +116,7 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
         region = {source.time: slice(lows[0], highs[0] + 1), source.y: slice(lows[1], highs[1] + 1)}
 
         def read(name: str, dims: tuple[str, ...]) -> np.ndarray:
-            parts = [np.asarray(dataset[name].isel({**{k: region[k] for k in dims}, source.x: run}).values)
-                     for run in columns]
+            parts = [dataset.read(name, {**{k: region[k] for k in dims}, source.x: run}) for run in columns]
             return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
 
         u = np.asarray(read(source.u, (source.time, source.y)), dtype=float)
@@ -123,6 +126,8 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     land_all = ~(np.isfinite(u) & np.isfinite(v) & water)
     land_nodes = land_all.any(axis=0)
     u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
+    if convert is not None:
+        u, v = convert(u, v, slice(lows[1], highs[1] + 1), slice(lows[2], highs[2] + 1))
     if source.x_global:  # a node read twice (round the seam) keeps one filled value: its first copy inside
         copies = first_copies(np.arange(xa - 1, xb + 2) % counts[2])
         u, v = u[..., copies], v[..., copies]
@@ -182,6 +187,11 @@ class VelocityDataSystem:
         """Every velocity-data system of a kind shares one compiled engine (its data are bound at run
         time): one for the plane, one for the sphere (whose engine has the LD's metric)."""
         return "velocity_data_sphere" if self.source.sphere else "velocity_data"
+
+    @property
+    def wraps_longitude(self) -> bool:
+        """Whether the engine's first state variable is a longitude, taken modulo 360 (on the sphere)."""
+        return self.source.sphere
 
     @property
     def ld_metric_source(self) -> str:
@@ -283,12 +293,19 @@ class VelocityDataSystem:
             self.rhs(np.ascontiguousarray(state, dtype=np.float64), float(t), out)
         return out
 
+    def engine_states(self, states: np.ndarray) -> np.ndarray:
+        """The engine integrates the grid's coordinates themselves (a curvilinear grid's do not)."""
+        return states
+
+    def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
+        return engine_states
+
     def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:
         """Where trajectories stopped: ``on_land`` (in a cell with a land node) and ``left_data``
         (outside the data's extent or its spatial window), the boundaries the kernel stops them at."""
         window = self.data_window(start, end)
         east = end_states[:, 0] - window.x_grid[0]
-        if self.source.sphere:  # longitudes modulo 360, as the kernel takes them
+        if self.wraps_longitude:  # longitudes modulo 360, as the kernel takes them
             east = np.mod(east, 360.0)
         fx = east / window.x_grid[1]
         fy = (end_states[:, 1] - window.y_grid[0]) / window.y_grid[1]
@@ -309,7 +326,7 @@ class VelocityDataSystem:
         window = self.data_window(start, end)
         grids = (window.x_grid, window.y_grid)
         offsets = [end_states[:, 0] - window.x_grid[0], end_states[:, 1] - window.y_grid[0]]
-        if self.source.sphere:
+        if self.wraps_longitude:
             offsets[0] = np.mod(offsets[0], 360.0)
         units = np.column_stack([offsets[a] / grids[a][1] for a in (0, 1)])  # grid units from the window's first node
         counts = np.array([grids[0][2], grids[1][2]])

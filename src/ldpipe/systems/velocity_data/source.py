@@ -14,13 +14,14 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
 from .. import kernels
+from .files import FileSeries, data_files, open_dataset, path_text, series_times
+from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
 from .memory import memory_dataset
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
@@ -117,30 +118,6 @@ def is_uniform(values: np.ndarray) -> bool:
     return bool(np.max(np.abs(steps - steps.mean())) <= UNIFORM_RTOL * abs(steps.mean()))
 
 
-#: What xarray and its backends raise for a file they cannot read (truncated, damaged, not netCDF
-#: or zarr at all): netCDF4's OSError "NetCDF: HDF error", xarray's ValueError "did not find a
-#: match in any of xarray's currently installed IO backends", a zarr store's missing metadata.
-READ_ERRORS = (OSError, ValueError, RuntimeError, KeyError)
-
-
-def open_dataset(path: str) -> xr.Dataset:
-    """The dataset at ``path`` (a zarr store if it ends in .zarr, else netCDF), opened lazily; a
-    ConfigError naming the file if it cannot be read."""
-    try:
-        if path.rstrip("/").endswith(".zarr"):
-            return xr.open_zarr(path, decode_times=False)
-        return xr.open_dataset(path, decode_times=False)
-    except READ_ERRORS as error:
-        raise unreadable(path, error) from None
-
-
-def unreadable(path: str, error: BaseException) -> ConfigError:
-    """The error for a velocity-data file that cannot be read (its data read lazily, a damaged
-    block fails only when a window of it is read, during an integration)."""
-    reason = str(error).splitlines()[0] if str(error).strip() else type(error).__name__
-    return ConfigError(f"velocity data {path}: cannot read the file ({reason}); expected a netCDF file or a zarr store")
-
-
 @dataclass(frozen=True)
 class DataSource:
     """A dataset's variables and grid, checked, nothing read but the coordinates.
@@ -151,7 +128,7 @@ class DataSource:
     value, the mean spacing and the count.
     """
 
-    path: str  # empty for a dataset in memory
+    path: str  # the entry's path as given (a file, a glob, a list), for messages; empty for a dataset in memory
     u: str
     v: str
     x: str
@@ -173,6 +150,18 @@ class DataSource:
     time_units: str = ""  # of the integration's time (the time coordinate's, else the velocity's)
     x_global: bool = False  # longitudes all round the sphere, joined across the seam (:func:`seam_grid`)
     nodes: tuple[tuple[float, ...], ...] | None = None
+    files: tuple[str, ...] = ()  # the files along time, in order (one, for a single dataset)
+    #: A curvilinear grid's 2-D x and y (longitude, latitude) variables; ``x``, ``y`` then name its
+    #: index dimensions, which ``x_grid``, ``y_grid`` count (first 0, spacing 1)
+    grid_coordinates: tuple[str, str] | None = None
+    components: str = "geographic"  # u, v east and north (x and y), or along the grid's i and j ("grid")
+    angle: str | None = None  # a variable holding the grid's rotation angle (grid components)
+    angle_scale: float = 1.0  # radians per unit of ``angle``
+    #: An Arakawa C-grid's layout (:data:`C_GRIDS`; "" for velocities at the nodes): u on the faces
+    #: between nodes (j, i) and (j, i + 1), v on those between (j, i) and (j + 1, i), the nodes the
+    #: cells' centres
+    staggered: str = ""
+    file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
     memory: str = ""  # the hash of a dataset given in memory (:mod:`.memory`), no path
     time_reference: str = ""  # the time coordinate's units as written ("days since 2000-01-01"), if any
     calendar: str = ""  # its CF calendar attribute, if any
@@ -183,15 +172,13 @@ class DataSource:
         return self.path or f"the in-memory dataset {self.memory[:23]}"
 
     @contextlib.contextmanager
-    def open(self) -> Iterator[xr.Dataset]:
-        """The dataset, opened lazily; a read in the block that fails (a damaged block of a file
-        whose coordinates read well) is a ConfigError naming the file."""
-        with dataset_of({"path": self.path, "memory": {"hash": self.memory}} if self.memory else
-                        {"path": self.path}, "velocity_data") as dataset:
-            try:
-                yield dataset
-            except READ_ERRORS as error:
-                raise unreadable(self.label, error) from None
+    def open(self) -> Iterator[FileSeries]:
+        """The data as one dataset along time (:class:`.files.FileSeries`): the files opened lazily,
+        or the dataset in memory; a read in the block that fails (a damaged block of a file whose
+        coordinates read well) is a ConfigError naming the file."""
+        in_memory = memory_dataset({"hash": self.memory}, "velocity_data") if self.memory else None
+        with FileSeries(self.files or (self.label,), self.file_starts, self.time, dataset=in_memory) as series:
+            yield series
 
     def axis_values(self, which: str) -> np.ndarray:
         if self.nodes is not None:
@@ -213,13 +200,13 @@ class DataSource:
 
 
 @contextlib.contextmanager
-def dataset_of(entry: dict, key: str) -> Iterator[xr.Dataset]:
+def dataset_of(entry: dict, key: str, path: str | None = None) -> Iterator[xr.Dataset]:
     """The dataset of a ``velocity_data`` entry: the one in memory its ``memory`` block names, or
-    its file opened lazily (and closed after the block)."""
+    its file ``path`` (the first of a series) opened lazily (and closed after the block)."""
     if entry.get("memory"):
         yield memory_dataset(entry["memory"], key)
         return
-    with open_dataset(str(entry["path"])) as dataset:
+    with open_dataset(str(path or entry["path"])) as dataset:
         yield dataset
 
 
@@ -248,15 +235,61 @@ def open_source(spec: dict, key: str) -> DataSource:
     try:
         return _checked_source(spec, key)
     except ConfigError as error:
-        path = spec.get("path") if isinstance(spec, dict) else None
-        if not path or str(path) in str(error) or spec.get("memory"):
+        path = path_text(spec.get("path")) if isinstance(spec, dict) and spec.get("path") else None
+        if not path or path in str(error) or spec.get("memory"):
             raise
         raise ConfigError(f"{error} (in {path})") from None
 
 
+#: The C-grid layouts read: ROMS's faces one fewer than the centres (found from the shapes), NEMO's
+#: on arrays of the centres' shape, the last column of u and row of v the outer faces (said by ``c_grid``).
+C_GRIDS = ("roms", "nemo")
+
+
+def c_grid(dataset: xr.Dataset, entry: dict, expected: tuple[str, ...], key: str) -> str:
+    """The C-grid layout (:data:`C_GRIDS`) of u and v of a curvilinear grid whose centres are on
+    ``expected`` (time, y, x), or "" for velocities at the centres: ROMS's faces (u (time, ny,
+    nx - 1), v (time, ny - 1, nx)) from the shapes, NEMO's (u, v of the centres' shape) when the
+    entry says ``c_grid: nemo``; a ConfigError names the variables if they fit neither."""
+    u, v = dataset[entry["u"]], dataset[entry["v"]]
+    ny, nx = dataset.sizes[expected[1]], dataset.sizes[expected[2]]
+    layout = entry.get("c_grid")
+    if layout not in (None,) + C_GRIDS:
+        raise ConfigError(f"config key '{key}.c_grid': expected one of {list(C_GRIDS)}, got {layout!r}")
+    timed = u.ndim == v.ndim == 3 and u.dims[0] == v.dims[0] == expected[0]
+    if layout == "nemo":
+        if timed and u.shape[1:] == v.shape[1:] == (ny, nx):
+            return "nemo"
+        raise ConfigError(f"config key '{key}.c_grid': NEMO's u and v are on arrays of the centres' shape "
+                          f"({expected[0]}, {ny}, {nx}); {entry['u']!r} is {dict(u.sizes)}, {entry['v']!r} "
+                          f"{dict(v.sizes)}")
+    if layout is None and tuple(u.dims) == expected and tuple(v.dims) == expected:
+        return ""
+    if timed and u.shape[1:] == (ny, nx - 1) and v.shape[1:] == (ny - 1, nx):
+        return "roms"
+    raise ConfigError(f"config key '{key}.u': variables {entry['u']!r} {dict(u.sizes)} and {entry['v']!r} "
+                      f"{dict(v.sizes)} fit neither the coordinates' points ({expected[0]}, {ny}, {nx}) nor an "
+                      f"Arakawa C-grid's faces (u ({expected[0]}, {ny}, {nx - 1}), v ({expected[0]}, {ny - 1}, {nx}), "
+                      "ROMS's); give u and v at the points, or on the faces (a C-grid's coordinates are its cells' "
+                      "centres: name them, e.g. longitude: lon_rho, latitude: lat_rho)")
+
+
+def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, str], three_d: bool, key: str) -> dict:
+    """What a :class:`DataSource` records of a curvilinear grid beyond its coordinates' names."""
+    if three_d:
+        raise ConfigError(f"config key '{key}.w': 3-D data on a curvilinear grid are not supported yet")
+    if entry.get("window") is not None:
+        raise ConfigError(f"config key '{key}.window': a window of a curvilinear grid is not supported yet; "
+                          "the whole grid is read")
+    components = velocity_components(entry, dataset, key)
+    angle = angle_variable({**entry, "components": components}, dataset, dataset[coordinates[0]].dims, key)
+    return {"components": components, "angle": angle[0] if angle else None, "angle_scale": angle[1] if angle else 1.0}
+
+
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
-    unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive"}
+    unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive",
+                                            "longitude", "latitude", "components", "angle", "c_grid"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -272,23 +305,42 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     memory = entry.get("memory")
     if memory and path:
         raise ConfigError(f"config key '{key}': both a path and a dataset in memory; give one")
-    if not memory and (not path or not Path(path).exists()):
-        raise ConfigError(f"config key '{key}.path': no dataset at {path!r}")
-    where = path if not memory else "the dataset"
+    files = [] if memory else data_files(path, f"{key}.path")
+    where = files[0] if files else "the dataset"
     velocities = ("u", "v", "w") if three_d else ("u", "v")
     axis_roles = ("x", "y", "z", "time") if three_d else ("x", "y", "time")
-    with dataset_of(entry, key) as dataset:
-        for role in velocities + axis_roles + (("mask",) if entry.get("mask") else ()):
+    with dataset_of(entry, key, where if files else None) as dataset:
+        grid_coordinates = curvilinear_coordinates(entry, dataset, sphere, key)
+        curvilinear = {}
+        if grid_coordinates:  # the state's axes are the grid's index dimensions
+            curvilinear = curvilinear_entry(entry, dataset, grid_coordinates, three_d, key)
+            entry["y"], entry["x"] = dataset[grid_coordinates[0]].dims
+        elif {"components", "angle", "c_grid"} & set(entry):
+            raise ConfigError(f"config key '{key}': components, angle and c_grid are of a curvilinear grid's velocities; "
+                              "this grid's coordinates are 1-D (u and v along them)")
+        checked = ("time",) if grid_coordinates else axis_roles
+        for role in velocities + checked + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
             if name not in dataset.variables:
                 raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in {where} (it has "
                                   f"{sorted(map(str, dataset.variables))})")
-        nodes = {role: increasing_axis(dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
+        times, file_starts = dataset[entry["time"]].values, (0,)
+        if len(files) > 1:  # the files along time, checked against the first
+            times, file_starts = series_times(files, tuple(entry[role] for role in velocities) + (
+                (entry["mask"],) if entry.get("mask") else ()) + tuple(grid_coordinates or ()) + (
+                (curvilinear["angle"],) if curvilinear.get("angle") else ()), entry["time"], f"{key}.path")
+        nodes = {role: increasing_axis(times if role == "time" else
+                                       np.arange(dataset.sizes[entry[role]]) if grid_coordinates else
+                                       dataset[entry[role]].values, entry[role], f"{key}.{role}") for role in axis_roles}
         expected = tuple(entry[role] for role in reversed(axis_roles))  # (time, [z,] y, x)
+        staggered = c_grid(dataset, entry, expected, key) if grid_coordinates else ""
+        if staggered and curvilinear["components"] != "grid":
+            raise ConfigError(f"config key '{key}.components': a C-grid's u and v are normal to its cells' faces; "
+                              "give components: grid")
         scales = []
         for role in velocities:
             variable = dataset[entry[role]]
-            if tuple(variable.dims) != expected:
+            if tuple(variable.dims) != expected and not staggered:
                 raise ConfigError(f"config key '{key}.{role}': variable {entry[role]!r} has dimensions "
                                   f"{tuple(variable.dims)}; expected {expected}")
             if variable.dtype.kind not in "iuf":
@@ -324,7 +376,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if sphere:
             length = 1.0  # the kernel divides by the radius in metres
         else:
-            length = length_of(units_of(dataset, entry["x"], f"{key}.x"), entry["x"], f"{key}.x", metres)
+            x_name = grid_coordinates[0] if grid_coordinates else entry["x"]
+            length = length_of(units_of(dataset, x_name, f"{key}.x"), x_name, f"{key}.x", metres)
         vertical_scale = 0.0
         z_length = 1.0
         if three_d:
@@ -333,10 +386,15 @@ def _checked_source(spec: dict, key: str) -> DataSource:
             vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
     grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
     regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
+    if grid_coordinates and not regular:
+        raise ConfigError(f"config key '{key}.time': the times of {entry['time']!r} are unevenly spaced; a curvilinear "
+                          "grid's data are read at even times (not yet at uneven ones)")
     x_global = False
-    if sphere and regular:  # the seam is joined on the uniform kernel's grids only
+    if sphere and regular and not grid_coordinates:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
-    return DataSource(path=str(path) if path else "", memory=memory["hash"] if memory else "", u=entry["u"], v=entry["v"], x=entry["x"], y=entry["y"], time=entry["time"],
+    return DataSource(path=path_text(path) if path else "", memory=memory["hash"] if memory else "",
+                      files=tuple(files), file_starts=file_starts, u=entry["u"], v=entry["v"], x=entry["x"],
+                      y=entry["y"], time=entry["time"],
                       x_grid=grids["x"], y_grid=grids["y"], t_grid=grids["time"],
                       velocity_scale=metres / length * data_seconds / seconds, sphere=sphere,
                       radius=float(entry["earth_radius"]), mask=mask, w=entry.get("w"), z=entry.get("z"),
@@ -344,7 +402,8 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       x_global=x_global, time_reference=time_coordinate_units or "",
                       calendar=str(calendar or ""),
                       metres_per_second=tuple(metres / seconds for metres, seconds in scales),
-                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles))
+                      nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles),
+                      grid_coordinates=grid_coordinates, staggered=staggered, **curvilinear)
 
 
 #: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or

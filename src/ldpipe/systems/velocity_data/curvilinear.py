@@ -1,0 +1,224 @@
+"""Velocity data on a curvilinear grid (2-D coordinates, e.g. rotated): integrated in index space.
+
+The state the engine integrates is the grid's fractional indices (i, j). Once per window the
+velocities at the nodes are turned into index velocities: grid components rotated east and
+north by the grid's angle (the file's, else the coordinates'), then d(i, j)/dt = J^-1 dX/dt,
+with J = dX/d(i, j) at the node (:mod:`.grid_geometry`: fourth-order differences) and dX/dt the
+velocity in coordinate units (degrees on the sphere). Between nodes the regular grid's kernel
+(``kernels/gridded_velocity.py``, cubic convolution in i, j and t) interpolates them on the unit
+grid, unchanged; land and the grid's edge stop trajectories as they do there.
+
+Starts are mapped to indices by Newton's method on the interpolated coordinates, end states
+back by that interpolant (:meth:`CurvilinearVelocitySystem.engine_states`,
+:meth:`~CurvilinearVelocitySystem.states_from_engine`: the engine calls them). The LD is taken
+in physical units (``kernels/curvilinear_ld_metric.py``): the stage's index velocity times the
+metric P, interpolated from its nodes, gives the velocity in coordinate units per time unit on
+the plane and in the data's velocity units on the sphere (the arc length in km), as a regular
+grid's LD.
+
+A C-grid's face velocities are :mod:`.staggered`'s. Not yet: grids through a pole or folded
+(tripolar), 3-D data, spatial windows, uneven times; a map's region box (variable-time LDs).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...jitcache import njit_functions
+from .grid_geometry import GridGeometry, angle_from_coordinates, keys_padded, wrapped
+from .regular import DataWindow, VelocityDataSystem, index_window, kernel_source, read_window
+from .source import DataSource, kernel_text
+
+#: The largest difference (radians) between a file's rotation angle and the coordinates' before the
+#: file's is refused (an angle in degrees labelled radians, or of another grid, differs by far more).
+ANGLE_TOLERANCE = 0.05
+#: Header slots the curvilinear LD metric reads (the regular kernel's header leaves them free).
+METRIC_AT, ARC_FACTOR_AT = 12, 13
+
+
+@dataclass(frozen=True)
+class IndexVelocities:
+    """How a window's velocities become index velocities, and the LD's metric P at the nodes."""
+
+    inverse: np.ndarray  # (ny, nx, 2, 2): d(i, j)/d(x, y)
+    rate: np.ndarray  # (ny, nx, 2): coordinate units per time unit per data velocity unit, x and y
+    cos_angle: np.ndarray | None  # grid components: the angle turning them east and north
+    sin_angle: np.ndarray | None
+    metric: np.ndarray  # (ny, nx, 4): the LD's P (physical velocity per index velocity), row by row
+
+    def convert(self, u: np.ndarray, v: np.ndarray, rows: slice, columns: slice) -> tuple[np.ndarray, np.ndarray]:
+        """Index velocities from u, v read at nodes (time, rows, columns)."""
+        if self.cos_angle is not None:
+            c, s = self.cos_angle[rows, columns], self.sin_angle[rows, columns]
+            u, v = u * c - v * s, u * s + v * c
+        rate = self.rate[rows, columns]
+        dx, dy = u * rate[..., 0], v * rate[..., 1]
+        inverse = self.inverse[rows, columns]
+        return (inverse[..., 0, 0] * dx + inverse[..., 0, 1] * dy, inverse[..., 1, 0] * dx + inverse[..., 1, 1] * dy)
+
+
+def index_velocities(source: DataSource, geometry: GridGeometry,
+                     angle: np.ndarray | None) -> tuple[IndexVelocities, float]:
+    """The node-wise conversion of ``source``'s velocities to index velocities (module docstring),
+    and the arc length's factor to the LD's units."""
+    jacobian = geometry.jacobian
+    determinant = jacobian[..., 0, 0] * jacobian[..., 1, 1] - jacobian[..., 0, 1] * jacobian[..., 1, 0]
+    if not np.all(np.abs(determinant) > 0.0):
+        j, i = np.argwhere(~(np.abs(determinant) > 0.0))[0]
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds or "
+                          f"collapses at node (j, i) = ({j}, {i}): its cells must not degenerate")
+    inverse = np.linalg.inv(jacobian)
+    rate = np.full(geometry.shape + (2,), source.velocity_scale)
+    physical = jacobian.copy()  # P: physical velocity per index velocity
+    arc_factor = 1.0
+    if source.sphere:
+        degrees = 180.0 / math.pi
+        cos_lat = np.cos(np.radians(geometry.y))
+        rate[..., 0] *= degrees / (source.radius * cos_lat)
+        rate[..., 1] *= degrees / source.radius
+        physical[..., 0, :] *= (source.radius * cos_lat / degrees / source.velocity_scale)[..., None]
+        physical[..., 1, :] *= source.radius / degrees / source.velocity_scale
+        arc_factor = source.velocity_scale / 1000.0  # the data's velocity unit times a time unit in km
+    cos_angle = sin_angle = None
+    if source.components == "grid":
+        if angle is None:
+            angle = angle_from_coordinates(geometry)
+        cos_angle, sin_angle = np.cos(angle), np.sin(angle)
+    metric = physical.reshape(geometry.shape + (4,))
+    return IndexVelocities(inverse, rate, cos_angle, sin_angle, metric), arc_factor
+
+
+@dataclass(frozen=True, eq=False)
+class CurvilinearVelocitySystem(VelocityDataSystem):
+    """A flow interpolated from data on a curvilinear grid, integrated in its indices (module docstring)."""
+
+    geometry: GridGeometry = field(default=None, repr=False)
+    velocities: IndexVelocities = field(default=None, repr=False)
+    arc_factor: float = 1.0
+
+    @property
+    def engine_name(self) -> str:
+        """One compiled engine for every curvilinear grid, plane or sphere (P carries the geometry)."""
+        return "velocity_data_curvilinear"
+
+    @property
+    def ld_metric_source(self) -> str:
+        return kernel_text("curvilinear_ld_metric.py")
+
+    @property
+    def description(self) -> str:
+        kind = "longitude/latitude" if self.source.sphere else "plane"
+        return (f"velocity data {self.source.u}, {self.source.v} from {self.source.label} ({kind}, curvilinear grid "
+                f"{self.source.grid_coordinates[0]}, {self.source.grid_coordinates[1]})")
+
+    @property
+    def coordinate_bound(self) -> float:
+        """A bound on the indices of any trajectory that can move (the grid's, twice)."""
+        return 2.0 * max(self.source.x_grid[2], self.source.y_grid[2]) + 4.0
+
+    def engine_states(self, states: np.ndarray) -> np.ndarray:
+        """The fractional indices (i, j) of states (x, y); off the grid beyond its edge cells' cubics: NaN."""
+        return self.geometry.indices(np.asarray(states, dtype=float))
+
+    def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
+        return self.geometry.coordinates(engine_states)
+
+    def data_window(self, start: float, end: float) -> DataWindow:
+        """The window of the data [start, end] needs over the whole grid, as index velocities with
+        the LD's metric after them (read once; the last one is kept)."""
+        self.check_times(start, end)
+        low, high = sorted((start, end))
+        times = index_window(self.source.t_grid, low, high)
+        if times not in self._windows:
+            self._windows.clear()
+            ny, nx = self.geometry.shape
+            index_source = replace(self.source, sphere=False, velocity_scale=1.0)
+            window = read_window(index_source, times, (0, nx - 1), (0, ny - 1), convert=self.velocities.convert)
+            metric = keys_padded(self.velocities.metric)
+            buffer = np.concatenate([window.buffer, metric.ravel()])
+            buffer[METRIC_AT], buffer[ARC_FACTOR_AT] = len(window.buffer), self.arc_factor
+            self._windows[times] = replace(window, buffer=np.ascontiguousarray(buffer))
+        return self._windows[times]
+
+    def vector_field(self, state: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """d(x, y)/dt at a state (x, y): the index velocity times the interpolated coordinates' Jacobian."""
+        indices = self.engine_states(np.asarray(state, dtype=float)[None])[0]
+        rate = VelocityDataSystem.vector_field(self, indices, t)
+        return self.geometry.coordinate_jacobian(indices[None])[0] @ rate
+
+    @property
+    def wraps_longitude(self) -> bool:
+        """The engine's state is indices, never a longitude."""
+        return False
+
+    def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:
+        """Where trajectories stopped (as :meth:`VelocityDataSystem.stop_flags`), in index space;
+        an end state whose indices are not found is off the grid."""
+        return super().stop_flags(np.nan_to_num(self.engine_states(end_states), nan=-1.0), start, end)
+
+    def stop_lines(self, end_states: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The grid line each stopped trajectory crossed last, as an index (i or j) and its value:
+        the engine's state, so its crossing is located where the engine integrates."""
+        return super().stop_lines(np.nan_to_num(self.engine_states(end_states), nan=-1.0), start, end)
+
+
+def file_angle(source: DataSource, geometry: GridGeometry) -> np.ndarray | None:
+    """The file's rotation angle in radians, checked against the coordinates' (a ConfigError names
+    the variable if they differ by more than :data:`ANGLE_TOLERANCE`, e.g. degrees read as radians)."""
+    if source.angle is None:
+        return None
+    with source.open() as dataset:
+        values = np.asarray(dataset.read(source.angle, {}), dtype=float) * source.angle_scale
+    if not np.all(np.isfinite(values)):
+        raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} has missing values")
+    difference = np.abs(wrapped(values - angle_from_coordinates(geometry)))
+    if difference.max() > ANGLE_TOLERANCE:
+        j, i = np.unravel_index(int(np.argmax(difference)), difference.shape)
+        raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} differs from the grid "
+                          f"coordinates' rotation by {difference.max():.3g} rad at node (j, i) = ({j}, {i}) (read "
+                          f"with its units as {source.angle_scale:g} rad per unit): is it in the wrong unit, or of "
+                          "another grid?")
+    return values
+
+
+def curvilinear_parts(source: DataSource) -> tuple[GridGeometry, IndexVelocities, float]:
+    """A checked curvilinear ``source``'s geometry, its velocities' conversion and the LD's metric,
+    and the arc length's factor."""
+    with source.open() as dataset:
+        x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
+    geometry = GridGeometry.from_coordinates(x, y, source.sphere)
+    if source.sphere:
+        check_no_pole(source, geometry)
+    velocities, arc_factor = index_velocities(source, geometry, file_angle(source, geometry))
+    return geometry, velocities, arc_factor
+
+
+#: The largest jump of longitude (degrees) between neighbouring nodes of a grid that is neither
+#: round a pole nor all round the sphere (its longitudes on one branch about its centre).
+LONGITUDE_JUMP = 90.0
+
+
+def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
+    """A ConfigError naming the coordinates if a sphere's curvilinear grid reaches a pole, goes round
+    one, or goes all round the sphere: its longitudes are not one continuous branch (not yet read)."""
+    jumps = max(np.abs(np.diff(geometry.x, axis=axis)).max() for axis in (0, 1))
+    pole = np.abs(geometry.y).max() >= 90.0 - 1e-9
+    if pole or jumps > LONGITUDE_JUMP:
+        why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
+                          "that reaches or goes round a pole, or all round the sphere (tripolar, a rotated pole "
+                          "inside it), is not supported yet")
+
+
+def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
+                            ) -> CurvilinearVelocitySystem:
+    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
+    geometry, velocities, arc_factor = curvilinear_parts(source)
+    text = kernel_source()
+    (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
+    return CurvilinearVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,
+                                     rhs=rhs, spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)

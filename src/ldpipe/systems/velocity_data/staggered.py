@@ -1,0 +1,165 @@
+"""Velocity data on an Arakawa C-grid: u and v on the faces of a curvilinear grid's cells, a coast a wall.
+
+ROMS and CROCO write u on the faces between the cells' centres (rho points) (j, i) and (j, i + 1),
+an array (ny, nx - 1), and v on those between (j, i) and (j + 1, i), (ny - 1, nx), each the
+velocity normal to its face (along the grid's i and j). A ``velocity_data`` entry on a curvilinear
+grid whose u and v have these shapes is read as such (:func:`.source.c_grid`); NEMO's, on arrays of
+the centres' shape (their last column and row the outer faces, not read), when the entry says
+``c_grid: nemo``. Either is integrated in
+index space as :mod:`.curvilinear` does, with the staggered interpolant of
+``kernels/staggered_velocity.py``: a face's velocity is the index velocity u / L, L the distance
+between the two centres it separates (on the sphere great-circle metres), linear across a cell
+between its two faces and constant along them. A face next to a land centre (the ``mask``'s
+zeros) or with a missing value is closed (0), so a coast is a wall: trajectories come up to it
+and never cross; only land centres are land. The LD is physical, by the centres' metric
+(``kernels/curvilinear_ld_metric.py``), as on a collocated curvilinear grid.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...jitcache import njit_functions
+from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, curvilinear_parts
+from .grid_geometry import GridGeometry, keys_padded
+from .regular import HEADER, DataWindow, extend_keys, index_window
+from .source import DataSource, check_speeds, kernel_text
+
+#: Header slots of the staggered kernel beyond the LD metric's: where V and the land nodes start.
+V_AT, LAND_AT = 14, 15
+#: How far past a wall's face (in cells) a point counts as on it, at sea: a step may overshoot the
+#: wall by about the integrator's tolerance, and the kernel turns such a point back (its NEAR_WALL).
+FACE_SLACK = 1e-3
+
+
+def staggered_kernel_source() -> str:
+    """The C-grid kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
+    from .. import data_pointer
+
+    return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + kernel_text("staggered_velocity.py")
+
+
+def face_lengths(geometry: GridGeometry, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The distances between neighbouring centres along i, (ny, nx - 1), and along j, (ny - 1, nx):
+    in the coordinates' units on the plane, great-circle metres on the sphere."""
+    x, y = geometry.x, geometry.y
+
+    def distance(x0, y0, x1, y1):
+        if not geometry.sphere:
+            return np.hypot(x1 - x0, y1 - y0)
+        lam0, phi0, lam1, phi1 = (np.radians(a) for a in (x0, y0, x1, y1))
+        half = np.sin((phi1 - phi0) / 2) ** 2 + np.cos(phi0) * np.cos(phi1) * np.sin((lam1 - lam0) / 2) ** 2
+        return 2.0 * radius * np.arcsin(np.sqrt(np.clip(half, 0.0, 1.0)))
+
+    return (distance(x[:, :-1], y[:, :-1], x[:, 1:], y[:, 1:]), distance(x[:-1], y[:-1], x[1:], y[1:]))
+
+
+def padded_in_time(values: np.ndarray, start: int, stop: int) -> np.ndarray:
+    """Times ``start`` .. ``stop - 1`` of ``values`` (time first) with one more on each side: the
+    real neighbour if read, else Keys' extrapolation."""
+    low = values[start - 1] if start > 0 else None
+    high = values[stop] if stop < values.shape[0] else None
+    return extend_keys(values[start:stop], 0, low, high)
+
+
+@dataclass(frozen=True, eq=False)
+class StaggeredVelocitySystem(CurvilinearVelocitySystem):
+    """A flow from a C-grid's face velocities, integrated in the grid's indices (module docstring)."""
+
+    @property
+    def engine_name(self) -> str:
+        return "velocity_data_c_grid"
+
+    @property
+    def description(self) -> str:
+        return super().description.replace("curvilinear grid", "C-grid")
+
+    def data_window(self, start: float, end: float) -> DataWindow:
+        """The window of the data [start, end] needs over the whole grid (read once; the last one is kept)."""
+        self.check_times(start, end)
+        low, high = sorted((start, end))
+        times = index_window(self.source.t_grid, low, high)
+        if times not in self._windows:
+            self._windows.clear()
+            self._windows[times] = read_staggered_window(self.source, self.geometry, times, self.velocities.metric,
+                                                         self.arc_factor)
+        return self._windows[times]
+
+    def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:
+        """Where trajectories stopped: ``left_data`` out of the cells with both faces in the data,
+        ``on_land`` in a land cell (a start there: no trajectory enters one)."""
+        window = self.data_window(start, end)
+        fi, fj = np.nan_to_num(self.engine_states(end_states), nan=-1.0).T
+        ny, nx = self.geometry.shape
+        outside = ~((fi >= 0.5) & (fi <= nx - 1.5) & (fj >= 0.5) & (fj <= ny - 1.5))
+        on_land = np.ones(len(fi), dtype=bool)
+        for di in (-FACE_SLACK, FACE_SLACK):  # a point on a wall's face (to rounding) is at sea
+            for dj in (-FACE_SLACK, FACE_SLACK):
+                i = np.clip(np.floor(fi + di + 0.5).astype(int), 0, nx - 1)
+                j = np.clip(np.floor(fj + dj + 0.5).astype(int), 0, ny - 1)
+                on_land &= window.land[j, i]
+        return {"on_land": on_land & ~outside, "left_data": outside}
+
+    def stop_lines(self, end_states: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The data's edge each trajectory that left it passed (an index line i or j = 1/2 or n - 3/2,
+        the engine's state); for one in a land cell (it started there) the nearest face."""
+        indices = np.nan_to_num(self.engine_states(end_states), nan=-1.0)
+        ny, nx = self.geometry.shape
+        lows, highs = np.array([0.5, 0.5]), np.array([nx - 1.5, ny - 1.5])
+        below, above = indices < lows, indices > highs
+        outside = below | above
+        faces = np.floor(indices + 0.5) - 0.5
+        nearest = np.where(indices - faces <= 0.5, faces, faces + 1.0)
+        lines = np.where(below, lows, np.where(above, highs, nearest))
+        distance = np.where(outside, np.inf, np.abs(indices - lines))
+        axis = np.where(outside.any(axis=1), np.argmax(outside, axis=1), np.argmin(distance, axis=1))
+        rows = np.arange(len(end_states))
+        gap = indices[rows, axis] - lines[rows, axis]
+        return axis, lines[rows, axis], np.where(gap >= 0.0, 1, -1)
+
+
+def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tuple[int, int], metric: np.ndarray,
+                          arc_factor: float) -> DataWindow:
+    """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours."""
+    ta, tb = times
+    count = source.t_grid[2]
+    first, last = max(0, ta - 1), min(count - 1, tb + 1)
+    with source.open() as dataset:
+        region = {source.time: slice(first, last + 1)}
+        u = np.asarray(dataset.read(source.u, region), dtype=float)
+        v = np.asarray(dataset.read(source.v, region), dtype=float)
+        water = np.asarray(dataset.read(source.mask, {})) != 0 if source.mask else np.ones(geometry.shape, dtype=bool)
+    if source.staggered == "nemo":  # the outer faces east of the last column and north of the last row
+        u, v = u[:, :, :-1], v[:, :-1, :]
+    check_speeds(source, [u, v])
+    open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
+    open_v = np.isfinite(v) & (water[:-1] & water[1:])
+    along_i, along_j = face_lengths(geometry, source.radius)
+    u = np.where(open_u, u, 0.0) * source.velocity_scale / along_i
+    v = np.where(open_v, v, 0.0) * source.velocity_scale / along_j
+    start, stop = ta - first, ta - first + tb - ta + 1
+    u_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(u, start, stop), 0, -1))  # (ny, nx - 1, nt + 2)
+    v_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(v, start, stop), 0, -1))
+    ny, nx = geometry.shape
+    land = (~water).astype(float)
+    header = np.zeros(HEADER)
+    header[:12] = (tb - ta + 1, ny, nx, 0.0, 1.0, 0.0, 1.0, source.t_grid[0] + source.t_grid[1] * ta,
+                   source.t_grid[1], 0.0, source.radius, 1.0)
+    header[V_AT] = HEADER + u_faces.size
+    header[LAND_AT] = header[V_AT] + v_faces.size
+    header[METRIC_AT] = header[LAND_AT] + land.size
+    header[ARC_FACTOR_AT] = arc_factor
+    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), keys_padded(metric).ravel()])
+    return DataWindow(np.ascontiguousarray(buffer), ~water, (0.0, 1.0, nx), (0.0, 1.0, ny))
+
+
+def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
+                          ) -> StaggeredVelocitySystem:
+    """The system of a checked C-grid ``source`` (:func:`.source.open_source`)."""
+    geometry, velocities, arc_factor = curvilinear_parts(source)
+    text = staggered_kernel_source()
+    (rhs,) = njit_functions(text, ("rhs",), "velocity_data_c_grid")
+    return StaggeredVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,
+                                   rhs=rhs, spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
