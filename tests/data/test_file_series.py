@@ -38,8 +38,11 @@ def test_a_series_of_files_gives_the_single_files_map(tmp_path):
     (tmp_path / "parts").mkdir()
     parts = write_example_series(tmp_path / "parts", 3, **SMALL)  # times 0-0.5, 0.75-1, 1.25-1.5 days
     reference = _map(str(single))
-    # the jet moves the starts at sea, two start on land: the comparison is not of zeros alone
-    assert reference.ld_forward.values.max() > 0.5 and reference.on_land_forward.values.any()
+    # the jet moves the starts at sea, two start on land (their LD missing): the comparison is not
+    # of missing values alone
+    assert np.nanmax(reference.ld_forward.values) > 0.5 and reference.on_land_forward.values.any()
+    assert reference.start_on_land.values.sum() == 2
+    np.testing.assert_array_equal(np.isnan(reference.ld_forward.values), reference.start_on_land.values)
     # t0 = 0.7 +- 0.6 days: both directions read across files (their ends at 0.5 and 1 days)
     for path in (str(tmp_path / "parts" / "example_*.nc"), [str(p) for p in parts]):
         series = _map(path)
