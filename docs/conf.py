@@ -31,6 +31,7 @@ extensions = [
     "sphinx-mathjax-offline",
     "sphinx_gallery.gen_gallery",
     "schema_reference",
+    "keyword_text",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}

@@ -90,6 +90,8 @@ def keyword_entry(name: str, node: dict, indent: str) -> list[str]:
         body += f" ({bounds})"
     lines = [indent + head]
     lines += textwrap.wrap(body, WIDTH, initial_indent=indent + "    ", subsequent_indent=indent + "    ")
+    if node.get("properties"):
+        lines.append("")  # a list after a paragraph starts after a blank line
     for key, child in node.get("properties", {}).items():
         child = resolved(child)
         words = f"``{key}`` ({type_words(child) or 'any'}"
