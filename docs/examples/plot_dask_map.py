@@ -26,12 +26,15 @@ section = ldpipe.section(y=(-0.45, 0.8, POINTS), py=(-0.5, 0.5, POINTS),
                          fixed={"px": 0.0}, solve="x", root="largest")
 settings = {"section": section, "energy": 0.16, "tau": 15, "p": 0.5}
 
-# Two workers as threads of this process keep the example light; leave processes out (its
-# default, one process a worker) for a real map, and give each task's engine its cores (threads=).
-with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster, \
-        Client(cluster) as client:
-    lazy = ldpipe.ld_map(henon_heiles, chunks=POINTS * POINTS // 8, client=client, **settings)
-    print(f"{lazy.ld_forward.data.numblocks[0]} blocks of {lazy.ld_forward.data.chunks[0][0]} rows; "
+# Two workers as threads of this process keep the example light; leave processes
+# out (its default, one process a worker) for a real map, and give each task's
+# engine its cores (threads=).
+with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                  dashboard_address=":0") as cluster, Client(cluster) as client:
+    lazy = ldpipe.ld_map(henon_heiles, chunks=POINTS * POINTS // 8, client=client,
+                         **settings)
+    print(f"{lazy.ld_forward.data.numblocks[0]} blocks of "
+          f"{lazy.ld_forward.data.chunks[0][0]} rows; "
           f"the dashboard: {client.dashboard_link}")
     ld = lazy.compute()
 
@@ -39,7 +42,8 @@ with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_
 # The same map in one process: every variable equal, bit for bit.
 
 single = ldpipe.ld_map(henon_heiles, **settings)
-print("equal bit for bit:", all(np.array_equal(ld[name].values, single[name].values) for name in single.data_vars))
+print("equal bit for bit:", all(np.array_equal(ld[name].values, single[name].values)
+                                for name in single.data_vars))
 
 # %%
 # The total LD, with the blocks' edges: each band of rows was one task.
@@ -48,5 +52,6 @@ fig, ax = plt.subplots(figsize=(6, 4.5), layout="constrained")
 ld.ldpipe.plot(ax=ax, descriptor="total")
 edges = np.cumsum(lazy.ld_forward.data.chunks[0])[:-1]
 for edge in edges:
-    ax.axvline(float(ld.y[edge - 1] + ld.y[edge]) / 2, color="white", linewidth=0.8, linestyle="--")
+    ax.axvline(float(ld.y[edge - 1] + ld.y[edge]) / 2, color="white", linewidth=0.8,
+               linestyle="--")
 plt.show()

@@ -17,7 +17,8 @@ import ldpipe
 
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "150"))  # grid points per axis
 
-duffing = ldpipe.system(name="duffing", vector_field={"x": "y", "y": "x - x**3"}, coordinates=["x", "y"])
+duffing = ldpipe.system(name="duffing", vector_field={"x": "y", "y": "x - x**3"},
+                        coordinates=["x", "y"])
 section = ldpipe.section(x=(-1.6, 1.6, POINTS), y=(-1.2, 1.2, POINTS))
 clean = ldpipe.ld_map(duffing, section=section, tau=5, p=0.5)
 
@@ -26,7 +27,8 @@ clean = ldpipe.ld_map(duffing, section=section, tau=5, p=0.5)
 # point's place in the grid key its noise, so the map is the same bits however it is tiled.
 
 noisy = ldpipe.ld_map(duffing, section=section, tau=5, p=0.5,
-                      noise={"diffusivity": {"x": 0.0, "y": 0.002}, "members": 16, "dt": 0.01, "seed": 1})
+                      noise={"diffusivity": {"x": 0.0, "y": 0.002}, "members": 16,
+                             "dt": 0.01, "seed": 1})
 print(noisy.ld_forward.sizes)
 
 # %%
@@ -40,7 +42,8 @@ panels = (("no noise", (clean.ld_forward + clean.ld_backward).values),
           ("spread over the paths", total.std("member", ddof=1).values))
 fig, axes = plt.subplots(1, 3, figsize=(14, 4), layout="constrained")
 for ax, (title, values) in zip(axes, panels):
-    mesh = ax.pcolormesh(noisy.x, noisy.y, np.asarray(values).T, shading="auto", cmap="viridis")
+    mesh = ax.pcolormesh(noisy.x, noisy.y, np.asarray(values).T, shading="auto",
+                         cmap="viridis")
     fig.colorbar(mesh, ax=ax)
     ax.set(title=title, xlabel="x", ylabel="y")
 plt.show()
