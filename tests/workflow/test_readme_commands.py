@@ -56,6 +56,7 @@ def bash_commands(text: str) -> list[str]:
 INSTALL_AND_SNAKEMAKE = "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/snakemake"
 INSTALL_AND_TEST = "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/pytest"
 INSTALL_DOCS = ".venv/bin/pip install -e '.[docs]'"
+INSTALL_DASK = ".venv/bin/pip install -e '.[dask]'"
 
 
 def plan(command: str) -> tuple[str, str, str]:
@@ -65,6 +66,8 @@ def plan(command: str) -> tuple[str, str, str]:
         return "covered", "", "CI's command: .ci/run runs it verbatim (checked below)"
     if command == INSTALL_DOCS:
         return "covered", "", "CI's install of the test extra includes the docs extra (checked below)"
+    if command == INSTALL_DASK:
+        return "covered", "", "CI's install of the test extra includes the dask extra (checked below)"
     if command == BUILD_DOCS:
         return "covered", "", "tests/docs/test_docs.py runs it verbatim in a copy of docs/"
     if command in ('pytest -m "not slow"', '.venv/bin/pytest -m "not slow"', ".venv/bin/pytest"):
@@ -128,6 +131,12 @@ def test_ci_installs_what_the_docs_build_needs():
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert "ldpipe[docs]" in extras["test"]
     assert {"sphinx", "myst-parser", "furo", "sphinx-gallery"} <= {re.split(r"[<>=\[]", d)[0] for d in extras["docs"]}
+
+
+def test_ci_installs_what_the_dask_guide_installs():
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert "ldpipe[dask]" in extras["test"]
+    assert {"dask", "distributed", "dask-jobqueue"} <= {re.split(r"[<>=\[]", d)[0] for d in extras["dask"]}
 
 
 def test_inline_snakemake_commands_put_targets_before_configfile():
