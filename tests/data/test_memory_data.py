@@ -190,3 +190,17 @@ def test_three_dimensional_data_from_their_data_arrays():
     system = ldpipe.system(name="deep", velocity_data={"u": deep.u, "v": deep.v, "w": deep.w, "coordinates": "sphere"})
     assert system.coordinates == ("lon", "lat", "depth")
     assert system.spec["velocity_data"]["memory"]["shape"] == {"time": 5, "depth": 4, "lat": 13, "lon": 21}
+
+
+def test_one_direction_of_time_needs_the_data_of_its_own_times_only(example):
+    """A forward map from the data's first time needs no data before it, a backward one from
+    their last none after it (the example holds days [0, 4]); both directions from either, or the
+    other direction, are refused naming t0."""
+    system = ldpipe.system(name="ex", velocity_data={"dataset": example, "coordinates": "sphere"})
+    forward = ldpipe.ld_map(system, **{**SECTION, "t0": 0.0, "tau": 2.0}, directions="forward")
+    backward = ldpipe.ld_map(system, **{**SECTION, "t0": 4.0, "tau": 2.0}, directions="backward")
+    assert "ld_forward" in forward and "ld_backward" not in forward
+    assert "ld_backward" in backward and "ld_forward" not in backward
+    for t0, directions in ((0.0, "both"), (4.0, "both"), (0.0, "backward"), (4.0, "forward")):
+        with pytest.raises(ldpipe.ConfigError, match="argument 't0'.*need times"):
+            ldpipe.ld_map(system, **{**SECTION, "t0": t0, "tau": 2.0}, directions=directions)

@@ -190,7 +190,9 @@ def resolve_ld_map(parameters: dict, saddle: np.ndarray | None, critical_energy:
             check_scheme(get_scheme(settings.scheme), system)
         except ValueError as error:
             raise ConfigError(f"config key '{key}.integrator.scheme': {error}") from None
-    system.check_times(float(t0) - settings.tau, float(t0) + settings.tau, key=f"{key}.t0")  # data: in their times
+    # data: the times the directions integrated cover, in the data's time range
+    ends = [float(t0) + sign * settings.tau for sign, _ in map_directions(directions_setting(parameters))]
+    system.check_times(min(ends + [float(t0)]), max(ends + [float(t0)]), key=f"{key}.t0")
     info = {"energy": energy, "critical_energy": critical_energy, "excess_energy": excess,
             "saddle": [] if saddle is None else np.asarray(saddle).tolist(), "t0": float(t0)}
     return system, section, settings, info
