@@ -32,6 +32,7 @@ from ldpipe.io import contracts
 from ldpipe.config import validate_config
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.engine import LDSettings, compute_ld
+from ldpipe.errors import LdpipeWarning
 from ldpipe.core.equilibria.potential import equilibrium_table
 from ldpipe.core.maps.grid import ld_grid_dataset
 from ldpipe.core.orbits.periodic import CorrectorSettings, LyapunovFamily, linearize_saddle
@@ -276,9 +277,21 @@ def test_section_points_exactly_on_the_energy_boundary(barbanis):
     np.testing.assert_allclose(data.ld_backward.values[turning], data.ld_forward.values[turning], rtol=1e-10)
     # E < E_c and |x| <= 5 < 5.5: the well is closed, nothing escapes (closed form), energy kept.
     assert not (data.escaped_forward.values | data.escaped_backward.values | data.failed_forward.values).any()
-    assert data.energy_error.values.max() < 1e-11 * 10.0 * 12.5
+    assert data.energy_error.values[allowed].max() < 1e-11 * 10.0 * 12.5
+    assert_defined_where_allowed(data)
+
+
+def assert_defined_where_allowed(data) -> None:
+    """Every field finite at an allowed point; at a forbidden one, finite too unless the variable
+    declares missing values (CF _FillValue), which it then is, exactly there."""
+    allowed = data.allowed.values
     for name, variable in data.data_vars.items():
-        assert np.isfinite(variable.values.astype(float)).all(), name
+        values = variable.values.astype(float)
+        assert np.isfinite(values[allowed]).all(), name
+        if "_FillValue" in variable.encoding:
+            assert np.isnan(values[~allowed]).all(), name
+        else:
+            assert np.isfinite(values).all(), name
 
 
 # --- excess energy zero and very large ----------------------------------------------------------
@@ -355,8 +368,7 @@ def test_energy_is_conserved_from_zero_to_large_excess_energy(barbanis, barbanis
             assert np.all((times > 0.0) & (times < tau))
     if excess == 100.0:
         assert escaped[allowed].all()
-    for name, variable in data.data_vars.items():
-        assert np.isfinite(variable.values.astype(float)).all(), name
+    assert_defined_where_allowed(data)
 
 
 # --- long tau -----------------------------------------------------------------------------------
@@ -391,8 +403,8 @@ def test_long_tau_ld_increases_and_energy_drift_is_linear(barbanis):
 # --- a grid entirely in the forbidden region ----------------------------------------------------
 def test_all_forbidden_grid_in_tiles_gives_a_valid_empty_file(tmp_path, barbanis):
     # At y = 0 the potential is x^2/2 >= 0: a negative energy forbids every point (closed form).
-    # Each tile and the gathered map are valid files with every point flagged not allowed, all
-    # fields 0 and finite, and the energy recorded.
+    # Each tile and the gathered map are valid files with every point flagged not allowed, every
+    # flag and count 0, every field that declares missing values missing, and the energy recorded.
     config = ld_config(energy={"total": -1.0}, time="fixed", tiles=3,
                        section={"axes": [{"name": "x", "range": [-3.0, 3.0], "points": 7},
                                          {"name": "px", "range": [-3.0, 3.0], "points": 4}],
@@ -403,12 +415,16 @@ def test_all_forbidden_grid_in_tiles_gives_a_valid_empty_file(tmp_path, barbanis
     parameters = parameters_from_config(config, "ld", "m")
     tiles = [run_ld_tile(**parameters, equilibria=equilibria, tile=k, tiles=3, show_progress=False,
                          output=tmp_path / f"tile-{k}.nc") for k in range(3)]
-    data = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
+    with pytest.warns(LdpipeWarning, match="is empty"):  # said once, for the whole map
+        data = open_stage_file(run_ld_gather(tiles=tiles, output=tmp_path / "m.nc"), stage="ld_grid")
     assert data.sizes == {"x": 7, "px": 4} and data.attrs["energy"] == -1.0
     assert not data.allowed.values.any()
     for name, variable in data.data_vars.items():
         values = variable.values.astype(float)
-        assert np.isfinite(values).all() and not values.any(), name
+        if "_FillValue" in variable.encoding:
+            assert np.isnan(values).all(), name
+        else:
+            assert np.isfinite(values).all() and not values.any(), name
 
 
 # --- periodic orbits far beyond the configured energies -----------------------------------------
