@@ -25,15 +25,19 @@ from ldpipe.data.example import example_dataset
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))
 
 currents_data = xr.decode_cf(example_dataset(days=12.0, resolution=0.5))
-currents = ldpipe.system(name="currents",
-                         velocity_data={"dataset": currents_data, "coordinates": "sphere"})
-section = ldpipe.section(lon=(-78.0, -42.0, POINTS), lat=(27.0, 48.0, POINTS * 3 // 5))
+currents = ldpipe.system(
+    name="currents",
+    velocity_data={"dataset": currents_data, "coordinates": "sphere"})
+section = ldpipe.section(lon=(-78.0, -42.0, POINTS),
+                         lat=(27.0, 48.0, POINTS * 3 // 5))
 ftle = ldpipe.ld_map(currents, section=section, t0="2000-01-02", tau="8D",
                      ftle=True, ld=False, directions="forward")
 print(ftle.attrs["t0_date"], ftle.attrs["tau_duration"], ftle.attrs["directions"])
-print("points with an FTLE:", int(ftle.ftle_defined_forward.sum()), "of", ftle.ftle_forward.size)
+defined = int(ftle.ftle_defined_forward.sum())
+print("points with an FTLE:", defined, "of", ftle.ftle_forward.size)
 
 fig, ax = plt.subplots(figsize=(8, 4.6), layout="constrained")
-ftle.ldpipe.plot("ftle_forward", ax=ax, x="lon", cmap="magma")  # longitude across
+# longitude across, as on a chart
+ftle.ldpipe.plot("ftle_forward", ax=ax, x="lon", cmap="magma")
 ax.set_title("forward FTLE over 8 days from 2000-01-02")
 plt.show()

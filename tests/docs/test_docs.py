@@ -287,7 +287,8 @@ def _user_text() -> dict[str, str]:
 
 def test_what_a_user_reads_has_no_dates_loads_or_tracker_references():
     forbidden = {
-        "a date": r"\b20\d\d-[01]\d-[0-3]\d\b",
+        # the example data's calendar is the year 2000 (days since 2000-01-01): its dates are data
+        "a date": r"\b20(?!00-)\d\d-[01]\d-[0-3]\d\b",
         "a tracker reference": r"\b[Ii]ssues? #?\d+",
         "a machine load": r"\bload(?: average)? (?:of |~)?\d",
         "a commit": r"\b(?:at|main|commit) [0-9a-f]{7,40}\b",
