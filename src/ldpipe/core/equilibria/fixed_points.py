@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .flow import sorted_spectrum
-from .potential import box_bounds, roots_in_box, spectrum_variables
+from .flow import spectral_table
+from .potential import box_bounds, roots_in_box
 
 
 def circle_difference(difference: np.ndarray, periods) -> np.ndarray:
@@ -72,39 +72,12 @@ def map_fixed_point_table(system, box: dict[str, list[float]], seeds_per_axis: i
     eigenvectors of unit norm, phased so that their largest component is real and positive."""
     lower, upper = box_bounds(system, box)
     positions = map_fixed_points(system, lower, upper, seeds_per_axis, tolerance)
-    n = system.n_state
-    values = np.zeros((len(positions), n), dtype=complex)
-    vectors = np.zeros((len(positions), n, n), dtype=complex)
-    kinds, unstable, stable = [], [], []
-    for index, x in enumerate(positions):
-        values[index], vectors[index] = sorted_spectrum(system.jacobian(x), lambda e: (-e.imag, -np.abs(e)))
-        kind, u, s = classify_map(values[index], tolerance)
-        kinds.append(kind)
-        unstable.append(u)
-        stable.append(s)
-    spectrum = spectrum_variables(values, vectors)
-    for name in spectrum:
-        spectrum[name][2]["long_name"] = spectrum[name][2]["long_name"].replace("Jacobian", "tangent map's")
-    dataset = xr.Dataset(
-        {
-            "position": (("equilibrium", "coordinate"), positions, {"long_name": "fixed point (f(x) = x)"}),
-            "type": (("equilibrium",), np.array(kinds, dtype=object), {"long_name": "type of fixed point"}),
-            "unstable_dimension": (("equilibrium",), np.array(unstable, dtype=np.int32),
-                                   {"long_name": "number of multipliers outside the unit circle"}),
-            "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32),
-                                 {"long_name": "number of multipliers inside the unit circle"}),
-            **spectrum,
-        },
-        coords={
-            "coordinate": ("coordinate", np.array(system.coordinates, dtype=object)),
-            "phase": ("phase", np.array(system.coordinates, dtype=object)),
-            "mode": ("mode", np.arange(n, dtype=np.int32)),
-        },
-    )
-    dataset.attrs.update({"search_method": "numeric", "search_numeric_found": len(positions),
-                          "system": system.name, "system_description": system.description,
-                          "fixed_point": "the equilibria of a discrete map: its fixed points; eigenvalues are the "
-                                         "multipliers of the tangent map Df",
-                          "classification_tolerance": tolerance,
-                          "mode_order": "decreasing modulus of the multiplier, then decreasing imaginary part"})
-    return dataset
+    return spectral_table(
+        system, positions, tolerance, order=lambda e: (-e.imag, -np.abs(e)), classify=classify_map,
+        matrix="tangent map's",
+        words={"position": "fixed point (f(x) = x)", "type": "type of fixed point",
+               "unstable": "number of multipliers outside the unit circle",
+               "stable": "number of multipliers inside the unit circle"},
+        attributes={"fixed_point": "the equilibria of a discrete map: its fixed points; eigenvalues are the "
+                                   "multipliers of the tangent map Df",
+                    "mode_order": "decreasing modulus of the multiplier, then decreasing imaginary part"})

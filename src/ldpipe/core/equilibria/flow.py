@@ -65,25 +65,43 @@ def flow_equilibrium_table(system, box: dict[str, list[float]], seeds_per_axis: 
         )
     lower, upper = box_bounds(system, box)
     positions = vector_field_equilibria(system, lower, upper, seeds_per_axis, tolerance)
+    return spectral_table(
+        system, positions, tolerance, order=lambda e: (-e.imag, -e.real), classify=classify_flow,
+        words={"position": "equilibrium (a root of f)", "type": "type of equilibrium",
+               "unstable": "number of Jacobian eigenvalues with positive real part",
+               "stable": "number of Jacobian eigenvalues with negative real part"},
+        attributes={"mode_order": "decreasing real part of the eigenvalue, then decreasing imaginary part"})
+
+
+def spectral_table(system, positions, tolerance: float, *, order, classify, words: dict[str, str],
+                   attributes: dict[str, str], matrix: str = "Jacobian") -> xr.Dataset:
+    """The equilibrium stage's table of ``positions`` (a vector field's equilibria, a map's fixed
+    points): each one's spectrum of ``system.jacobian`` ordered by ``order``
+    (:func:`sorted_spectrum`), its type and dimensions by ``classify``. ``words`` are the long
+    names of ``position``, ``type``, ``unstable`` and ``stable``; ``matrix`` names the matrix in
+    the spectrum's long names; ``attributes`` join the table's own."""
     n = system.n_state
+    positions = np.reshape(positions, (-1, n))
     values = np.zeros((len(positions), n), dtype=complex)
     vectors = np.zeros((len(positions), n, n), dtype=complex)
     kinds, unstable, stable = [], [], []
     for index, x in enumerate(positions):
-        values[index], vectors[index] = sorted_spectrum(system.jacobian(x), lambda e: (-e.imag, -e.real))
-        kind, u, s = classify_flow(values[index], tolerance)
+        values[index], vectors[index] = sorted_spectrum(system.jacobian(x), order)
+        kind, u, s = classify(values[index], tolerance)
         kinds.append(kind)
         unstable.append(u)
         stable.append(s)
+    spectrum = spectrum_variables(values, vectors)
+    for variable in spectrum.values():
+        variable[2]["long_name"] = variable[2]["long_name"].replace("Jacobian", matrix)
     dataset = xr.Dataset(
         {
-            "position": (("equilibrium", "coordinate"), positions.reshape(-1, n), {"long_name": "equilibrium (a root of f)"}),
-            "type": (("equilibrium",), np.array(kinds, dtype=object), {"long_name": "type of equilibrium"}),
+            "position": (("equilibrium", "coordinate"), positions, {"long_name": words["position"]}),
+            "type": (("equilibrium",), np.array(kinds, dtype=object), {"long_name": words["type"]}),
             "unstable_dimension": (("equilibrium",), np.array(unstable, dtype=np.int32),
-                                   {"long_name": "number of Jacobian eigenvalues with positive real part"}),
-            "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32),
-                                 {"long_name": "number of Jacobian eigenvalues with negative real part"}),
-            **spectrum_variables(values, vectors),
+                                   {"long_name": words["unstable"]}),
+            "stable_dimension": (("equilibrium",), np.array(stable, dtype=np.int32), {"long_name": words["stable"]}),
+            **spectrum,
         },
         coords={
             "coordinate": ("coordinate", np.array(system.coordinates, dtype=object)),
@@ -93,6 +111,5 @@ def flow_equilibrium_table(system, box: dict[str, list[float]], seeds_per_axis: 
     )
     dataset.attrs.update({"search_method": "numeric", "search_numeric_found": len(positions),
                           "system": system.name, "system_description": system.description,
-                          "classification_tolerance": tolerance,
-                          "mode_order": "decreasing real part of the eigenvalue, then decreasing imaginary part"})
+                          "classification_tolerance": tolerance, **attributes})
     return dataset
