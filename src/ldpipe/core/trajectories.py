@@ -29,6 +29,7 @@ from ..engine.integrator import get_runner, run_units
 from ..engine.kinetic import to_engine_states, to_momenta
 from ..engine.settings import DEFAULT_ESCAPE_RADIUS, MAX_STEPS_CEILING, check_tolerances, engine_escape_radius
 from ..engine.templates import flow_status
+from ..errors import ConfigError
 from ..systems import System
 
 # How a trajectory ended (``Trajectories.status``): the drivers' own codes, read from their template.
@@ -70,6 +71,23 @@ class FlowSettings:
         if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) \
                 or not 1 <= self.max_steps <= MAX_STEPS_CEILING:
             raise ValueError(f"max_steps: expected an integer in [1, {MAX_STEPS_CEILING}], got {self.max_steps!r}")
+
+
+#: The settings of :class:`FlowSettings` a user names (the rest are the engine's).
+FLOW_SETTING_KEYS = ("rtol", "atol", "escape_radius", "max_steps")
+
+
+def checked_flow_settings(integrator: dict | None, label: str) -> dict:
+    """A user's ``integrator`` (None, or a mapping of some of :data:`FLOW_SETTING_KEYS`) as
+    :class:`FlowSettings` accepts it; a ConfigError starting with ``label`` otherwise."""
+    integrator = integrator or {}
+    if not isinstance(integrator, dict) or set(integrator) - set(FLOW_SETTING_KEYS):
+        raise ConfigError(f"{label}: {integrator!r}; expected a mapping of some of {list(FLOW_SETTING_KEYS)}")
+    try:
+        FlowSettings(**integrator)
+    except ValueError as error:
+        raise ConfigError(f"{label}: {error}") from None
+    return dict(integrator)
 
 
 @dataclass

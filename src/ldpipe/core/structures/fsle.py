@@ -27,12 +27,11 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import FSLE
 from ...io.datafile import stage_dataset
-from ..trajectories import COMPLETED, FlowSettings, flow_map
+from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
 #: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing).
 DEFAULTS = {"initial_separation": None, "final_separation": None, "max_time": None, "interval": None,
             "t0": 0.0, "integrator": {}}
-INTEGRATOR_KEYS = ("rtol", "atol", "escape_radius", "max_steps")
 # the direction of a neighbour's offset from its point: (axis, sign) for the 4 neighbours
 NEIGHBOURS = ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0))
 
@@ -68,15 +67,7 @@ def check_fsle_parameters(parameters: dict, spacing: tuple[float, float], where:
     if isinstance(t0, bool) or not isinstance(t0, (int, float)) or not math.isfinite(t0):
         raise ConfigError(f"{where}: {name('t0')}: {t0!r}; expected a finite number")
     checked["t0"] = float(t0)
-    integrator = checked["integrator"] or {}
-    if not isinstance(integrator, dict) or set(integrator) - set(INTEGRATOR_KEYS):
-        raise ConfigError(f"{where}: {name('integrator')}: {integrator!r}; expected a mapping of some of "
-                          f"{list(INTEGRATOR_KEYS)}")
-    try:
-        FlowSettings(**integrator)
-    except ValueError as error:
-        raise ConfigError(f"{where}: {name('integrator')}: {error}") from None
-    checked["integrator"] = dict(integrator)
+    checked["integrator"] = checked_flow_settings(checked["integrator"], f"{where}: {name('integrator')}")
     return checked
 
 

@@ -28,11 +28,10 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import LAVD
 from ...io.datafile import stage_dataset
-from ..trajectories import COMPLETED, FlowSettings, flow_map
+from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
 DEFAULTS = {"duration": None, "interval": None, "t0": 0.0, "levels": 100, "convexity_deficiency": 0.01,
             "min_points": 8, "integrator": {}}
-INTEGRATOR_KEYS = ("rtol", "atol", "escape_radius", "max_steps")
 
 
 def check_lavd_parameters(parameters: dict, where: str = "lavd", key: str = "key") -> dict:
@@ -66,15 +65,7 @@ def check_lavd_parameters(parameters: dict, where: str = "lavd", key: str = "key
         value = checked[name]
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
             raise ConfigError(f"{where}: {key} {name!r}: {value!r}; expected an integer of at least {low}")
-    integrator = checked["integrator"] or {}
-    if not isinstance(integrator, dict) or set(integrator) - set(INTEGRATOR_KEYS):
-        raise ConfigError(f"{where}: {key} 'integrator': {integrator!r}; expected a mapping of some of "
-                          f"{list(INTEGRATOR_KEYS)}")
-    try:
-        FlowSettings(**integrator)
-    except ValueError as error:
-        raise ConfigError(f"{where}: {key} 'integrator': {error}") from None
-    checked["integrator"] = dict(integrator)
+    checked["integrator"] = checked_flow_settings(checked["integrator"], f"{where}: {key} 'integrator'")
     return checked
 
 
