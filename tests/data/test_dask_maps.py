@@ -102,6 +102,21 @@ def test_start_times_with_ftle_equal_the_one_process_map(client, gyre):
     assert_same_file(lazy.compute(), eager)
 
 
+@pytest.mark.parametrize("lazy_data", [False, True], ids=["numpy", "dask-backed"])
+def test_velocity_data_in_memory_reach_the_workers(client, gyre, lazy_data):
+    # a Dataset held by the notebook (not a file the workers could open): each block's task
+    # gets it with the graph (without it, every block fails: no dataset by that hash in the
+    # worker); a dask-backed one is read inside the task
+    path = gyre.spec["velocity_data"]["path"]
+    data = xr.open_dataset(path, chunks={"time": 8}) if lazy_data else xr.load_dataset(path)
+    system = ldpipe.system(name="gyre", velocity_data={"dataset": data})
+    spec = {**copy.deepcopy(GYRE_MAP), "t0": 2.0}
+    eager = ldpipe.ld_map(system, name="g", **copy.deepcopy(spec))
+    lazy = ldpipe.ld_map(system, name="g", chunks={"x": 2}, client=client, **copy.deepcopy(spec))
+    assert_same_file(lazy.compute(), eager)
+    data.close()
+
+
 def test_a_flow_map_without_its_ld_in_blocks_equals_the_one_process_map(gyre):
     # ld: false (the flow map and its FTLE by the flow driver, tests/data/test_flow_map_only.py's
     # settings), two start times, on this process's threads

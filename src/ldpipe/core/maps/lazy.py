@@ -30,6 +30,7 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.datafile import check_finite
 from ...systems import on_sphere
+from ...systems.velocity_data.memory import datasets_of, register
 from ..sections import section_states
 from .assembly import backward_mirror, compute_ld_map, finish_ld_map, recorded_parameters, resolve_map
 from .grid import add_ftle, map_start_times
@@ -156,12 +157,24 @@ class MapBlocks:
 
 
 def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
-                  threads: int | None) -> dict[str, np.ndarray]:
+                  threads: int | None, datasets: dict | None = None) -> dict[str, np.ndarray]:
     """The band ``rows`` of a map of one start time (a task): its variables as numpy arrays,
-    checked finite as the map's file is (:func:`ldpipe.io.datafile.stage_dataset`)."""
-    dataset = compute_ld_map(parameters, equilibria, rows=rows, threads=threads, show_progress=False)
+    checked finite as the map's file is (:func:`ldpipe.io.datafile.stage_dataset`).
+
+    ``datasets``: the in-memory velocity data the system reads (:func:`block_datasets`), kept in
+    the worker's process; a dask-backed one is read there on the task's own thread (the windows
+    the block needs, as numpy), not as tasks sent back to the cluster that runs this one."""
+    register(datasets or {})
+    with importlib.import_module("dask").config.set(scheduler="synchronous"):
+        dataset = compute_ld_map(parameters, equilibria, rows=rows, threads=threads, show_progress=False)
     check_finite(dataset, f"map {parameters['map_name']}, rows {rows.start}:{rows.stop}")
     return {name: variable.values for name, variable in dataset.data_vars.items()}
+
+
+def block_datasets(blocks: MapBlocks, delayed):
+    """The in-memory velocity data a block's task needs, as one key of the graph (None for a file)."""
+    datasets = datasets_of(blocks.parameters["system_spec"])
+    return delayed(datasets, traverse=False) if datasets else None
 
 
 def block_ftle(variables: dict[str, np.ndarray], dims: tuple[str, str], axes: dict[str, np.ndarray],
@@ -219,9 +232,10 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
     ftle_by_differences = blocks.parameters.get("ftle", False) is True
     skeleton, lazy = [], {name: [] for name in names}
     equilibria = delayed(blocks.equilibria, traverse=False)  # one key in the graph, not a copy per task
+    datasets = block_datasets(blocks, delayed)
     for index, start in enumerate(blocks.starts or [None]):
         parameters = delayed(blocks.at_start(start), traverse=False)
-        computed = [delayed(compute_block, pure=True)(parameters, equilibria, rows, blocks.threads)
+        computed = [delayed(compute_block, pure=True)(parameters, equilibria, rows, blocks.threads, datasets)
                     for rows in blocks.bands]
         band = {}
         for name in names:

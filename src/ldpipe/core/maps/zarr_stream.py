@@ -25,7 +25,7 @@ import xarray as xr
 
 from ...errors import ConfigError
 from ...io.atomic import atomic_path, write_text_atomic
-from .lazy import MapBlocks, block_ftle, check_client, compute_block, map_layout
+from .lazy import MapBlocks, block_datasets, block_ftle, check_client, compute_block, map_layout
 
 #: The suffix of the folder of block markers beside a store.
 MARKERS = ".blocks"
@@ -60,10 +60,10 @@ def write_region(store: Path, variables: dict, dims: tuple[str, str], index: int
     dataset.to_zarr(store, region=region, mode="r+", consolidated=False, zarr_format=ZARR_FORMAT)
 
 
-def stream_block(parameters: dict, equilibria, rows: slice, threads, store: Path, index: int | None,
+def stream_block(parameters: dict, equilibria, rows: slice, threads, datasets, store: Path, index: int | None,
                  names: tuple[str, ...], dims: tuple[str, str], marker: Path) -> str:
     """A block's task: its band computed (:func:`ldpipe.core.maps.lazy.compute_block`), written, marked."""
-    values = compute_block(parameters, equilibria, rows, threads)
+    values = compute_block(parameters, equilibria, rows, threads, datasets)
     write_region(store, {name: values[name] for name in names}, dims, index, rows)
     write_text_atomic(marker, "written\n")
     return marker.name
@@ -135,11 +135,12 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
     dims = tuple(blocks.axes)
     names = blocks.block_variables
     equilibria_key = delayed(blocks.equilibria, traverse=False)
+    datasets = block_datasets(blocks, delayed)
     tasks = []
     for index, start in enumerate(blocks.starts or [None]):
         at = None if blocks.starts is None else index
         parameters_key = delayed(blocks.at_start(start), traverse=False)
-        written = [delayed(stream_block)(parameters_key, equilibria_key, rows, threads, store, at, names, dims,
+        written = [delayed(stream_block)(parameters_key, equilibria_key, rows, threads, datasets, store, at, names, dims,
                                          markers / block_name(index, rows))
                    for rows in blocks.bands if block_name(index, rows) not in done]
         tasks += written

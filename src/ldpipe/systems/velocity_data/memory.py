@@ -160,3 +160,19 @@ def memory_dataset(record, key: str) -> xr.Dataset:
                           "dataset lives in the Python session that gave it to ldpipe.system(velocity_data=...); "
                           "give it again there, or write it to a file and give its path")
     return DATASETS[digest]
+
+
+def datasets_of(system_spec: Mapping) -> dict[str, xr.Dataset]:
+    """The in-memory datasets a system's entry reads, by hash (empty for a file or a formula): what
+    another process (a Dask worker) needs, given to :func:`register`, to build the system."""
+    entry = system_spec.get("velocity_data") if isinstance(system_spec, Mapping) else None
+    record = entry.get("memory") if isinstance(entry, Mapping) else None
+    if not isinstance(record, Mapping):
+        return {}
+    return {record["hash"]: memory_dataset(record, "velocity_data")}
+
+
+def register(datasets: Mapping[str, xr.Dataset]) -> None:
+    """Keep ``datasets`` (from :func:`datasets_of` in another process) in this process' :data:`DATASETS`."""
+    for digest, dataset in datasets.items():
+        DATASETS.setdefault(digest, dataset)
