@@ -1,6 +1,6 @@
 """The stochastic engine against closed forms: the Ornstein-Uhlenbeck process's mean and variance,
-Brownian spreading 2 K t, reflection in a box (mass kept, the variance saturating at L^2/12),
-the measured strong and weak orders of Euler-Maruyama and Milstein on geometric Brownian motion
+Brownian spreading 2 K t, reflection in a box (mass kept, the variance saturating at L^2/12) and
+off a coast of land cells (the reflected Gaussian), the measured strong and weak orders of Euler-Maruyama and Milstein on geometric Brownian motion
 (its exact solution driven by the same increments), the zero-noise LD against the linear
 saddle's closed form, and the random streams against numpy's Philox and across tilings.
 
@@ -123,6 +123,42 @@ def test_velocity_data_drift_and_spread(tmp_path):
     np.testing.assert_array_less(np.abs(end.mean(axis=0) - [2.0 + current * tau, 2.5]),
                                  4 * math.sqrt(variance / members))
     np.testing.assert_array_less(np.abs(end.var(axis=0, ddof=1) - variance), 4 * variance * math.sqrt(2 / members))
+
+
+def test_a_coast_reflects_brownian_particles_into_the_reflected_gaussian(tmp_path):
+    """Still water (u = v = 0) east of a straight coast, the grid line x = 0 (the nodes west of it
+    land: NaN), diffusivity K, particles from x = a: none ends on land or is lost (mass kept), and
+    their x is the reflected Brownian motion |a + W|, W ~ N(0, 2 K t): density phi(x - a) +
+    phi(x + a) on x >= 0. With no drift the reflected Gaussian-step walk has that law exactly at
+    the step times (|y| + xi and y + xi have the same modulus in law for a symmetric xi), so only
+    sampling error remains: the mean within 4 standard errors, the Kolmogorov-Smirnov distance
+    below 1.95 / sqrt(n) (its 0.1 % point). Free diffusion would leave Phi(-a / sigma) = 36 % on
+    land. Along the coast, y spreads as 2 K t."""
+    from scipy.stats import norm
+
+    from support.gridded import write_velocity_file
+
+    diffusivity, tau, members, a = 0.01, 1.0, 20_000, 0.05
+    nodes = np.linspace(-1.0, 2.0, 31)
+    path = write_velocity_file(tmp_path / "coast.nc", lambda x, y, t: (0 * x, 0 * y), nodes, nodes,
+                               np.linspace(0, 20, 5), land=lambda x, y: x < -0.05)
+    data = make_system("sde_coast", {"velocity_data": {"path": str(path)}})
+    noise = parse_noise({"diffusivity": diffusivity}, data, "test")
+    result = run((data, noise), [a, 0.5], tau, members, 0.05)
+    assert result.started.all() and not result.escaped.any() and np.all(result.time == tau)
+    x, y = result.end_state[0].T
+    assert np.all(x >= 0.0)
+    sigma = math.sqrt(2 * diffusivity * tau)
+    mean = sigma * math.sqrt(2 / math.pi) * math.exp(-a * a / (2 * sigma * sigma)) + a * (1 - 2 * norm.cdf(-a / sigma))
+    error = math.sqrt((a * a + sigma * sigma - mean * mean) / members)
+    assert abs(x.mean() - mean) < 4 * error
+    ordered = np.sort(x)
+    law = norm.cdf((ordered - a) / sigma) - norm.cdf((-ordered - a) / sigma)
+    steps = np.arange(1, members + 1) / members
+    assert max(np.max(steps - law), np.max(law - steps + 1 / members)) < 1.95 / math.sqrt(members)
+    assert abs(y.var(ddof=1) - sigma**2) < 4 * sigma**2 * math.sqrt(2 / members)
+    # a start on land is not integrated
+    assert not run((data, noise), [-0.5, 0.5], tau, 2, 0.05).started.any()
 
 
 def test_reflecting_box_keeps_mass_and_saturates_at_uniform_variance(free):

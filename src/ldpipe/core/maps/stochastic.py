@@ -36,7 +36,7 @@ PATHS_PER_CALL = 1 << 18
 MEMBER_FIELDS = {
     "ld": "Lagrangian descriptor of the drift along the noisy path, {label} time",
     "exit_time": "{label} integration time reached (|t - t0|): tau, or the escape time (0: not started)",
-    "escaped": "path escaped, or started outside the reflecting box ({label})",
+    "escaped": "path escaped, or started outside the reflecting box or on land ({label})",
 }
 BACKWARD_TIME = ("the reversed drift with the same noise: dx = -f(x, t0 - s) ds + G(x, t0 - s) dW_s, "
                  "s in [0, tau], with increments of its own")
