@@ -133,7 +133,8 @@ def test_a_coast_reflects_brownian_particles_into_the_reflected_gaussian(tmp_pat
     the step times (|y| + xi and y + xi have the same modulus in law for a symmetric xi), so only
     sampling error remains: the mean within 4 standard errors, the Kolmogorov-Smirnov distance
     below 1.95 / sqrt(n) (its 0.1 % point). Free diffusion would leave Phi(-a / sigma) = 36 % on
-    land. Along the coast, y spreads as 2 K t."""
+    land. Along the coast, y spreads as 2 K t. In a corner of land each coordinate is reflected on
+its own: both means are the reflected Gaussian's."""
     from scipy.stats import norm
 
     from support.gridded import write_velocity_file
@@ -159,6 +160,16 @@ def test_a_coast_reflects_brownian_particles_into_the_reflected_gaussian(tmp_pat
     assert abs(y.var(ddof=1) - sigma**2) < 4 * sigma**2 * math.sqrt(2 / members)
     # a start on land is not integrated
     assert not run((data, noise), [-0.5, 0.5], tau, 2, 0.05).started.any()
+    # In a corner of land (west of x = 0 and south of y = 0) each coordinate is reflected on its own
+    # (the walls are perpendicular), so each is the reflected Gaussian from its start.
+    path = write_velocity_file(tmp_path / "corner.nc", lambda x, y, t: (0 * x, 0 * y), nodes, nodes,
+                               np.linspace(0, 20, 5), land=lambda x, y: (x < -0.05) | (y < -0.05))
+    corner = make_system("sde_coast", {"velocity_data": {"path": str(path)}})
+    result = run((corner, noise), [a, a], tau, members, 0.05)
+    assert result.started.all() and not result.escaped.any()
+    end = result.end_state[0]
+    assert np.all(end >= 0.0)
+    assert np.all(np.abs(end.mean(axis=0) - mean) < 4 * error)
 
 
 def test_reflecting_box_keeps_mass_and_saturates_at_uniform_variance(free):
