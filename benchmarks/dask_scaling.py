@@ -49,8 +49,8 @@ def currents_map(ldpipe, n: int, tau: float, **extra):
     data = xr.decode_cf(example_dataset(days=2.0 + 2 * tau, resolution=0.5))
     currents = ldpipe.system(name="currents", velocity_data={"dataset": data, "coordinates": "sphere"})
     section = ldpipe.section(lon=(-78.0, -42.0, n), lat=(27.0, 48.0, n))
-    return ldpipe.ld_map(currents, name="currents", section=section, t0=2.0 + tau, tau=tau, ftle=True,
-                         threads=1, **extra)
+    return ldpipe.ld_map(currents, name="currents", section=section, t0=2.0 + tau, tau=tau, threads=1,
+                         **{"ftle": True, **extra})
 
 
 MAPS = {"henon_heiles": hh_map, "currents": currents_map}
@@ -96,7 +96,8 @@ def main() -> None:
     parser.add_argument("--system", choices=sorted(MAPS), default="henon_heiles")
     parser.add_argument("--n", type=int, default=300, help="grid points per axis")
     parser.add_argument("--tau", type=float, default=10.0)
-    parser.add_argument("--chunks", type=int, nargs="+", default=[10_000], help="points per block")
+    parser.add_argument("--chunks", type=lambda value: value if value == "auto" else int(value), nargs="+",
+                        default=["auto"], help="points per block, or auto")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--rounds", type=int, default=2)
     args = parser.parse_args()
@@ -124,7 +125,7 @@ def main() -> None:
     print("| workers | points a block | blocks | wall s | speed-up vs 1 worker | layout s | block s (summed) "
           "| a block's integration ms | gap a block ms | in a block beyond the map's ms | cost a task % | tail s |")
     print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for (workers, chunks), run in sorted(best.items(), key=lambda item: (item[0][1], item[0][0])):
+    for (workers, chunks), run in sorted(best.items(), key=lambda item: (str(item[0][1]), item[0][0])):
         one = best.get((1, chunks))
         ratio = f"{one['wall'] / run['wall']:.2f}" if one else ""
         blocks = max(run["blocks"], 1)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import importlib
 import operator
+import time
 
 import numpy as np
 import xarray as xr
@@ -44,6 +45,9 @@ INSTALL = "pip install 'ldpipe[dask]'"
 #: integration (the scheduler's round trip, the results' transfer, the band's set-up; measured
 #: by benchmarks/dask_scaling.py at 15-30 ms a block) is then a few per cent of it.
 AUTO_BLOCK_SECONDS = 1.0
+#: ... or more, so that what a block's engine calls cost besides their trajectories (a window of
+#: velocity data read) is at most this share of its integration.
+AUTO_FIXED_SHARE = 0.05
 #: Rows of the section the pilot of ``chunks="auto"`` spreads its start points over, and how
 #: many it integrates (enough that one call's fixed cost can be told from its trajectories').
 AUTO_PILOT_ROWS = 16
@@ -172,8 +176,10 @@ class MapBlocks:
 
 def auto_block_points(parameters: dict, system, section, settings, info: dict) -> int:
     """Start points a block of ``chunks="auto"`` holds: about :data:`AUTO_BLOCK_SECONDS` of
-    integration, from a pilot of the map's own trajectories (at its first start time) spread over
-    :data:`AUTO_PILOT_ROWS` rows; the whole map where no point is allowed."""
+    integration, or more where a call's fixed cost over the whole tau (the data window a block
+    reads) would be over :data:`AUTO_FIXED_SHARE` of that; from a pilot of the map's own
+    trajectories (at its first start time) spread over :data:`AUTO_PILOT_ROWS` rows. The whole
+    map where no point is allowed."""
     rows = np.unique(np.linspace(0, section.shape[0] - 1, AUTO_PILOT_ROWS).round().astype(int))
     states = np.concatenate([section_states(system, section, info["energy"], slice(row, row + 1))[0] for row in rows])
     points = section.shape[0] * section.shape[1]
@@ -183,10 +189,17 @@ def auto_block_points(parameters: dict, system, section, settings, info: dict) -
     sample = sample[np.random.default_rng(0).permutation(len(sample))]  # its first eighth spread over the map too
     directions = map_directions(directions_setting(parameters))
     integrate = pilot_integration(system, directions[0][0], settings, info["t0"], parameters.get("ld", True))
-    per_point = seconds_per_trajectory(integrate, sample, settings.tau) * len(directions)
-    block = int(min(points, max(1, AUTO_BLOCK_SECONDS / per_point)))
+    per_trajectory = seconds_per_trajectory(integrate, sample, settings.tau)
+    fixed = 0.0
+    if per_trajectory < AUTO_BLOCK_SECONDS:  # one trajectory over tau: the call's fixed cost besides it
+        start = time.perf_counter()
+        integrate(sample[:1], settings.tau)
+        fixed = max(0.0, time.perf_counter() - start - per_trajectory) * len(directions)
+    per_point = per_trajectory * len(directions)
+    seconds = max(AUTO_BLOCK_SECONDS, fixed / AUTO_FIXED_SHARE)
+    block = int(min(points, max(1, seconds / per_point)))
     log.info("map %s: chunks='auto' gives blocks of about %d start points (%.3g s of integration a point, "
-             "measured by a pilot)", parameters["map_name"], block, per_point)
+             "%.3g s a block besides, measured by a pilot)", parameters["map_name"], block, per_point, fixed)
     return block
 
 
