@@ -224,3 +224,20 @@ def test_the_command_line_runs_a_maps_manifold_entry(tmp_path, capsys, henon_man
     assert main([*options, "-o", str(tmp_path / "cli.nc")]) == 0
     written = open_stage_file(tmp_path / "cli.nc", stage="map_manifolds")
     np.testing.assert_array_equal(written.curve.values, henon_manifolds.curve.values)
+
+
+def test_on_the_torus_every_point_is_wrapped_into_the_period():
+    """The standard map's saddle (0, 0): multipliers 1 + K/2 +- sqrt(K + K^2/4) (the tangent map
+    [[1 + K, 1], [K, 1]]), and every point of its manifolds, the starts of the minus branch
+    included (those just below theta = 0), with theta in [0, 2 pi) as the map's iterates are."""
+    standard = ldpipe.system(name="standard", map="standard",
+                             equilibria={"box": {"theta": [-0.5, 6.5], "p": [-0.5, 0.5]}})
+    found = ldpipe.map_manifolds(standard, iterations=4, segment_points=10)
+    k = 0.971635406
+    root = math.sqrt(k + k * k / 4)
+    np.testing.assert_allclose(found.multiplier.values, [[1 + k / 2 - root, 1 + k / 2 + root]], rtol=1e-12)
+    theta = found.curve.sel(coordinate="theta").values
+    assert np.all((theta >= 0) & (theta < 2 * math.pi))
+    segment = theta[0, :, :, 0]  # image 0: a side of theta = 0 for each manifold, wrapped below 2 pi
+    assert np.all((segment < 1e-5) | (segment > 2 * math.pi - 1e-5))
+    assert np.all(np.any(segment > 6.0, axis=(1, 2)))

@@ -60,6 +60,8 @@ def fixed_point_manifold(system, point: np.ndarray, multiplier: float, eigenvect
     out = np.full((iterations + 1, 2, segment_points, n), np.nan)
     for branch, sign in enumerate((1.0, -1.0)):
         current = np.asarray(point)[None, :] + sign * s[:, None] * vector[None, :]
+        if hasattr(system, "wrap"):  # a periodic coordinate in [0, period), as every image has it
+            current = system.wrap(current)
         out[0, branch] = current
         for k in range(1, iterations + 1):
             with np.errstate(over="ignore", invalid="ignore"):
