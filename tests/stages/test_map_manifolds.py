@@ -241,3 +241,14 @@ def test_on_the_torus_every_point_is_wrapped_into_the_period():
     segment = theta[0, :, :, 0]  # image 0: a side of theta = 0 for each manifold, wrapped below 2 pi
     assert np.all((segment < 1e-5) | (segment > 2 * math.pi - 1e-5))
     assert np.all(np.any(segment > 6.0, axis=(1, 2)))
+
+
+def test_the_guides_map_manifold_block_validates():
+    """docs/guide/maps-discrete.md's manifolds block, with the guide's Hénon system."""
+    import yaml
+
+    from support.workflow import documented_yaml
+
+    systems = yaml.safe_load(documented_yaml("Hénon's values, the defaults"))["systems"]
+    config = validate_config({"systems": systems, **yaml.safe_load(documented_yaml("henon_saddles:"))})
+    assert parameters_from_config(config, "manifolds", "henon_saddles")["iterations"] == 20
