@@ -15,6 +15,7 @@ import contextlib
 import re
 from collections.abc import Iterator
 
+from ..engine.stochastic import SDE_SCHEMES
 from ..errors import ConfigError
 from .options import number
 
@@ -39,7 +40,7 @@ def add_noise_options(parser: argparse.ArgumentParser) -> None:
                             "(repeatable)")
     group.add_argument("--noise-parameter", action="append", default=[], metavar="NAME=VALUE",
                        help="a number the diffusion formulas may use (repeatable)")
-    group.add_argument("--noise-scheme", choices=("euler_maruyama", "milstein"),
+    group.add_argument("--noise-scheme", choices=tuple(SDE_SCHEMES),
                        help="the SDE scheme")
     group.add_argument("--noise-dt", metavar="DT", help="the largest time step")
     group.add_argument("--seed", metavar="N", help="the key of every path's random numbers")

@@ -28,7 +28,9 @@ from .integrator import kept_runner, run_units
 
 #: The schemes by their run-time code in ``sde_driver``: name -> (code, strong order with
 #: multiplicative noise, strong order with additive noise, weak order).
-SDE_SCHEMES = {"euler_maruyama": (0, 0.5, 1.0, 1.0), "milstein": (1, 1.0, 1.0, 1.0)}
+SDE_SCHEMES = {"euler_maruyama": (0, 0.5, 1.0, 1.0), "milstein": (1, 1.0, 1.0, 1.0), "heun": (2, 1.0, 1.0, 1.0)}
+#: The schemes that take only diagonal noise (g_i a function of x_i and t alone): their terms need dg_i/dx_i.
+DIAGONAL_SCHEMES = ("milstein", "heun")
 #: The common module of the Philox generator (a layer of :func:`ldpipe.engine.codegen.common_modules`).
 PHILOX_LAYER = (("common_philox", ("philox",)),)
 KERNELS = ("rhs",)
@@ -201,8 +203,8 @@ def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, 
     if system.hamiltonian:
         raise ValueError(f"system {system.name!r}: noise applies to a vector field or velocity data, not a Hamiltonian")
     code = SDE_SCHEMES[settings.scheme][0]
-    if settings.scheme == "milstein" and not noise.diagonal:
-        raise ValueError(f"scheme milstein: needs diagonal noise (g_i a function of x_i and t alone), got "
+    if settings.scheme in DIAGONAL_SCHEMES and not noise.diagonal:
+        raise ValueError(f"scheme {settings.scheme}: needs diagonal noise (g_i a function of x_i and t alone), got "
                          f"{noise.description}; use euler_maruyama")
     n = system.n_state
     states = np.ascontiguousarray(states, dtype=np.float64)

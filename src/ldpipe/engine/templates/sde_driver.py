@@ -14,6 +14,12 @@ t = t0 + direction s (backward: the drift reversed, the noise as forward, fresh 
 - Milstein (``scheme`` 1, diagonal G with g_i depending on x_i alone, checked where the noise is
   parsed): the same plus 1/2 g_i dg_i/dx_i (dW_i^2 - h), strong order one (Kloeden and Platen,
   sec. 10.3). For additive noise the correction is zero and the two schemes agree bit for bit.
+- Heun (``scheme`` 2, diagonal G as Milstein's): the stochastic Heun scheme
+  (predictor-corrector, trapezoidal in f and G) of the Stratonovich form of the same SDE, whose
+  drift is f~_i = direction f_i - 1/2 g_i dg_i/dx_i (the Ito-Stratonovich correction; zero for
+  additive noise): y = x + f~(x) h + G(x) dW, then x += (f~(x) + f~(y)) h / 2 +
+  (G(x) + G(y)) dW / 2. Strong order one for commuting noise, weak order one (Kloeden and Platen,
+  sec. 11.1 and 15.1; for additive noise weak order two).
 
 After each step a closed box reflects the state: a coordinate beyond a wall is mirrored into
 the box (folded, so any overshoot lands inside). With ``walls`` (planar velocity data with land),
@@ -150,6 +156,32 @@ def outside(x, lo, hi, reflecting, radius):
     return False
 
 
+@njit(**JIT)
+def heun_step(x, f, g, slope, y, fy, gy, slope_y, xi, t, direction, h, root_h, constant, k, o_end):
+    """Heun's candidate state into ``o_end[k]`` (see the module docstring): ``f``, ``g``,
+    ``slope`` are the drift, diffusion and slope at ``x`` and ``t``."""
+    t_next = t + direction * h
+    for i in range(N):
+        step = h * (direction * f[i] - 0.5 * g[i, i] * slope[i])
+        for j in range(M_NOISE):
+            step += g[i, j] * root_h * xi[j]
+        y[i] = x[i] + step
+    rhs(y, t_next, fy)
+    if constant:
+        for i in range(N):
+            for j in range(M_NOISE):
+                gy[i, j] = g[i, j]
+    else:
+        diffusion(y, t_next, gy)
+    diffusion_slope(y, t_next, slope_y)
+    for i in range(N):
+        drift = 0.5 * ((direction * f[i] - 0.5 * g[i, i] * slope[i]) + (direction * fy[i] - 0.5 * gy[i, i] * slope_y[i]))
+        step = h * drift
+        for j in range(M_NOISE):
+            step += 0.5 * (g[i, j] + gy[i, j]) * root_h * xi[j]
+        o_end[k, i] = x[i] + step
+
+
 @njit(nogil=True, **JIT)
 def sde_process(
     states, start, stop, index, members, key0, key1, direction_word, t0, direction, h, n_steps, scheme,
@@ -160,6 +192,10 @@ def sde_process(
     f = np.zeros(N)
     g = np.zeros((N, M_NOISE))
     slope = np.zeros(N)
+    y = np.zeros(N)  # Heun's predictor, and its drift, diffusion and slope
+    fy = np.zeros(N)
+    gy = np.zeros((N, M_NOISE))
+    slope_y = np.zeros(N)
     xi = np.zeros(4 * BLOCKS)
     root_h = math.sqrt(h)
     for k in range(start, stop):
@@ -185,16 +221,19 @@ def sde_process(
                             xi[4 * b:4 * b + 4], 2 if b < BLOCKS - 1 else LAST_PAIRS)
                 if not constant:
                     diffusion(x, t, g)
-                if scheme == 1:
+                if scheme >= 1:
                     diffusion_slope(x, t, slope)
-                for i in range(N):
-                    step = direction * h * f[i]
-                    for j in range(M_NOISE):
-                        step += g[i, j] * root_h * xi[j]
-                    if scheme == 1:
-                        dw = root_h * xi[i]
-                        step += 0.5 * g[i, i] * slope[i] * (dw * dw - h)
-                    o_end[k, i] = x[i] + step  # the candidate state, kept only if it stays inside
+                if scheme == 2:
+                    heun_step(x, f, g, slope, y, fy, gy, slope_y, xi, t, direction, h, root_h, constant, k, o_end)
+                else:
+                    for i in range(N):
+                        step = direction * h * f[i]
+                        for j in range(M_NOISE):
+                            step += g[i, j] * root_h * xi[j]
+                        if scheme == 1:
+                            dw = root_h * xi[i]
+                            step += 0.5 * g[i, i] * slope[i] * (dw * dw - h)
+                        o_end[k, i] = x[i] + step  # the candidate state, kept only if it stays inside
                 for i in range(N):
                     f[i] = o_end[k, i]
                 reflect_into(f, lo, hi, reflecting)
