@@ -172,6 +172,29 @@ its own: both means are the reflected Gaussian's."""
     assert np.all(np.abs(end.mean(axis=0) - mean) < 4 * error)
 
 
+@pytest.mark.compiles  # the stochastic engine of a rectilinear grid's kernel
+def test_a_coast_on_a_rectilinear_grid_is_a_wall_too(tmp_path):
+    """The coast of the test above on a grid of uneven spacing east of it (its walls are the
+    nodes' own values): every particle at sea, the reflected Gaussian's mean within 4 standard errors."""
+    from scipy.stats import norm
+
+    from support.gridded import write_velocity_file
+
+    diffusivity, tau, members, a = 0.01, 1.0, 20_000, 0.05
+    x_nodes = np.concatenate([np.linspace(-1.0, 0.0, 11), [0.03, 0.08, 0.15, 0.25, 0.4, 0.6, 0.9, 1.3, 2.0]])
+    path = write_velocity_file(tmp_path / "coast.nc", lambda x, y, t: (0 * x, 0 * y), x_nodes,
+                               np.linspace(-1.0, 2.0, 31), np.linspace(0, 20, 5), land=lambda x, y: x < -0.05)
+    data = make_system("sde_coast_rectilinear", {"velocity_data": {"path": str(path)}})
+    assert type(data).__name__ == "RectilinearVelocitySystem"
+    result = run((data, parse_noise({"diffusivity": diffusivity}, data, "test")), [a, 0.5], tau, members, 0.05)
+    assert result.started.all() and not result.escaped.any()
+    x = result.end_state[0, :, 0]
+    assert np.all(x >= 0.0)
+    sigma = math.sqrt(2 * diffusivity * tau)
+    mean = sigma * math.sqrt(2 / math.pi) * math.exp(-a * a / (2 * sigma * sigma)) + a * (1 - 2 * norm.cdf(-a / sigma))
+    assert abs(x.mean() - mean) < 4 * math.sqrt((a * a + sigma * sigma - mean * mean) / members)
+
+
 def test_reflecting_box_keeps_mass_and_saturates_at_uniform_variance(free):
     # In a box of side L every member stays inside (no mass lost through a wall), and after many
     # relaxation times L^2 / (4 pi^2 K) (the slowest even mode) the law is uniform: variance L^2 / 12,
