@@ -112,3 +112,20 @@ def test_bad_arguments_are_named(henon_heiles):
                        "fixed": {"py": 0.0}, "solve": "x", "root": "largest"}
     with pytest.raises(ConfigError, match="^section.solve:"):
         flow_chaos_indicators(henon_heiles, solved_position, ENERGY, **keywords)
+
+
+def test_differences_of_regular_starts_are_the_exact_gradient_times_sigma(henon_heiles):
+    """On a regular orbit L is smooth at the scale sigma, so L(x +- sigma e_a) - L(x) =
+    +-sigma dL/da + O(sigma^2) and D_L = (sigma / 2) (|dL/dy| + |dL/dpy|) / L: the neighbours'
+    engine LDs (their momentum solved on H = E) against the variational gradient."""
+    sigma = 1e-5
+    found = flow_chaos_indicators(henon_heiles, section_spec(7), ENERGY, tau=30.0, sigma=sigma,
+                                  reference_tau=300.0, dt=0.01)
+    regular = found.defined.values & ~found.chaotic_sali.values
+    assert regular.sum() >= 8
+    slopes = np.abs(found.dld_dy.values[regular]) + np.abs(found.dld_dpy.values[regular])
+    exact = sigma / 2 * slopes / found.ld.values[regular]
+    # the O(sigma^2) terms stay where a slope is near 0 (|sigma g + h| + |-sigma g + h| > 2 sigma |g|
+    # when |g| < |h| / sigma): up to 3.3e-3 of D_L at one start here, 1e-4 elsewhere; neighbours
+    # left off the energy surface (px not solved again) miss it by tens of per cent
+    np.testing.assert_allclose(found.ld_difference.values[regular], exact, rtol=1e-2)

@@ -172,6 +172,10 @@ def flow_chaos_indicators(system, section, energy: float, *, tau: float, sigma: 
         "chaotic_sali": (dims, grid(reference & defined, False),
                          {"long_name": f"chaotic by the SALI (below {sali_threshold:g})"}),
     }
+    for column, axis in enumerate(dims):
+        variables[f"dld_d{axis}"] = (dims, grid(np.where(defined, along[:, column], 0.0)),
+                                     {"long_name": f"dL/d{axis} along the section (the solved momentum following), "
+                                                   "from the variational equations", "comment": "0 where not defined"})
     for name, text in FLOW_INDICATORS.items():
         variables[name] = (dims, grid(found[name]), {"long_name": text, "comment": "0 where not defined"})
         variables[f"chaotic_{name}"] = (dims, grid(chaotic[name], False),
