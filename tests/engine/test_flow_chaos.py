@@ -129,3 +129,14 @@ def test_differences_of_regular_starts_are_the_exact_gradient_times_sigma(henon_
     # when |g| < |h| / sigma): up to 3.3e-3 of D_L at one start here, 1e-4 elsewhere; neighbours
     # left off the energy surface (px not solved again) miss it by tens of per cent
     np.testing.assert_allclose(found.ld_difference.values[regular], exact, rtol=1e-2)
+
+
+def test_the_api_names_the_bad_argument(henon_heiles):
+    section = ldpipe.section(y=(-0.3, 0.3, 3), py=(-0.2, 0.2, 3), fixed={"x": 0.0}, solve="px")
+    found = ldpipe.chaos_indicators(henon_heiles, section=section, energy=ENERGY, tau=2.0, sigma=1e-4,
+                                    reference_tau=2.0)
+    assert found.ld_gradient.dims == ("y", "py") and found.attrs["energy"] == ENERGY
+    with pytest.raises(ConfigError, match=r"^ldpipe.chaos_indicators: energy: expected a finite number"):
+        ldpipe.chaos_indicators(henon_heiles, section=section, energy="high", tau=2.0, sigma=1e-4, reference_tau=2.0)
+    with pytest.raises(ConfigError, match=r"^ldpipe.chaos_indicators: argument 'section'"):
+        ldpipe.chaos_indicators(henon_heiles, section=[1, 2], energy=ENERGY, tau=2.0, sigma=1e-4, reference_tau=2.0)

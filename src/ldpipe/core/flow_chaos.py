@@ -114,6 +114,8 @@ def flow_chaos_indicators(system, section, energy: float, *, tau: float, sigma: 
     tau, sigma, reference_tau = (_positive(name, value) for name, value in
                                  (("tau", tau), ("sigma", sigma), ("reference_tau", reference_tau)))
     dt, sali_threshold = _positive("dt", dt), _positive("sali_threshold", sali_threshold)
+    if isinstance(energy, bool) or not isinstance(energy, (int, float)) or not np.isfinite(energy):
+        raise ConfigError(f"energy: expected a finite number, got {energy!r}")
     energy = float(energy)
     section = _section(system, section)
     try:
