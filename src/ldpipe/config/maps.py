@@ -3,8 +3,9 @@ Hamiltonian and vector-field systems alike (:func:`ldpipe.config.validate_config
 
 A Hamiltonian's map has an energy and a coordinate solved from it; a vector field's has neither,
 only two state variables on the grid, the others fixed, and an optional start time ``t0``; a
-discrete map's LD map counts ``iterations`` and has no time at all. The checks every
-configuration module shares (an interval, names of other entries) are here too.
+discrete map's LD map counts ``iterations`` and has no time at all. On velocity data with a
+calendar, ``t0`` may be a date and ``tau`` a duration, made numbers here before the other checks.
+The checks every configuration module shares (an interval, names of other entries) are here too.
 """
 
 from __future__ import annotations
@@ -16,6 +17,11 @@ from ..core.maps.symmetry import SETTING_KEY
 from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
                        system_phase_coordinates)
 from ..systems.noise import check_noise
+from ..systems.velocity_data import open_source
+from ..systems.velocity_data.calendar import numeric_times
+
+#: The sections whose entries take a start time ``t0`` (and an integration time ``tau``).
+TIMED_SECTIONS = ("ld_maps", "poincare_sections")
 
 
 def check_interval(value, key: str) -> None:
@@ -47,6 +53,28 @@ def check_energy_surface_grid(spec: dict, key: str, grid: str, what: str) -> Non
     if "solve" not in spec[grid]:
         raise ConfigError(f"config key '{key}.{grid}.solve': a grid on the energy surface of a Hamiltonian needs the "
                           "coordinate solved from the energy")
+
+
+def numeric_calendar_times(config: dict) -> bool:
+    """Each map's and Poincaré section's date ``t0`` and duration ``tau`` (text) made numbers in
+    its system's time units (:func:`ldpipe.systems.velocity_data.calendar.numeric_times`; a
+    ConfigError naming the key for a date on a system without a calendar); whether any was text
+    (the numbers then to be validated as the schema says)."""
+    changed = False
+    for section in TIMED_SECTIONS:
+        for name, entry in config.get(section, {}).items():
+            t0 = entry.get("t0")
+            times = [*t0.values()] if isinstance(t0, dict) else t0 if isinstance(t0, list) else [t0]
+            if not any(isinstance(value, str) for value in [*times, entry.get("tau")]):
+                continue
+            system = config["systems"].get(entry["system"])
+            if system is None:
+                continue  # the entry's check names the missing system
+            source = (open_source(system["velocity_data"], f"systems.{entry['system']}.velocity_data")
+                      if "velocity_data" in system else None)
+            config[section][name] = numeric_times(entry, source, entry["system"], f"{section}.{name}")
+            changed = True
+    return changed
 
 
 def given_map_keys(config) -> dict[str, dict[str, set]]:
