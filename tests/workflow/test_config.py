@@ -31,6 +31,23 @@ def test_the_schema_reads_the_same_with_the_fast_loader():
     assert repr(loaded) == repr(reference)
 
 
+def test_a_schema_changed_by_its_caller_changes_no_other_reader():
+    """The schema is parsed once per process; ``load_schema`` gives each caller a copy of its own,
+    so a caller that edits it leaves validation (here, a map's default tau of 50) as it was."""
+    from ldpipe.config.loading import load_schema, shared_schema
+
+    edited = load_schema()
+    edited["$defs"]["ld_map"]["properties"]["tau"]["default"] = 1.0
+    edited["$defs"].pop("system")
+    assert load_schema() == shared_schema() and "system" in shared_schema()["$defs"]
+    config = validate_config({"systems": {"b": {"builtin": "barbanis_2dof"}},
+                              "ld_maps": {"m": {"system": "b", "energy": {"excess": 0.1}, "section": {
+                                  "axes": [{"name": "y", "range": [-1.0, 1.0], "points": 3},
+                                           {"name": "py", "range": [-1.0, 1.0], "points": 3}],
+                                  "fixed": {"x": 0.0}, "solve": "px"}}}})
+    assert config["ld_maps"]["m"]["tau"] == 50
+
+
 def test_paper_parameters_in_config_yaml():
     config = load_config(ROOT / "config.yaml")
     assert config["systems"]["barbanis_2dof"]["parameters"] == {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}

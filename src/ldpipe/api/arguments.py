@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 import xarray as xr
 
 from ..config import validate_config
-from ..config.loading import load_schema
+from ..config.loading import shared_schema
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError, LdpipeError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
@@ -119,7 +119,7 @@ def arguments_of(function: str, key: str) -> Iterator[None]:
 
 @functools.lru_cache(maxsize=None)
 def _name_pattern(section: str) -> str:
-    return load_schema()["properties"][section]["propertyNames"]["pattern"]
+    return shared_schema()["properties"][section]["propertyNames"]["pattern"]
 
 
 def entry_key(function: str, section: str, name) -> str:

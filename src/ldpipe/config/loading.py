@@ -44,16 +44,24 @@ SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
-def load_schema() -> dict:
+@functools.lru_cache(maxsize=1)
+def shared_schema() -> dict:
+    """The configuration schema, parsed once per process and shared by its readers: read it, never
+    change it (:func:`load_schema` gives a copy to change)."""
     text = resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
     return yaml.load(text, Loader=SAFE_LOADER)
 
 
+def load_schema() -> dict:
+    """The configuration schema, a copy of its own that the caller may change."""
+    return copy.deepcopy(shared_schema())
+
+
 @functools.lru_cache(maxsize=1)
 def _schema_validator():
-    # Parsing the schema costs ~0.3 s; stages and Snakemake's input functions validate often.
-    # The validator copies defaults into the instance, so the cached schema is never modified.
-    return _DefaultingValidator(load_schema())
+    # Stages and Snakemake's input functions validate often. The validator copies defaults into
+    # the instance, so the shared schema is never modified.
+    return _DefaultingValidator(shared_schema())
 
 
 def _extend_with_defaults(validator_class):
