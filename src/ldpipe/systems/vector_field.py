@@ -18,7 +18,7 @@ from __future__ import annotations
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable, ClassVar
+from typing import TYPE_CHECKING, Callable, ClassVar
 
 import numpy as np
 
@@ -29,6 +29,8 @@ from .model import CoordinateState, Unbounded, system_repr
 # sympy (through .formula) is imported where formulas are parsed or printed, not with this module:
 # the stages and the workflow's planning reach VectorFieldSystem and require_hamiltonian for
 # every system, built-ins included, whose kernels are files.
+if TYPE_CHECKING:
+    import sympy
 
 #: The name of the time in the formulas.
 TIME = "t"
