@@ -234,6 +234,12 @@ def test_a_date_in_the_configuration_is_refused_naming_its_key_where_no_calendar
                  "initial_conditions": {"axes": entry("flow")["ld_maps"]["m"]["section"]["axes"]}}
     with pytest.raises(ldpipe.ConfigError, match=r"^config key 'poincare_sections.p.t0': '2000-01-02' is a date"):
         validate_config({"systems": systems, "poincare_sections": {"p": crossings}})
+    # the pipeline reads its configuration before a rule makes the data (the example's file): a date
+    # then has no calendar to be placed on, and is refused naming its key, not the data's path
+    later = {**systems, "plain": {"velocity_data": {"path": str(tmp_path / "later.nc"), "coordinates": "sphere"}}}
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'ld_maps.m.tau': '1D' is placed on the calendar .*"
+                                                 r"later.nc, which does not exist yet"):
+        validate_config({**entry("plain", t0=1.0, tau="1D"), "systems": later})
     # a duration is a number of the data's time units and bounded as one: -1 day is no tau
     with pytest.raises(ldpipe.ConfigError, match=r"config key 'ld_maps.m.tau': -1.0 is less than or equal to the "
                                                  r"minimum of 0"):

@@ -10,12 +10,14 @@ The checks every configuration module shares (an interval, names of other entrie
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
 from ..core.maps.grid import BOTH, DIRECTIONS
 from ..core.maps.symmetry import SETTING_KEY
-from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
-                       system_phase_coordinates)
+from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_data_files,
+                       system_kind, system_phase_coordinates)
 from ..systems.noise import check_noise
 from ..systems.velocity_data import open_source
 from ..systems.velocity_data.calendar import numeric_times
@@ -70,6 +72,13 @@ def numeric_calendar_times(config: dict) -> bool:
             system = config["systems"].get(entry["system"])
             if system is None:
                 continue  # the entry's check names the missing system
+            missing = [path for path in system_data_files(system) if not Path(path).exists()]
+            if missing:
+                given = "t0" if any(isinstance(value, str) for value in times) else "tau"
+                raise ConfigError(f"config key '{section}.{name}.{given}': {entry[given]!r} is placed on the calendar "
+                                  f"of the data's time coordinate, read from {missing[0]}, which does not exist yet (a "
+                                  "file a rule makes is made after the configuration is read); give it as a number "
+                                  "in the data's time units, or make the file first")
             source = (open_source(system["velocity_data"], f"systems.{entry['system']}.velocity_data")
                       if "velocity_data" in system else None)
             config[section][name] = numeric_times(entry, source, entry["system"], f"{section}.{name}")
