@@ -150,11 +150,7 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                 f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
                 "to take: largest, smallest or {nearest: VALUE}"
             )
-        if spec["section"]["axes"][0]["points"] < spec["tiles"]:
-            raise ConfigError(
-                f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
-                "use at most one tile per row of the first axis"
-            )
+        check_tiles(spec, key)
         check_region(spec, key, coordinates)
 
 
@@ -273,6 +269,14 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
     if given:
         raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
                           "map has two axes, every other state variable fixed, and no energy, saddle or solved coordinate")
+    check_state_grid(spec, key, state)
+    check_region(spec, key, state)
+
+
+def check_state_grid(spec: dict, key: str, state: tuple[str, ...]) -> None:
+    """A map's grid over a system's whole state, as a flow's or a discrete map's is: two axes and
+    every other state variable fixed, each named once, the fixed ones numbers; its tiles."""
+    section = spec["section"]
     axes = [axis["name"] for axis in section["axes"]]
     named = [*axes, *section["fixed"]]
     if sorted(named) != sorted(state):
@@ -281,11 +285,17 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
             f"(the state of system {spec['system']!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
         )
     if any(value == "saddle" for value in section["fixed"].values()):
-        raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
-    if section["axes"][0]["points"] < spec["tiles"]:
-        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
-                          "use at most one tile per row of the first axis")
-    check_region(spec, key, state)
+        raise ConfigError(f"config key '{key}.section.fixed': system {spec['system']!r} has no saddle (it is no "
+                          "Hamiltonian); give numbers")
+    check_tiles(spec, key)
+
+
+def check_tiles(spec: dict, key: str) -> None:
+    """At most one tile per row of a map's first axis."""
+    rows = spec["section"]["axes"][0]["points"]
+    if rows < spec["tiles"]:
+        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {rows} rows; use at most one tile per "
+                          "row of the first axis")
 
 
 #: The keys of an ``ld_maps`` entry that a discrete map's LD map refuses, with why.
@@ -345,18 +355,7 @@ def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict
                           "and every other coordinate fixed, nothing solved")
     for index, axis in enumerate(section["axes"]):
         check_interval(axis["range"], f"{key}.section.axes.{index}.range")
-    axes = [axis["name"] for axis in section["axes"]]
-    named = [*axes, *section["fixed"]]
-    if sorted(named) != sorted(state):
-        raise ConfigError(
-            f"config key '{key}.section': the two axes and the fixed coordinates must name each of {list(state)} "
-            f"(the coordinates of the map {system!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
-        )
-    if any(value == "saddle" for value in section["fixed"].values()):
-        raise ConfigError(f"config key '{key}.section.fixed': a map's section has no saddle; give numbers")
-    if section["axes"][0]["points"] < spec["tiles"]:
-        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
-                          "use at most one tile per row of the first axis")
+    check_state_grid(spec, key, state)
 
 
 def check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:
