@@ -310,3 +310,43 @@ def test_a_noisy_map_in_blocks_and_streamed_equals_the_one_process_map(client, t
                                 **copy.deepcopy(spec)), eager)
     with pytest.raises(ConfigError, match=r"'auto' sizes blocks by a pilot of the deterministic flow"):
         ldpipe.ld_map(system, chunks="auto", **copy.deepcopy(spec))
+
+
+def test_a_worker_killed_during_a_stream_loses_nothing_written(client, hh, tmp_path):
+    # A worker is killed once the first blocks are in the store (its nanny starts another): the
+    # scheduler runs its blocks again, the running one and the finished ones whose results (the
+    # markers' names) it held; a finished block is in the store and is not written again, and
+    # the store equals the one-process map. 40 blocks of one row over tau 2000 (the engine of
+    # the other Hénon–Heiles tests: tau changes no compiled code) keep the map running meanwhile.
+    import os
+    import signal
+    import threading
+    import time
+
+    from ldpipe.core.maps import zarr_stream
+
+    spec = {**copy.deepcopy(HH_MAP), "tau": 2000.0}
+    eager = ldpipe.ld_map(hh, name="hh", **copy.deepcopy(spec))
+    store = tmp_path / "hh.zarr"
+    markers, seen = zarr_stream.markers_folder(store), {}
+
+    def kill_a_worker_once_blocks_are_in():
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            done = list(markers.glob("*.done")) if markers.exists() else []
+            if len(done) >= 2:
+                seen["written"] = {path.name: path.stat().st_mtime_ns for path in done}
+                worker = sorted(client.scheduler_info()["workers"])[0]
+                os.kill(client.run(os.getpid, workers=[worker])[worker], signal.SIGKILL)
+                return
+            time.sleep(0.005)
+
+    killer = threading.Thread(target=kill_a_worker_once_blocks_are_in)
+    killer.start()
+    stored = ldpipe.ld_map(hh, name="hh", chunks=40, client=client, store=store, **copy.deepcopy(spec))
+    killer.join()
+    assert 2 <= len(seen["written"]) < 40  # killed in the middle of the map
+    stored_equals(stored, eager)
+    assert len(list(markers.glob("*.done"))) == 40
+    for name, written in seen["written"].items():  # nothing written before the kill was written again
+        assert (markers / name).stat().st_mtime_ns == written, name

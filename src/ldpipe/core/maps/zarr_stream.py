@@ -65,7 +65,11 @@ def write_region(store: Path, variables: dict, dims: dict[str, tuple[str, ...]],
 def stream_block(parameters: dict, equilibria, rows: slice, threads, datasets, store: Path, index: int | None,
                  dims: dict[str, tuple[str, ...]], marker: Path) -> str:
     """A block's task: its band computed (:func:`ldpipe.core.maps.lazy.compute_block`), its
-    variables (``dims``: each one's dimensions) written, marked."""
+    variables (``dims``: each one's dimensions) written, marked. A block already marked is not
+    computed again: the scheduler runs a finished task again when the worker holding its result
+    (the marker's name) is lost, but its band is in the store."""
+    if marker.exists():
+        return marker.name
     values = compute_block(parameters, equilibria, rows, threads, datasets)
     write_region(store, {name: values[name] for name in dims}, dims, index, rows)
     write_text_atomic(marker, "written\n")
