@@ -199,7 +199,7 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     """compute_ld for a general flow: first-order DOP853 (:mod:`ldpipe.engine.vector_field`)."""
     from numba import get_num_threads
 
-    from .vector_field import get_vector_field_runner
+    from .vector_field import engine_dimension, get_vector_field_runner
 
     check_scheme(get_scheme(settings.scheme), system)
     n = system.n_state
@@ -218,8 +218,11 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     glx, glw = legendre_rule(settings.nodes)
     gjx, gjf = folded_jacobi_rule(settings.nodes, p_exp)
     N = states.shape[0]
+    m = engine_dimension(system)
+    if m != n:  # the engine's states are another form of the state (no region there: a fixed-time LD, refused above)
+        lo, hi = np.full(m, -np.inf), np.full(m, np.inf)
     outputs = (np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_),
-               np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, n)), np.zeros(N, dtype=np.int64))
+               np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, m)), np.zeros(N, dtype=np.int64))
     if N:
         runner = get_vector_field_runner(system)
         radius = engine_escape_radius(system, settings.escape_radius)

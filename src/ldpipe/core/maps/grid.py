@@ -23,7 +23,7 @@ from ...io.contracts import LD_GRID
 from ...io.datafile import missing_value_encoding, open_stage_file
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, section_chart_slope, sphere_metric, variational_ftle
+from .ftle import END_STATE_NAME, ftle, section_chart_slope, sphere_metric, sphere_positions, variational_ftle
 from .pilot import check_map_time
 from .symmetry import MapMirror
 from ...logs import get_logger, progress_bar
@@ -493,6 +493,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     for label in computed_directions(dataset):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = ran_whole_time(dataset, label, tau)
+        if sphere:  # great-circle lengths: the end points as 3-D positions on the sphere
+            ends = sphere_positions(ends)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
         slope = section_chart_slope(dataset[solved].values, axes) if solved is not None else None
         values, defined = ftle(ends, axes, tau, complete, metric, slope)

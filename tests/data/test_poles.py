@@ -1,0 +1,162 @@
+"""Velocity data on a global grid that reaches the poles, against closed forms: trajectories cross them.
+
+- Solid-body rotation about the axis through (lon 0, lat 0), a turn in 4 days
+  (u = -omega R sin(lat) cos(lon), v = omega R sin(lon)), and about the axis through (lon 0, lat 30),
+  sampled on global 1 degree grids with a row at each pole (-90 .. 90) and with the last rows half
+  a spacing from them (-89.5 .. 89.5). The circles about the first axis through a pole cross both
+  poles, about the second one of them: a point is after t the start rotated by omega t about the
+  axis (closed form, Rodrigues' formula), having run omega R sin(angle to the axis) t (its arc
+  length, closed form); its M_1 is the integral of |u| + |v| along the closed-form circle (scipy's
+  quad of the closed-form integrand). The rotation is an isometry: its FTLE in great-circle lengths
+  is 0 everywhere (closed form), at the poles too.
+- A grid whose last latitude is neither at the pole nor half a spacing from it, and one with an
+  odd number of longitudes, are refused by name.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from support.gridded import write_velocity_file
+
+from ldpipe.config import validate_config
+from ldpipe.config.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.engine import LDSettings, compute_ld
+from ldpipe.errors import ConfigError
+from ldpipe.systems import make_system
+
+TIGHT = {"rtol": 1e-11, "atol": 1e-11}
+RADIUS, OMEGA = 6.371e6, 2 * math.pi / (4 * 86400.0)  # m, rad/s: a turn in 4 days
+DAY = 86400.0
+LON = np.arange(0.0, 359.5, 1.0)
+GRIDS = {"pole_rows": np.arange(-90.0, 90.01, 1.0), "half_spacing": np.arange(-89.5, 89.51, 1.0)}
+
+
+def axis(tilt):
+    """The rotation's axis: the unit vector at longitude 0 and latitude ``tilt`` (degrees)."""
+    return np.array([math.cos(math.radians(tilt)), 0.0, math.sin(math.radians(tilt))])
+
+
+def unit(points):
+    lam, phi = np.radians(points[..., 0]), np.radians(points[..., 1])
+    return np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
+
+
+def rotation(tilt):
+    """The field omega a x X of the rotation about ``axis(tilt)`` as (u, v): u = omega R (sin(tilt)
+    cos(lat) - cos(tilt) sin(lat) cos(lon)), v = omega R cos(tilt) sin(lon); tilted, u varies at
+    first order in the distance from the pole, so every row near it counts."""
+    sin_a, cos_a = math.sin(math.radians(tilt)), math.cos(math.radians(tilt))
+
+    def field(lon, lat, t):
+        lam, phi = np.radians(lon), np.radians(lat)
+        return (OMEGA * RADIUS * (sin_a * np.cos(phi) - cos_a * np.sin(phi) * np.cos(lam)) + 0 * t,
+                OMEGA * RADIUS * cos_a * np.sin(lam) + 0 * lat + 0 * t)
+    return field
+
+
+def rotated(starts, days, tilt):
+    """The start points (lon, lat in degrees) rotated by OMEGA * days about ``axis(tilt)`` (Rodrigues' formula)."""
+    angle, a, r = OMEGA * days * DAY, axis(tilt), unit(starts)
+    r = (r * math.cos(angle) + np.cross(a, r) * math.sin(angle) + np.outer(r @ a, a) * (1 - math.cos(angle)))
+    return np.column_stack([np.degrees(np.arctan2(r[:, 1], r[:, 0])), np.degrees(np.arctan2(r[:, 2], np.hypot(r[:, 0], r[:, 1])))])
+
+
+def great_circle_degrees(a, b):
+    """The angle (degrees) between points (lon, lat) a and b."""
+    return np.degrees(2 * np.arcsin(0.5 * np.linalg.norm(unit(a) - unit(b), axis=1)))
+
+
+#: Each rotation's starts: on circles through both poles (the equatorial axis: the great circle
+#: x = 0, a start at a pole), or through one (30 degrees: at 60 degrees from the axis, as the north
+#: pole is, and at 120, as the south pole is), one 1 degree from the poles' circle and two others.
+STARTS = {0.0: np.array([[90.0, 0.0], [0.0, 90.0], [89.0, 0.0], [100.0, -30.0], [200.0, 40.0], [10.0, 5.0]]),
+          30.0: np.array([[0.0, -30.0], [180.0, 30.0], [0.0, 90.0], [0.0, -90.0], [1.0, -31.0], [45.0, 60.0]])}
+
+
+@pytest.fixture(scope="module")
+def grids(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("poles")
+    return {(name, tilt): write_velocity_file(folder / f"{name}_{tilt:g}.nc", rotation(tilt), LON, lat,
+                                              np.arange(0.0, 4.01, 0.5), names=("lon", "lat"),
+                                              time_units="days since 2000-01-01")
+            for name, lat in GRIDS.items() for tilt in STARTS}
+
+
+def polar_system(path, name="globe"):
+    return make_system(name, {"velocity_data": {"path": str(path), "coordinates": "sphere"}})
+
+
+def m_1(start, days, tilt):
+    """M_1 along the closed-form circle: the integral of |u| + |v| (m/s times days), by quad."""
+    field = rotation(tilt)
+
+    def integrand(t):
+        lon, lat = rotated(start[None], t, tilt)[0]
+        u, v = field(lon, lat, 0.0)
+        return abs(u) + abs(v)
+    return quad(integrand, 0.0, days, limit=400, epsabs=1e-10, epsrel=1e-12)[0]
+
+
+@pytest.mark.parametrize("tilt", sorted(STARTS))
+@pytest.mark.parametrize("grid", sorted(GRIDS))
+def test_rotation_crosses_the_poles(grids, grid, tilt):
+    system = polar_system(grids[grid, tilt])
+    assert system.poles == ((0, 0) if grid == "pole_rows" else (1, 1))
+    starts = STARTS[tilt]
+    days = 3.2  # 288 degrees: the circles through the poles cross both, or theirs
+    speed = OMEGA * RADIUS * np.sqrt(1.0 - (unit(starts) @ axis(tilt)) ** 2)
+    for direction, t0 in ((1, 0.4), (-1, 3.6)):
+        arc = compute_ld(system, starts, direction, LDSettings(tau=days, p="arclength", **TIGHT), t0=t0)
+        assert not arc.failed.any() and (arc.time == days).all()
+        flags = system.stop_flags(arc.end_state, t0, t0 + direction * days)
+        assert not flags["left_data"].any() and not flags["on_land"].any()
+        errors = great_circle_degrees(arc.end_state, rotated(starts, direction * days, tilt))
+        # measured: <= 1.6e-6 degrees (the cubic interpolation's error on the 1 degree grid)
+        assert errors.max() < 4e-6, errors
+        # measured: relative error <= 3.4e-8 (a trajectory that stopped at the last latitude, as
+        # before, lost 40 % or more of its arc length)
+        np.testing.assert_allclose(arc.ld, speed * days * DAY / 1000.0, rtol=1e-7)
+        assert arc.end_state[:, 0].min() >= 0.0 and arc.end_state[:, 0].max() < 360.0  # the grid's convention
+    m1 = compute_ld(system, starts, 1, LDSettings(tau=days, p=1.0, **TIGHT), t0=0.4)
+    # measured: relative error <= 3.3e-8 (the basis turns fast near the pole: its distances run
+    # as states make the steps follow it)
+    np.testing.assert_allclose(m1.ld, [m_1(start, days, tilt) for start in starts], rtol=1e-7)
+
+
+def test_rotation_has_zero_ftle_round_the_pole(grids):
+    # A map round the north pole (lat 80 .. 89.5) whose circles cross it within the time; the
+    # rotation's FTLE is 0 (closed form) but for the differences' error. End points on either side
+    # of the pole are 180 degrees apart in longitude: differenced as longitudes they would give an
+    # exponent of order ln(huge) / tau.
+    system = polar_system(grids["half_spacing", 0.0])
+    section = {"axes": [{"name": "lon", "range": [80.0, 100.0], "points": 9},
+                        {"name": "lat", "range": [80.0, 89.5], "points": 6}]}
+    entry = {"system": "globe", "t0": 1.0, "tau": 0.5, "p": "arclength", "ftle": True,
+             "integrator": {"rtol": 1e-10, "atol": 1e-10}, "section": section}
+    config = validate_config({"systems": {"globe": system.spec}, "ld_maps": {"pole": entry}})
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "pole"), None, show_progress=False)
+    for label in ("forward", "backward"):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        # measured: |FTLE| <= 1.3e-3 per day (the differences' error over 2.5 and 1.9 degrees, at the edges)
+        assert np.abs(dataset[f"ftle_{label}"].values).max() < 5e-3, label
+        ends = np.column_stack([dataset[f"end_lon_{label}"].values.ravel(), dataset[f"end_lat_{label}"].values.ravel()])
+        lon, lat = np.meshgrid(dataset.lon.values, dataset.lat.values, indexing="ij")
+        expected = rotated(np.column_stack([lon.ravel(), lat.ravel()]), 0.5 if label == "forward" else -0.5, 0.0)
+        assert great_circle_degrees(ends, expected).max() < 4e-6
+    # the trajectories did cross the pole: the end points are on the far side
+    assert (dataset.end_lon_forward.values > 180.0).any()
+
+
+def test_grids_that_do_not_close_round_the_pole_are_refused(tmp_path):
+    near = write_velocity_file(tmp_path / "near.nc", rotation(0.0), LON, np.arange(-89.7, 89.8, 1.0), np.arange(0.0, 2.01),
+                               names=("lon", "lat"), time_units="days since 2000-01-01")
+    with pytest.raises(ConfigError, match=r"velocity_data\.y': latitude coordinate 'lat' ends 0\.3 degrees from the "
+                                          r"south pole.*neither at the pole nor half a spacing"):
+        polar_system(near)
+    odd = write_velocity_file(tmp_path / "odd.nc", rotation(0.0), np.arange(0.0, 359.9, 360.0 / 359), GRIDS["pole_rows"],
+                              np.arange(0.0, 2.01), names=("lon", "lat"), time_units="days since 2000-01-01")
+    with pytest.raises(ConfigError, match=r"velocity_data\.x': the global grid reaches a pole, but its 359 longitudes"):
+        polar_system(odd)
