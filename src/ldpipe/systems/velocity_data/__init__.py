@@ -32,7 +32,9 @@ On the sphere a longitude grid all round it (:func:`.source.seam_grid`) has no e
 is the ring with its first column repeated at its end, padded with the real columns across the
 seam (the kernel's stencil then wraps, the kernel unchanged), and a spatial window may cross the
 seam. The LD is taken in km and the data's velocity units, by the engine section
-``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`).
+``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`). A global grid that
+reaches a pole (without a spatial window) is :mod:`.polar`'s: integrated as 3-D positions on the
+sphere, its rows continued across the pole, so trajectories cross it.
 """
 
 from __future__ import annotations
