@@ -160,3 +160,21 @@ def test_grids_that_do_not_close_round_the_pole_are_refused(tmp_path):
                               np.arange(0.0, 2.01), names=("lon", "lat"), time_units="days since 2000-01-01")
     with pytest.raises(ConfigError, match=r"velocity_data\.x': the global grid reaches a pole, but its 359 longitudes"):
         polar_system(odd)
+
+
+def test_land_round_a_pole_stops_trajectories_that_cross_the_other(tmp_path):
+    # Land on every node south of 85 S: the circle through both poles (start lon 90 on the equator)
+    # crosses the north pole, runs down the meridian 270 and stops entering the first cell with a
+    # land corner, at 84 S (closed form: the circle's point at angle 264 degrees, 264 / 90 days
+    # on); the circle that stays north of 45 degrees runs on, unflagged.
+    path = write_velocity_file(tmp_path / "cap.nc", rotation(0.0), LON, GRIDS["pole_rows"], np.arange(0.0, 4.01, 0.5),
+                               names=("lon", "lat"), time_units="days since 2000-01-01", land=lambda X, Y: Y <= -85.0)
+    system = polar_system(path)
+    starts = STARTS[0.0][[0, 4]]
+    result = compute_ld(system, starts, 1, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=0.4)
+    flags = system.stop_flags(result.end_state, 0.4, 3.6)
+    assert flags["on_land"].tolist() == [True, False] and not flags["left_data"].any()
+    # measured: 270 E exactly, 84 S within 1.5e-9 degrees (the kernel stops it just past the cell's
+    # edge); the arc length within 2e-11 (on the meridian u = 0 and v = omega R at every node)
+    np.testing.assert_allclose(result.end_state[0], [270.0, -84.0], atol=1e-8)
+    np.testing.assert_allclose(result.ld[0], OMEGA * RADIUS * (264.0 / 360.0) * 4 * DAY / 1000.0, rtol=1e-9)

@@ -212,8 +212,9 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     lo, hi = _region(settings, n, system.coordinates)
     engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
     if settings.variable_time and engine_states is not states:
-        raise ValueError(f"region_lower, region_upper: system {system.name!r} is integrated on its grid's indices, "
-                         "where a region box of its state variables is not a box; give a fixed-time LD")
+        raise ValueError(f"region_lower, region_upper: system {system.name!r} is integrated in another form than "
+                         "its state variables (a curvilinear grid's indices, 3-D positions round a pole), where a "
+                         "region box of its state variables is not a box; give a fixed-time LD")
     kind, p_exp = _kind(settings.p)
     glx, glw = legendre_rule(settings.nodes)
     gjx, gjf = folded_jacobi_rule(settings.nodes, p_exp)
