@@ -100,6 +100,7 @@ def m_1(start, days, tilt):
     return quad(integrand, 0.0, days, limit=400, epsabs=1e-10, epsrel=1e-12)[0]
 
 
+@pytest.mark.compiles  # the polar engine (3-D positions), loaded by this file's tests alone
 @pytest.mark.parametrize("tilt", sorted(STARTS))
 @pytest.mark.parametrize("grid", sorted(GRIDS))
 def test_rotation_crosses_the_poles(grids, grid, tilt):
@@ -126,6 +127,7 @@ def test_rotation_crosses_the_poles(grids, grid, tilt):
     np.testing.assert_allclose(m1.ld, [m_1(start, days, tilt) for start in starts], rtol=1e-7)
 
 
+@pytest.mark.compiles
 def test_rotation_has_zero_ftle_round_the_pole(grids):
     # A map round the north pole (lat 80 .. 89.5) whose circles cross it within the time; the
     # rotation's FTLE is 0 (closed form) but for the differences' error. End points on either side
@@ -162,6 +164,7 @@ def test_grids_that_do_not_close_round_the_pole_are_refused(tmp_path):
         polar_system(odd)
 
 
+@pytest.mark.compiles
 def test_land_round_a_pole_stops_trajectories_that_cross_the_other(tmp_path):
     # Land on every node south of 85 S: the circle through both poles (start lon 90 on the equator)
     # crosses the north pole, runs down the meridian 270 and stops entering the first cell with a
@@ -178,3 +181,24 @@ def test_land_round_a_pole_stops_trajectories_that_cross_the_other(tmp_path):
     # edge); the arc length within 2e-11 (on the meridian u = 0 and v = omega R at every node)
     np.testing.assert_allclose(result.end_state[0], [270.0, -84.0], atol=1e-8)
     np.testing.assert_allclose(result.ld[0], OMEGA * RADIUS * (264.0 / 360.0) * 4 * DAY / 1000.0, rtol=1e-9)
+
+
+@pytest.mark.parametrize("grid", sorted(GRIDS))
+def test_the_rows_beyond_a_pole_are_the_grid_half_way_round_with_u_and_v_negated(grids, grid):
+    # An identity of the chart continued past the pole (ldpipe.systems.velocity_data.polar): the row
+    # at 90 + d is the row at 90 - d half-way round the ring, both components negated; so is the
+    # row at -90 - d. Read in the kernel's buffer (y, x, time, u/v on the padded grid).
+    system = polar_system(grids[grid, 30.0])
+    window = system.data_window(1.0, 2.0)
+    nt, ny, nx = (int(value) for value in window.buffer[:3])
+    first, step = window.y_grid[:2]
+    data = window.buffer[16:16 + (ny + 2) * (nx + 2) * (nt + 2) * 2].reshape(ny + 2, nx + 2, nt + 2, 2)
+    latitudes = first + step * np.arange(-1, ny + 1)  # the padded rows'
+    assert latitudes[0] < -90.0 - step and latitudes[-1] > 90.0 + step  # real rows beyond each pole, padding too
+    columns = np.arange(-1, nx + 1)  # the padded columns, window column 0 the grid's first longitude
+    for row, lat in enumerate(latitudes):
+        if abs(lat) <= 90.0:
+            continue
+        mirror = np.flatnonzero(np.isclose(latitudes, np.sign(lat) * 180.0 - lat))[0]
+        across = (columns + len(LON) // 2) % len(LON) + 1  # the padded column half-way round
+        np.testing.assert_array_equal(data[row, :, :, :], -data[mirror, across, :, :])

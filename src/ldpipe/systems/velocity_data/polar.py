@@ -23,8 +23,11 @@ real data across the pole (the number of columns must be even, so that lon + 180
 row at the pole itself is direction-dependent (u, v at the pole are a single vector's components in
 each meridian's frame): it enters the stencil as any row does, and the flip maps it onto itself.
 
-The LD is taken in km and the data's velocity units as on any sphere grid
-(``kernels/polar_ld_metric.py``: the stages' u, v from the stages' dX/dt in the local basis).
+The engine integrates two more components with X: the eastward and northward distances run,
+dE/dt = D u / R and dN/dt = D v / R. The LD is taken in km and the data's velocity units as on any
+sphere grid (``kernels/polar_ld_metric.py``): the arc length from |dX/dt|, which does not depend on
+the basis, and M_p from u and v, whose turning with the basis near a pole the step control follows
+because E and N are states.
 End states are returned as longitude (in the grid's convention) and latitude: how many times a
 trajectory wound round the sphere is not kept. A spatial ``window`` keeps today's behaviour: the
 trajectories stop at its edges.
