@@ -114,3 +114,15 @@ def test_a_piloted_map_equals_the_map_without_a_pilot(monkeypatch, caplog):
     plain = compute_ld_map(parameters, equilibria, show_progress=False)
     for name in plain.data_vars:
         np.testing.assert_array_equal(piloted[name].values, plain[name].values, err_msg=name)
+
+
+def test_the_rate_a_trajectory_leaves_each_call_s_fixed_cost_out(known_cost):
+    """What sizes a Dask block (chunks="auto"): a trajectory's own cost, cost * tau exactly, however
+    large each call's overhead (the difference of two calls over the same time: closed form), where
+    the map's estimate counts the overhead in (an upper bound, as above)."""
+    integration = known_cost(cost=2e-6, overhead=5e-3)
+    sample, tau = np.zeros((512, 4)), 4.0
+    assert pilot.seconds_per_trajectory(integration, sample, tau) == pytest.approx(2e-6 * tau, rel=1e-9)
+    # the two timed calls of the last step are the sample and its first eighth, over the same time
+    (many, long), (few, same) = integration.calls[-2:]
+    assert (many, few) == (512, 512 // pilot.PILOT_GROWTH) and long == same

@@ -226,6 +226,14 @@ def integrate_points(system: System, states: np.ndarray, direction: int, setting
     return type(results[0])(*(np.concatenate(parts) for parts in zip(*results)))
 
 
+def pilot_integration(system: System, direction: int, settings: LDSettings, t0: float, descriptor: bool):
+    """The map's integration of some start points over some time, as a pilot measures it
+    (:mod:`ldpipe.core.maps.pilot`)."""
+    def integrate(sample: np.ndarray, tau: float):
+        return integrate_points(system, sample, direction, dataclasses.replace(settings, tau=tau), None, t0, descriptor)
+    return integrate
+
+
 def _flow_map_fields(result: FlowMap) -> dict[str, np.ndarray]:
     """The per-trajectory fields of a map without its LD, named as compute_ld's."""
     return {"time": np.abs(result.final_time), "escaped": result.status == ESCAPED,
@@ -308,9 +316,8 @@ def ld_grid_dataset(
                                  flow_map or not descriptor)
     directions = ((1, "forward"),) if mirror is not None else map_directions(directions)
     if label is not None:
-        check_map_time(label, lambda sample, tau: integrate_points(
-            system, sample, directions[0][0], dataclasses.replace(settings, tau=tau), None, t0, descriptor),
-            states, settings.tau, len(directions))
+        check_map_time(label, pilot_integration(system, directions[0][0], settings, t0, descriptor),
+                       states, settings.tau, len(directions))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
     if system.has_stop_flags:  # a start on land stops at once: its LD is missing, not 0

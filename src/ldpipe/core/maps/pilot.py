@@ -61,6 +61,36 @@ def estimate_seconds(integrate: Integrate, states: np.ndarray, tau: float, direc
     if points < PILOT_MIN_POINTS:
         return None
     sample = states[np.linspace(0, points - 1, PILOT_TRAJECTORIES).round().astype(int)]
+
+    def enough(per_trajectory: float, elapsed: float) -> bool:
+        # an estimate already far below the warning needs no finer measurement
+        return per_trajectory * points * directions < WARN_SECONDS / PILOT_GROWTH and elapsed >= PILOT_SECONDS_CHEAP
+
+    per_trajectory, pilot_tau, elapsed = _pilot(integrate, sample, tau, enough)
+    return TimeEstimate(per_trajectory * points * directions, len(sample), pilot_tau, elapsed)
+
+
+def seconds_per_trajectory(integrate: Integrate, sample: np.ndarray, tau: float) -> float:
+    """The wall time one more trajectory costs a call integrating start points like ``sample``
+    (spread over a map) over ``tau`` in one direction: the pilot's rate over at least
+    :data:`PILOT_SECONDS` of ``sample``, less that of its first 1/:data:`PILOT_GROWTH` over the
+    same time, so that what a call costs whatever its size (the engine's inputs, a window of
+    velocity data read) is left out; the pilot's whole rate where the difference is not positive."""
+    per_trajectory, pilot_tau, elapsed = _pilot(integrate, sample, tau, lambda per_trajectory, elapsed: False)
+    few = sample[: max(1, len(sample) // PILOT_GROWTH)]
+    start = time.perf_counter()
+    integrate(few, pilot_tau)
+    fewer = time.perf_counter() - start
+    if elapsed <= fewer or len(few) == len(sample):
+        return per_trajectory
+    return (elapsed - fewer) / (len(sample) - len(few)) * (tau / pilot_tau)
+
+
+def _pilot(integrate: Integrate, sample: np.ndarray, tau: float, enough) -> tuple[float, float, float]:
+    """``(seconds a trajectory, pilot tau, pilot seconds)``: ``sample`` integrated over a growing
+    share of ``tau`` until the pilot measures :data:`PILOT_SECONDS`, reaches ``tau``, or
+    ``enough(seconds a trajectory, pilot seconds)``; each call's fixed cost counted as if it grew
+    with tau and the trajectories (an upper bound)."""
     integrate(sample[:1], tau * PILOT_FIRST_FRACTION)  # compiles or loads the engine: not part of the rate
     fraction = PILOT_FIRST_FRACTION
     while True:
@@ -68,11 +98,9 @@ def estimate_seconds(integrate: Integrate, states: np.ndarray, tau: float, direc
         start = time.perf_counter()
         integrate(sample, pilot_tau)
         elapsed = time.perf_counter() - start
-        seconds = elapsed * (tau / pilot_tau) * (points / len(sample)) * directions
-        # An estimate already far below the warning needs no finer measurement.
-        if (elapsed >= PILOT_SECONDS or fraction >= 1.0
-                or (seconds < WARN_SECONDS / PILOT_GROWTH and elapsed >= PILOT_SECONDS_CHEAP)):
-            return TimeEstimate(seconds, len(sample), pilot_tau, elapsed)
+        per_trajectory = elapsed * (tau / pilot_tau) / len(sample)
+        if elapsed >= PILOT_SECONDS or fraction >= 1.0 or enough(per_trajectory, elapsed):
+            return per_trajectory, pilot_tau, elapsed
         fraction *= PILOT_GROWTH
 
 
