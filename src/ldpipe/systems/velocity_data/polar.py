@@ -221,11 +221,10 @@ class PolarVelocitySystem(VelocityDataSystem):
         return np.column_stack([lon, np.degrees(np.arctan2(z, np.hypot(x, y)))])
 
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The whole globe's window over [start, end] (read once; the last one is kept)."""
+        """The whole globe's window over [start, end] (read once; the last few are kept)."""
         self.check_times(start, end)
         times = index_window(self.source.t_grid, *sorted((start, end)))
         if times not in self._windows:
-            self._windows.clear()
             self._windows[times] = read_polar_window(self.source, times, self.poles)
         return self._windows[times]
 
