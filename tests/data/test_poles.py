@@ -9,8 +9,8 @@
   length, closed form); its M_1 is the integral of |u| + |v| along the closed-form circle (scipy's
   quad of the closed-form integrand). The rotation is an isometry: its FTLE in great-circle lengths
   is 0 everywhere (closed form), at the poles too.
-- A grid whose last latitude is neither at the pole nor half a spacing from it, and one with an
-  odd number of longitudes, are refused by name.
+- A grid whose last latitude is neither at the pole nor half a spacing from it, one past the pole,
+  and one with an odd number of longitudes, are refused by name.
 """
 
 import math
@@ -158,6 +158,10 @@ def test_grids_that_do_not_close_round_the_pole_are_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"velocity_data\.y': latitude coordinate 'lat' ends 0\.3 degrees from the "
                                           r"south pole.*neither at the pole nor half a spacing"):
         polar_system(near)
+    past = write_velocity_file(tmp_path / "past.nc", rotation(0.0), LON, np.arange(-90.0, 91.01, 1.0), np.arange(0.0, 2.01),
+                               names=("lon", "lat"), time_units="days since 2000-01-01")
+    with pytest.raises(ConfigError, match=r"velocity_data\.y': latitude coordinate 'lat' passes the north pole"):
+        polar_system(past)
     odd = write_velocity_file(tmp_path / "odd.nc", rotation(0.0), np.arange(0.0, 359.9, 360.0 / 359), GRIDS["pole_rows"],
                               np.arange(0.0, 2.01), names=("lon", "lat"), time_units="days since 2000-01-01")
     with pytest.raises(ConfigError, match=r"velocity_data\.x': the global grid reaches a pole, but its 359 longitudes"):

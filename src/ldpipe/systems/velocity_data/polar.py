@@ -69,10 +69,9 @@ def pole_offsets(source: DataSource, key: str) -> tuple[int | None, int | None]:
     coordinate for a grid that ends nearer the pole than a spacing otherwise, or whose number of
     longitudes is odd (the meridian across the pole is not a column)."""
     first, step, count = source.y_grid
-    ends = {"south": -90.0 - first, "north": 90.0 - (first + step * (count - 1))}  # (signed) gap to the pole
+    gaps = {"south": first + 90.0, "north": 90.0 - (first + step * (count - 1))}  # negative: past the pole
     offsets = []
-    for pole, gap in ends.items():
-        gap = abs(gap) if pole == "north" else -gap
+    for pole, gap in gaps.items():
         if gap >= step * (1.0 - POLE_TOLERANCE):
             offsets.append(None)
             continue
