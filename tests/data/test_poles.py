@@ -185,6 +185,21 @@ def test_land_round_a_pole_stops_trajectories_that_cross_the_other(tmp_path):
     # edge); the arc length within 2e-11 (on the meridian u = 0 and v = omega R at every node)
     np.testing.assert_allclose(result.end_state[0], [270.0, -84.0], atol=1e-8)
     np.testing.assert_allclose(result.ld[0], OMEGA * RADIUS * (264.0 / 360.0) * 4 * DAY / 1000.0, rtol=1e-9)
+    # the time it stopped (the time it moved, a state whose kink the step control locates): measured 4e-11
+    np.testing.assert_allclose(result.time, [264.0 / 90.0, 3.2], rtol=1e-9)
+    # backward the circle runs the other way, down meridian 90 straight to the cap (84 S after 84 degrees)
+    back = compute_ld(system, starts, -1, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=3.6)
+    np.testing.assert_allclose(back.time, [84.0 / 90.0, 3.2], rtol=1e-9)
+    np.testing.assert_allclose(back.end_state[0], [90.0, -84.0], atol=1e-8)
+    # a map's exit times are those times, its flags the same (no search for a crossing afterwards)
+    section = {"axes": [{"name": "lon", "range": [88.0, 92.0], "points": 3},
+                        {"name": "lat", "range": [-2.0, 2.0], "points": 3}]}
+    entry = {"system": "globe", "t0": 0.4, "tau": 3.2, "p": "arclength", "integrator": {"rtol": 1e-11, "atol": 1e-11},
+             "directions": "forward", "section": section}
+    config = validate_config({"systems": {"globe": system.spec}, "ld_maps": {"cap": entry}})
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "cap"), None, show_progress=False)
+    assert dataset.on_land_forward.values.all()
+    np.testing.assert_allclose(dataset.exit_time_forward.values[1, 1], 264.0 / 90.0, rtol=1e-9)
 
 
 @pytest.mark.parametrize("grid", sorted(GRIDS))

@@ -281,6 +281,8 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
         engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
         with system.time_window(t0, t0 + float(duration)):
             run_units(runner, engine_states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+        if hasattr(system, "times_from_engine"):  # an engine state that says when a trajectory stopped
+            outputs = outputs[:2] + (system.times_from_engine(outputs[0], outputs[2]),) + outputs[3:]
         outputs = (states_at_end(system, states, engine_states, outputs[0]),) + outputs[1:]
     end, status, elapsed, steps = outputs
     return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)

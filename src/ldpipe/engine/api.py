@@ -234,6 +234,8 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
         with system.time_window(t0, t0 + direction * settings.tau):
             run_units(runner, engine_states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, left, steps, failed, end, face = outputs
+    if hasattr(system, "times_from_engine"):  # an engine state that says when a trajectory stopped
+        time = system.times_from_engine(end, time)
     end = states_at_end(system, states, engine_states, end)
     return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)
 

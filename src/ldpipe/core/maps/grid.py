@@ -335,7 +335,8 @@ def ld_grid_dataset(
             if system.has_stop_flags:  # velocity data: land and the data's edge stop trajectories
                 flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
                 stopped = np.flatnonzero(flags["on_land"] | flags["left_data"])
-                if len(stopped):  # the time each stopped, where its crossing was found
+                if len(stopped) and not getattr(system, "stop_times_located", False):
+                    # the time each stopped, where its crossing was found
                     times = locate_stops(system, states[stopped], result.end_state[stopped], direction, settings, t0)
                     results["time"] = results["time"].copy()
                     found = np.isfinite(times)

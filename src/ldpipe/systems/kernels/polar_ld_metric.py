@@ -1,7 +1,7 @@
 # The closing section of the flow engine of velocity data on a global grid reaching a pole
 # (ldpipe.systems.velocity_data.polar, appended by ldpipe.engine.vector_field): the state is the
-# 3-D position X on the sphere of radius 180/pi and the eastward and northward distances run E, N
-# (all in degrees of arc, kernels/polar_velocity.py), but the LD of a sphere map is taken in the
+# 3-D position X on the sphere of radius 180/pi, the eastward and northward distances run E, N
+# (all in degrees of arc) and the time moved (kernels/polar_velocity.py), but the LD of a sphere map is taken in the
 # data's units, as on any sphere grid (kernels/sphere_ld_metric.py). The section rebinds
 #
 # * ``dense`` to the state's dense output with the velocity's in the data's velocity units
@@ -22,7 +22,7 @@ def dense(xv, t, h, K, xs, QC, VC):
     head = velocity_data_pointer()  # the raw pointer, as the kernels read it
     per_degree = head[LD_RADIUS_AT] * (math.pi / 180.0) / head[LD_SCALE_AT]  # data velocity units per (degree per time unit)
     for k in range(NC - 1):
-        for c in range(N):
+        for c in range(5):  # the position and the distances run; not the time moved
             VC[k, c, 0] *= per_degree
 
 

@@ -23,8 +23,10 @@ real data across the pole (the number of columns must be even, so that lon + 180
 row at the pole itself is direction-dependent (u, v at the pole are a single vector's components in
 each meridian's frame): it enters the stencil as any row does, and the flip maps it onto itself.
 
-The engine integrates two more components with X: the eastward and northward distances run,
-dE/dt = D u / R and dN/dt = D v / R. The LD is taken in km and the data's velocity units as on any
+The engine integrates three more components with X: the eastward and northward distances run,
+dE/dt = D u / R and dN/dt = D v / R (N, started at the start's latitude, is the latitude), and the
+time moved, which stops growing where a trajectory stops on land or at the data's edge: the step
+control locates that instant, the trajectory's exit time, as it locates any kink. The LD is taken in km and the data's velocity units as on any
 sphere grid (``kernels/polar_ld_metric.py``): the arc length from |dX/dt|, which does not depend on
 the basis, and M_p from u and v, whose turning with the basis near a pole the step control follows
 because E and N are states.
@@ -187,8 +189,12 @@ class PolarVelocitySystem(VelocityDataSystem):
 
     poles: tuple[int | None, int | None] = (None, None)
 
-    #: The engine integrates the 3-D position on the sphere and the eastward and northward distances run.
-    engine_dimension: ClassVar[int] = 5
+    #: The engine integrates the 3-D position on the sphere, the eastward distance run, the latitude
+    #: and the time moved (module docstring).
+    engine_dimension: ClassVar[int] = 6
+    #: The time a trajectory stopped on land or at the data's edge is the time it moved
+    #: (:meth:`times_from_engine`), located by the engine's step control: no search for it after.
+    stop_times_located: ClassVar[bool] = True
 
     @property
     def engine_name(self) -> str:
@@ -209,8 +215,11 @@ class PolarVelocitySystem(VelocityDataSystem):
         return WINDING_BOUND
 
     def engine_states(self, states: np.ndarray) -> np.ndarray:
-        """3-D positions on the sphere (degrees of arc) of rows (lon, lat), no distance run yet."""
-        return np.column_stack([positions(np.asarray(states, dtype=float)), np.zeros((len(states), 2))])
+        """3-D positions on the sphere (degrees of arc) of rows (lon, lat), no eastward distance run
+        yet, the latitude, no time moved yet."""
+        states = np.asarray(states, dtype=float)
+        zeros = np.zeros((len(states), 1))
+        return np.column_stack([positions(states), zeros, states[:, 1:2], zeros])
 
     def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
         """(lon, lat) of 3-D positions: the longitude on the grid's first turn from its first column."""
@@ -218,6 +227,12 @@ class PolarVelocitySystem(VelocityDataSystem):
         first = self.source.x_grid[0]
         lon = first + np.mod(np.degrees(np.arctan2(y, x)) - first, 360.0)
         return np.column_stack([lon, np.degrees(np.arctan2(z, np.hypot(x, y)))])
+
+    def times_from_engine(self, engine_ends: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """|t - t0| each trajectory ran, given the engine's (``times``): the time it moved where it
+        stopped on land or at the data's edge before (the engine ran on, standing still)."""
+        moved = np.abs(np.asarray(engine_ends, dtype=float)[:, 5])  # t - t0: negative backward
+        return np.where(np.isfinite(moved), np.minimum(times, moved), times)
 
     def data_window(self, start: float, end: float) -> DataWindow:
         """The whole globe's window over [start, end] (read once; the last few are kept)."""
