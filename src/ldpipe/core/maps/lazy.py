@@ -36,7 +36,7 @@ from ...systems.velocity_data.memory import datasets_of, register
 from ..sections import section_states
 from .assembly import backward_mirror, compute_ld_map, finish_ld_map, recorded_parameters, resolve_map
 from .grid import add_ftle, directions_setting, map_directions, map_start_times, pilot_integration
-from .pilot import seconds_per_trajectory
+from .pilot import PILOT_TRAJECTORIES, pilot_rate
 from .symmetry import SETTING_KEY
 
 #: The install that brings what a lazy map needs.
@@ -48,10 +48,8 @@ AUTO_BLOCK_SECONDS = 1.0
 #: ... or more, so that what a block's engine calls cost besides their trajectories (a window of
 #: velocity data read) is at most this share of its integration.
 AUTO_FIXED_SHARE = 0.05
-#: Rows of the section the pilot of ``chunks="auto"`` spreads its start points over, and how
-#: many it integrates (enough that one call's fixed cost can be told from its trajectories').
+#: Rows of the section the pilot of ``chunks="auto"`` spreads its start points over.
 AUTO_PILOT_ROWS = 16
-AUTO_PILOT_TRAJECTORIES = 512
 
 log = get_logger(__name__)
 
@@ -185,17 +183,17 @@ def auto_block_points(parameters: dict, system, section, settings, info: dict) -
     points = section.shape[0] * section.shape[1]
     if not len(states):
         return points
-    sample = states[np.linspace(0, len(states) - 1, min(len(states), AUTO_PILOT_TRAJECTORIES)).round().astype(int)]
+    sample = states[np.linspace(0, len(states) - 1, min(len(states), PILOT_TRAJECTORIES)).round().astype(int)]
     sample = sample[np.random.default_rng(0).permutation(len(sample))]  # its first eighth spread over the map too
     directions = map_directions(directions_setting(parameters))
     integrate = pilot_integration(system, directions[0][0], settings, info["t0"], parameters.get("ld", True))
-    per_trajectory = seconds_per_trajectory(integrate, sample, settings.tau)
-    fixed = 0.0
-    if per_trajectory < AUTO_BLOCK_SECONDS:  # one trajectory over tau: the call's fixed cost besides it
+    rate = pilot_rate(integrate, sample, settings.tau)
+    fixed = rate.call * len(directions)
+    if rate.trajectory < AUTO_BLOCK_SECONDS:  # one trajectory over the whole tau: the call's fixed cost there
         start = time.perf_counter()
         integrate(sample[:1], settings.tau)
-        fixed = max(0.0, time.perf_counter() - start - per_trajectory) * len(directions)
-    per_point = per_trajectory * len(directions)
+        fixed = max(fixed, (time.perf_counter() - start - rate.trajectory) * len(directions))
+    per_point = rate.trajectory * len(directions)
     seconds = max(AUTO_BLOCK_SECONDS, fixed / AUTO_FIXED_SHARE)
     block = int(min(points, max(1, seconds / per_point)))
     log.info("map %s: chunks='auto' gives blocks of about %d start points (%.3g s of integration a point, "
