@@ -10,7 +10,8 @@
   quad of the closed-form integrand). The rotation is an isometry: its FTLE in great-circle lengths
   is 0 everywhere (closed form), at the poles too.
 - A grid whose last latitude is neither at the pole nor half a spacing from it, one past the pole,
-  and one with an odd number of longitudes, are refused by name.
+  and one with an odd number of longitudes, are refused by name; so is a tripolar grid (its north
+  fold is not joined yet), whose example file's geometry is checked by identities.
 """
 
 import math
@@ -22,10 +23,13 @@ from support.gridded import write_velocity_file
 
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
+from ldpipe.data.curvilinear import write_dataset
+from ldpipe.data.tripolar import tripolar_dataset, tripolar_grid
 from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
+from ldpipe.systems.velocity_data.curvilinear import folded_row
 
 TIGHT = {"rtol": 1e-11, "atol": 1e-11}
 RADIUS, OMEGA = 6.371e6, 2 * math.pi / (4 * 86400.0)  # m, rad/s: a turn in 4 days
@@ -221,3 +225,31 @@ def test_the_rows_beyond_a_pole_are_the_grid_half_way_round_with_u_and_v_negated
         mirror = np.flatnonzero(np.isclose(latitudes, np.sign(lat) * 180.0 - lat))[0]
         across = (columns + len(LON) // 2) % len(LON) + 1  # the padded column half-way round
         np.testing.assert_array_equal(data[row, :, :, :], -data[mirror, across, :, :])
+
+
+def test_a_tripolar_grid_has_its_fold_and_is_refused_by_it(tmp_path):
+    # ldpipe.data.tripolar's ORCA-like grid, by identities of its construction: the cap's first row
+    # is the circle of the fold latitude at the columns' own longitudes (|w| = a); its last row, the
+    # fold, lies on the segment between the cap's poles through the North Pole (w real: longitude
+    # 0 or 180) and maps onto itself reversed; the cap's rows and columns cross at right angles
+    # (bipolar coordinates through a conformal map), to the differences' error.
+    lon, lat = tripolar_grid(columns=72, spacing=5.0, fold_latitude=60.0, cap_rows=6, south=-75.0)
+    cap = 27  # rows -75 .. 55 below the cap
+    np.testing.assert_allclose(lat[cap], 60.0, atol=1e-12)
+    np.testing.assert_allclose(lon[cap], lon[0], atol=1e-12)
+    np.testing.assert_allclose(np.abs(np.sin(np.radians(lon[-1]))), 0.0, atol=1e-12)
+    fold = unit(np.stack([lon[-1], lat[-1]], axis=-1))
+    np.testing.assert_allclose(fold, fold[::-1], atol=1e-12)
+    points = unit(np.stack([lon, lat], axis=-1))
+    along_i = points[cap + 1:-1, 2:] - points[cap + 1:-1, :-2]  # centred differences inside the cap
+    along_j = points[cap + 2:, 1:-1] - points[cap:-2, 1:-1]
+    cosine = np.einsum("...k,...k", along_i, along_j) / np.linalg.norm(along_i, axis=-1) / np.linalg.norm(along_j, axis=-1)
+    interior = np.abs(np.sin(np.radians(lon[cap + 1:-1, 1:-1]))) > 0.3  # away from the cap's poles (0, 180)
+    # measured: |cos| <= 0.010 there (centred differences on a 5 degree grid); a cap not quite
+    # conformal (the stereographic radius taken as the half colatitude, not its tangent) is at 0.033
+    assert np.abs(cosine[interior]).max() < 0.02
+    assert folded_row(lon, lat) == "last" and folded_row(lon[:-1], lat[:-1]) == ""  # the row below does not fold
+    path = tmp_path / "tripolar.nc"
+    write_dataset(tripolar_dataset(rotation(0.0), np.arange(0.0, 2.01, 0.5)), path)
+    with pytest.raises(ConfigError, match=r"folds onto itself along its last row .* tripolar grid's north fold"):
+        polar_system(path)
