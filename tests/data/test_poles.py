@@ -23,9 +23,9 @@ from support.gridded import write_velocity_file
 
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.data.curvilinear import write_dataset
 from ldpipe.data.tripolar import tripolar_dataset, tripolar_grid
-from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system

@@ -36,7 +36,7 @@ def tripolar_grid(columns: int = 72, spacing: float = 5.0, fold_latitude: float 
     if columns % 2:
         raise ValueError(f"columns: expected an even number (the fold pairs column i with columns - 1 - i), got {columns}")
     lon = -180.0 + (np.arange(columns) + 0.5) * 360.0 / columns
-    count = int(round((fold_latitude - south) / spacing))
+    count = round((fold_latitude - south) / spacing)
     rows = fold_latitude - spacing * np.arange(count, 0, -1)
     a = math.tan(math.radians(90.0 - fold_latitude) / 2.0)
     upper = np.where(lon > 0.0, lon, lon + 180.0)  # each column's partner in the half lon in (0, 180)
