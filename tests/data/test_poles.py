@@ -9,6 +9,11 @@
   length, closed form); its M_1 is the integral of |u| + |v| along the closed-form circle (scipy's
   quad of the closed-form integrand). The rotation is an isometry: its FTLE in great-circle lengths
   is 0 everywhere (closed form), at the poles too.
+- Land on every node south of 85 S: the circle through both poles stops entering its first land
+  cell, at 84 S on the meridian 270 after 264 degrees (closed form), flagged, its exit time the
+  time it moved.
+- The rows the window adds beyond a pole are the grid's own half-way round with u and v negated
+  (an identity of the chart continued past the pole).
 - A grid whose last latitude is neither at the pole nor half a spacing from it, one past the pole,
   and one with an odd number of longitudes, are refused by name; so is a tripolar grid (its north
   fold is not joined yet), whose example file's geometry is checked by identities.
