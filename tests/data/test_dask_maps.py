@@ -278,12 +278,14 @@ def test_a_store_of_another_map_or_cut_otherwise_is_refused_by_name(hh, tmp_path
 
 def test_auto_chunks_give_blocks_of_about_a_second_and_the_same_map(hh, hh_eager, monkeypatch):
     # chunks="auto" sizes blocks by a pilot of the map's own trajectories; a block's integration
-    # of AUTO_BLOCK_SECONDS is made small here so that this small map is cut into several
+    # is made small here (and a call's fixed cost let be any share of it) so that this small map
+    # is cut into several
     import dask
 
     from ldpipe.core.maps import lazy
 
-    monkeypatch.setattr(lazy, "AUTO_BLOCK_SECONDS", 1e-3)
+    monkeypatch.setattr(lazy, "AUTO_BLOCK_SECONDS", 1e-4)
+    monkeypatch.setattr(lazy, "AUTO_FIXED_SHARE", 1e9)
     auto = ldpipe.ld_map(hh, name="hh", ftle=False, chunks="auto", **copy.deepcopy(HH_MAP))
     assert auto.ld_forward.data.numblocks[0] > 2
     with dask.config.set(scheduler="synchronous"):
