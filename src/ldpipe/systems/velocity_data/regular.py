@@ -233,6 +233,12 @@ class VelocityDataSystem:
         return f"({self.source.velocity_units})^{format(float(p), 'g')} {self.source.time_units}"
 
     @property
+    def time_units(self) -> str | None:
+        """The unit of the integration's time: the time coordinate's (``days since ...``: days), else
+        the velocity's (``m/s``: s)."""
+        return self.source.time_units or None
+
+    @property
     def n_state(self) -> int:
         return 2
 
