@@ -15,10 +15,10 @@ are sheared along the walls. The map's grid is offset from x = 1 by 0.3 cells.
 
 import numpy as np
 import pytest
+from support.gridded import write_velocity_file
 
 import ldpipe
 from ldpipe.core.structures import curve_distances, curves_of
-from support.gridded import write_velocity_file
 
 A = 0.1
 N = 40  # cells per unit of the maps

@@ -23,12 +23,17 @@ import copy
 
 import numpy as np
 import pytest
+from support.double_gyre import (
+    DOUBLE_GYRE,
+    PERIOD,
+    hyperbolic_trajectory,
+    wall_manifold,
+)
 
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import ld_map_dataset
 from ldpipe.core.structures import curve_distances, curves_of, structures_dataset
-from support.double_gyre import DOUBLE_GYRE, PERIOD, hyperbolic_trajectory, wall_manifold
 
 T0, TAU = 0.0, 15.0
 # the wall each manifold leaves, and the map field whose ridges trace it

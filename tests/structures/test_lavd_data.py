@@ -12,11 +12,11 @@ import math
 
 import numpy as np
 import pytest
+from support.gridded import write_velocity_file
 
 import ldpipe
-from ldpipe.errors import ConfigError
 from ldpipe.core.structures.lavd import data_vorticity
-from support.gridded import write_velocity_file
+from ldpipe.errors import ConfigError
 
 R, W0, U, T = 0.3, 1.0, 0.5, 4.0
 K = W0 * R**2 / 2
@@ -59,14 +59,14 @@ def test_the_data_vorticity_is_the_vortex_s(results):
     errors = []
     points = np.column_stack([np.linspace(-0.2, 1.1, 40), np.linspace(-0.6, 0.55, 40)])
     exact = W0 * np.exp(-((points[:, 0] - U) ** 2 + points[:, 1] ** 2) / R**2)
-    for cell, (system, _) in results.items():
+    for system, _ in results.values():
         errors.append(np.abs(data_vorticity(system, points, 1.0) - exact).max())
     assert errors[1] < 0.015 and errors[0] / errors[1] > 3, errors
 
 
 def test_lavd_of_velocity_data_is_the_closed_form(results):
     errors = []
-    for cell, (_, result) in results.items():
+    for _, result in results.values():
         x, y = np.meshgrid(result.x.values, result.y.values, indexing="ij")
         omega = W0 * np.exp(-(x**2 + y**2) / R**2)
         assert result.lavd_defined.values.all()
