@@ -63,7 +63,6 @@ def test_hyperbolic_trajectories_are_periodic_and_mirror_each_other():
     assert hyperbolic_trajectory(0, PERIOD)[0] == pytest.approx(bottom, abs=1e-11)
 
 
-@pytest.mark.compiles
 def test_ftle_ridges_lie_on_the_manifolds_of_the_wall_trajectories():
     references = {}
     for manifold, wall in MANIFOLDS.items():
