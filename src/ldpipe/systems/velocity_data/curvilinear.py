@@ -129,12 +129,11 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
 
     def data_window(self, start: float, end: float) -> DataWindow:
         """The window of the data [start, end] needs over the whole grid, as index velocities with
-        the LD's metric after them (read once; the last one is kept)."""
+        the LD's metric after them (read once; the last few are kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if times not in self._windows:
-            self._windows.clear()
             ny, nx = self.geometry.shape
             index_source = replace(self.source, sphere=False, velocity_scale=1.0)
             window = read_window(index_source, times, (0, nx - 1), (0, ny - 1), convert=self.velocities.convert)
@@ -214,11 +213,18 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
                           "inside it), is not supported yet")
 
 
+def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module: str, name: str, source: DataSource,
+                spec: dict, coordinates: tuple[str, str]) -> CurvilinearVelocitySystem:
+    """A system of ``system_class`` (curvilinear, or a C grid) of a checked ``source``
+    (:func:`.source.open_source`): its grid's geometry and index velocities, and the kernel
+    ``text`` compiled as the module ``module``."""
+    geometry, velocities, arc_factor = curvilinear_parts(source)
+    (rhs,) = njit_functions(text, ("rhs",), module)
+    return system_class(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text, rhs=rhs,
+                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+
+
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
                             ) -> CurvilinearVelocitySystem:
     """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
-    geometry, velocities, arc_factor = curvilinear_parts(source)
-    text = kernel_source()
-    (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
-    return CurvilinearVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,
-                                     rhs=rhs, spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+    return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates)
