@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -42,9 +43,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 if any(flag in sys.argv for flag in ("--numbacs", "--only-numbacs")):
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # numbacs' prange loops on one core, as ldpipe's numpy
 
-import math
-
-import numpy as np
+import numpy as np  # noqa: E402
 
 import ldpipe  # noqa: E402
 
