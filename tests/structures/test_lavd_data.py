@@ -99,12 +99,13 @@ def test_vortex_centre_and_boundary_from_velocity_data(results):
     assert float(result.area[0]) == pytest.approx(math.pi * r.mean() ** 2, rel=0.02)
 
 
-def test_lavd_refuses_velocity_data_on_the_sphere(tmp_path):
-    # the vorticity on the sphere needs its metric: refused, naming what is taken
-    lon, lat, t = np.linspace(0, 10, 11), np.linspace(-5, 5, 11), np.linspace(0, 2, 3)
+def test_lavd_refuses_a_global_grid_through_the_poles(tmp_path):
+    # such a grid is integrated as 3-D positions on the sphere, its vorticity not yet taken: refused,
+    # naming what is taken (regional sphere grids are test_lavd_sphere.py's)
+    lon, lat, t = np.arange(0.0, 359.5, 10.0), np.arange(-90.0, 90.5, 10.0), np.linspace(0, 2, 3)
     path = write_velocity_file(tmp_path / "sphere.nc", lambda X, Y, T_: (0.1 + 0 * X, 0 * Y), lon, lat, t,
                                names=("lon", "lat"))
-    system = ldpipe.system(name="sphere_data", velocity_data={"path": str(path), "x": "lon", "y": "lat",
-                                                              "coordinates": "sphere"})
-    with pytest.raises(ConfigError, match=r"ldpipe.lavd: system 'sphere_data'.*regular or rectilinear grid in the plane"):
+    system = ldpipe.system(name="polar_data", velocity_data={"path": str(path), "x": "lon", "y": "lat",
+                                                             "coordinates": "sphere"})
+    with pytest.raises(ConfigError, match=r"ldpipe.lavd: system 'polar_data'.*on the sphere short of a pole"):
         ldpipe.lavd(system, section=ldpipe.section(lon=(2, 8, 5), lat=(-2, 2, 5)), duration=1.0)

@@ -4,9 +4,14 @@ vortices: their centres and boundaries.
     LAVD(x0) = ∫_{t0}^{t0+T} |ω(x(s), s) − ω̄(s)| ds,
 
 ω the vorticity ∂v/∂x − ∂u/∂y along the trajectory from x0 (from a vector field's formulas, or
-from the derivatives of gridded velocity data's interpolant on the plane) and ω̄(s) its mean over
-the region the grid's particles fill at time s (the mean over the particles: they start evenly spread and an
-incompressible flow keeps their areas). The particles are advanced by the flow map
+from the derivatives of gridded velocity data's interpolant, :func:`data_vorticity`) and ω̄(s) its
+mean over the region the grid's particles fill at time s: the mean over the particles, each weighted
+by the area of its start cell, which an incompressible flow carries along unchanged. On the plane the
+cells are equal; on the sphere (longitude, latitude in degrees) a cell of the start grid has the area
+R² Δλ (sin(φ + Δφ/2) − sin(φ − Δφ/2)) = 2 R² Δλ sin(Δφ/2) cos φ, so the weight is cos φ of the start
+point. On the sphere ω is the vertical component of the curl, (1 / (R cos φ)) (∂v/∂λ − ∂(u cos φ)/∂φ)
+(λ, φ in radians, u, v east and north); both ω and the LAVD are in the integration's time unit, as on
+the plane. The particles are advanced by the flow map
 (:func:`ldpipe.core.trajectories.flow_map`) over ``interval`` steps, the vorticity taken at every
 step from the system's Jacobian, and the integral by the trapezoidal rule (error O(interval²) for
 a smooth integrand).
@@ -77,45 +82,66 @@ def check_lavd_parameters(parameters: dict, where: str = "lavd", key: str = "key
 DATA_STEP = 1e-4
 
 
-def is_plane_velocity_data(system) -> bool:
-    """Whether ``system`` is gridded velocity data in the plane on a regular or rectilinear grid
-    (x, y in the data's own units, the velocity in them per time unit): the systems whose
-    vorticity is the interpolant's ∂v/∂x − ∂u/∂y."""
-    from ...systems.velocity_data import CurvilinearVelocitySystem, VelocityDataSystem
+def is_lavd_velocity_data(system) -> bool:
+    """Whether ``system`` is gridded velocity data whose vorticity :func:`data_vorticity` takes: on a
+    regular or rectilinear grid, in the plane (x, y in the data's own units) or on the sphere
+    (longitude, latitude in degrees; not a global grid through a pole, integrated as 3-D positions)."""
+    from ...systems.velocity_data import CurvilinearVelocitySystem, PolarVelocitySystem, VelocityDataSystem
 
-    return (isinstance(system, VelocityDataSystem) and not isinstance(system, CurvilinearVelocitySystem)
-            and system.n_state == 2 and not system.source.sphere)
+    return (isinstance(system, VelocityDataSystem)
+            and not isinstance(system, (CurvilinearVelocitySystem, PolarVelocitySystem)) and system.n_state == 2)
+
+
+def is_sphere_velocity_data(system) -> bool:
+    """Whether ``system`` is velocity data on the sphere whose vorticity :func:`data_vorticity` takes."""
+    return is_lavd_velocity_data(system) and system.source.sphere
 
 
 def vorticity(system, states: np.ndarray, t: float, index: tuple[int, int]) -> np.ndarray:
-    """∂v/∂x − ∂u/∂y at each of ``states`` (k, n) and time ``t``, the plane's coordinates at
-    ``index``: from the system's Jacobian, or for velocity data from its interpolant
-    (:func:`data_vorticity`)."""
-    if is_plane_velocity_data(system):
+    """The vorticity at each of ``states`` (k, n) and time ``t``, the plane's coordinates at
+    ``index``: ∂v/∂x − ∂u/∂y from the system's Jacobian, or for velocity data from its
+    interpolant (:func:`data_vorticity`)."""
+    if is_lavd_velocity_data(system):
         return data_vorticity(system, states, t)
     i, k = index
     return np.array([(lambda jac: jac[k, i] - jac[i, k])(system.jacobian(state, t)) for state in states])
 
 
 def data_vorticity(system, states: np.ndarray, t: float) -> np.ndarray:
-    """∂v/∂x − ∂u/∂y of a plane velocity data system's interpolant at ``states`` (k, 2) and time
-    ``t``, by central differences at :data:`DATA_STEP` of the smallest cell (the data bound once)."""
+    """The vorticity of a velocity data system's interpolant at ``states`` (k, 2) and time ``t``, by
+    central differences at :data:`DATA_STEP` of the smallest cell (the data bound once), per time
+    unit of the integration: on the plane ∂v/∂x − ∂u/∂y; on the sphere (states in degrees, the
+    interpolant's rates in degrees per time unit) (1 / (R cos φ)) (∂v/∂λ − ∂(u cos φ)/∂φ), u, v
+    the eastward and northward speeds in metres per time unit and λ, φ in radians."""
     cell = min(float(np.min(np.diff(system.source.axis_values(axis)))) for axis in ("x", "y"))
     step = DATA_STEP * cell
+    sphere = system.source.sphere
+    # on the sphere: metres of arc per degree, and the difference step in radians
+    metres, h = (system.source.radius * math.pi / 180.0, math.radians(step)) if sphere else (1.0, step)
     out = np.empty(2)
     result = np.empty(len(states))
     with system.time_window(t, t):
         for row, (x, y) in enumerate(np.asarray(states, dtype=float)):
             system.rhs(np.array([x + step, y]), float(t), out)
-            v_east = out[1]
+            v_east = out[1] * metres
             system.rhs(np.array([x - step, y]), float(t), out)
-            v_west = out[1]
+            v_west = out[1] * metres
+            # u cos(lat) north and south of the point: u = R cos(lat) d lon/dt on the sphere
             system.rhs(np.array([x, y + step]), float(t), out)
-            u_north = out[0]
+            u_north = out[0] * metres * (math.cos(math.radians(y + step)) ** 2 if sphere else 1.0)
             system.rhs(np.array([x, y - step]), float(t), out)
-            u_south = out[0]
-            result[row] = (v_east - v_west - u_north + u_south) / (2 * step)
+            u_south = out[0] * metres * (math.cos(math.radians(y - step)) ** 2 if sphere else 1.0)
+            curl = (v_east - v_west - u_north + u_south) / (2 * h)
+            result[row] = curl / (system.source.radius * math.cos(math.radians(y))) if sphere else curl
     return result
+
+
+def area_weights(system, states: np.ndarray) -> np.ndarray:
+    """Each start point's weight in the region's mean vorticity: the area of its cell of the start
+    grid, up to a common factor (module docstring): cos(latitude) on the sphere, 1 on the plane."""
+    if is_sphere_velocity_data(system):
+        return np.cos(np.radians(states[:, system.coordinates.index(system.source.y)]))
+    return np.ones(len(states))
 
 
 def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | None = None) -> dict[str, np.ndarray]:
@@ -138,6 +164,7 @@ def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | No
     defined = np.ones(len(states), dtype=bool)
     previous = None
     total = np.zeros(len(states))
+    weights = area_weights(system, states)
     for step in range(checks + 1):
         if step:
             moved = flow_map(system, states, times[step] - times[step - 1], settings, t0=times[step - 1],
@@ -145,7 +172,8 @@ def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | No
             states = moved.end_state
             defined &= moved.status == COMPLETED
         omega = vorticity(system, states, float(times[step]), index)
-        deviation = np.abs(omega - omega[defined].mean() if defined.any() else omega)
+        mean = np.average(omega[defined], weights=weights[defined]) if defined.any() else 0.0
+        deviation = np.abs(omega - mean)
         if previous is not None:
             total += 0.5 * (previous + deviation) * abs(times[step] - times[step - 1])
         previous = deviation
@@ -260,13 +288,14 @@ def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: 
 def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None = None, where: str = "lavd",
                  key: str = "key") -> xr.Dataset:
     """The LAVD file of ``system`` (a vector field with formulas, or velocity data on a regular or
-    rectilinear grid in the plane) over ``section`` (two axes, the other coordinates fixed): the
+    rectilinear grid, in the plane or on the sphere) over ``section`` (two axes, the other coordinates fixed): the
     field, and its coherent vortices as a CF contiguous ragged array (per vortex its boundary's
     points along ``point``, ``point_count``, centre, area, level and convexity deficiency)."""
     formulas = not system.hamiltonian and hasattr(system, "jacobian") and hasattr(system, "expressions")
-    if not formulas and not is_plane_velocity_data(system):
+    if not formulas and not is_lavd_velocity_data(system):
         raise ConfigError(f"{where}: system {system.name!r}: the LAVD takes the vorticity from a vector field's "
-                          "formulas or from velocity data on a regular or rectilinear grid in the plane")
+                          "formulas or from velocity data on a regular or rectilinear grid (in the plane, or "
+                          "on the sphere short of a pole)")
     axes_spec = section.get("axes", [])
     if len(axes_spec) != 2:
         raise ConfigError(f"{where}: section: expected two axes")
