@@ -122,8 +122,8 @@ def eddy(tmp_path_factory):
                                np.arange(-1.0, EDDY_T + 2.01, 1.0), names=("lon", "lat"),
                                time_units="days since 2000-01-01")
     system = sphere_system(path, "sphere_eddy")
-    # no start point on the centre, where the velocity's formula is 0/0
-    section = ldpipe.section(lon=(CENTRE_LON - 3.0, CENTRE_LON + 3.07, 41), lat=(CENTRE_LAT - 2.0, CENTRE_LAT + 2.03, 41))
+    # no start point on the centre, where the velocity's formula is 0/0; latitude the first axis
+    section = ldpipe.section(lat=(CENTRE_LAT - 2.0, CENTRE_LAT + 2.03, 41), lon=(CENTRE_LON - 3.0, CENTRE_LON + 3.07, 41))
     return system, ldpipe.lavd(system, section=section, duration=EDDY_T, interval=0.2,
                                integrator={"rtol": 1e-10, "atol": 1e-10})
 
@@ -137,7 +137,8 @@ def test_the_data_vorticity_of_the_eddy_is_the_closed_form(eddy):
 
 def test_lavd_of_the_eddy_is_the_closed_form_and_its_vortex_the_cap(eddy):
     _, result = eddy
-    lon, lat = np.meshgrid(result.lon.values, result.lat.values, indexing="ij")
+    assert result.lavd.dims == ("lat", "lon")
+    lat, lon = np.meshgrid(result.lat.values, result.lon.values, indexing="ij")
     omega = eddy_vorticity(lon, lat)
     mean = np.average(omega, weights=np.cos(np.radians(lat)))
     assert result.lavd_defined.values.all()
@@ -158,6 +159,24 @@ def test_lavd_of_the_eddy_is_the_closed_form_and_its_vortex_the_cap(eddy):
     assert g.min() > g_level - 0.2 * cell and g.max() < g_zero, (g.min(), g.max(), g_level, g_zero)
     assert g_zero - g.mean() < 0.6 * cell
     assert float(result.convexity_deficiency[0]) < 0.01
+    # the area on the sphere (km2) of the polygon against that of the cap of its mean angle,
+    # 2 pi R^2 (1 - cos g) (measured: 0.055 % apart)
+    cap = 2 * math.pi * (RADIUS / 1000) ** 2 * (1 - math.cos(g.mean()))
+    assert result.area.attrs["units"] == "km2"
+    assert float(result.area[0]) == pytest.approx(cap, rel=0.002)
+
+
+def test_the_area_of_a_longitude_latitude_rectangle_is_the_closed_form():
+    # R^2 (lon2 - lon1) (sin lat2 - sin lat1), lon in radians: exact for the loop integral's
+    # trapezoidal rule (d lon = 0 along meridians, sin lat constant along parallels); the
+    # boundary's columns in the order of a section given latitude first
+    from ldpipe.core.structures.lavd import sphere_area
+
+    lat = np.linspace(20.0, 50.0, 31)
+    lon_lat = np.concatenate([np.column_stack([np.full(31, -10.0), lat]), np.column_stack([np.full(31, 15.0), lat[::-1]])])
+    ring = np.concatenate([lon_lat, lon_lat[:1]])[:, ::-1]
+    exact = 6371.0**2 * math.radians(25.0) * (math.sin(math.radians(50.0)) - math.sin(math.radians(20.0)))
+    assert sphere_area(ring, 6371.0, lon_column=1) == pytest.approx(exact, rel=1e-12)
 
 
 # --- the example currents ----------------------------------------------------------------------------

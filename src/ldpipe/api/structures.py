@@ -124,16 +124,18 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
          levels: int = 100, convexity_deficiency: float = 0.01, min_points: int = 8, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
     """The Lagrangian-averaged vorticity deviation (Haller et al. 2016) of a vector field with
-    formulas or of velocity data in the plane over a grid, and its rotationally coherent vortices: centres (the LAVD's maxima, at
-    t0 and advected to t0 + duration), boundaries (the outermost convex-enough LAVD contours
-    around them), areas and convexity deficiencies.
+    formulas or of velocity data (in the plane or on the sphere) over a grid, and its rotationally
+    coherent vortices: centres (the LAVD's maxima, at t0 and advected to t0 + duration), boundaries
+    (the outermost convex-enough LAVD contours around them), areas and convexity deficiencies.
 
     Parameters
     ----------
     system : System
         A vector-field system (:func:`system`) of formulas, its vorticity taken from their
-        derivatives, or of velocity data on a regular or rectilinear grid in the plane (not on
-        the sphere, not curvilinear), its vorticity from the derivatives of the data's interpolant.
+        derivatives, or of velocity data on a regular or rectilinear grid, in the plane or on the
+        sphere (not curvilinear, not a global grid through a pole), its vorticity from the
+        derivatives of the data's interpolant; on the sphere the region's mean vorticity weights
+        each particle by cos(latitude) of its start point and the areas are in km².
     section : dict
         Two axes and the other coordinates fixed (:func:`section`).
     duration : float

@@ -186,6 +186,17 @@ def _area(ring: np.ndarray) -> float:
     return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
+def sphere_area(ring: np.ndarray, radius: float, lon_column: int) -> float:
+    """The area (in the square of ``radius``'s unit) on the sphere inside the closed polygon
+    ``ring`` of (longitude, latitude) in degrees (``lon_column`` the longitude's): by Green's
+    theorem the integral of cos(lat) over it is the loop integral of -sin(lat) d lon, by the
+    trapezoidal rule along each edge."""
+    lon = np.radians(ring[:, lon_column])
+    lat = np.radians(ring[:, 1 - lon_column])
+    sines = np.sin(lat)
+    return radius**2 * 0.5 * abs(float(np.sum((sines + np.roll(sines, -1)) * (np.roll(lon, -1) - lon))))
+
+
 def _hull_area(points: np.ndarray) -> float:
     """The area of the convex hull of ``points`` (Andrew's monotone chain)."""
     pts = sorted(set(map(tuple, np.round(points, 15))))
@@ -311,6 +322,13 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
     dims = tuple(name for name, _ in axes)
     boundary = np.concatenate([v["boundary"] for v in vortices]) if vortices else np.zeros((0, 2))
     per_vortex = lambda name: np.array([v[name] for v in vortices], dtype=float)  # noqa: E731
+    if is_sphere_velocity_data(system):  # the area on the Earth, not in the chart's square degrees
+        lon_column = dims.index(system.source.x)
+        area = np.array([sphere_area(v["boundary"], system.source.radius / 1000.0, lon_column) for v in vortices])
+        area_attributes = {"long_name": "area on the sphere inside the boundary, at t0", "units": "km2"}
+    else:
+        area = per_vortex("area")
+        area_attributes = {"long_name": "area inside the boundary, at t0"}
     centres = np.array([v["centre"] for v in vortices]).reshape(-1, 2)
     if len(centres):
         fixed_columns = {name: np.full(len(centres), float(value)) for name, value in fixed.items()}
@@ -341,10 +359,10 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
                                                                                "to t0 + duration"}),
         f"centre_end_{dims[1]}": (("vortex",), centre_end[:, 1], {"long_name": f"{dims[1]} of the centre advected "
                                                                                "to t0 + duration"}),
-        "area": (("vortex",), per_vortex("area"), {"long_name": "area inside the boundary, at t0"}),
+        "area": (("vortex",), area.reshape(-1), area_attributes),
         "level": (("vortex",), per_vortex("level"), {"long_name": "the LAVD on the boundary"}),
         "convexity_deficiency": (("vortex",), per_vortex("convexity_deficiency"), {
-            "long_name": "(convex hull area - area) / area of the boundary"}),
+            "long_name": "(convex hull area - area) / area of the boundary, in the section's coordinates"}),
     }
     dataset = xr.Dataset(variables, coords={name: values for name, values in axes})
     dataset.attrs.update({"system": system.name, "axes": " ".join(dims),
