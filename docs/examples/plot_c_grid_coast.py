@@ -5,13 +5,14 @@ A model's C-grid by a coast: the FTLE of a curved, rotated grid's currents
 Ocean models such as ROMS write their currents on curvilinear grids (2-D
 coordinates, turned and bent against the map) as an Arakawa C-grid: the
 velocity through each face of each cell, a land mask at the cells' centres.
-Here ``ldpipe.data.curvilinear`` writes such a file, ROMS's way (``x_rho``,
-``y_rho``, u on ``xi_u``, v on ``eta_v``, ``mask_rho``): the double gyre of
+Here ``ldpipe.data.curvilinear`` makes such a dataset, laid out as a ROMS
+file (``x_rho``, ``y_rho``, u on ``xi_u``, v on ``eta_v``, ``mask_rho``;
+``"path":`` reads the file it writes the same way): the double gyre of
 Shadden et al. (2005) in a basin, [0, 2] x [0, 1], on a grid turned by 30
 degrees and bent by a conformal map. Every cell whose centre is outside the
 basin is land, so its coast is a staircase of the grid's cells, as a
-model's is. ldpipe reads the file as a C-grid: the faces by land are
-closed, the coast is a wall no trajectory crosses. The forward FTLE marks
+model's is. ldpipe reads it as a C-grid: the faces by land are closed,
+the coast is a wall no trajectory crosses. The forward FTLE marks
 the repelling material lines; points on land have none and are grey.
 """
 
@@ -21,14 +22,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import ldpipe
-from ldpipe.data.curvilinear import (double_gyre_c_grid_dataset, plane_grid,
-                                     write_dataset)
+from ldpipe.data.curvilinear import double_gyre_c_grid_dataset, plane_grid
 
 # grid points along x (the tests build the gallery smaller)
 POINTS = int(os.environ.get("LDPIPE_EXAMPLE_POINTS", "200"))
 SPACING = 0.04  # the grid's spacing, in its own frame
-
-
 x, y = plane_grid("conformal", SPACING)  # the cells' centres
 
 
@@ -40,9 +38,8 @@ def land(i, j):
 
 times = np.arange(0.0, 16.01, 0.25)
 roms = double_gyre_c_grid_dataset("conformal", SPACING, times, land=land)
-write_dataset(roms, "double_gyre_roms.nc")
 gyre = ldpipe.system(name="gyre", velocity_data={
-    "path": "double_gyre_roms.nc", "x": "x_rho", "y": "y_rho",
+    "dataset": roms, "x": "x_rho", "y": "y_rho",
     "components": "grid", "mask": "mask_rho"})
 print(gyre.description)
 
