@@ -71,28 +71,19 @@ def variational_rhs(y, out, grad, hess, df, sense):
 @njit(**JIT)
 def deviation_indicators(y, u1, u2):
     """log10 |Phi u1| and min(|w1 + w2|, |w1 - w2|) of the unit vectors w_k along Phi u_k."""
-    n1 = 0.0
-    n2 = 0.0
+    a = np.zeros(D)
+    b = np.zeros(D)
     for i in range(D):
-        a = 0.0
-        b = 0.0
         for j in range(D):
-            a += y[D + i * D + j] * u1[j]
-            b += y[D + i * D + j] * u2[j]
-        n1 += a * a
-        n2 += b * b
-    n1 = math.sqrt(n1)
-    n2 = math.sqrt(n2)
+            a[i] += y[D + i * D + j] * u1[j]
+            b[i] += y[D + i * D + j] * u2[j]
+    n1 = math.sqrt(np.sum(a * a))
+    n2 = math.sqrt(np.sum(b * b))
     plus = 0.0
     minus = 0.0
     for i in range(D):
-        a = 0.0
-        b = 0.0
-        for j in range(D):
-            a += y[D + i * D + j] * u1[j]
-            b += y[D + i * D + j] * u2[j]
-        plus += (a / n1 + b / n2) ** 2
-        minus += (a / n1 - b / n2) ** 2
+        plus += (a[i] / n1 + b[i] / n2) ** 2
+        minus += (a[i] / n1 - b[i] / n2) ** 2
     return math.log10(n1), min(math.sqrt(plus), math.sqrt(minus))
 
 
