@@ -64,6 +64,20 @@ def test_the_data_vorticity_of_solid_body_rotation_is_two_omega_sin_lat(rotation
     np.testing.assert_allclose(data_vorticity(rotation, points, 1.5), exact, rtol=0, atol=1e-4 * 2 * OMEGA * DAY)
 
 
+def test_the_data_vorticity_of_solid_body_rotation_on_uneven_latitudes(tmp_path):
+    # the rectilinear grid's interpolant, latitudes 0.5 to 2 degrees apart: again 2 Omega sin(lat)
+    # (measured: 5.3e-5 of 2 Omega)
+    steps = np.random.default_rng(7).uniform(0.4, 1.6, 90)
+    lat = -60.0 + 120.0 * np.concatenate([[0.0], np.cumsum(steps)]) / steps.sum()
+    path = write_velocity_file(tmp_path / "uneven.nc", polar_rotation, np.arange(-60.0, 90.01, 1.0), lat,
+                               np.arange(0.0, 6.01, 1.0), names=("lon", "lat"), time_units="days since 2000-01-01")
+    system = sphere_system(path, "polar_rotation_uneven")
+    assert system.engine_name == "velocity_data_rectilinear2_sphere"
+    points = np.column_stack([np.linspace(-50.3, 81.7, 60), np.linspace(-55.2, 57.9, 60)])
+    exact = 2 * OMEGA * DAY * np.sin(np.radians(points[:, 1]))
+    np.testing.assert_allclose(data_vorticity(system, points, 1.5), exact, rtol=0, atol=2e-4 * 2 * OMEGA * DAY)
+
+
 def test_lavd_of_solid_body_rotation_is_the_closed_form_with_area_weights(rotation):
     section = ldpipe.section(lon=(100.0, 140.0, 9), lat=(-50.0, 55.0, 22))
     result = ldpipe.lavd(rotation, section=section, duration=3.0, t0=1.0, interval=0.5)
