@@ -58,7 +58,9 @@ def rotation(tmp_path_factory):
 
 
 def test_the_data_vorticity_of_solid_body_rotation_is_two_omega_sin_lat(rotation):
-    points = np.column_stack([np.linspace(3.3, 351.7, 60), np.linspace(-55.2, 57.9, 60)])
+    # across the seam too (359.5 to 0: the grid is joined there) and in the other convention
+    points = np.column_stack([np.concatenate([np.linspace(3.3, 351.7, 60), [359.5, 359.99995, 0.00003, -10.4]]),
+                              np.concatenate([np.linspace(-55.2, 57.9, 60), [12.3, -33.3, 41.0, 22.2]])])
     exact = 2 * OMEGA * DAY * np.sin(np.radians(points[:, 1]))  # per day
     # measured: 1.9e-5 of 2 Omega (the interpolant of cos(lat) on a 1-degree grid)
     np.testing.assert_allclose(data_vorticity(rotation, points, 1.5), exact, rtol=0, atol=1e-4 * 2 * OMEGA * DAY)
