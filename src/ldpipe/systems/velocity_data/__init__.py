@@ -43,7 +43,7 @@ from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
 from .files import path_text, velocity_data_files
 from .memory import is_in_memory, memory_entry
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
-from .regular import DataWindow, VelocityDataSystem, make_regular_system
+from .regular import CUBIC_CONVOLUTION, INTERPOLATIONS, DataWindow, VelocityDataSystem, make_regular_system
 from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 from .staggered import StaggeredVelocitySystem, make_staggered_system
 
@@ -60,6 +60,16 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     if not isinstance(entry, dict):
         raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
     source = open_source(entry, f"{key}.velocity_data")
+    interpolation = entry.get("interpolation", CUBIC_CONVOLUTION)
+    if interpolation not in INTERPOLATIONS:
+        raise ConfigError(f"config key '{key}.velocity_data.interpolation': expected one of {list(INTERPOLATIONS)}, "
+                          f"got {interpolation!r}")
+    if interpolation != CUBIC_CONVOLUTION and (source.staggered or source.grid_coordinates or source.nodes is not None
+                                               or source.x_global):
+        grid = ("a curvilinear grid" if source.staggered or source.grid_coordinates else
+                "a global longitude grid" if source.x_global else "an uneven or 3-D grid")
+        raise ConfigError(f"config key '{key}.velocity_data.interpolation': {interpolation!r} is offered on a regular "
+                          f"2-D grid that is not global; {source.label} is {grid}: use 'cubic_convolution'")
     if source.staggered:  # a C-grid: its face velocities, a coast a wall
         return make_staggered_system(name, source, spec, velocity_data_coordinates(entry))
     if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
@@ -81,4 +91,4 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
                                       and coordinate == coordinates[0] else ""))
     if source.nodes is not None:  # a non-uniform axis, or 3-D: the rectilinear kernel
         return make_rectilinear_system(name, source, window, spec)
-    return make_regular_system(name, source, window, spec)
+    return make_regular_system(name, source, window, spec, interpolation)
