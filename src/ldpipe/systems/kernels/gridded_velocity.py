@@ -27,6 +27,7 @@ import math
 from ldpipe.systems.data_pointer import velocity_data_pointer
 
 DATA_HEADER = 16
+EDGE_SLACK = 1e-9  # cells: how far outside the B-spline's edge a point counts as on it
 
 
 def rhs(state, t, out):
@@ -43,6 +44,12 @@ def rhs(state, t, out):
         east -= 360.0 * math.floor(east / 360.0)
     fx = east / data[4]
     fy = (state[1] - data[5]) / data[6]
+    if data[14] > 0.0:
+        # the B-spline's value on the edge is a sum of three coefficients: a velocity the data make
+        # zero there (a wall) comes out as rounding, which would carry a trajectory sliding along the
+        # wall a hair outside, where it stops; within EDGE_SLACK cells it stays on the edge
+        fx = min(max(fx, 0.0), nx - 1.0) if fx > -EDGE_SLACK and fx < nx - 1.0 + EDGE_SLACK else fx
+        fy = min(max(fy, 0.0), ny - 1.0) if fy > -EDGE_SLACK and fy < ny - 1.0 + EDGE_SLACK else fy
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
         out[0] = 0.0
         out[1] = 0.0

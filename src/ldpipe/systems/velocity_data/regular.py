@@ -31,6 +31,8 @@ INTERPOLATION_AT = 14
 #: The values of a ``velocity_data`` entry's ``interpolation`` key.
 CUBIC_CONVOLUTION, CUBIC_BSPLINE = "cubic_convolution", "cubic_bspline"
 INTERPOLATIONS = (CUBIC_CONVOLUTION, CUBIC_BSPLINE)
+#: The kernel's EDGE_SLACK: with the B-spline a point this many cells outside the grid counts as on its edge.
+EDGE_SLACK = 1e-9
 
 
 def kernel_source() -> str:
@@ -329,7 +331,8 @@ class VelocityDataSystem:
         fx = east / window.x_grid[1]
         fy = (end_states[:, 1] - window.y_grid[0]) / window.y_grid[1]
         nx, ny = window.x_grid[2], window.y_grid[2]
-        outside = ~((fx >= 0.0) & (fx <= nx - 1) & (fy >= 0.0) & (fy <= ny - 1))
+        slack = EDGE_SLACK if self.interpolation == CUBIC_BSPLINE else 0.0  # as the kernel's edge test
+        outside = ~((fx >= -slack) & (fx <= nx - 1 + slack) & (fy >= -slack) & (fy <= ny - 1 + slack))
         i = np.clip(np.floor(np.nan_to_num(fx)).astype(int), 0, nx - 2)
         j = np.clip(np.floor(np.nan_to_num(fy)).astype(int), 0, ny - 2)
         land = window.land
