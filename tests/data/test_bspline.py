@@ -170,6 +170,21 @@ def test_double_gyre_map_converges_at_fourth_order(tmp_path):
     assert ld_errors[-1] < 5e-6 and ftle_errors[-1] < 1.5e-6, (ld_errors, ftle_errors)
 
 
+def test_a_window_interpolates_as_the_whole_grid(tmp_path):
+    # a window's coefficients come from its nodes and MARGIN more each side; the prefilter's
+    # dependence decays as |sqrt(3) - 2|^k with the distance k, so they equal the whole grid's to
+    # ~|z|^MARGIN (1e-14) of the field: the window's interpolant is the whole grid's
+    n = 8
+    nodes = (np.linspace(0, 12, 12 * n + 1), np.linspace(0, 8, 8 * n + 1), np.linspace(0, 6, 6 * n + 1))
+    path = write_velocity_file(tmp_path / "wide.nc", smooth_field, *nodes)
+    whole = data_system(path, "cubic_bspline", "whole")
+    window = make_system("window", {"velocity_data": {"path": str(path), "interpolation": "cubic_bspline",
+                                                      "window": {"x": [5.0, 7.0], "y": [3.0, 5.0]}}})
+    rng = np.random.default_rng(7)
+    points = np.column_stack([rng.uniform(5, 7, 100), rng.uniform(3, 5, 100), rng.uniform(2.5, 3.5, 100)])
+    assert np.abs(velocities(window, points) - velocities(whole, points)).max() < 1e-12
+
+
 def test_trajectories_along_a_wall_stay_on_it(tmp_path):
     # the double gyre's walls x = 0, 2 and y = 0, 1 are invariant (u or v is 0 on them, in the data
     # too): a trajectory started on one slides along it to the formula system's end point; the
