@@ -17,6 +17,7 @@
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import ldpipe
 from ldpipe.core.maps.ftle import ftle
@@ -210,6 +211,11 @@ def test_the_key_through_the_api_and_its_errors(cubic_file, tmp_path):
     assert default.interpolation == "cubic_convolution" and "interpolation" not in default.spec["velocity_data"]
     with pytest.raises(ConfigError, match="interpolation"):
         ldpipe.system(name="cubic", velocity_data={"path": str(cubic_file), "interpolation": "quintic"})
+    with xr.open_dataset(cubic_file) as dataset:  # in memory, the key beside the dataset
+        in_memory = ldpipe.system(name="memory", velocity_data={"dataset": dataset.load(),
+                                                                "interpolation": "cubic_bspline"})
+    points = np.array([[0.3, 0.2, 1.1], [-1.7, 1.4, 2.9]])
+    assert np.array_equal(velocities(in_memory, points), velocities(system, points))
     with pytest.raises(ConfigError, match=r"velocity_data\.interpolation.*quintic"):
         make_system("cubic", {"velocity_data": {"path": str(cubic_file), "interpolation": "quintic"}})
     uneven = write_velocity_file(tmp_path / "uneven.nc", cubic_field, np.array([-2.0, -1.0, 0.5, 2.0]),
