@@ -8,9 +8,9 @@ coast, decoded as ``xr.open_dataset`` would give it; lazy, dask-backed data work
 With the data's calendar, the start is a date and the integration time a duration. The forward
 finite-time Lyapunov exponent (FTLE) marks the repelling material lines, so only forward
 trajectories are integrated (``directions="forward"``), and only their end points are kept
-(``ld=False``: no Lagrangian descriptor). Points on land, and points whose trajectory or a
-neighbour's leaves the data within the 8 days, have no FTLE: they are missing in the Dataset
-and drawn grey.
+(``ld=False``: no Lagrangian descriptor). Points on land, and points whose trajectory leaves
+the data within the 8 days (or the neighbours its differences need do), have no FTLE: they are
+missing in the Dataset and drawn grey. The FTLE is per day, the data's time unit.
 """
 
 import os

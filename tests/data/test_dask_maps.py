@@ -167,7 +167,7 @@ def test_a_lazy_map_goes_to_zarr(client, hh, hh_eager, tmp_path):
     (0, "expected a positive number of points per block, got 0"),
     (-40, "expected a positive number of points per block, got -40"),
     (2.5, "expected points per block"),
-    ("auto", "expected points per block"),
+    ("many", "or 'auto'"),
     (True, "expected points per block"),
     ({"y": 0}, r"argument 'chunks.y': expected a positive number of rows"),
     ({"y": 5, "py": 7}, r"argument 'chunks.py': blocks are bands of whole rows"),
@@ -245,6 +245,9 @@ def test_an_interrupted_stream_resumes_its_missing_blocks_to_the_same_map(hh, hh
         calls.clear()
         stored_equals(ldpipe.ld_map(hh, name="hh", ftle=True, chunks=300, store=store, **copy.deepcopy(HH_MAP)),
                       hh_eager[True])
+        # chunks="auto" resumes a store as it was cut, whatever a new pilot would choose
+        stored_equals(ldpipe.ld_map(hh, name="hh", ftle=True, chunks="auto", store=store, **copy.deepcopy(HH_MAP)),
+                      hh_eager[True])
         assert calls == []
 
 
@@ -271,3 +274,19 @@ def test_a_store_of_another_map_or_cut_otherwise_is_refused_by_name(hh, tmp_path
             ldpipe.ld_map(hh, name="hh", chunks={"y": 3}, store=store, **copy.deepcopy(small))
     with pytest.raises(ConfigError, match=r"argument 'store': a map in blocks takes a store; give chunks too"):
         ldpipe.ld_map(hh, name="hh", store=store, **copy.deepcopy(small))
+
+
+def test_auto_chunks_give_blocks_of_about_a_second_and_the_same_map(hh, hh_eager, monkeypatch):
+    # chunks="auto" sizes blocks by a pilot of the map's own trajectories; a block's integration
+    # is made small here (and a call's fixed cost let be any share of it) so that this small map
+    # is cut into several
+    import dask
+
+    from ldpipe.core.maps import lazy
+
+    monkeypatch.setattr(lazy, "AUTO_BLOCK_SECONDS", 1e-4)
+    monkeypatch.setattr(lazy, "AUTO_FIXED_SHARE", 1e9)
+    auto = ldpipe.ld_map(hh, name="hh", ftle=False, chunks="auto", **copy.deepcopy(HH_MAP))
+    assert auto.ld_forward.data.numblocks[0] > 2
+    with dask.config.set(scheduler="synchronous"):
+        assert_same_file(auto.compute(), hh_eager[False])

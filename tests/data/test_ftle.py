@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 
 from ldpipe.config import validate_config
 from ldpipe.errors import ConfigError
-from ldpipe.core.maps.ftle import complete_neighbourhood, ftle
+from ldpipe.core.maps.ftle import flow_map_gradient, ftle
 from ldpipe.io.datafile import open_stage_file
 from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.stages.ld import run_ld_gather, run_ld_tile
@@ -56,6 +56,7 @@ def test_linear_saddle_ftle_is_its_eigenvalue(tmp_path):
         assert dataset[f"ftle_defined_{label}"].values.all()
         # measured relative error 3.2e-13 (the integrator's rtol 1e-12)
         np.testing.assert_allclose(dataset[f"ftle_{label}"].values, LAM, rtol=2e-12, err_msg=label)
+        assert dataset[f"ftle_{label}"].attrs["units"] == "1/time"  # formulas name no unit of time
     # the flow map is kept: x e^(lam T) forward (closed form)
     x = dataset.x.values[:, None]
     np.testing.assert_allclose(dataset.end_x_forward.values, x * math.exp(LAM * 2.5) + 0 * dataset.y.values, rtol=1e-11)
@@ -109,19 +110,30 @@ def test_double_gyre_ftle_matches_scipy_flow_map():
             assert dataset[f"ftle_{label}"].values[i, k] == pytest.approx(expected, abs=1e-12), (label, i, k)
 
 
-def test_undefined_where_a_neighbour_stopped_early():
-    # a 5 x 5 grid with the centre's trajectory stopped: its four neighbours along the axes and itself
-    # (their differences read it) and the edge points whose one-sided differences reach it are undefined
+def test_undefined_where_no_difference_reads_only_complete_points():
+    # A point is differenced along an axis centred over its two neighbours, or one-sided over the
+    # next three points on one side, each of which ran the whole time. On a 5 x 5 grid whose
+    # centre stopped, the centre's row and column have neither (the centre is in every stencil):
     complete = np.ones((5, 5), dtype=bool)
     complete[2, 2] = False
-    defined = complete_neighbourhood(complete)
     expected = np.ones((5, 5), dtype=bool)
-    expected[1:4, 2] = False
-    expected[2, 1:4] = False
-    expected[0, 2] = expected[4, 2] = expected[2, 0] = expected[2, 4] = False
-    np.testing.assert_array_equal(defined, expected)
-    values, ok = ftle(np.zeros((5, 5, 2)), (np.arange(5.0), np.arange(5.0)), 1.0, complete)
-    assert not ok.any() and np.all(np.isnan(values))  # a collapsed map has no positive stretching: undefined
+    expected[2, :] = expected[:, 2] = False
+    values, defined = ftle(np.zeros((5, 5, 2)), (np.arange(5.0), np.arange(5.0)), 1.0, complete)
+    np.testing.assert_array_equal(flow_map_gradient(np.zeros((5, 5, 2)), (np.arange(5.0),) * 2, complete)[1] & complete,
+                                  expected)
+    assert not defined.any() and np.all(np.isnan(values))  # a collapsed map has no positive stretching: undefined
+    # on a 9 x 9 grid every other point has a stencil clear of the centre: its neighbours along
+    # the axes one-sided away from it. The map x -> 2 x, y -> y / 2 is linear, so every
+    # stencil is exact: the FTLE is ln 2 / T (closed form) at all of them.
+    complete = np.ones((9, 9), dtype=bool)
+    complete[4, 4] = False
+    axis = np.linspace(-1.0, 1.0, 9)
+    a, b = np.meshgrid(axis, axis, indexing="ij")
+    ends = np.stack([2.0 * a, 0.5 * b], axis=-1)
+    ends[4, 4] = (50.0, -7.0)  # where the stopped trajectory ended: no stencil reads it
+    values, defined = ftle(ends, (axis, axis), 1.0, complete)
+    np.testing.assert_array_equal(defined, complete)
+    np.testing.assert_allclose(values[defined], math.log(2.0), rtol=1e-13)
 
 
 def test_grid_ftle_converges_to_the_variational_ftle():
@@ -159,6 +171,7 @@ def test_variational_ftle_map_of_the_linear_saddle_is_its_eigenvalue(tmp_path):
         np.testing.assert_allclose(dataset[f"ftle_{label}"].values, LAM, rtol=1e-12, err_msg=label)
         attributes = dataset[f"ftle_{label}"].attrs
         assert (attributes["method"], attributes["rtol"], attributes["atol"]) == ("variational", 1e-12, 1e-12)
+        assert attributes["units"] == "1/time"
 
 
 def test_variational_ftle_map_is_variational_ftle_at_its_points():

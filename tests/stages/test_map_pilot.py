@@ -3,8 +3,8 @@
 
 The estimate's arithmetic is checked on an integration of known cost: a clock that the stand-in
 integration advances by exactly ``cost`` per trajectory and unit of time, plus a fixed overhead
-per call. The whole map then takes cost * points * tau * directions, the closed form the
-estimate must reproduce (exactly without overhead; as an upper bound with it)."""
+per call. The whole map then takes cost * points * tau * directions, plus the overhead once a
+direction (one call each), the closed form the estimate must reproduce."""
 
 import logging
 
@@ -52,23 +52,26 @@ def test_the_estimate_is_the_closed_form_cost(known_cost, directions):
     estimate = pilot.estimate_seconds(integration, np.zeros((points, 4)), tau, directions)
     assert estimate.seconds == pytest.approx(1e-4 * points * tau * directions, rel=1e-12)
     assert estimate.pilot_tau < tau
-    # the first call only loads the engine (one trajectory); the timed ones are the pilot's 64
-    assert integration.calls[0][0] == 1 and {n for n, _ in integration.calls[1:]} == {pilot.PILOT_TRAJECTORIES}
-    # the pilot grows (x8 a call, from tau/4096) until it has measured enough, at most to tau itself
-    assert [t for _, t in integration.calls[1:]] == [tau / 4096 * 8**k for k in range(len(integration.calls) - 1)]
+    # the first call only loads the engine (one trajectory); the timed ones are the pilot's 512,
+    # then its first eighth over the same time (what a call costs besides its trajectories)
+    # (twice at each time: the first call reads what its time needs, the second is timed)
+    growing, (few, same) = integration.calls[1:-1], integration.calls[-1]
+    assert integration.calls[0][0] == 1 and {n for n, _ in growing} == {pilot.PILOT_TRAJECTORIES}
+    assert few == pilot.PILOT_TRAJECTORIES // pilot.PILOT_GROWTH and same == growing[-1][1]
+    # the pilot grows (x8 a step, from tau/4096) until it has measured enough, at most to tau itself
+    assert [t for _, t in growing] == [tau / 4096 * 8**(k // 2) for k in range(len(growing))]
     assert estimate.pilot_seconds >= pilot.PILOT_SECONDS or (
         estimate.seconds < pilot.WARN_SECONDS / pilot.PILOT_GROWTH and estimate.pilot_seconds >= pilot.PILOT_SECONDS_CHEAP)
 
 
-def test_a_fixed_overhead_only_raises_the_estimate(known_cost):
-    """Each call's overhead is counted as if it grew with tau: the estimate bounds the cost from above,
-    by the overhead's share of what the pilot measured (closed form: 1 + overhead / (pilot - overhead))."""
+def test_a_fixed_overhead_is_counted_once_a_call_not_once_a_trajectory(known_cost):
+    """A call's overhead (a window of velocity data read) is told from the trajectories' cost by the
+    two calls over the same time: the map costs cost * points * tau * 2 plus the overhead once a
+    direction (closed form), where scaling the pilot's whole rate would count it 100 000 / 512 times."""
     integration = known_cost(cost=1e-6, overhead=1e-3)
     points, tau = 100_000, 50.0
-    truth = 1e-6 * points * tau * 2
     estimate = pilot.estimate_seconds(integration, np.zeros((points, 4)), tau, 2)
-    assert estimate.seconds >= truth
-    assert estimate.seconds == pytest.approx(truth * (1 + 1e-3 / (estimate.pilot_seconds - 1e-3)), rel=1e-9)
+    assert estimate.seconds == pytest.approx(1e-6 * points * tau * 2 + 1e-3 * 2, rel=1e-9)
 
 
 def test_cheap_maps_are_measured_coarsely_and_small_maps_not_at_all(known_cost):
@@ -95,7 +98,7 @@ def test_a_map_that_fits_is_not_warned_about(known_cost, caplog):
     with caplog.at_level(logging.INFO, logger="ldpipe"):
         pilot.check_map_time("map small", integration, np.zeros((50_000, 4)), 10.0, 2)
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
-    assert any("estimated from a pilot of 64 trajectories" in r.getMessage() for r in caplog.records)
+    assert any("estimated from a pilot of 512 trajectories" in r.getMessage() for r in caplog.records)
 
 
 def test_a_piloted_map_equals_the_map_without_a_pilot(monkeypatch, caplog):
@@ -114,3 +117,12 @@ def test_a_piloted_map_equals_the_map_without_a_pilot(monkeypatch, caplog):
     plain = compute_ld_map(parameters, equilibria, show_progress=False)
     for name in plain.data_vars:
         np.testing.assert_array_equal(piloted[name].values, plain[name].values, err_msg=name)
+
+
+def test_the_rate_tells_a_trajectory_s_cost_from_a_call_s(known_cost):
+    """What sizes a Dask block (chunks="auto"): a trajectory's own cost over tau and a call's fixed
+    cost, each exactly (closed forms: cost * tau and the overhead), however large the overhead."""
+    integration = known_cost(cost=2e-6, overhead=5e-3)
+    rate = pilot.pilot_rate(integration, np.zeros((512, 4)), 4.0)
+    assert rate.trajectory == pytest.approx(2e-6 * 4.0, rel=1e-9)
+    assert rate.call == pytest.approx(5e-3, rel=1e-9)

@@ -31,11 +31,13 @@ def ld_map(system: AnySystem, *, name: str | None = None, equilibria: xr.Dataset
         Show a progress bar: True always, False never; by default in a notebook (tqdm's notebook
         bar) or a terminal, once the map has run for two seconds, and never when nobody watches.
     %(threads)s
-    chunks : int or dict, optional
+    chunks : int, dict or "auto", optional
         Compute the map on Dask, in blocks of about ``chunks`` start points (whole rows of the first
-        axis: ``chunks // columns`` rows, at least one), or of ``{first_axis: rows}``: the Dataset
-        returned at once holds dask arrays, and ``.compute()`` gives the map bit for bit as
-        without ``chunks`` (see the guide's Dask page). Needs ``pip install 'ldpipe[dask]'``.
+        axis: ``chunks // columns`` rows, at least one), of ``{first_axis: rows}``, or ``"auto"``:
+        blocks of about one second of integration each, measured by a pilot of the map's own
+        trajectories. The Dataset returned at once holds dask arrays, and ``.compute()`` gives the
+        map bit for bit as without ``chunks`` (see the guide's Dask page). Needs
+        ``pip install 'ldpipe[dask]'``.
     client : distributed.Client, optional
         With ``chunks``: the running client whose cluster computes the blocks, sent there now
         (``client.persist``); default the active Dask scheduler, when the Dataset is computed.

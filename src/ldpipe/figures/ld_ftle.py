@@ -4,8 +4,9 @@ One row per map (a map computed with ``ftle: true``): the LD (``descriptor``), t
 and the backward FTLE, on the map's grid (a map of one direction, ``directions``: its FTLE alone). Ridges of the forward FTLE mark repelling
 Lagrangian coherent structures, of the backward FTLE attracting ones (Shadden et al. 2005); the
 LD's singular features lie along the same stable and unstable manifolds. Points where the
-FTLE is not defined (a trajectory, or a grid neighbour's, stopped early: land, the data's
-edge, a region exit) are grey, as are the LD's points that start on land.
+FTLE is not defined (a trajectory stopped early, or the grid neighbours its differences need
+did: land, the data's edge, a region exit) are grey, as are the LD's points that start on land.
+The FTLE's colour bars carry its units (``1/day`` on data counted in days).
 """
 
 from __future__ import annotations
@@ -38,8 +39,10 @@ def draw_ld_ftle(settings: dict, *, ld_maps: list[str | Path]) -> plt.Figure:
         # the LD is missing where a point starts on land (a trajectory that reached land keeps its LD)
         panels = [(ld_map.values, style.LD_LABEL[settings["descriptor"]])]
         for label in labels:
-            values = np.ma.masked_invalid(dataset[f"ftle_{label}"].values)  # missing where not defined
-            panels.append((values, f"FTLE, {label}"))
+            field = dataset[f"ftle_{label}"]
+            units = field.attrs.get("units")  # per the data's time unit (1/day), where the system names it
+            values = np.ma.masked_invalid(field.values)  # missing where not defined
+            panels.append((values, f"FTLE, {label}" + (f" [{units}]" if units else "")))
         for column in range(3):
             ax = grid[row][column]
             if column >= len(panels):  # a map of one direction: no other direction's FTLE

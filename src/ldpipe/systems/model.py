@@ -40,6 +40,8 @@ class Unbounded:
     coordinate_bound: ClassVar[float] = 0.0
     #: No land, no data's edge stops a trajectory.
     has_stop_flags: ClassVar[bool] = False
+    #: Its formulas do not name the unit of their time.
+    time_units: ClassVar[str | None] = None
 
 
 @runtime_checkable
@@ -64,6 +66,9 @@ class SystemModel(Protocol):
     coordinate_bound: float
     #: Whether data boundaries stop trajectories (then it is a :class:`DataFlowModel`).
     has_stop_flags: bool
+    #: The unit of its time, in which a map's ``tau`` is counted (velocity data: the data's, such
+    #: as ``days``); None where it is not named.
+    time_units: str | None
 
     @property
     def phase_coordinates(self) -> tuple[str, ...]:

@@ -33,9 +33,9 @@ from .chaos import add_map_classification
 from .discrete import discrete_ld_dataset
 from .budget import BASE_MB, BYTES_PER_POINT, band_memory_mb, fewest_tiles, machine_memory_mb
 from .ftle import VARIATIONAL
-from .grid import (BOTH, DIRECTIONS, MIRROR_UNUSED, add_ftle, add_variational_ftle, directions_setting, gather_tiles,
-                   ld_grid_dataset, map_directions, map_start_times, paths_per_point, resolve_ld_map, start_time_band,
-                   tile_rows)
+from .grid import (BOTH, DIRECTIONS, MIRROR_UNUSED, TIME_UNITS, add_ftle, add_variational_ftle, directions_setting,
+                   gather_tiles, ld_grid_dataset, map_directions, map_start_times, paths_per_point, resolve_ld_map,
+                   start_time_band, tile_rows)
 from .stochastic import noise_attributes, resolve_noise, stochastic_grid_dataset
 from .symmetry import AUTO, SETTING_KEY, MapMirror, map_mirror
 
@@ -177,6 +177,8 @@ def compute_ld_map(
                                   mirror=backward_mirror(parameters, system, section),
                                   directions=directions_setting(parameters),
                                   label=None if block else f"map {parameters['map_name']}, tile {tile + 1} of {tiles}")
+    if system.time_units:  # the FTLE's units are per it
+        dataset.attrs[TIME_UNITS] = system.time_units
     if ftle == VARIATIONAL:  # each point's own trajectory: every tile computes its own points
         add_variational_ftle(dataset, system, section, rows, settings.tau, info["t0"],
                              rtol=settings.rtol, atol=settings.atol)
@@ -302,6 +304,8 @@ def gather_bands(datasets: list[xr.Dataset], axis: str, parameters: dict) -> xr.
     if the map asks for it (a single band has its FTLE already)."""
     joined = gather_tiles([d.drop_attrs(deep=False) for d in datasets], axis)
     if parameters.get("ftle", False) is True and len(datasets) > 1:  # by differences over the whole grid
+        if TIME_UNITS in datasets[0].attrs:
+            joined.attrs[TIME_UNITS] = datasets[0].attrs[TIME_UNITS]
         add_ftle(joined, system_phase_coordinates(parameters["system_spec"]), float(datasets[0].attrs["tau"]),
                  on_sphere(parameters["system_spec"]), parameters["section"].get("solve"))
     return joined

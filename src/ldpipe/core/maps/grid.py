@@ -23,10 +23,11 @@ from ...io.contracts import LD_GRID
 from ...io.datafile import missing_value_encoding, open_stage_file
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, section_chart_slope, sphere_metric, variational_ftle
+from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
 from .pilot import check_map_time
 from .symmetry import MapMirror
 from ...logs import get_logger, progress_bar
+from ...text import per_time
 from ..sections import Section, section_states
 from ...systems import System, make_system
 
@@ -226,6 +227,14 @@ def integrate_points(system: System, states: np.ndarray, direction: int, setting
     return type(results[0])(*(np.concatenate(parts) for parts in zip(*results)))
 
 
+def pilot_integration(system: System, direction: int, settings: LDSettings, t0: float, descriptor: bool):
+    """The map's integration of some start points over some time, as a pilot measures it
+    (:mod:`ldpipe.core.maps.pilot`)."""
+    def integrate(sample: np.ndarray, tau: float):
+        return integrate_points(system, sample, direction, dataclasses.replace(settings, tau=tau), None, t0, descriptor)
+    return integrate
+
+
 def _flow_map_fields(result: FlowMap) -> dict[str, np.ndarray]:
     """The per-trajectory fields of a map without its LD, named as compute_ld's."""
     return {"time": np.abs(result.final_time), "escaped": result.status == ESCAPED,
@@ -308,9 +317,8 @@ def ld_grid_dataset(
                                  flow_map or not descriptor)
     directions = ((1, "forward"),) if mirror is not None else map_directions(directions)
     if label is not None:
-        check_map_time(label, lambda sample, tau: integrate_points(
-            system, sample, directions[0][0], dataclasses.replace(settings, tau=tau), None, t0, descriptor),
-            states, settings.tau, len(directions))
+        check_map_time(label, pilot_integration(system, directions[0][0], settings, t0, descriptor),
+                       states, settings.tau, len(directions))
     fields: dict[str, np.ndarray] = {}
     ends: dict[str, np.ndarray] = {}
     if system.has_stop_flags:  # a start on land stops at once: its LD is missing, not 0
@@ -475,6 +483,10 @@ def fields_dataset(system: System, section: Section, fields: dict[str, np.ndarra
     return xr.Dataset(variables, coords=coords)
 
 
+#: A map's attribute naming its system's unit of time (``days``), where the system names one.
+TIME_UNITS = "time_units"
+
+
 def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphere: bool = False,
              solved: str | None = None) -> xr.Dataset:
     """Add ``ftle_forward``, ``ftle_backward`` and their ``ftle_defined_*`` flags to a whole map
@@ -487,6 +499,7 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     ``sphere``: the state is longitude and latitude in degrees (great-circle lengths, :func:`ldpipe.core.maps.ftle.sphere_metric`).
     ``solved``: the coordinate an energy surface's section solves for (its variable in ``dataset``),
     whose slope enters the initial separations (:func:`ldpipe.core.maps.ftle.section_chart_slope`).
+    The FTLE's ``units`` are per the map's :data:`TIME_UNITS` attribute (``1/day``), where it has one.
     """
     dims = dataset.allowed.dims
     axes = tuple(dataset[d].values for d in dims)
@@ -494,16 +507,16 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = ran_whole_time(dataset, label, tau)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
-        slope = section_chart_slope(dataset[solved].values, axes) if solved is not None else None
-        values, defined = ftle(ends, axes, tau, complete, metric, slope)
+        values, defined = ftle(ends, axes, tau, complete, metric, None if solved is None else dataset[solved].values)
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",
-            "units": "1/time",
+            "units": per_time(dataset.attrs.get(TIME_UNITS)),
             "comment": "ln(largest eigenvalue of the Cauchy-Green tensor of the flow map) / (2 tau), its gradient "
                        "by differences of end states over the grid; missing where not defined (see ftle_defined)"},
             missing_value_encoding())
         dataset[f"ftle_defined_{label}"] = (dims, defined, {
-            "long_name": f"the {label} FTLE is defined: the point and its grid neighbours ran the whole time"})
+            "long_name": f"the {label} FTLE is defined: the point and the neighbours its differences read "
+                         "along each axis ran the whole time"})
     return dataset
 
 
@@ -539,7 +552,7 @@ def add_variational_ftle(dataset: xr.Dataset, system, section: Section, rows: sl
             values[defined] = variational_ftle(system, states[defined], axes, t0, direction * tau, rtol=rtol, atol=atol)
         dataset[f"ftle_{label}"] = (dims, values, {
             "long_name": f"finite-time Lyapunov exponent, {label} time",
-            "units": "1/time",
+            "units": per_time(dataset.attrs.get(TIME_UNITS)),
             "method": "variational",
             "rtol": rtol,
             "atol": atol,

@@ -23,21 +23,35 @@ from __future__ import annotations
 
 import importlib
 import operator
+import time
 
 import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
+from ...logs import get_logger
 from ...io.datafile import check_finite
 from ...systems import on_sphere
 from ...systems.velocity_data.memory import datasets_of, register
 from ..sections import section_states
 from .assembly import backward_mirror, compute_ld_map, finish_ld_map, recorded_parameters, resolve_map
-from .grid import add_ftle, map_start_times
+from .grid import add_ftle, directions_setting, map_directions, map_start_times, pilot_integration
+from .pilot import PILOT_TRAJECTORIES, pilot_rate
 from .symmetry import SETTING_KEY
 
 #: The install that brings what a lazy map needs.
 INSTALL = "pip install 'ldpipe[dask]'"
+#: The integration time of a block that ``chunks="auto"`` aims at: what a task costs besides its
+#: integration (the scheduler's round trip, the results' transfer, the band's set-up; measured
+#: by benchmarks/dask_scaling.py at 15-30 ms a block) is then a few per cent of it.
+AUTO_BLOCK_SECONDS = 1.0
+#: ... or more, so that what a block's engine calls cost besides their trajectories (a window of
+#: velocity data read) is at most this share of its integration.
+AUTO_FIXED_SHARE = 0.05
+#: Rows of the section the pilot of ``chunks="auto"`` spreads its start points over.
+AUTO_PILOT_ROWS = 16
+
+log = get_logger(__name__)
 
 
 def require_dask(key: str):
@@ -55,8 +69,8 @@ def block_rows(chunks, axes: tuple[str, str], shape: tuple[int, int], key: str) 
     axis' rows; the second axis whole: its size or -1; ``t0``: 1, a block is one start time)."""
     columns = shape[1]
     if isinstance(chunks, bool) or not isinstance(chunks, (int, np.integer, dict)):
-        raise ConfigError(f"config key '{key}.chunks': expected points per block (a positive int) or a dict of "
-                          f"points per axis {{{axes[0]!r}: rows}}, got {chunks!r}")
+        raise ConfigError(f"config key '{key}.chunks': expected points per block (a positive int), a dict of "
+                          f"points per axis {{{axes[0]!r}: rows}}, or 'auto', got {chunks!r}")
     if not isinstance(chunks, dict):
         if chunks < 1:
             raise ConfigError(f"config key '{key}.chunks': expected a positive number of points per block, got {chunks}")
@@ -119,9 +133,11 @@ class MapBlocks:
         self.parameters, self.equilibria, self.threads = parameters, equilibria, threads
         self.starts = map_start_times(parameters)
         first = parameters if self.starts is None else {**parameters, "t0": self.starts[0]}
-        system, section, _settings, info = resolve_map(first, equilibria)
+        system, section, settings, info = resolve_map(first, equilibria)
         self.axes, self.shape = tuple(section.axes), tuple(section.shape)
         self.first_axis = section.axis_values()[0]
+        if isinstance(chunks, str) and chunks == "auto":
+            chunks = auto_block_points(first, system, section, settings, info)
         self.bands = bands(self.shape[0], block_rows(chunks, self.axes, self.shape, key))
         self.block_parameters = self._mirror_decided(system, section, info["energy"])
         self.coordinates, self.solved = system.phase_coordinates, section.solve
@@ -154,6 +170,35 @@ class MapBlocks:
     def template(self) -> xr.Dataset:
         """An empty band (no row) at the first start time: the variables, types and attributes of a band."""
         return compute_ld_map(self.at_start(self.first_start), self.equilibria, rows=slice(0, 0), show_progress=False)
+
+
+def auto_block_points(parameters: dict, system, section, settings, info: dict) -> int:
+    """Start points a block of ``chunks="auto"`` holds: about :data:`AUTO_BLOCK_SECONDS` of
+    integration, or more where a call's fixed cost over the whole tau (the data window a block
+    reads) would be over :data:`AUTO_FIXED_SHARE` of that; from a pilot of the map's own
+    trajectories (at its first start time) spread over :data:`AUTO_PILOT_ROWS` rows. The whole
+    map where no point is allowed."""
+    rows = np.unique(np.linspace(0, section.shape[0] - 1, AUTO_PILOT_ROWS).round().astype(int))
+    states = np.concatenate([section_states(system, section, info["energy"], slice(row, row + 1))[0] for row in rows])
+    points = section.shape[0] * section.shape[1]
+    if not len(states):
+        return points
+    sample = states[np.linspace(0, len(states) - 1, min(len(states), PILOT_TRAJECTORIES)).round().astype(int)]
+    sample = sample[np.random.default_rng(0).permutation(len(sample))]  # its first eighth spread over the map too
+    directions = map_directions(directions_setting(parameters))
+    integrate = pilot_integration(system, directions[0][0], settings, info["t0"], parameters.get("ld", True))
+    rate = pilot_rate(integrate, sample, settings.tau)
+    fixed = rate.call * len(directions)
+    if rate.trajectory < AUTO_BLOCK_SECONDS:  # one trajectory over the whole tau: the call's fixed cost there
+        start = time.perf_counter()
+        integrate(sample[:1], settings.tau)
+        fixed = max(fixed, (time.perf_counter() - start - rate.trajectory) * len(directions))
+    per_point = rate.trajectory * len(directions)
+    seconds = max(AUTO_BLOCK_SECONDS, fixed / AUTO_FIXED_SHARE)
+    block = int(min(points, max(1, seconds / per_point)))
+    log.info("map %s: chunks='auto' gives blocks of about %d start points (%.3g s of integration a point, "
+             "%.3g s a block besides, measured by a pilot)", parameters["map_name"], block, per_point, fixed)
+    return block
 
 
 def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
@@ -239,10 +284,7 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
                     for rows in blocks.bands]
         band = {}
         for name in names:
-            variable = template[name]
-            parts = [da.from_delayed(delayed(operator.getitem)(block, name), (rows.stop - rows.start, blocks.shape[1]),
-                                     dtype=variable.dtype) for block, rows in zip(computed, blocks.bands)]
-            band[name] = da.concatenate(parts, axis=0)
+            band[name] = _variable_of_blocks(da, name, computed, chunks, template[name].dtype)
             lazy[name].append(band[name])
         variables = {name: (dims, da.zeros(blocks.shape, dtype=template[name].dtype, chunks=chunks),
                              template[name].attrs) for name in names}
@@ -258,6 +300,18 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
         skeleton.append(dataset)
     stacked = {name: parts[0] if blocks.starts is None else da.stack(parts) for name, parts in lazy.items()}
     return skeleton, stacked
+
+
+def _variable_of_blocks(da, name: str, computed: list, chunks, dtype):
+    """The dask array of variable ``name`` over the block tasks ``computed``: each chunk is one
+    item of a block's result, a task of its own (one layer, no chunk copied or re-keyed)."""
+    from dask.base import tokenize
+    from dask.highlevelgraph import HighLevelGraph
+
+    key = f"{name}-{tokenize(name, [block.key for block in computed])}"
+    layer = {(key, index, 0): (operator.getitem, block.key, name) for index, block in enumerate(computed)}
+    graph = HighLevelGraph.from_collections(key, layer, dependencies=computed)
+    return da.Array(graph, key, chunks=(chunks[0], (chunks[1],)), dtype=dtype)
 
 
 def _add_lazy_ftle(dataset: xr.Dataset, band: dict, blocks: MapBlocks, chunks, lazy: dict, da, delayed) -> None:

@@ -4,9 +4,11 @@ the whole ``tau``, is the estimate. A map estimated to run long is warned about 
 trajectory, naming what shortens it (it can still be interrupted with Ctrl-C: nothing is written
 until it finishes).
 
-The estimate is an upper bound in the usual case: a trajectory's cost grows with its integration
-time at most linearly (steps are fixed per unit time, or fewer once a trajectory escapes or
-leaves the region), and the pilot's fixed overheads are counted as if they grew with it too."""
+A trajectory's cost grows with its integration time at most linearly (steps are fixed per unit
+time, or fewer once a trajectory escapes or leaves the region), so the rate scaled to the whole
+tau bounds it from above. What an engine call costs whatever its size (its inputs; a window of
+velocity data, read once per call) is measured apart, by a second, smaller call over the same
+time, and counted once a call, not once a trajectory."""
 
 from __future__ import annotations
 
@@ -20,8 +22,9 @@ from ...logs import get_logger
 
 log = get_logger(__name__)
 
-#: Trajectories a pilot integrates, spread evenly over the map's start points.
-PILOT_TRAJECTORIES = 64
+#: Trajectories a pilot integrates, spread evenly over the map's start points: enough that a
+#: call's fixed cost (a window of velocity data read) can be told from its trajectories'.
+PILOT_TRAJECTORIES = 512
 #: Below this many start points a map is not piloted: the pilot would cost a noticeable share of
 #: the map, and tau (at most 10^4 in the configuration) cannot make so few trajectories run long.
 PILOT_MIN_POINTS = 10_000
@@ -53,27 +56,70 @@ class TimeEstimate:
                 f"over tau = {self.pilot_tau:.3g} ({self.pilot_seconds:.3g} s)")
 
 
+@dataclass(frozen=True)
+class PilotRate:
+    """What a pilot measured: ``trajectory`` s a trajectory takes over the whole tau (one
+    direction), and ``call`` s an engine call costs besides its trajectories (its inputs, a
+    window of velocity data read), from ``pilot_seconds`` of integrating ``trajectories`` start
+    points over ``pilot_tau``."""
+
+    trajectory: float
+    call: float
+    trajectories: int
+    pilot_tau: float
+    pilot_seconds: float
+
+
 def estimate_seconds(integrate: Integrate, states: np.ndarray, tau: float, directions: int) -> TimeEstimate | None:
-    """The wall time of integrating every row of ``states`` over ``tau`` in each of ``directions``,
-    from pilots of :data:`PILOT_TRAJECTORIES` of them; None for a map of fewer than
-    :data:`PILOT_MIN_POINTS` points (not piloted)."""
+    """The wall time of integrating every row of ``states`` over ``tau`` in each of ``directions``
+    (a call for each), from pilots of :data:`PILOT_TRAJECTORIES` of them (:func:`pilot_rate`);
+    None for a map of fewer than :data:`PILOT_MIN_POINTS` points (not piloted)."""
     points = len(states)
     if points < PILOT_MIN_POINTS:
         return None
     sample = states[np.linspace(0, points - 1, PILOT_TRAJECTORIES).round().astype(int)]
+
+    def enough(per_trajectory: float, elapsed: float) -> bool:
+        # an estimate already far below the warning needs no finer measurement
+        return per_trajectory * points * directions < WARN_SECONDS / PILOT_GROWTH and elapsed >= PILOT_SECONDS_CHEAP
+
+    rate = pilot_rate(integrate, sample, tau, enough)
+    return TimeEstimate((rate.trajectory * points + rate.call) * directions, rate.trajectories, rate.pilot_tau,
+                        rate.pilot_seconds)
+
+
+def pilot_rate(integrate: Integrate, sample: np.ndarray, tau: float, enough=None) -> PilotRate:
+    """``sample`` (start points spread over a map) integrated over a growing share of ``tau``,
+    twice at each (the first call reads what its time needs, such as a window of velocity data;
+    the second has it), until the second measures :data:`PILOT_SECONDS`, reaches ``tau``, or
+    ``enough(seconds a trajectory, pilot seconds)``; then the sample's first
+    1/:data:`PILOT_GROWTH` over the same time. The difference of the last two is the
+    trajectories' own cost; the rest of the smaller call and what the first call read, a call's
+    fixed cost (at the pilot's tau). Where the difference is not positive (timing noise) the
+    whole rate is the trajectories' (an upper bound)."""
+    def timed(states: np.ndarray, pilot_tau: float) -> float:
+        start = time.perf_counter()
+        integrate(states, pilot_tau)
+        return time.perf_counter() - start
+
     integrate(sample[:1], tau * PILOT_FIRST_FRACTION)  # compiles or loads the engine: not part of the rate
     fraction = PILOT_FIRST_FRACTION
     while True:
         pilot_tau = tau * min(fraction, 1.0)
-        start = time.perf_counter()
-        integrate(sample, pilot_tau)
-        elapsed = time.perf_counter() - start
-        seconds = elapsed * (tau / pilot_tau) * (points / len(sample)) * directions
-        # An estimate already far below the warning needs no finer measurement.
-        if (elapsed >= PILOT_SECONDS or fraction >= 1.0
-                or (seconds < WARN_SECONDS / PILOT_GROWTH and elapsed >= PILOT_SECONDS_CHEAP)):
-            return TimeEstimate(seconds, len(sample), pilot_tau, elapsed)
+        first = timed(sample, pilot_tau)
+        elapsed = timed(sample, pilot_tau)
+        per_trajectory = elapsed * (tau / pilot_tau) / len(sample)
+        if elapsed >= PILOT_SECONDS or fraction >= 1.0 or (enough is not None and enough(per_trajectory, elapsed)):
+            break
         fraction *= PILOT_GROWTH
+    few = sample[: max(1, len(sample) // PILOT_GROWTH)]
+    fewer = timed(few, pilot_tau)
+    read = max(0.0, first - elapsed)
+    if elapsed <= fewer or len(few) == len(sample):
+        return PilotRate(per_trajectory, read, len(sample), pilot_tau, elapsed)
+    marginal = (elapsed - fewer) / (len(sample) - len(few))
+    return PilotRate(marginal * tau / pilot_tau, read + max(0.0, fewer - marginal * len(few)), len(sample),
+                     pilot_tau, elapsed)
 
 
 def check_map_time(label: str, integrate: Integrate, states: np.ndarray, tau: float,

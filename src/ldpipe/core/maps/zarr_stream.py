@@ -105,6 +105,17 @@ def _check_resumable(store: Path, zeros: xr.Dataset, blocks: MapBlocks, key: str
                           f"these chunks give {wanted}; resume it with chunks={{{blocks.axes[0]!r}: {stored}}}")
 
 
+def _stored_blocks(store: Path) -> dict | None:
+    """``{first axis: rows}``, the blocks a stream in ``store`` was started with; None if it is not
+    a map's store (refused by :func:`_check_resumable`, naming it)."""
+    try:
+        with xr.open_zarr(store, consolidated=True) as opened:
+            variable = next(value for name, value in opened.data_vars.items() if name != "allowed")
+            return {variable.dims[-2]: int(variable.encoding["chunks"][-2])}
+    except (OSError, ValueError, KeyError, StopIteration, IndexError):
+        return None
+
+
 def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, store: str | os.PathLike,
                   client=None, threads: int | None = None) -> xr.Dataset:
     """The map :func:`ldpipe.core.maps.lazy.lazy_ld_map` computes, each block written to the zarr
@@ -119,6 +130,8 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
     if not isinstance(store, (str, os.PathLike)):
         raise ConfigError(f"config key '{key}.store': expected the path of a zarr store, got {store!r}")
     store = Path(store)
+    if isinstance(chunks, str) and chunks == "auto" and store.exists():
+        chunks = _stored_blocks(store) or chunks  # resumed as it was cut, not as a new pilot would cut it
     blocks, zeros, _lazy = map_layout(parameters, equilibria, chunks=chunks, threads=threads)
     markers = markers_folder(store)
     if store.exists():

@@ -129,12 +129,11 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
 
     def data_window(self, start: float, end: float) -> DataWindow:
         """The window of the data [start, end] needs over the whole grid, as index velocities with
-        the LD's metric after them (read once; the last one is kept)."""
+        the LD's metric after them (read once; the last few are kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if times not in self._windows:
-            self._windows.clear()
             ny, nx = self.geometry.shape
             index_source = replace(self.source, sphere=False, velocity_scale=1.0)
             window = read_window(index_source, times, (0, nx - 1), (0, ny - 1), convert=self.velocities.convert)

@@ -172,7 +172,7 @@ class RectilinearVelocitySystem(VelocityDataSystem):
         return max(2.0 * extent, 720.0 if self.source.sphere else 0.0)
 
     def data_window(self, start: float, end: float) -> RectilinearWindow:
-        """The window of the data [start, end] needs (read once; the last one is kept)."""
+        """The window of the data [start, end] needs (read once; the last few are kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         roles = self.source.axis_names
@@ -185,7 +185,6 @@ class RectilinearVelocitySystem(VelocityDataSystem):
                 ranges[role] = (0, len(nodes[role]) - 1)
         key = tuple(sorted(ranges.items()))
         if key not in self._windows:
-            self._windows.clear()
             self._windows[key] = read_rectilinear_window(self.source, ranges)
         return self._windows[key]
 

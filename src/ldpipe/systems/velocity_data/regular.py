@@ -9,6 +9,8 @@ longitude grid joined across the seam. :class:`VelocityDataSystem` is the system
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -94,6 +96,25 @@ def first_copies(columns: np.ndarray) -> np.ndarray:
     for position in range(1, len(columns) - 1):
         inner.setdefault(int(columns[position]), position)
     return np.array([inner.get(int(node), position) for position, node in enumerate(columns)])
+
+
+#: Windows a system keeps: a map's integration, its check for land at the start time and its search
+#: for where a trajectory stopped each ask for their own, and each block of a map asks again.
+WINDOWS_KEPT = 3
+
+
+class WindowCache(OrderedDict):
+    """The last :data:`WINDOWS_KEPT` windows read or used, by key; the longest unused dropped."""
+
+    def __getitem__(self, key):
+        self.move_to_end(key)
+        return super().__getitem__(key)
+
+    def __setitem__(self, key, value):
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > WINDOWS_KEPT:
+            self.popitem(last=False)
 
 
 @dataclass(frozen=True)
@@ -191,7 +212,7 @@ class VelocityDataSystem:
     parameters: dict = field(default_factory=dict)
     #: :data:`CUBIC_CONVOLUTION` (C1, the data interpolated as read) or :data:`CUBIC_BSPLINE` (C2).
     interpolation: str = CUBIC_CONVOLUTION
-    _windows: dict = field(default_factory=dict, repr=False)
+    _windows: WindowCache = field(default_factory=WindowCache, repr=False)
 
     hamiltonian: ClassVar[bool] = False
     #: A flow in continuous time, not a discrete map.
@@ -233,6 +254,12 @@ class VelocityDataSystem:
         return f"({self.source.velocity_units})^{format(float(p), 'g')} {self.source.time_units}"
 
     @property
+    def time_units(self) -> str | None:
+        """The unit of the integration's time: the time coordinate's (``days since ...``: days), else
+        the velocity's (``m/s``: s)."""
+        return self.source.time_units or None
+
+    @property
     def n_state(self) -> int:
         return 2
 
@@ -269,7 +296,7 @@ class VelocityDataSystem:
                               f"[{first:.12g}, {last:.12g}] of {self.source.label} (variable {self.source.time!r})")
 
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The window of the data [start, end] needs (read once; the last one is kept)."""
+        """The window of the data [start, end] needs (read once; the last few are kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
@@ -281,7 +308,6 @@ class VelocityDataSystem:
             ys = (0, self.source.y_grid[2] - 1)
         key = (times, xs, ys)
         if key not in self._windows:
-            self._windows.clear()
             self._windows[key] = read_window(self.source, times, xs, ys, interpolation=self.interpolation)
         return self._windows[key]
 

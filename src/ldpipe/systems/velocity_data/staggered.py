@@ -77,12 +77,11 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         return super().description.replace("curvilinear grid", "C-grid")
 
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The window of the data [start, end] needs over the whole grid (read once; the last one is kept)."""
+        """The window of the data [start, end] needs over the whole grid (read once; the last few are kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if times not in self._windows:
-            self._windows.clear()
             self._windows[times] = read_staggered_window(self.source, self.geometry, times, self.velocities.metric,
                                                          self.arc_factor)
         return self._windows[times]
