@@ -20,6 +20,9 @@ import pytest
 import xarray as xr
 
 import ldpipe
+from ldpipe.config import validate_config
+from ldpipe.config.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
 from ldpipe.core.maps.ftle import ftle
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
@@ -202,6 +205,33 @@ def test_trajectories_along_a_wall_stay_on_it(tmp_path):
     assert np.abs(ends - exact).max() < 1e-4, np.abs(ends - exact).max()
     flags = data.stop_flags(ends, 2.0, 7.0)
     assert not flags["left_data"].any() and not flags["on_land"].any()
+
+
+def test_land_and_edge_stop_trajectories(tmp_path):
+    # as with cubic convolution (test_velocity_data): u = 1 m/s eastward, land for x >= 6, so a
+    # trajectory from x0 stops at the coast x = 5 after 5 - x0 seconds (land nodes carry their
+    # nearest water's value, 1, so the spline of the data is 1 everywhere); v = 1 northward
+    # reaches the top edge y = 4 after 4 - y0 seconds and is flagged as leaving the data
+    x, y, t = np.arange(0.0, 10.01, 1.0), np.arange(0.0, 4.01, 1.0), np.arange(0.0, 20.01, 1.0)
+    coast = write_velocity_file(tmp_path / "coast.nc", lambda X, Y, T: (1.0 + 0 * X, 0 * Y), x, y, t,
+                                land=lambda X, Y: X >= 6)
+    north = write_velocity_file(tmp_path / "north.nc", lambda X, Y, T: (0 * X, 1.0 + 0 * Y), x, y, t)
+    base = {"section": {"axes": [{"name": "x", "range": [1.0, 3.0], "points": 3},
+                                 {"name": "y", "range": [0.5, 2.5], "points": 3}]},
+            "t0": 8.0, "tau": 8.0, "p": 0.5, "integrator": {"rtol": 1e-10, "atol": 1e-10}}
+    entry = {"interpolation": "cubic_bspline"}
+    config = validate_config({"systems": {"coast": {"velocity_data": {"path": str(coast), **entry}},
+                                          "north": {"velocity_data": {"path": str(north), **entry}}},
+                              "ld_maps": {"c": {**base, "system": "coast"}, "n": {**base, "system": "north"}}})
+    coast_map = compute_ld_map(parameters_from_config(config, "ld", "c"), None, show_progress=False)
+    x0 = coast_map.x.values[:, None] + 0 * coast_map.y.values
+    assert coast_map.on_land_forward.values.all() and not coast_map.left_data_forward.values.any()
+    np.testing.assert_allclose(coast_map.exit_time_forward.values, 5.0 - x0, rtol=2e-7)
+    north_map = compute_ld_map(parameters_from_config(config, "ld", "n"), None, show_progress=False)
+    y0 = 0 * north_map.x.values[:, None] + north_map.y.values
+    assert north_map.left_data_forward.values.all() and not north_map.on_land_forward.values.any()
+    np.testing.assert_allclose(north_map.exit_time_forward.values, 4.0 - y0, rtol=2e-7)
+    np.testing.assert_allclose(north_map.exit_time_backward.values, y0, rtol=2e-7)
 
 
 def test_the_key_through_the_api_and_its_errors(cubic_file, tmp_path):
