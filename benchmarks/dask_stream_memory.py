@@ -6,7 +6,7 @@ written to a netCDF file the workers open themselves; the map is the forward LD 
 forward``, no FTLE by differences, which gathers one start time's whole flow map) over ``--tau``
 days on an N x N' grid of the basin, computed with ``chunks="auto"`` (or ``--chunks``) and written
 block by block to a zarr store (``store=``). Each worker is a process of one thread; its peak
-resident memory is read from the kernel (``getrusage``'s ``ru_maxrss``) after a small map has
+resident memory is read from the kernel (``VmHWM`` in ``/proc/self/status``) after a small map has
 opened the data and loaded the engine in every worker, and again after the map; the client's own
 peak beside it. Run once per map size (``--points``), each on a fresh cluster, so
 that the peaks are each size's own.
@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import shutil
 import tempfile
 import time
@@ -24,8 +23,12 @@ from pathlib import Path
 
 
 def peak_mb() -> float:
-    """This process's peak resident memory in MB (Linux reports kB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    """This process's peak resident memory in MB since it started its program (Linux's VmHWM;
+    ``getrusage``'s ``ru_maxrss`` would also count the parent it was forked from)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
 
 
 def run(points: int, tau: float, workers: int, chunks, folder: Path, data: Path) -> dict:

@@ -29,7 +29,6 @@ benchmarks/data_flows.md.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tempfile
 import time

@@ -19,7 +19,7 @@ from .errors import ConfigError, LdpipeError, OutputError, StageFileError
 
 #: The names :mod:`ldpipe.api` exports, available as ``ldpipe.NAME``.
 API = (
-    "accuracy_cost", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
+    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
     "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section",
     "structures", "system", "transport",
 )

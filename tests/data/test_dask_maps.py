@@ -234,7 +234,7 @@ def test_an_interrupted_stream_resumes_its_missing_blocks_to_the_same_map(hh, hh
     kept, half = calls[0], calls[1]
     (markers / zarr_stream.block_name(0, half)).unlink()
     zeros = {name: np.zeros((half.stop - half.start, 40)) for name in ("ld_forward", "exit_time_forward")}
-    zarr_stream.write_region(store, zeros, ("y", "py"), None, half)
+    zarr_stream.write_region(store, zeros, dict.fromkeys(zeros, ("y", "py")), None, half)
     calls.clear()
     monkeypatch.setattr(zarr_stream, "compute_block", lambda *args: calls.append(args[2]) or compute_block(*args))
     with dask.config.set(scheduler="synchronous"):
@@ -290,3 +290,63 @@ def test_auto_chunks_give_blocks_of_about_a_second_and_the_same_map(hh, hh_eager
     assert auto.ld_forward.data.numblocks[0] > 2
     with dask.config.set(scheduler="synchronous"):
         assert_same_file(auto.compute(), hh_eager[False])
+
+
+def test_a_noisy_map_in_blocks_and_streamed_equals_the_one_process_map(client, tmp_path):
+    # A map with noise (tests/stages/test_stochastic_map.py's system and noise, so its compiled
+    # engine serves): each path's random stream is keyed by its point's index in the whole grid,
+    # so bands on two worker processes give the one-process bits; the member dimension is whole
+    # in every block, and in the zarr store
+    system = ldpipe.system(name="sde_ou_gbm", vector_field={"x": "-theta*x", "y": "mu*y"}, coordinates=["x", "y"],
+                           parameters={"theta": 1.0, "mu": 1.0})
+    noise = {"diffusion": {"x": "sigma", "y": "beta*y"}, "parameters": {"sigma": 0.5, "beta": 1.0}, "members": 3,
+             "seed": 42, "dt": 0.05, "scheme": "milstein"}
+    spec = {"section": ldpipe.section(x=(-1, 1, 6), y=(0.5, 1.5, 4)), "tau": 0.5, "p": 0.5, "noise": noise}
+    eager = ldpipe.ld_map(system, **copy.deepcopy(spec))
+    lazy = ldpipe.ld_map(system, chunks={"x": 2}, client=client, **copy.deepcopy(spec))
+    assert lazy.ld_forward.dims == ("member", "x", "y") and lazy.ld_forward.data.numblocks == (1, 3, 1)
+    assert_same_file(lazy.compute(), eager)
+    stored_equals(ldpipe.ld_map(system, chunks={"x": 4}, client=client, store=tmp_path / "noisy.zarr",
+                                **copy.deepcopy(spec)), eager)
+    with pytest.raises(ConfigError, match=r"'auto' sizes blocks by a pilot of the deterministic flow"):
+        ldpipe.ld_map(system, chunks="auto", **copy.deepcopy(spec))
+
+
+def test_a_worker_killed_during_a_stream_loses_nothing_written(client, hh, tmp_path):
+    # A worker is killed once the first blocks are in the store (its nanny starts another): the
+    # scheduler runs its blocks again, the running one and the finished ones whose results (the
+    # markers' names) it held; a finished block is in the store and is not written again, and
+    # the store equals the one-process map. 40 blocks of one row over tau 2000 (the engine of
+    # the other Hénon–Heiles tests: tau changes no compiled code) keep the map running meanwhile.
+    import os
+    import signal
+    import threading
+    import time
+
+    from ldpipe.core.maps import zarr_stream
+
+    spec = {**copy.deepcopy(HH_MAP), "tau": 2000.0}
+    eager = ldpipe.ld_map(hh, name="hh", **copy.deepcopy(spec))
+    store = tmp_path / "hh.zarr"
+    markers, seen = zarr_stream.markers_folder(store), {}
+
+    def kill_a_worker_once_blocks_are_in():
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            done = list(markers.glob("*.done")) if markers.exists() else []
+            if len(done) >= 2:
+                seen["written"] = {path.name: path.stat().st_mtime_ns for path in done}
+                worker = sorted(client.scheduler_info()["workers"])[0]
+                os.kill(client.run(os.getpid, workers=[worker])[worker], signal.SIGKILL)
+                return
+            time.sleep(0.005)
+
+    killer = threading.Thread(target=kill_a_worker_once_blocks_are_in)
+    killer.start()
+    stored = ldpipe.ld_map(hh, name="hh", chunks=40, client=client, store=store, **copy.deepcopy(spec))
+    killer.join()
+    assert 2 <= len(seen["written"]) < 40  # killed in the middle of the map
+    stored_equals(stored, eager)
+    assert len(list(markers.glob("*.done"))) == 40
+    for name, written in seen["written"].items():  # nothing written before the kill was written again
+        assert (markers / name).stat().st_mtime_ns == written, name

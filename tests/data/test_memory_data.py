@@ -7,7 +7,9 @@ file must say that its data came from memory (no path) with their variables, sha
 The data are ldpipe's example (a jet by a coast on the sphere, with land), coarsened.
 """
 
+import datetime
 import json
+import textwrap
 
 import dask.array
 import numpy as np
@@ -16,7 +18,11 @@ import pytest
 import xarray as xr
 
 import ldpipe
+from ldpipe.config import load_config, validate_config
+from ldpipe.config.parameters import parameters_from_config
 from ldpipe.data.example import example_dataset
+from ldpipe.stages.ld import run_ld_map
+from support.stage_files import assert_same_file
 
 SECTION = {"section": {"axes": [{"name": "lon", "range": [-70.0, -50.0], "points": 9},
                                 {"name": "lat", "range": [30.0, 40.0], "points": 7}], "fixed": {}},
@@ -129,7 +135,6 @@ def test_data_in_memory_of_the_wrong_shape_get_a_message_naming_the_variable(exa
 
 
 def test_an_entry_naming_data_in_memory_that_this_process_lacks_is_refused():
-    from ldpipe.config import validate_config
     from ldpipe.systems import make_system
 
     record = {"variables": ["u", "v", "time", "y", "x"], "shape": {"time": 3, "y": 3, "x": 3},
@@ -174,6 +179,74 @@ def test_a_date_without_a_calendar_gets_its_own_message(example):
     with pytest.raises(ldpipe.ConfigError, match=r"^ldpipe.ld_map: argument 't0': 'soon' is not a date"):
         ldpipe.ld_map(ldpipe.system(name="ex", velocity_data={"dataset": example, "coordinates": "sphere"}),
                       **{**SECTION, "t0": "soon"})
+
+
+def test_dates_in_the_configuration_give_the_map_the_api_gives_for_them(example_file, tmp_path):
+    """config.yaml's t0 and tau as a date and a duration (the date unquoted, as YAML reads a
+    timestamp): the day numbers by the data's units ("days since 2000-01-01": 2000-01-02 12:00 is
+    day 1.5, 30 hours 1.25 days), and the stage's file equals the API's map of the same date, bit
+    for bit, parameters and dates recorded included."""
+    config_file = tmp_path / "config.yaml"
+    config_file.write_text(textwrap.dedent(f"""\
+        systems:
+          ex: {{velocity_data: {{path: {json.dumps(str(example_file))}, coordinates: sphere}}}}
+        ld_maps:
+          ex:
+            system: ex
+            section: {json.dumps(SECTION["section"])}
+            t0: 2000-01-02 12:00:00
+            tau: 30h
+        """))
+    config = load_config(config_file)
+    parameters = parameters_from_config(config, "ld", "ex")
+    assert (parameters["t0"], parameters["tau"]) == (1.5, 1.25)
+    stage_file = run_ld_map(output=tmp_path / "ex.nc", equilibria=None, **parameters)
+    system = ldpipe.system(name="ex", velocity_data={"path": str(example_file), "coordinates": "sphere"})
+    api_map = ldpipe.ld_map(system, **{**SECTION, "t0": "2000-01-02T12:00", "tau": pd.Timedelta(hours=30)})
+    assert_same_file(api_map, ldpipe.open_dataset(stage_file))
+    assert (api_map.attrs["t0_date"], api_map.attrs["tau_duration"]) == ("2000-01-02T12:00:00", "P1DT6H0M0S")
+
+
+def test_a_date_in_the_configuration_is_refused_naming_its_key_where_no_calendar_places_it(example, tmp_path):
+    plain = example.copy()
+    plain["time"] = plain.time.assign_attrs(units="days")  # a time unit, no reference date
+    del plain.time.attrs["calendar"]
+    plain.to_netcdf(tmp_path / "plain.nc")
+    systems = {"plain": {"velocity_data": {"path": str(tmp_path / "plain.nc"), "coordinates": "sphere"}},
+               "flow": {"vector_field": {"x": "y", "y": "-x"}, "coordinates": ["x", "y"]}}
+
+    def entry(system, **times):
+        section = SECTION["section"] if system == "plain" else {
+            "axes": [{"name": "x", "range": [0.0, 1.0], "points": 3}, {"name": "y", "range": [0.0, 1.0], "points": 3}],
+            "fixed": {}}
+        return {"systems": systems, "ld_maps": {"m": {"system": system, "section": section, **times}}}
+
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'ld_maps.m.t0': '2000-01-02' is a date, but the time "
+                                                 r"coordinate 'time' .* is no calendar"):
+        validate_config(entry("plain", t0=datetime.date(2000, 1, 2)))
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'ld_maps.m.t0.last': '2000-01-03' is a date, but "
+                                                 r"system 'flow' has no calendar"):
+        validate_config(entry("flow", t0={"first": 0.0, "last": "2000-01-03", "count": 2}))
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'ld_maps.m.tau': '1D' is a duration, but system "
+                                                 r"'flow' has no time unit"):
+        validate_config(entry("flow", tau="1D"))
+    crossings = {"system": "flow", "t0": "2000-01-02", "time": 2.0, "section": {"coordinate": "y", "value": 0.0},
+                 "initial_conditions": {"axes": entry("flow")["ld_maps"]["m"]["section"]["axes"]}}
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'poincare_sections.p.t0': '2000-01-02' is a date"):
+        validate_config({"systems": systems, "poincare_sections": {"p": crossings}})
+    # the pipeline reads its configuration before a rule makes the data (the example's file): a date
+    # then has no calendar to be placed on, and is refused naming its key, not the data's path
+    later = {**systems, "plain": {"velocity_data": {"path": str(tmp_path / "later.nc"), "coordinates": "sphere"}}}
+    with pytest.raises(ldpipe.ConfigError, match=r"^config key 'ld_maps.m.tau': '1D' is placed on the calendar .*"
+                                                 r"later.nc, which does not exist yet"):
+        validate_config({**entry("plain", t0=1.0, tau="1D"), "systems": later})
+    # a duration is a number of the data's time units and bounded as one: -1 day is no tau
+    with pytest.raises(ldpipe.ConfigError, match=r"config key 'ld_maps.m.tau': -1.0 is less than or equal to the "
+                                                 r"minimum of 0"):
+        validate_config(entry("plain", t0=1.0, tau="-1D"))
+    # numbers as text (YAML 1.1 reads 1e1 so) are the numbers they spell, on any system
+    checked = validate_config(entry("plain", t0="1.5", tau="2.0"))["ld_maps"]["m"]
+    assert (checked["t0"], checked["tau"]) == (1.5, 2.0)
 
 
 def test_a_zarr_store_opened_by_xarray_gives_the_map_of_its_netcdf_twin(example, tmp_path, file_map):

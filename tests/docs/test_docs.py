@@ -5,9 +5,10 @@
   small size (``LDPIPE_EXAMPLE_POINTS``); each example's page shows its pictures and its runtime.
 - In headless Chromium the gallery page's pictures load (``naturalWidth > 0``) and are drawn: a
   screenshot differs from the same page with the images hidden. On every page a reader reads
-  (the front page, getting started, the theory, the guide, the gallery's examples) the formulas
-  are typeset by MathJax (no raw ``$`` left) and nothing is wider than the page: no code block or
-  table scrolls sideways in a 1400-pixel window.
+  (the front page, getting started, the theory, the engine, the guide, the gallery's examples)
+  the formulas are typeset by MathJax (no raw ``$`` left; on the theory and engine pages as many
+  as their sources write) and nothing is wider than the page: no code block or table scrolls
+  sideways in a 1400-pixel window.
 - Every ```python block of the README and the pages runs as written, and the README's picture is
   what its example draws.
 - What a user reads has no dates, machine loads or tracker references (the changelog may date
@@ -200,9 +201,18 @@ function read(url) {
 
 
 def _reader_pages(html: Path) -> list[str]:
-    pages = [html / "index.html", html / "getting-started.html", html / "theory.html",
+    pages = [html / "index.html", html / "getting-started.html", html / "theory.html", html / "engine.html",
              *sorted((html / "guide").glob("*.html")), *sorted((html / "gallery").glob("plot_*.html"))]
     return [str(page.relative_to(html)) for page in pages]
+
+
+def _formulas(page: str) -> int:
+    """How many formulas the page's source writes in dollar math (outside code): each ``$$`` block
+    and each inline ``$...$`` one formula."""
+    prose = re.sub(r"^```.*?^```", "", (ROOT / "docs" / Path(page).with_suffix(".md")).read_text(), flags=re.S | re.M)
+    prose = re.sub(r"`[^`\n]*`", "", prose)
+    display = len(re.findall(r"^\$\$.*?^\$\$", prose, flags=re.S | re.M))
+    return display + len(re.findall(r"\$[^$\s][^$]*?\$", re.sub(r"^\$\$.*?^\$\$", "", prose, flags=re.S | re.M)))
 
 
 def _states_math(page: str) -> bool:
@@ -239,6 +249,8 @@ def test_formulas_are_typeset_and_no_page_is_wider_than_the_window(site, tmp_pat
         if _states_math(page):
             assert reading["math"] > 0, f"{page}: its formulas were not typeset"
     assert readings["theory.html"]["math"] >= 40  # every formula of the theory page typeset
+    for page in ("theory.html", "engine.html"):  # every formula their sources write (a heading's twice)
+        assert readings[page]["math"] >= _formulas(page) > 40, page
 
 
 # ------------------------------------------------------------------------ the pages' Python

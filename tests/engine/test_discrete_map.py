@@ -14,7 +14,7 @@ import pytest
 
 import ldpipe
 from ldpipe.config import validate_config
-from ldpipe.engine.discrete_map import iterate_map_ld
+from ldpipe.engine.discrete_map import fast_lyapunov_indicator, iterate_map_ld
 from ldpipe.errors import ConfigError
 from support.linear_saddle_map import LAMBDA, SPEC, saddle_halves
 
@@ -38,6 +38,16 @@ def test_linear_saddle_map_ld_is_its_closed_form(saddle, p):
     assert not ld.escaped_forward.values.any() and (ld.iterations_forward.values == n).all()
     assert ld.attrs["iterations"] == n and ld.attrs["p"] == p and ld.attrs["descriptor"] == f"M_p, p = {p}"
     assert "tau" not in ld.attrs
+
+
+@pytest.mark.parametrize("states", [np.zeros((4, 3)), np.zeros(2)], ids=["three columns", "one row, flat"])
+def test_the_iterations_take_one_row_of_the_maps_coordinates_per_orbit(saddle, states):
+    # the LD and the FLI alike: the map's state is (x, y), so rows of two, in a 2-D array
+    expected = r"states: expected shape \(N, 2\) with rows \('x', 'y'\) for linear_saddle, got "
+    with pytest.raises(ValueError, match=expected):
+        iterate_map_ld(saddle, states, 3, 0.5, 1, 1e6)
+    with pytest.raises(ValueError, match=expected):
+        fast_lyapunov_indicator(saddle, states, 3, 1e6)
 
 
 def test_an_escaping_orbit_holds_the_iterations_inside(saddle):

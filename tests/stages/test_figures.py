@@ -307,6 +307,22 @@ def test_normal_form_figure_tick_labels_are_readable(tmp_path, excess):
     assert_readable_tick_labels(normal_form_figure(normal_form_study(np.array(excess))), tmp_path)
 
 
+@pytest.mark.parametrize(("position", "shown"), [
+    ([20.17, 1e-310], "(20.17, 0)"),  # subnormal: what an underflow leaves
+    ([20.17, -3e-17, 0.0], "(20.17, 0, 0)"),  # 20.17 + 3e-17 == 20.17 in doubles: zero to rounding
+    ([-0.0, 1e-3], "(0, 0.001)"),  # no sign on a zero; a small coordinate that is no rounding stays
+    ([1e-310, -1e-300], "(0, -1e-300)"),  # a normal number is its own scale, however small
+])
+def test_the_normal_form_title_shows_a_coordinate_zero_to_rounding_as_0(position, shown):
+    from ldpipe.figures.normal_form import normal_form_figure
+
+    assert 20.17 + 3e-17 == 20.17 and 1e-310 < np.finfo(float).tiny  # the cases are what they say
+    study = normal_form_study(np.array([0.125, 0.25, 0.5]))
+    figure = normal_form_figure(study.assign_attrs(saddle_position=position))
+    assert figure.axes[0].get_title() == f"synthetic (3 DoF)\nsaddle at {shown}"
+    plt.close(figure)
+
+
 def test_orbit_family_figure_tick_labels_are_readable(tmp_path, barbanis):
     from ldpipe.config import load_schema
 

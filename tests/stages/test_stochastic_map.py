@@ -94,12 +94,6 @@ def test_refusals_name_their_key(system, keys, where):
         noisy_map(system, **keys)
 
 
-def test_noise_in_dask_blocks_is_refused(system):
-    pytest.importorskip("dask")
-    with pytest.raises(ConfigError, match=r"'chunks': a map with noise"):
-        noisy_map(system, chunks=8)
-
-
 def test_noise_on_a_discrete_map_is_refused():
     henon = ldpipe.system(map="henon")
     with pytest.raises(ConfigError, match=r"argument 'noise'.*discrete map"):

@@ -65,6 +65,10 @@ def test_bad_fsle_arguments_are_named(saddle):
         ldpipe.fsle(saddle, section=ldpipe.section(x=(0, 1, 3), z=(0, 1, 3)), max_time=1.0, final_separation=0.1)
     with pytest.raises(ConfigError, match=r"Hamiltonian"):
         ldpipe.fsle(ldpipe.system(builtin="barbanis_2dof"), section=SECTION, max_time=1.0, final_separation=0.1)
+    with pytest.raises(ConfigError, match=r"^ldpipe.fsle: argument 'system': expected a system .*got str"):
+        ldpipe.fsle("linear_saddle", section=SECTION, max_time=1.0, final_separation=0.1)
+    with pytest.raises(ConfigError, match=r"^ldpipe.fsle: argument 'section': expected a section block .*got list"):
+        ldpipe.fsle(saddle, section=[SECTION], max_time=1.0, final_separation=0.1)
 
 
 def test_a_uniform_fsle_has_no_ridge(saddle):

@@ -83,6 +83,10 @@ def test_bad_lavd_arguments_are_named(vortex):
         ldpipe.lavd(vortex, section=SECTION, duration=1.0, levels=1)
     with pytest.raises(ConfigError, match=r"ldpipe.lavd: system 'barbanis_2dof'.*formulas"):
         ldpipe.lavd(ldpipe.system(builtin="barbanis_2dof"), section=SECTION, duration=1.0)
+    with pytest.raises(ConfigError, match=r"^ldpipe.lavd: argument 'system': expected a system .*got str"):
+        ldpipe.lavd("vortex", section=SECTION, duration=1.0)
+    with pytest.raises(ConfigError, match=r"^ldpipe.lavd: argument 'section': expected a section block .*got tuple"):
+        ldpipe.lavd(vortex, section=(0, 1, 3), duration=1.0)
 
 
 @pytest.mark.parametrize("amplitude, convex", [(0.05, True), (0.3, False)])

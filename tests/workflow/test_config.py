@@ -31,6 +31,50 @@ def test_the_schema_reads_the_same_with_the_fast_loader():
     assert repr(loaded) == repr(reference)
 
 
+def test_a_schema_changed_by_its_caller_changes_no_other_reader():
+    """The schema is parsed once per process; ``load_schema`` gives each caller a copy of its own,
+    so a caller that edits it leaves validation (here, a map's default tau of 50) as it was."""
+    from ldpipe.config.loading import load_schema, shared_schema
+
+    edited = load_schema()
+    edited["$defs"]["ld_map"]["properties"]["tau"]["default"] = 1.0
+    edited["$defs"].pop("system")
+    assert load_schema() == shared_schema() and "system" in shared_schema()["$defs"]
+    config = validate_config({"systems": {"b": {"builtin": "barbanis_2dof"}},
+                              "ld_maps": {"m": {"system": "b", "energy": {"excess": 0.1}, "section": {
+                                  "axes": [{"name": "y", "range": [-1.0, 1.0], "points": 3},
+                                           {"name": "py", "range": [-1.0, 1.0], "points": 3}],
+                                  "fixed": {"x": 0.0}, "solve": "px"}}}})
+    assert config["ld_maps"]["m"]["tau"] == 50
+
+
+@pytest.mark.parametrize(("system", "timing"), [
+    ({"vector_field": {"x": "y", "y": "-x", "z": "0"}, "coordinates": ["x", "y", "z"]}, {"tau": 1.0}),
+    ({"map": "henon"}, {"iterations": 5}),
+], ids=["vector field", "discrete map"])
+def test_a_grid_over_a_state_is_refused_by_key_alike_for_a_flow_and_a_map(system, timing):
+    """A flow's map and a discrete map's both lay their grid over the whole state: two axes, the
+    other variables fixed to numbers, each named once, no more tiles than rows."""
+    coordinates = system.get("coordinates", ["x", "y"])
+    fixed = {name: 0.0 for name in coordinates[2:]}
+
+    def refusal(section=None, **entry):
+        section = {"axes": [{"name": "x", "range": [0.0, 1.0], "points": 3},
+                            {"name": "y", "range": [0.0, 1.0], "points": 3}], "fixed": fixed, **(section or {})}
+        with pytest.raises(ConfigError) as info:
+            validate_config({"systems": {"s": system},
+                             "ld_maps": {"m": {"system": "s", "section": section, **timing, **entry}}})
+        return str(info.value)
+
+    named = refusal({"fixed": {**fixed, "w": 0.0}})
+    assert named.startswith(f"config key 'ld_maps.m.section': the two axes and the fixed variables must name each "
+                            f"of {coordinates} (the state of system 's') exactly once"), named
+    if fixed:
+        assert refusal({"fixed": {"z": "saddle"}}).startswith("config key 'ld_maps.m.section.fixed': system 's' has "
+                                                             "no saddle")
+    assert refusal(tiles=4).startswith("config key 'ld_maps.m.tiles': 4 tiles for 3 rows")
+
+
 def test_paper_parameters_in_config_yaml():
     config = load_config(ROOT / "config.yaml")
     assert config["systems"]["barbanis_2dof"]["parameters"] == {"omega_x": 1.0, "omega_y": 1.1, "delta": -0.11}

@@ -21,7 +21,7 @@ import pytest
 
 from ldpipe.io.filediff import compare_files
 from support.slurm import slurm_environment  # noqa: F401 (a fixture)
-from support.workflow import ROOT, SNAKEMAKE, job_counts
+from support.workflow import SNAKEMAKE, job_counts
 
 pytestmark = pytest.mark.slow
 

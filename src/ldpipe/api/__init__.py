@@ -21,6 +21,7 @@ the Dataset returned equals, data and attributes, the file the pipeline writes f
 (but for ``history``, which says when and how a file was written).
 """
 
+from .chaos import chaos_indicators
 from .files import open_dataset, plot
 from .fluxes import normal_form, saddle_flux, transport
 from .invariant_sets import nhim, nhim_sampling, orbit_validation
@@ -31,7 +32,7 @@ from .structures import fsle, lavd, structures
 from .systems import equilibria, section, system
 
 __all__ = [
-    "accuracy_cost", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
+    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
     "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section",
     "structures", "system", "transport",
 ]

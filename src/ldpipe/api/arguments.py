@@ -15,13 +15,13 @@ from collections.abc import Callable, Iterator
 import xarray as xr
 
 from ..config import validate_config
-from ..config.loading import load_schema
+from ..config.loading import shared_schema
 from ..config.parameters import parameters_from_config
 from ..errors import ConfigError, LdpipeError, StageFileError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, UPO
 from ..io.datafile import STAGE_ATTRIBUTE, open_stage_file, stage_parameters
 from ..systems import SYSTEM_CLASSES, DiscreteMapSystem, System, VectorFieldSystem, VelocityDataSystem
-from ..systems.velocity_data.calendar import is_date, is_duration, numeric_duration, numeric_time
+from ..systems.velocity_data.calendar import numeric_times
 from .keywords import keyword_docs
 
 AnySystem = System | VectorFieldSystem | VelocityDataSystem | DiscreteMapSystem
@@ -119,7 +119,7 @@ def arguments_of(function: str, key: str) -> Iterator[None]:
 
 @functools.lru_cache(maxsize=None)
 def _name_pattern(section: str) -> str:
-    return load_schema()["properties"][section]["propertyNames"]["pattern"]
+    return shared_schema()["properties"][section]["propertyNames"]["pattern"]
 
 
 def entry_key(function: str, section: str, name) -> str:
@@ -145,34 +145,11 @@ def energy_shorthand(spec: dict) -> dict:
 
 
 def calendar_times(system: AnySystem, spec: dict, key: str) -> dict:
-    """``spec`` with a date ``t0`` (one, a list, or a range's ``first`` and ``last``) and a
-    duration ``tau`` made numbers in the data's time units (a ConfigError naming the key when
-    the system's time is no calendar); numbers are left as they are."""
-    spec = dict(spec)
+    """``spec`` with a date ``t0`` and a duration ``tau`` made numbers in the system's time units
+    (:func:`ldpipe.systems.velocity_data.calendar.numeric_times`): dates as Python objects
+    (``numpy.datetime64``, ``pandas.Timestamp``, ...) too, which a configuration cannot hold."""
     source = system.source if isinstance(system, VelocityDataSystem) else None
-
-    def start(value, where: str):
-        if not is_date(value):
-            return value
-        if source is None:
-            raise ConfigError(f"config key '{key}.{where}': {value!r} is a date, but system {system.name!r} has no "
-                              "calendar (only velocity data whose time units read 'UNIT since DATE' have); give "
-                              "t0 as a number")
-        return numeric_time(value, source, f"{key}.{where}")
-
-    t0 = spec.get("t0")
-    if isinstance(t0, dict):
-        spec["t0"] = {**t0, **{end: start(t0[end], f"t0.{end}") for end in ("first", "last") if end in t0}}
-    elif isinstance(t0, (list, tuple)):
-        spec["t0"] = [start(value, f"t0.{i}") for i, value in enumerate(t0)]
-    elif t0 is not None:
-        spec["t0"] = start(t0, "t0")
-    if is_duration(spec.get("tau")):
-        if source is None:
-            raise ConfigError(f"config key '{key}.tau': {spec['tau']!r} is a duration, but system {system.name!r} "
-                              "has no time unit (only velocity data have); give tau as a number")
-        spec["tau"] = numeric_duration(spec["tau"], source, f"{key}.tau")
-    return spec
+    return numeric_times(spec, source, system.name, key)
 
 
 def system_entry(system: AnySystem) -> dict:

@@ -9,10 +9,9 @@ velocity-data system's times are its data's).
 
 from __future__ import annotations
 
-import functools
 import textwrap
 
-from ..config.loading import load_schema
+from ..config.loading import shared_schema
 
 #: How the schema's JSON types read in a docstring.
 TYPE_WORDS = {"number": "float", "integer": "int", "string": "str", "boolean": "bool", "object": "dict",
@@ -20,10 +19,9 @@ TYPE_WORDS = {"number": "float", "integer": "int", "string": "str", "boolean": "
 WIDTH = 100
 
 
-@functools.lru_cache(maxsize=1)
 def schema() -> dict:
-    """The schema, parsed once (read here, never changed)."""
-    return load_schema()
+    """The schema, parsed once per process (read here, never changed)."""
+    return shared_schema()
 
 
 def schema_at(pointer: str) -> dict:

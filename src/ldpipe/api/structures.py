@@ -59,6 +59,18 @@ def structures(ld_map: xr.Dataset, *, threshold: float = 0.1, min_points: int = 
     return structures_dataset(given, ld_map, where="ldpipe.structures", key="argument")
 
 
+def check_flow_grid(function: str, system, section) -> None:
+    """The system and the grid of a field over a flow's trajectories (FSLE, LAVD): a system object
+    and a section block, or a ConfigError naming the argument (their contents are checked where
+    they are read)."""
+    if not hasattr(system, "coordinates") or not hasattr(system, "hamiltonian"):
+        raise ConfigError(f"ldpipe.{function}: argument 'system': expected a system (ldpipe.system), "
+                          f"got {type(system).__name__}")
+    if not isinstance(section, dict):
+        raise ConfigError(f"ldpipe.{function}: argument 'section': expected a section block (ldpipe.section), "
+                          f"got {type(section).__name__}")
+
+
 @api_function()
 def fsle(system, *, section: dict, final_separation: float, max_time: float, initial_separation: float | None = None,
          interval: float | None = None, t0: float = 0.0, integrator: dict | None = None,
@@ -101,12 +113,7 @@ def fsle(system, *, section: dict, final_separation: float, max_time: float, ini
     """
     from ..core.structures.fsle import fsle_dataset
 
-    if not hasattr(system, "coordinates") or not hasattr(system, "hamiltonian"):
-        raise ConfigError(f"ldpipe.fsle: argument 'system': expected a system (ldpipe.system), "
-                          f"got {type(system).__name__}")
-    if not isinstance(section, dict):
-        raise ConfigError(f"ldpipe.fsle: argument 'section': expected a section block (ldpipe.section), "
-                          f"got {type(section).__name__}")
+    check_flow_grid("fsle", system, section)
     parameters = {"final_separation": final_separation, "max_time": max_time, "initial_separation": initial_separation,
                   "interval": interval, "t0": t0, "integrator": integrator or {}}
     return fsle_dataset(system, section, parameters, threads=threads, where="ldpipe.fsle", key="argument")
@@ -117,15 +124,16 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
          levels: int = 100, convexity_deficiency: float = 0.01, min_points: int = 8, integrator: dict | None = None,
          threads: int | None = None) -> xr.Dataset:
     """The Lagrangian-averaged vorticity deviation (Haller et al. 2016) of a vector field with
-    formulas over a grid, and its rotationally coherent vortices: centres (the LAVD's maxima, at
+    formulas or of velocity data in the plane over a grid, and its rotationally coherent vortices: centres (the LAVD's maxima, at
     t0 and advected to t0 + duration), boundaries (the outermost convex-enough LAVD contours
     around them), areas and convexity deficiencies.
 
     Parameters
     ----------
     system : System
-        A vector-field system (:func:`system`) of formulas: its vorticity is taken from their
-        derivatives.
+        A vector-field system (:func:`system`) of formulas, its vorticity taken from their
+        derivatives, or of velocity data on a regular or rectilinear grid in the plane (not on
+        the sphere, not curvilinear), its vorticity from the derivatives of the data's interpolant.
     section : dict
         Two axes and the other coordinates fixed (:func:`section`).
     duration : float
@@ -154,12 +162,7 @@ def lavd(system, *, section: dict, duration: float, interval: float | None = Non
     """
     from ..core.structures.lavd import lavd_dataset
 
-    if not hasattr(system, "coordinates") or not hasattr(system, "hamiltonian"):
-        raise ConfigError(f"ldpipe.lavd: argument 'system': expected a system (ldpipe.system), "
-                          f"got {type(system).__name__}")
-    if not isinstance(section, dict):
-        raise ConfigError(f"ldpipe.lavd: argument 'section': expected a section block (ldpipe.section), "
-                          f"got {type(section).__name__}")
+    check_flow_grid("lavd", system, section)
     parameters = {"duration": duration, "interval": interval, "t0": t0, "levels": levels,
                   "convexity_deficiency": convexity_deficiency, "min_points": min_points,
                   "integrator": integrator or {}}

@@ -8,6 +8,7 @@ what is allowed there.
 from __future__ import annotations
 
 import copy
+import datetime
 import difflib
 import functools
 import math
@@ -23,7 +24,7 @@ from ..systems import SYSTEM_KINDS, system_coordinates, system_kind
 from ..systems.kinds import kinds_text
 from ..systems.kinetic import kinetic_matrix
 from .figures import check_figures
-from .maps import check_interval, check_ld_maps, drop_flow_defaults, given_map_keys
+from .maps import check_interval, check_ld_maps, drop_flow_defaults, given_map_keys, numeric_calendar_times
 from .studies import (
     check_accuracy_cost,
     check_nhim,
@@ -43,16 +44,24 @@ SCHEMA_RESOURCE = ("ldpipe.schemas", "config.schema.yaml")
 SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
-def load_schema() -> dict:
+@functools.lru_cache(maxsize=1)
+def shared_schema() -> dict:
+    """The configuration schema, parsed once per process and shared by its readers: read it, never
+    change it (:func:`load_schema` gives a copy to change)."""
     text = resources.files(SCHEMA_RESOURCE[0]).joinpath(SCHEMA_RESOURCE[1]).read_text()
     return yaml.load(text, Loader=SAFE_LOADER)
 
 
+def load_schema() -> dict:
+    """The configuration schema, a copy of its own that the caller may change."""
+    return copy.deepcopy(shared_schema())
+
+
 @functools.lru_cache(maxsize=1)
 def _schema_validator():
-    # Parsing the schema costs ~0.3 s; stages and Snakemake's input functions validate often.
-    # The validator copies defaults into the instance, so the cached schema is never modified.
-    return _DefaultingValidator(load_schema())
+    # Stages and Snakemake's input functions validate often. The validator copies defaults into
+    # the instance, so the shared schema is never modified.
+    return _DefaultingValidator(shared_schema())
 
 
 def _extend_with_defaults(validator_class):
@@ -198,6 +207,28 @@ def non_finite_values(value, path: tuple = ()) -> list[tuple[str, float]]:
     return []
 
 
+def dates_as_text(value):
+    """``value`` with each date YAML read as a timestamp (``t0: 2000-01-02``) in ISO 8601 text, in
+    place: the schema takes a date as text, and a date where it expects something else is named
+    as the text that was written."""
+    if isinstance(value, dict):
+        for name, item in value.items():
+            value[name] = dates_as_text(item)
+    elif isinstance(value, list):
+        value[:] = [dates_as_text(item) for item in value]
+    elif isinstance(value, datetime.date):
+        return value.isoformat()
+    return value
+
+
+def _raise_schema_errors(errors: list) -> None:
+    # The deepest error names the key most precisely: list those first.
+    if errors:
+        errors = sorted(errors, key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
+        messages = [_describe(e) for e in errors]
+        raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
+
+
 def check_finite(config: dict) -> None:
     """A ConfigError naming the first key that holds a non-finite number (nan, inf)."""
     for key, value in non_finite_values(config):
@@ -214,13 +245,14 @@ def validate_config(config: dict) -> dict:
         raise ConfigError(f"the configuration must be a mapping of keys to values, got {type(config).__name__}")
     validator = _schema_validator()
     given = given_map_keys(config)  # before the schema fills defaults in: a map refuses a tau it was given
-    # The deepest error names the key most precisely: list those first.
-    errors = sorted(_schema_errors(config, validator), key=lambda e: (-len(e.absolute_path), _key(e.absolute_path)))
+    dates_as_text(config)
+    errors = _schema_errors(config, validator)
     check_finite(config)  # after _schema_errors, which reads '1e999' as the float it means
-    if errors:
-        messages = [_describe(e) for e in errors]
-        raise ConfigError("invalid configuration:\n  " + "\n  ".join(dict.fromkeys(messages)))
+    _raise_schema_errors(errors)
     _check_semantics(config)
+    if numeric_calendar_times(config):  # dates made numbers, which the schema bounds as any number given
+        _raise_schema_errors(_schema_errors(config, validator))
+        check_finite(config)
     check_ld_maps(config, given)
     drop_flow_defaults(config)
     check_orbits(config)

@@ -3,19 +3,27 @@ Hamiltonian and vector-field systems alike (:func:`ldpipe.config.validate_config
 
 A Hamiltonian's map has an energy and a coordinate solved from it; a vector field's has neither,
 only two state variables on the grid, the others fixed, and an optional start time ``t0``; a
-discrete map's LD map counts ``iterations`` and has no time at all. The checks every
-configuration module shares (an interval, names of other entries) are here too.
+discrete map's LD map counts ``iterations`` and has no time at all. On velocity data with a
+calendar, ``t0`` may be a date and ``tau`` a duration, made numbers here before the other checks.
+The checks every configuration module shares (an interval, names of other entries) are here too.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from ..errors import ConfigError
 from ..core.maps.ftle import VARIATIONAL
 from ..core.maps.grid import BOTH, DIRECTIONS
 from ..core.maps.symmetry import SETTING_KEY
-from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_kind,
-                       system_phase_coordinates)
+from ..systems import (is_discrete_map, is_vector_field, on_sphere, system_coordinates, system_data_files,
+                       system_kind, system_phase_coordinates)
 from ..systems.noise import check_noise
+from ..systems.velocity_data import open_source
+from ..systems.velocity_data.calendar import numeric_times
+
+#: The sections whose entries take a start time ``t0`` (and an integration time ``tau``).
+TIMED_SECTIONS = ("ld_maps", "poincare_sections")
 
 
 def check_interval(value, key: str) -> None:
@@ -47,6 +55,35 @@ def check_energy_surface_grid(spec: dict, key: str, grid: str, what: str) -> Non
     if "solve" not in spec[grid]:
         raise ConfigError(f"config key '{key}.{grid}.solve': a grid on the energy surface of a Hamiltonian needs the "
                           "coordinate solved from the energy")
+
+
+def numeric_calendar_times(config: dict) -> bool:
+    """Each map's and Poincaré section's date ``t0`` and duration ``tau`` (text) made numbers in
+    its system's time units (:func:`ldpipe.systems.velocity_data.calendar.numeric_times`; a
+    ConfigError naming the key for a date on a system without a calendar); whether any was text
+    (the numbers then to be validated as the schema says)."""
+    changed = False
+    for section in TIMED_SECTIONS:
+        for name, entry in config.get(section, {}).items():
+            t0 = entry.get("t0")
+            times = [*t0.values()] if isinstance(t0, dict) else t0 if isinstance(t0, list) else [t0]
+            if not any(isinstance(value, str) for value in [*times, entry.get("tau")]):
+                continue
+            system = config["systems"].get(entry["system"])
+            if system is None:
+                continue  # the entry's check names the missing system
+            missing = [path for path in system_data_files(system) if not Path(path).exists()]
+            if missing:
+                given = "t0" if any(isinstance(value, str) for value in times) else "tau"
+                raise ConfigError(f"config key '{section}.{name}.{given}': {entry[given]!r} is placed on the calendar "
+                                  f"of the data's time coordinate, read from {missing[0]}, which does not exist yet (a "
+                                  "file a rule makes is made after the configuration is read); give it as a number "
+                                  "in the data's time units, or make the file first")
+            source = (open_source(system["velocity_data"], f"systems.{entry['system']}.velocity_data")
+                      if "velocity_data" in system else None)
+            config[section][name] = numeric_times(entry, source, entry["system"], f"{section}.{name}")
+            changed = True
+    return changed
 
 
 def given_map_keys(config) -> dict[str, dict[str, set]]:
@@ -113,11 +150,7 @@ def check_ld_maps(config: dict, given: dict[str, dict[str, set]] | None = None) 
                 f"config key '{key}.section.root': solving the position {spec['section']['solve']!r} needs the root "
                 "to take: largest, smallest or {nearest: VALUE}"
             )
-        if spec["section"]["axes"][0]["points"] < spec["tiles"]:
-            raise ConfigError(
-                f"config key '{key}.tiles': {spec['tiles']} tiles for {spec['section']['axes'][0]['points']} rows; "
-                "use at most one tile per row of the first axis"
-            )
+        check_tiles(spec, key)
         check_region(spec, key, coordinates)
 
 
@@ -236,6 +269,14 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
     if given:
         raise ConfigError(f"config key '{given[0]}': system {spec['system']!r} is a vector field with no energy; its "
                           "map has two axes, every other state variable fixed, and no energy, saddle or solved coordinate")
+    check_state_grid(spec, key, state)
+    check_region(spec, key, state)
+
+
+def check_state_grid(spec: dict, key: str, state: tuple[str, ...]) -> None:
+    """A map's grid over a system's whole state, as a flow's or a discrete map's is: two axes and
+    every other state variable fixed, each named once, the fixed ones numbers; its tiles."""
+    section = spec["section"]
     axes = [axis["name"] for axis in section["axes"]]
     named = [*axes, *section["fixed"]]
     if sorted(named) != sorted(state):
@@ -244,11 +285,17 @@ def check_vector_field_map(spec: dict, key: str, state: tuple[str, ...]) -> None
             f"(the state of system {spec['system']!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
         )
     if any(value == "saddle" for value in section["fixed"].values()):
-        raise ConfigError(f"config key '{key}.section.fixed': a vector field's map has no saddle; give numbers")
-    if section["axes"][0]["points"] < spec["tiles"]:
-        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
-                          "use at most one tile per row of the first axis")
-    check_region(spec, key, state)
+        raise ConfigError(f"config key '{key}.section.fixed': system {spec['system']!r} has no saddle (it is no "
+                          "Hamiltonian); give numbers")
+    check_tiles(spec, key)
+
+
+def check_tiles(spec: dict, key: str) -> None:
+    """At most one tile per row of a map's first axis."""
+    rows = spec["section"]["axes"][0]["points"]
+    if rows < spec["tiles"]:
+        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {rows} rows; use at most one tile per "
+                          "row of the first axis")
 
 
 #: The keys of an ``ld_maps`` entry that a discrete map's LD map refuses, with why.
@@ -308,18 +355,7 @@ def check_discrete_map(spec: dict, key: str, state: tuple[str, ...], given: dict
                           "and every other coordinate fixed, nothing solved")
     for index, axis in enumerate(section["axes"]):
         check_interval(axis["range"], f"{key}.section.axes.{index}.range")
-    axes = [axis["name"] for axis in section["axes"]]
-    named = [*axes, *section["fixed"]]
-    if sorted(named) != sorted(state):
-        raise ConfigError(
-            f"config key '{key}.section': the two axes and the fixed coordinates must name each of {list(state)} "
-            f"(the coordinates of the map {system!r}) exactly once; got axes {axes}, fixed {list(section['fixed'])}"
-        )
-    if any(value == "saddle" for value in section["fixed"].values()):
-        raise ConfigError(f"config key '{key}.section.fixed': a map's section has no saddle; give numbers")
-    if section["axes"][0]["points"] < spec["tiles"]:
-        raise ConfigError(f"config key '{key}.tiles': {spec['tiles']} tiles for {section['axes'][0]['points']} rows; "
-                          "use at most one tile per row of the first axis")
+    check_state_grid(spec, key, state)
 
 
 def check_vector_field_poincare(config: dict, spec: dict, key: str) -> None:

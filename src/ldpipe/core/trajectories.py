@@ -212,11 +212,15 @@ def _thread_count(threads: int | None) -> int:
 def _integrate_vector_field(system, states, duration, settings, section, max_crossings, threads, t0) -> Trajectories:
     """:func:`integrate` for a vector field: crossings and escapes from t0 (see its docstring), the
     escape radius raised as the LD engine raises it (:func:`engine_escape_radius`)."""
-    from ..engine.vector_field import get_vector_field_runner
+    from ..engine.vector_field import engine_dimension, get_vector_field_runner
 
     count, m = states.shape
     if m != system.n_state:
         raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
+    if section is not None and engine_dimension(system) != m:
+        raise ValueError(f"system {system.name!r} is integrated in another form than its state variables "
+                         f"{tuple(system.coordinates)} (3-D positions round a pole), where a section of one of them "
+                         "is not a value of an engine state's component; its crossings are not located")
     index, value, direction, max_crossings = _section_arguments(section, system.coordinates, max_crossings)
     crossings = np.zeros((count, max_crossings, m))
     crossing_times = np.zeros((count, max_crossings))
@@ -258,7 +262,7 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
     vector-field system, by the LD engine's steps without its LD (``vector_field_endpoints``):
     the end states equal :func:`ldpipe.engine.compute_ld`'s bit for bit at the same tolerances.
     The escape radius is raised as the LD engine raises it (:func:`engine_escape_radius`)."""
-    from ..engine.vector_field import ENDPOINTS, get_vector_field_runner
+    from ..engine.vector_field import ENDPOINTS, engine_dimension, get_vector_field_runner
 
     if system.hamiltonian:
         raise ValueError(f"system {system.name!r}: the flow map alone is of vector-field systems; a Hamiltonian's "
@@ -267,7 +271,8 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
     count, m = states.shape
     if m != system.n_state:
         raise ValueError(f"states have {m} columns; {system.name} has {system.n_state} state variables")
-    outputs = (np.zeros((count, m)), np.zeros(count, dtype=np.int64), np.zeros(count), np.zeros(count, dtype=np.int64))
+    outputs = (np.zeros((count, engine_dimension(system))), np.zeros(count, dtype=np.int64), np.zeros(count),
+               np.zeros(count, dtype=np.int64))
     if count:
         threads = _thread_count(threads)
         runner = get_vector_field_runner(system, ENDPOINTS)
@@ -276,6 +281,8 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
         engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
         with system.time_window(t0, t0 + float(duration)):
             run_units(runner, engine_states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
+        if hasattr(system, "times_from_engine"):  # an engine state that says when a trajectory stopped
+            outputs = outputs[:2] + (system.times_from_engine(outputs[0], outputs[2]),) + outputs[3:]
         outputs = (states_at_end(system, states, engine_states, outputs[0]),) + outputs[1:]
     end, status, elapsed, steps = outputs
     return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)

@@ -199,7 +199,7 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     """compute_ld for a general flow: first-order DOP853 (:mod:`ldpipe.engine.vector_field`)."""
     from numba import get_num_threads
 
-    from .vector_field import get_vector_field_runner
+    from .vector_field import engine_dimension, get_vector_field_runner
 
     check_scheme(get_scheme(settings.scheme), system)
     n = system.n_state
@@ -212,14 +212,18 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
     lo, hi = _region(settings, n, system.coordinates)
     engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
     if settings.variable_time and engine_states is not states:
-        raise ValueError(f"region_lower, region_upper: system {system.name!r} is integrated on its grid's indices, "
-                         "where a region box of its state variables is not a box; give a fixed-time LD")
+        raise ValueError(f"region_lower, region_upper: system {system.name!r} is integrated in another form than "
+                         "its state variables (a curvilinear grid's indices, 3-D positions round a pole), where a "
+                         "region box of its state variables is not a box; give a fixed-time LD")
     kind, p_exp = _kind(settings.p)
     glx, glw = legendre_rule(settings.nodes)
     gjx, gjf = folded_jacobi_rule(settings.nodes, p_exp)
     N = states.shape[0]
+    m = engine_dimension(system)
+    if m != n:  # the engine's states are another form of the state (no region there: a fixed-time LD, refused above)
+        lo, hi = np.full(m, -np.inf), np.full(m, np.inf)
     outputs = (np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.bool_), np.zeros(N, dtype=np.bool_),
-               np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, n)), np.zeros(N, dtype=np.int64))
+               np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.bool_), np.zeros((N, m)), np.zeros(N, dtype=np.int64))
     if N:
         runner = get_vector_field_runner(system)
         radius = engine_escape_radius(system, settings.escape_radius)
@@ -230,6 +234,8 @@ def _compute_vector_field_ld(system, initial_states, direction: int, settings: L
         with system.time_window(t0, t0 + direction * settings.tau):
             run_units(runner, engine_states, max(1, min(256, N // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, left, steps, failed, end, face = outputs
+    if hasattr(system, "times_from_engine"):  # an engine state that says when a trajectory stopped
+        time = system.times_from_engine(end, time)
     end = states_at_end(system, states, engine_states, end)
     return LDResult(ld, time, escaped, left, np.zeros(N), steps, failed, end, face)
 

@@ -65,6 +65,16 @@ def get_map_runner(system, entry: str = ENTRY):
     return kept_runner(system, ("discrete_map", entry), lambda: getattr(load_modules(map_modules(system)), entry))
 
 
+def state_rows(system, states: np.ndarray) -> np.ndarray:
+    """``states`` as the runners take them, one contiguous float64 row per orbit; a ValueError
+    unless each row holds the map's ``n_state`` coordinates."""
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if states.ndim != 2 or states.shape[1] != system.n_state:
+        raise ValueError(f"states: expected shape (N, {system.n_state}) with rows {system.coordinates} for "
+                         f"{system.name}, got {states.shape}")
+    return states
+
+
 def iterate_map_ld(system, states: np.ndarray, iterations: int, p: float, direction: int,
                    escape_radius: float) -> MapLDResult:
     """One half of the discrete LD (Lopesino et al. 2015) of each row of ``states``: ``iterations``
@@ -79,12 +89,8 @@ def iterate_map_ld(system, states: np.ndarray, iterations: int, p: float, direct
         raise ValueError(f"p: expected a positive exponent, got {p!r}")
     if direction == -1:
         system.require_inverse("the backward half of the LD")
-    n = system.n_state
-    states = np.ascontiguousarray(states, dtype=np.float64)
-    if states.ndim != 2 or states.shape[1] != n:
-        raise ValueError(f"states: expected shape (N, {n}) with rows {system.coordinates} for {system.name}, "
-                         f"got {states.shape}")
-    count = states.shape[0]
+    states = state_rows(system, states)
+    count, n = states.shape
     outputs = (np.zeros(count), np.zeros(count, dtype=np.int64), np.zeros(count, dtype=np.bool_),
                np.zeros((count, n)))
     if count:
@@ -102,11 +108,7 @@ def fast_lyapunov_indicator(system, states: np.ndarray, iterations: int, escape_
     the orbit escaped ``escape_radius`` first: ``(fli, escaped)``."""
     from numba import get_num_threads
 
-    n = system.n_state
-    states = np.ascontiguousarray(states, dtype=np.float64)
-    if states.ndim != 2 or states.shape[1] != n:
-        raise ValueError(f"states: expected shape (N, {n}) with rows {system.coordinates} for {system.name}, "
-                         f"got {states.shape}")
+    states = state_rows(system, states)
     count = states.shape[0]
     outputs = (np.zeros(count), np.zeros(count, dtype=np.bool_))
     if count:

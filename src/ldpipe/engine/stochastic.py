@@ -172,9 +172,10 @@ def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, 
     states = np.ascontiguousarray(states, dtype=np.float64)
     if states.ndim != 2 or states.shape[1] != n:
         raise ValueError(f"states: expected shape (N, {n}), got {states.shape}")
-    if system.engine_states(states) is not states:  # the noise is of the state variables, not of grid indices
-        raise ValueError(f"system {system.name!r}: noise on a curvilinear grid (integrated in its indices) is not "
-                         "supported yet; give a map without noise")
+    if system.engine_states(states) is not states:  # the noise is of the state variables, not of another form
+        raise ValueError(f"system {system.name!r}: noise on a curvilinear grid (integrated in its indices) or on a "
+                         "global grid reaching a pole (integrated as 3-D positions) is not supported yet; give a map "
+                         "without noise")
     count = states.shape[0]
     index = np.arange(count, dtype=np.int64) if index is None else np.ascontiguousarray(index, dtype=np.int64)
     if index.shape != (count,) or (count and index.min() < 0):

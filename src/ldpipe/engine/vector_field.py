@@ -39,11 +39,18 @@ ENDPOINTS = "vector_field_endpoints"
 KERNELS = ("rhs",)
 
 
+def engine_dimension(system) -> int:
+    """The number of components the engine integrates: the system's ``engine_dimension`` where it
+    integrates its states in another form (velocity data round a pole: 3-D Cartesian positions on
+    the sphere, :meth:`engine_states`), else its state variables' count."""
+    return int(getattr(system, "engine_dimension", system.n_state))
+
+
 def vector_field_modules(system, extra: tuple[str, ...] = ()) -> EngineModules:
     """The texts of the generated module for ``system`` (see the module docstring) and of its
     common module, with the templates ``extra`` appended."""
     constants = {
-        "N": system.n_state,
+        "N": engine_dimension(system),
         "NC": NC,
         "ORDER": tableaux.DOP853_ORDER,
         **KINDS,
@@ -53,7 +60,7 @@ def vector_field_modules(system, extra: tuple[str, ...] = ()) -> EngineModules:
         "E5": np.asarray(tableaux.E5, dtype=float),
         "G": np.atleast_2d(tableaux.DOP853_DENSE),
     }
-    title = f"ldpipe.engine.vector_field: dop853, {system.n_state} state variables"
+    title = f"ldpipe.engine.vector_field: dop853, {engine_dimension(system)} state variables"
     bodies = [(name, template(name)) for name in TEMPLATES + extra]
     if system.ld_metric_source and ENDPOINTS not in extra:  # the flow map alone has no LD to take a metric
         bodies.append(("the LD's metric (given by the system)", system.ld_metric_source))

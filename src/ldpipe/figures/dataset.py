@@ -10,11 +10,13 @@ configuration schema.
 
 from __future__ import annotations
 
+import copy
+
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from ..config import load_schema
+from ..config.loading import shared_schema
 from ..core.maps.grid import BOTH, require_directions
 from ..errors import ConfigError
 from ..io.contracts import EQUILIBRIA, FLOW_EQUILIBRIA, LD_GRID, MANIFOLDS, POINCARE, STRUCTURES, UPO
@@ -36,8 +38,8 @@ FIELD_SYMBOLS = {"ld_forward": style.LD_LABEL["forward"], "ld_backward": style.L
 
 def _figure_defaults(keys: tuple[str, ...]) -> dict:
     """The configuration schema's defaults of these keys of a ``figures:`` entry (their one home)."""
-    properties = load_schema()["$defs"]["figure"]["properties"]
-    return {key: properties[key]["default"] for key in keys}
+    properties = shared_schema()["$defs"]["figure"]["properties"]
+    return {key: copy.deepcopy(properties[key]["default"]) for key in keys}  # the plot's own, to change
 
 
 def _options(given: dict, keys: tuple[str, ...], stage: str) -> dict:

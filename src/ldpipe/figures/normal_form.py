@@ -52,7 +52,7 @@ def normal_form_figure(data):
         ax.set_xlabel(r"$\Delta E = E - E_c$")
         ax.set_ylabel("flux")
         ax.set_title(f"{data.attrs['system']} ({n_dof} DoF)\nsaddle at "
-                     f"({', '.join(f'{v:.4g}' for v in np.atleast_1d(data.attrs['saddle_position']))})", fontsize=9)
+                     f"{style.position_text(data.attrs['saddle_position'])}", fontsize=9)
         ax.legend(loc="upper left", fontsize=7)
         style.panel_letter(ax, 0)
 

@@ -41,8 +41,7 @@ def saddle_flux_figure(data):
         ax.set_yscale("log")
         ax.set_xlabel(r"$\Delta E = E - E_c$")
         ax.set_ylabel("flux")
-        ax.set_title(f"{data.attrs['system']}: saddle at "
-                     f"({', '.join(f'{v:.4g}' for v in np.atleast_1d(data.attrs['saddle_position']))})")
+        ax.set_title(f"{data.attrs['system']}: saddle at {style.position_text(data.attrs['saddle_position'])}")
         ax.legend(loc="upper left")
         style.panel_letter(ax, 0)
 

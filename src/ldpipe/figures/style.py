@@ -79,6 +79,18 @@ def symbol(name: str) -> str:
     return f"${name}$"
 
 
+def position_text(values) -> str:
+    """A point's coordinates for a title, ``(20.17, 0)``: four significant digits, and 0 for a
+    coordinate that is zero to rounding, as a saddle's coordinate on a symmetry plane comes out of
+    its root search: subnormal (what is left of an underflow, 1e-310), or within half a rounding
+    unit of the largest coordinate (added to it, nothing changes: 3e-17 beside 20.17)."""
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    magnitudes = np.abs(values)
+    scale = magnitudes.max(initial=0.0)
+    zero = (magnitudes < np.finfo(float).tiny) | (magnitudes <= 0.5 * np.finfo(float).eps * scale)
+    return "(" + ", ".join("0" if nil else f"{value:.4g}" for value, nil in zip(values, zero)) + ")"
+
+
 def section_symbol(axes: tuple[str, str], sign: int | None = None) -> str:
     """The paper's name of a section with these axes, e.g. '$U_{xp_x}^+$'."""
     subscript = "".join(a if len(a) == 1 else f"p_{{{a[1:]}}}" for a in axes)

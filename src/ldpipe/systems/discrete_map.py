@@ -37,7 +37,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..jitcache import njit_functions
 from .grammar import check_formulas
-from .model import Unbounded
+from .model import CoordinateState, Unbounded
 
 # sympy (through .formula) is imported where formulas are parsed: the planning reads every
 # entry's kind and coordinates without it.
@@ -176,7 +176,7 @@ def _kernel_source(name: str, coordinates, forward, inverse, key: str) -> str:
 
 
 @dataclass(frozen=True)
-class DiscreteMapSystem(Unbounded):
+class DiscreteMapSystem(Unbounded, CoordinateState):
     """A map x_{n+1} = f(x_n) with compiled kernels (see the module docstring).
 
     ``expressions`` are the components of f (parameters substituted), ``inverse_expressions``
@@ -202,28 +202,12 @@ class DiscreteMapSystem(Unbounded):
     discrete: ClassVar[bool] = True
 
     @property
-    def n_state(self) -> int:
-        return len(self.coordinates)
-
-    @property
-    def phase_coordinates(self) -> tuple[str, ...]:
-        return self.coordinates
-
-    @property
     def has_inverse(self) -> bool:
         return self.inverse_expressions is not None
 
     @property
     def engine_name(self) -> str:
         return self.name
-
-    def kinetic_attributes(self) -> dict[str, str]:
-        """A map has no kinetic matrix: stage files record nothing of one."""
-        return {}
-
-    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
-        """The LD is in the state's own units, which the formulas do not name: None."""
-        return None
 
     def check_times(self, start: float, end: float, key: str | None = None) -> None:
         """A map holds at every step: nothing to refuse."""

@@ -18,8 +18,8 @@ from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["DataFlowModel", "FlowModel", "HamiltonianModel", "MapModel", "SystemModel", "Unbounded", "protocol_members",
-           "system_repr"]
+__all__ = ["CoordinateState", "DataFlowModel", "FlowModel", "HamiltonianModel", "MapModel", "SystemModel", "Unbounded",
+           "protocol_members", "system_repr"]
 
 
 def system_repr(system: Any, kind: str, **more: Any) -> str:
@@ -42,6 +42,27 @@ class Unbounded:
     has_stop_flags: ClassVar[bool] = False
     #: Its formulas do not name the unit of their time.
     time_units: ClassVar[str | None] = None
+
+
+class CoordinateState:
+    """What a system whose state is its coordinates says of it (a vector field, a discrete map):
+    no momenta, no kinetic matrix, and an LD in the state's own units."""
+
+    @property
+    def n_state(self) -> int:
+        return len(self.coordinates)
+
+    @property
+    def phase_coordinates(self) -> tuple[str, ...]:
+        return self.coordinates
+
+    def kinetic_attributes(self) -> dict[str, str]:
+        """No kinetic matrix: stage files record nothing of one (as for unit masses)."""
+        return {}
+
+    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
+        """The LD is in the state's own units, which the formulas do not name: None."""
+        return None
 
 
 @runtime_checkable

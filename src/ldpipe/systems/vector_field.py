@@ -18,17 +18,19 @@ from __future__ import annotations
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable, ClassVar
+from typing import TYPE_CHECKING, Callable, ClassVar
 
 import numpy as np
 
 from ..errors import ConfigError
 from ..jitcache import njit_functions
-from .model import Unbounded, system_repr
+from .model import CoordinateState, Unbounded, system_repr
 
 # sympy (through .formula) is imported where formulas are parsed or printed, not with this module:
 # the stages and the workflow's planning reach VectorFieldSystem and require_hamiltonian for
 # every system, built-ins included, whose kernels are files.
+if TYPE_CHECKING:
+    import sympy
 
 #: The name of the time in the formulas.
 TIME = "t"
@@ -65,7 +67,7 @@ def _function_source(name: str, coordinates, outputs) -> str:
 
 
 @dataclass(frozen=True)
-class VectorFieldSystem(Unbounded):
+class VectorFieldSystem(Unbounded, CoordinateState):
     """A flow dx/dt = f(x, t) with a compiled right-hand side (see the module docstring).
 
     ``coordinates`` are the names of all state variables (any number, even or odd);
@@ -93,26 +95,11 @@ class VectorFieldSystem(Unbounded):
         return system_repr(self, "vector_field")
 
     @property
-    def n_state(self) -> int:
-        return len(self.coordinates)
-
-    @property
-    def phase_coordinates(self) -> tuple[str, ...]:
-        return self.coordinates
-
-    @property
     def time_dependent(self) -> bool:
         import sympy
 
         return any(sympy.Symbol(TIME, real=True) in e.free_symbols for e in self.expressions)
 
-    def kinetic_attributes(self) -> dict[str, str]:
-        """A flow has no kinetic matrix: stage files record nothing of one (as for unit masses)."""
-        return {}
-
-    def ld_units(self, arclength: bool, p: float | None = None) -> str | None:
-        """The LD is in the state's own units, which the formulas do not name: None."""
-        return None
 
     def check_times(self, start: float, end: float, key: str | None = None) -> None:
         """Formulas hold at every time: nothing to refuse."""

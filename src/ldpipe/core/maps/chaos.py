@@ -55,20 +55,32 @@ def ld_indicators(system, states: np.ndarray, iterations: int, p: float, sigma: 
         raise ValueError(f"sigma: expected a positive distance, got {sigma!r}")
     n = system.n_state
     centre, escaped = total_ld(system, states, iterations, p, escape_radius)
-    first = np.zeros_like(centre)
-    second = np.zeros_like(centre)
-    laplacian = np.zeros_like(centre)
+    pairs = []
     for axis in range(n):
         offset = np.zeros(n)
         offset[axis] = sigma
         plus, escaped_plus = total_ld(system, states + offset, iterations, p, escape_radius)
         minus, escaped_minus = total_ld(system, states - offset, iterations, p, escape_radius)
         escaped |= escaped_plus | escaped_minus
+        pairs.append((plus, minus))
+    return neighbour_indicators(centre, pairs, sigma, ~escaped)
+
+
+def neighbour_indicators(centre: np.ndarray, pairs: list[tuple[np.ndarray, np.ndarray]], sigma: float,
+                         usable: np.ndarray) -> dict[str, np.ndarray]:
+    """The indicators of :data:`INDICATORS` from the LD ``centre`` at each start and ``pairs``, the
+    LDs (L(x + sigma e_i), L(x - sigma e_i)) at its neighbours along each axis i, with ``ld`` and
+    ``defined`` (``usable`` and L(x) > 0; the indicators are 0 elsewhere)."""
+    n = len(pairs)
+    first = np.zeros_like(centre)
+    second = np.zeros_like(centre)
+    laplacian = np.zeros_like(centre)
+    for plus, minus in pairs:
         first += np.abs(plus - centre) + np.abs(minus - centre)
         curvature = plus - 2 * centre + minus
         second += np.abs(curvature)
         laplacian += curvature
-    defined = (centre > 0) & ~escaped
+    defined = (centre > 0) & usable
     scale = np.where(defined, centre, 1.0)
     return {
         "ld": centre,
@@ -96,6 +108,35 @@ def otsu_threshold(values: np.ndarray, bins: int = 256) -> float:
     return float((edges[best[0] + 1] + edges[best[-1] + 1]) / 2)
 
 
+def minimum_error_threshold(values: np.ndarray, bins: int = 256) -> float:
+    """The threshold of least classification error when ``values`` are two normal classes, each
+    with its own mean and spread (Kittler and Illingworth 1986): the histogram edge k minimizing
+    J(k) = P_1 ln s_1 + P_2 ln s_2 - P_1 ln P_1 - P_2 ln P_2 (P_i the classes' shares, s_i their
+    standard deviations). Otsu's criterion assumes equal spreads and cuts into the wider class
+    when one is several times wider than the other; this one does not."""
+    counts, edges = np.histogram(values, bins=bins)
+    centres = (edges[:-1] + edges[1:]) / 2
+    below = np.cumsum(counts)[:-1].astype(float)
+    above = counts.sum() - below
+    first = np.cumsum(counts * centres)[:-1]
+    second = np.cumsum(counts * centres**2)[:-1]
+    total_first, total_second = float(np.sum(counts * centres)), float(np.sum(counts * centres**2))
+    keep = (below > 1) & (above > 1)
+    criterion = np.full(len(below), np.inf)
+    low, high = below[keep], above[keep]
+    variance_low = second[keep] / low - (first[keep] / low) ** 2
+    variance_high = (total_second - second[keep]) / high - ((total_first - first[keep]) / high) ** 2
+    spread = (variance_low > 0) & (variance_high > 0)
+    share = low / (low + high)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        value = (share * np.log(variance_low) / 2 + (1 - share) * np.log(variance_high) / 2
+                 - share * np.log(share) - (1 - share) * np.log(1 - share))
+    criterion[np.flatnonzero(keep)[spread]] = value[spread]
+    if not np.isfinite(criterion).any():
+        return otsu_threshold(values, bins)
+    return float(edges[int(np.argmin(criterion)) + 1])
+
+
 def regular_fli_bound(reference_iterations: int) -> float:
     """The largest FLI counted regular after N' iterations: 2 log10 N' (deviations growing
     linearly reach about log10 N')."""
@@ -107,13 +148,26 @@ def classify(indicators: dict[str, np.ndarray], defined: np.ndarray, fli: np.nda
     """Each indicator's classification (chaotic where log10 of it is above its Otsu threshold,
     among the ``defined`` starts), and as attributes the thresholds and, with the ``fli`` over
     ``reference_iterations``, each one's agreement with the FLI's classification."""
-    chaotic, attributes = {}, {}
     reference = None if fli is None else fli > regular_fli_bound(reference_iterations)
-    for name in INDICATORS:
+    return classify_against(indicators, tuple(INDICATORS), defined, reference)
+
+
+def classify_against(indicators: dict[str, np.ndarray], names: tuple[str, ...], defined: np.ndarray,
+                     reference: np.ndarray | None, thresholds: dict | None = None
+                     ) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """Each of the ``indicators`` ``names`` classified chaotic where log10 of it is above its
+    threshold (among the ``defined`` starts where it is positive): Otsu's, or the function
+    ``thresholds`` gives for the name; and as attributes the thresholds and, with a
+    ``reference`` classification (True: chaotic), the fraction of those starts where each agrees
+    with it (``agreement_<name>``)."""
+    thresholds = thresholds or {}
+    chaotic, attributes = {}, {}
+    for name in names:
         values = indicators[name]
         logarithm = np.log10(np.where(defined & (values > 0), values, 1.0))
         usable = defined & (values > 0)
-        threshold = otsu_threshold(logarithm[usable]) if usable.any() else 0.0
+        split = thresholds.get(name, otsu_threshold)
+        threshold = split(logarithm[usable]) if usable.any() else 0.0
         chaotic[name] = usable & (logarithm > threshold)
         attributes[f"threshold_log10_{name}"] = threshold
         if reference is not None and usable.any():

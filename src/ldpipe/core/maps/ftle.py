@@ -25,10 +25,12 @@ det(J^T J - lambda G^T G) = 0, with G^T G = I + s s^T (:func:`ftle`'s ``solved``
 one off the energy surface (S missing) is not defined: a one-sided difference there would read
 the square root at its singular point.
 
-On the sphere (state longitude, latitude in degrees) lengths are great-circle ones: a
-longitude difference counts cos(latitude) times a latitude difference, at the start point for
-the grid's spacing and at the end point for the end states' (``sphere_metric``); the Earth's
-radius cancels in the ratio.
+On the sphere (state longitude, latitude in degrees) lengths are great-circle ones: the end
+states are differenced as 3-D positions on the sphere (``sphere_positions``, in degrees of arc),
+so neither the seam nor a pole between neighbours' end points breaks the differences; a step of
+the grid along longitude counts cos(latitude) times one along latitude at the start point
+(``sphere_metric``); the Earth's radius cancels in the ratio. A start point at a pole has no
+longitude step (every longitude is the same point): its exponent is not defined there.
 
 A point is *defined* when it ran the whole time (no region exit, escape, land, data edge or
 failure) and, along each axis, either both its neighbours or the next three points on one side
@@ -156,18 +158,29 @@ def beside(points: np.ndarray) -> np.ndarray:
     return near
 
 
-def sphere_metric(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray],
+def sphere_positions(end_states: np.ndarray) -> np.ndarray:
+    """End states (..., 2) as longitude, latitude in degrees, as 3-D positions (..., 3) on the
+    sphere of radius 180/pi: a chord between near points is their great-circle distance in degrees."""
+    lon, lat = np.radians(end_states[..., 0]), np.radians(end_states[..., 1])
+    return np.degrees(np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=-1))
+
+
+#: How near a pole (degrees of latitude) a start point is at it: no longitude step there.
+POLE_LATITUDE = 90.0 - 1e-9
+
+
+def sphere_metric(end_positions: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray],
                   axes: tuple[str, str], coordinates: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
-    """The length scales of :func:`ftle`'s ``metric`` on the sphere: cos(latitude) for longitude,
-    1 for latitude, at the end states (n0, n1, 2) and at the grid's points along its axes (n0, n1, 2)."""
+    """The length scales of :func:`ftle`'s ``metric`` on the sphere: 1 for the end points' 3-D
+    positions (:func:`sphere_positions`, n0, n1, 3); at the grid's points along its axes (n0, n1,
+    2) cos(latitude) for longitude and 1 for latitude, NaN for longitude at a pole (undefined there)."""
     lon, lat = coordinates
-    end_scale = np.ones(end_states.shape)
-    end_scale[..., coordinates.index(lon)] = np.cos(np.radians(end_states[..., coordinates.index(lat)]))
     grid = np.meshgrid(*axis_values, indexing="ij")
     start_lat = grid[axes.index(lat)]
-    axis_scale = np.ones(end_states.shape[:2] + (2,))
-    axis_scale[..., axes.index(lon)] = np.cos(np.radians(start_lat))
-    return end_scale, axis_scale
+    axis_scale = np.ones(end_positions.shape[:2] + (2,))
+    axis_scale[..., axes.index(lon)] = np.where(np.abs(start_lat) >= POLE_LATITUDE, np.nan,
+                                                np.cos(np.radians(start_lat)))
+    return np.ones(end_positions.shape), axis_scale
 
 
 def ftle(end_states: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray], time: float,

@@ -23,7 +23,7 @@ from ...io.contracts import LD_GRID
 from ...io.datafile import missing_value_encoding, open_stage_file
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
+from .ftle import END_STATE_NAME, ftle, sphere_metric, sphere_positions, variational_ftle
 from .pilot import check_map_time
 from .symmetry import MapMirror
 from ...logs import get_logger, progress_bar
@@ -336,7 +336,8 @@ def ld_grid_dataset(
             if system.has_stop_flags:  # velocity data: land and the data's edge stop trajectories
                 flags = system.stop_flags(result.end_state, t0, t0 + direction * settings.tau)
                 stopped = np.flatnonzero(flags["on_land"] | flags["left_data"])
-                if len(stopped):  # the time each stopped, where its crossing was found
+                if len(stopped) and not getattr(system, "stop_times_located", False):
+                    # the time each stopped, where its crossing was found
                     times = locate_stops(system, states[stopped], result.end_state[stopped], direction, settings, t0)
                     results["time"] = results["time"].copy()
                     found = np.isfinite(times)
@@ -506,6 +507,8 @@ def add_ftle(dataset: xr.Dataset, coordinates: tuple[str, ...], tau: float, sphe
     for label in computed_directions(dataset):
         ends = np.stack([dataset[END_STATE_NAME.format(coordinate=c, direction=label)].values for c in coordinates], axis=-1)
         complete = ran_whole_time(dataset, label, tau)
+        if sphere:  # great-circle lengths: the end points as 3-D positions on the sphere
+            ends = sphere_positions(ends)
         metric = sphere_metric(ends, axes, dims, coordinates) if sphere else None
         values, defined = ftle(ends, axes, tau, complete, metric, None if solved is None else dataset[solved].values)
         dataset[f"ftle_{label}"] = (dims, values, {

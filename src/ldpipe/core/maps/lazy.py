@@ -124,9 +124,6 @@ class MapBlocks:
         if parameters.get("refine") is not None:
             raise ConfigError(f"config key '{key}.chunks': an adaptive map (refine) is not computed in blocks; "
                               "leave chunks or refine out")
-        if parameters.get("noise") is not None:
-            raise ConfigError(f"config key '{key}.chunks': a map with noise (its member dimension) is not computed "
-                              "in blocks; leave chunks out (tiles give the same bits)")
         if parameters.get("tiles", 1) != 1:
             raise ConfigError(f"config key '{key}.chunks': chunks cut the map into blocks instead of tiles; "
                               "leave tiles out")
@@ -137,6 +134,9 @@ class MapBlocks:
         self.axes, self.shape = tuple(section.axes), tuple(section.shape)
         self.first_axis = section.axis_values()[0]
         if isinstance(chunks, str) and chunks == "auto":
+            if parameters.get("noise") is not None:
+                raise ConfigError(f"config key '{key}.chunks': 'auto' sizes blocks by a pilot of the deterministic "
+                                  "flow; for a map with noise give points per block (a number)")
             chunks = auto_block_points(first, system, section, settings, info)
         self.bands = bands(self.shape[0], block_rows(chunks, self.axes, self.shape, key))
         self.block_parameters = self._mirror_decided(system, section, info["energy"])
@@ -271,6 +271,7 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
     first = template[dims[0]]
     axis = np.asarray(blocks.first_axis, dtype=first.dtype)
     coords = {dims[0]: (dims[0], axis, first.attrs), dims[1]: template[dims[1]]}
+    coords.update({name: template[name] for name in template.coords if name not in coords})  # a noisy map's member
     names = [name for name in template.data_vars if name != "allowed"]
     blocks.block_variables = tuple(names)  # what a block's task gives (the FTLE by differences comes after)
     chunks = (tuple(r.stop - r.start for r in blocks.bands), blocks.shape[1])
@@ -284,10 +285,11 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
                     for rows in blocks.bands]
         band = {}
         for name in names:
-            band[name] = _variable_of_blocks(da, name, computed, chunks, template[name].dtype)
+            band[name] = _variable_of_blocks(da, name, computed, chunks, template[name])
             lazy[name].append(band[name])
-        variables = {name: (dims, da.zeros(blocks.shape, dtype=template[name].dtype, chunks=chunks),
-                             template[name].attrs) for name in names}
+        variables = {name: (template[name].dims, da.zeros(band[name].shape, dtype=template[name].dtype,
+                                                          chunks=band[name].chunks), template[name].attrs)
+                     for name in names}
         variables["allowed"] = (dims, blocks.allowed, template.allowed.attrs)
         dataset = xr.Dataset({name: variables[name] for name in template.data_vars}, coords=coords,
                              attrs=dict(template.attrs))
@@ -302,16 +304,20 @@ def _skeleton_and_blocks(blocks: MapBlocks, template: xr.Dataset, da, delayed):
     return skeleton, stacked
 
 
-def _variable_of_blocks(da, name: str, computed: list, chunks, dtype):
+def _variable_of_blocks(da, name: str, computed: list, chunks, template: xr.DataArray):
     """The dask array of variable ``name`` over the block tasks ``computed``: each chunk is one
-    item of a block's result, a task of its own (one layer, no chunk copied or re-keyed)."""
+    item of a block's result, a task of its own (one layer, no chunk copied or re-keyed). A
+    dimension before the section's axes (a noisy map's ``member``) is whole in every block."""
     from dask.base import tokenize
     from dask.highlevelgraph import HighLevelGraph
 
+    leading = template.shape[:-2]
     key = f"{name}-{tokenize(name, [block.key for block in computed])}"
-    layer = {(key, index, 0): (operator.getitem, block.key, name) for index, block in enumerate(computed)}
+    layer = {(key, *(0,) * len(leading), index, 0): (operator.getitem, block.key, name)
+             for index, block in enumerate(computed)}
     graph = HighLevelGraph.from_collections(key, layer, dependencies=computed)
-    return da.Array(graph, key, chunks=(chunks[0], (chunks[1],)), dtype=dtype)
+    return da.Array(graph, key, chunks=(*((size,) for size in leading), chunks[0], (chunks[1],)),
+                    dtype=template.dtype)
 
 
 def _add_lazy_ftle(dataset: xr.Dataset, band: dict, blocks: MapBlocks, chunks, lazy: dict, da, delayed) -> None:

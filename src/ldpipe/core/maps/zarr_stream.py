@@ -48,10 +48,12 @@ def markers_folder(store: Path) -> Path:
     return store.with_name(store.name + MARKERS)
 
 
-def write_region(store: Path, variables: dict, dims: tuple[str, str], index: int | None, rows: slice) -> None:
-    """``variables`` (arrays over the band ``rows`` of start time ``index``) into their region of the store."""
-    dataset = xr.Dataset({name: (dims, values) for name, values in variables.items()})
-    region = {dims[0]: rows}
+def write_region(store: Path, variables: dict, dims: dict[str, tuple[str, ...]], index: int | None,
+                 rows: slice) -> None:
+    """``variables`` (arrays over the band ``rows`` of start time ``index``, each on its ``dims``,
+    the section's two axes last) into their region of the store."""
+    dataset = xr.Dataset({name: (dims[name], values) for name, values in variables.items()})
+    region = {dims[next(iter(variables))][-2]: rows}
     if index is not None:
         dataset = dataset.expand_dims("t0")
         region["t0"] = slice(index, index + 1)
@@ -61,10 +63,15 @@ def write_region(store: Path, variables: dict, dims: tuple[str, str], index: int
 
 
 def stream_block(parameters: dict, equilibria, rows: slice, threads, datasets, store: Path, index: int | None,
-                 names: tuple[str, ...], dims: tuple[str, str], marker: Path) -> str:
-    """A block's task: its band computed (:func:`ldpipe.core.maps.lazy.compute_block`), written, marked."""
+                 dims: dict[str, tuple[str, ...]], marker: Path) -> str:
+    """A block's task: its band computed (:func:`ldpipe.core.maps.lazy.compute_block`), its
+    variables (``dims``: each one's dimensions) written, marked. A block already marked is not
+    computed again: the scheduler runs a finished task again when the worker holding its result
+    (the marker's name) is lost, but its band is in the store."""
+    if marker.exists():
+        return marker.name
     values = compute_block(parameters, equilibria, rows, threads, datasets)
-    write_region(store, {name: values[name] for name in names}, dims, index, rows)
+    write_region(store, {name: values[name] for name in dims}, dims, index, rows)
     write_text_atomic(marker, "written\n")
     return marker.name
 
@@ -79,7 +86,7 @@ def stream_ftle(store: Path, index: int | None, dims: tuple[str, str], inputs: t
         inputs = {name: start[name].values for name in inputs}
         axes = {dim: start[dim].values for dim in dims}
     values = block_ftle(inputs, dims, axes, coordinates, tau, sphere, solved)
-    write_region(store, values, dims, index, slice(0, len(axes[dims[0]])))
+    write_region(store, values, dict.fromkeys(values, dims), index, slice(0, len(axes[dims[0]])))
     write_text_atomic(marker, "written\n")
     return marker.name
 
@@ -147,14 +154,15 @@ def stream_ld_map(parameters: dict, equilibria: xr.Dataset | None, *, chunks, st
 
     dims = tuple(blocks.axes)
     names = blocks.block_variables
+    variable_dims = {name: tuple(dim for dim in zeros[name].dims if dim != "t0") for name in names}
     equilibria_key = delayed(blocks.equilibria, traverse=False)
     datasets = block_datasets(blocks, delayed)
     tasks = []
     for index, start in enumerate(blocks.starts or [None]):
         at = None if blocks.starts is None else index
         parameters_key = delayed(blocks.at_start(start), traverse=False)
-        written = [delayed(stream_block)(parameters_key, equilibria_key, rows, threads, datasets, store, at, names, dims,
-                                         markers / block_name(index, rows))
+        written = [delayed(stream_block)(parameters_key, equilibria_key, rows, threads, datasets, store, at,
+                                         variable_dims, markers / block_name(index, rows))
                    for rows in blocks.bands if block_name(index, rows) not in done]
         tasks += written
         if blocks.parameters.get("ftle") is True and ftle_name(index) not in done:

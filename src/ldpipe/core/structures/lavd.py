@@ -3,8 +3,9 @@ vortices: their centres and boundaries.
 
     LAVD(x0) = ∫_{t0}^{t0+T} |ω(x(s), s) − ω̄(s)| ds,
 
-ω the vorticity ∂v/∂x − ∂u/∂y along the trajectory from x0 and ω̄(s) its mean over the region the
-grid's particles fill at time s (the mean over the particles: they start evenly spread and an
+ω the vorticity ∂v/∂x − ∂u/∂y along the trajectory from x0 (from a vector field's formulas, or
+from the derivatives of gridded velocity data's interpolant on the plane) and ω̄(s) its mean over
+the region the grid's particles fill at time s (the mean over the particles: they start evenly spread and an
 incompressible flow keeps their areas). The particles are advanced by the flow map
 (:func:`ldpipe.core.trajectories.flow_map`) over ``interval`` steps, the vorticity taken at every
 step from the system's Jacobian, and the integral by the trapezoidal rule (error O(interval²) for
@@ -69,11 +70,52 @@ def check_lavd_parameters(parameters: dict, where: str = "lavd", key: str = "key
     return checked
 
 
+#: The step of the differences that take the velocity data interpolant's derivatives, as a
+#: fraction of the grid's smallest cell: the interpolant is piecewise cubic and continuously
+#: differentiable, so a central difference at this step is its derivative but for 1e-4 of a cell
+#: times the second derivative's jump at a node it straddles, and rounding of 1e-12 of u per cell.
+DATA_STEP = 1e-4
+
+
+def is_plane_velocity_data(system) -> bool:
+    """Whether ``system`` is gridded velocity data in the plane on a regular or rectilinear grid
+    (x, y in the data's own units, the velocity in them per time unit): the systems whose
+    vorticity is the interpolant's ∂v/∂x − ∂u/∂y."""
+    from ...systems.velocity_data import CurvilinearVelocitySystem, VelocityDataSystem
+
+    return (isinstance(system, VelocityDataSystem) and not isinstance(system, CurvilinearVelocitySystem)
+            and system.n_state == 2 and not system.source.sphere)
+
+
 def vorticity(system, states: np.ndarray, t: float, index: tuple[int, int]) -> np.ndarray:
     """∂v/∂x − ∂u/∂y at each of ``states`` (k, n) and time ``t``, the plane's coordinates at
-    ``index``, from the system's Jacobian."""
+    ``index``: from the system's Jacobian, or for velocity data from its interpolant
+    (:func:`data_vorticity`)."""
+    if is_plane_velocity_data(system):
+        return data_vorticity(system, states, t)
     i, k = index
     return np.array([(lambda jac: jac[k, i] - jac[i, k])(system.jacobian(state, t)) for state in states])
+
+
+def data_vorticity(system, states: np.ndarray, t: float) -> np.ndarray:
+    """∂v/∂x − ∂u/∂y of a plane velocity data system's interpolant at ``states`` (k, 2) and time
+    ``t``, by central differences at :data:`DATA_STEP` of the smallest cell (the data bound once)."""
+    cell = min(float(np.min(np.diff(system.source.axis_values(axis)))) for axis in ("x", "y"))
+    step = DATA_STEP * cell
+    out = np.empty(2)
+    result = np.empty(len(states))
+    with system.time_window(t, t):
+        for row, (x, y) in enumerate(np.asarray(states, dtype=float)):
+            system.rhs(np.array([x + step, y]), float(t), out)
+            v_east = out[1]
+            system.rhs(np.array([x - step, y]), float(t), out)
+            v_west = out[1]
+            system.rhs(np.array([x, y + step]), float(t), out)
+            u_north = out[0]
+            system.rhs(np.array([x, y - step]), float(t), out)
+            u_south = out[0]
+            result[row] = (v_east - v_west - u_north + u_south) / (2 * step)
+    return result
 
 
 def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | None = None) -> dict[str, np.ndarray]:
@@ -217,13 +259,14 @@ def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: 
 
 def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None = None, where: str = "lavd",
                  key: str = "key") -> xr.Dataset:
-    """The LAVD file of ``system`` (a vector field with formulas) over ``section`` (two axes, the
-    other coordinates fixed): the field, and its coherent vortices as a CF contiguous ragged array
-    (per vortex its boundary's points along ``point``, ``point_count``, centre, area, level and
-    convexity deficiency)."""
-    if system.hamiltonian or not hasattr(system, "jacobian") or not hasattr(system, "expressions"):
+    """The LAVD file of ``system`` (a vector field with formulas, or velocity data on a regular or
+    rectilinear grid in the plane) over ``section`` (two axes, the other coordinates fixed): the
+    field, and its coherent vortices as a CF contiguous ragged array (per vortex its boundary's
+    points along ``point``, ``point_count``, centre, area, level and convexity deficiency)."""
+    formulas = not system.hamiltonian and hasattr(system, "jacobian") and hasattr(system, "expressions")
+    if not formulas and not is_plane_velocity_data(system):
         raise ConfigError(f"{where}: system {system.name!r}: the LAVD takes the vorticity from a vector field's "
-                          "formulas")
+                          "formulas or from velocity data on a regular or rectilinear grid in the plane")
     axes_spec = section.get("axes", [])
     if len(axes_spec) != 2:
         raise ConfigError(f"{where}: section: expected two axes")

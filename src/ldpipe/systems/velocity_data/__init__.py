@@ -33,7 +33,9 @@ On the sphere a longitude grid all round it (:func:`.source.seam_grid`) has no e
 is the ring with its first column repeated at its end, padded with the real columns across the
 seam (the kernel's stencil then wraps, the kernel unchanged), and a spatial window may cross the
 seam. The LD is taken in km and the data's velocity units, by the engine section
-``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`).
+``kernels/sphere_ld_metric.py`` (:attr:`VelocityDataSystem.ld_metric_source`). A global grid that
+reaches a pole (without a spatial window) is :mod:`.polar`'s: integrated as 3-D positions on the
+sphere, its rows continued across the pole, so trajectories cross it.
 """
 
 from __future__ import annotations
@@ -43,12 +45,14 @@ from .calendar import calendar_attributes
 from .curvilinear import CurvilinearVelocitySystem, make_curvilinear_system
 from .files import path_text, velocity_data_files
 from .memory import is_in_memory, memory_entry
+from .polar import PolarVelocitySystem, make_polar_system, pole_offsets
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
 from .regular import CUBIC_CONVOLUTION, INTERPOLATIONS, DataWindow, VelocityDataSystem, make_regular_system
 from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 from .staggered import StaggeredVelocitySystem, make_staggered_system
 
-__all__ = ["DEFAULTS", "CurvilinearVelocitySystem", "DataSource", "DataWindow", "RectilinearVelocitySystem",
+__all__ = ["DEFAULTS", "CurvilinearVelocitySystem", "DataSource", "DataWindow", "PolarVelocitySystem",
+           "RectilinearVelocitySystem",
            "StaggeredVelocitySystem", "VelocityDataSystem", "calendar_attributes", "is_in_memory",
            "make_velocity_data_system", "memory_entry", "open_source", "path_text", "velocity_data_coordinates",
            "velocity_data_files"]
@@ -92,4 +96,8 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
                                       and coordinate == coordinates[0] else ""))
     if source.nodes is not None:  # a non-uniform axis, or 3-D: the rectilinear kernel
         return make_rectilinear_system(name, source, window, spec)
+    if source.x_global and window is None:  # a global grid reaching a pole: integrated as 3-D positions
+        poles = pole_offsets(source, f"{key}.velocity_data")
+        if poles != (None, None):
+            return make_polar_system(name, source, spec, poles)
     return make_regular_system(name, source, window, spec, interpolation)

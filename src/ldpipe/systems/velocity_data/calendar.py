@@ -5,8 +5,10 @@ are integrated in numbers of UNIT since DATE; a start time may be given as a dat
 (``"YYYY-MM-DD"``, ``numpy.datetime64``, ``pandas.Timestamp``, ``datetime``) and an
 integration time as a duration (``"5D"``, ``numpy.timedelta64``, ``pandas.Timedelta``,
 ``datetime.timedelta``): :func:`numeric_time` and :func:`numeric_duration` turn them into
-those numbers through xarray's CF encoder (the one ``to_netcdf`` uses, every CF calendar), and
-:func:`date_text` / :func:`duration_text` give a map's file the dates back in ISO 8601.
+those numbers through xarray's CF encoder (the one ``to_netcdf`` uses, every CF calendar);
+:func:`numeric_times` does so for an entry's ``t0`` and ``tau`` (the Python API's arguments and a
+configuration's keys alike), and :func:`date_text` / :func:`duration_text` give a map's file the
+dates back in ISO 8601.
 """
 
 from __future__ import annotations
@@ -54,6 +56,8 @@ def numeric_time(value, source: DataSource, key: str) -> float:
                           "'UNIT since DATE'); give the start time as a number in the data's time units")
     try:
         date = value if hasattr(value, "calendar") else pd.Timestamp(value).to_datetime64()
+        if pd.isna(date):  # '' and 'NaT' read as "no date", which no calendar places
+            raise ValueError("no date")
         # floats asked for: a date between whole units (06:00 on a days axis) is a fraction, not a warning
         numbers, _, _ = xr.coding.times.encode_cf_datetime(np.asarray([date]), source.time_reference,
                                                            source.calendar or "standard", dtype=np.dtype(float))
@@ -73,10 +77,47 @@ def numeric_duration(value, source: DataSource, key: str) -> float:
                           f"known ({source.time_units!r}); give it as a number in the data's time units")
     try:
         duration = pd.Timedelta(value)
+        if pd.isna(duration):  # '' and 'NaT' read as "no duration"
+            raise ValueError("no duration")
     except (ValueError, TypeError) as error:
         raise ConfigError(f"config key '{key}': {value!r} is not a duration (e.g. '5D', '36h', "
                           f"numpy.timedelta64(5, 'D')): {str(error).splitlines()[0]}") from None
     return duration / pd.Timedelta(seconds=seconds_per_unit)
+
+
+def numeric_times(entry: dict, source: DataSource | None, system_name: str, key: str) -> dict:
+    """``entry`` with a date ``t0`` (one, a list, or a range's ``first`` and ``last``) and a
+    duration ``tau`` made numbers in the time units of ``source`` (the system's velocity data;
+    None for a system without them), and text that reads as a number made that number; a
+    ConfigError naming the key (``key.t0``, ``key.t0.first``, ...) for a date or duration the
+    system cannot place. Numbers are left as they are."""
+    entry = dict(entry)
+
+    def start(value, where: str):
+        if not is_date(value):
+            return float(value) if isinstance(value, str) else value
+        if source is None:
+            raise ConfigError(f"config key '{key}.{where}': {value!r} is a date, but system {system_name!r} has no "
+                              "calendar (only velocity data whose time units read 'UNIT since DATE' have); give "
+                              "t0 as a number")
+        return numeric_time(value, source, f"{key}.{where}")
+
+    t0 = entry.get("t0")
+    if isinstance(t0, dict):
+        entry["t0"] = {**t0, **{end: start(t0[end], f"t0.{end}") for end in ("first", "last") if end in t0}}
+    elif isinstance(t0, (list, tuple)):
+        entry["t0"] = [start(value, f"t0.{i}") for i, value in enumerate(t0)]
+    elif t0 is not None:
+        entry["t0"] = start(t0, "t0")
+    tau = entry.get("tau")
+    if is_duration(tau):
+        if source is None:
+            raise ConfigError(f"config key '{key}.tau': {tau!r} is a duration, but system {system_name!r} "
+                              "has no time unit (only velocity data have); give tau as a number")
+        entry["tau"] = numeric_duration(tau, source, f"{key}.tau")
+    elif isinstance(tau, str):
+        entry["tau"] = float(tau)
+    return entry
 
 
 def date_text(number: float, source: DataSource) -> str:

@@ -201,11 +201,32 @@ def curvilinear_parts(source: DataSource) -> tuple[GridGeometry, IndexVelocities
 LONGITUDE_JUMP = 90.0
 
 
+#: How near (degrees of arc) the nodes i and n - 1 - i of a row are when the row folds onto itself.
+FOLD_TOLERANCE = 1e-6
+
+
+def folded_row(x: np.ndarray, y: np.ndarray) -> str:
+    """"first" or "last" if that row of a sphere's grid (longitudes ``x``, latitudes ``y``, degrees)
+    folds onto itself reversed, node i on node n - 1 - i (a tripolar grid's north fold), else ""."""
+    for name, row in (("last", -1), ("first", 0)):
+        lam, phi = np.radians(x[row]), np.radians(y[row])
+        points = np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
+        if np.degrees(np.linalg.norm(points - points[::-1], axis=-1)).max() <= FOLD_TOLERANCE:
+            return name
+    return ""
+
+
 def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
     """A ConfigError naming the coordinates if a sphere's curvilinear grid reaches a pole, goes round
-    one, or goes all round the sphere: its longitudes are not one continuous branch (not yet read)."""
+    one, folds (tripolar) or goes all round the sphere: its longitudes are not one continuous branch
+    (not yet read)."""
     jumps = max(np.abs(np.diff(geometry.x, axis=axis)).max() for axis in (0, 1))
     pole = np.abs(geometry.y).max() >= 90.0 - 1e-9
+    fold = folded_row(geometry.x, geometry.y)
+    if fold:
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds onto "
+                          f"itself along its {fold} row (node i on node n - 1 - i: a tripolar grid's north fold); "
+                          "joining a fold is not supported yet")
     if pole or jumps > LONGITUDE_JUMP:
         why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
@@ -213,11 +234,18 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
                           "inside it), is not supported yet")
 
 
+def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module: str, name: str, source: DataSource,
+                spec: dict, coordinates: tuple[str, str]) -> CurvilinearVelocitySystem:
+    """A system of ``system_class`` (curvilinear, or a C grid) of a checked ``source``
+    (:func:`.source.open_source`): its grid's geometry and index velocities, and the kernel
+    ``text`` compiled as the module ``module``."""
+    geometry, velocities, arc_factor = curvilinear_parts(source)
+    (rhs,) = njit_functions(text, ("rhs",), module)
+    return system_class(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text, rhs=rhs,
+                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+
+
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
                             ) -> CurvilinearVelocitySystem:
     """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
-    geometry, velocities, arc_factor = curvilinear_parts(source)
-    text = kernel_source()
-    (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
-    return CurvilinearVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,
-                                     rhs=rhs, spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+    return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates)

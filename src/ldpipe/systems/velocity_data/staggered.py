@@ -21,8 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...jitcache import njit_functions
-from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, curvilinear_parts
+from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, grid_system
 from .grid_geometry import GridGeometry, keys_padded
 from .regular import HEADER, DataWindow, extend_keys, index_window
 from .source import DataSource, check_speeds, kernel_text
@@ -157,8 +156,5 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tup
 def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
                           ) -> StaggeredVelocitySystem:
     """The system of a checked C-grid ``source`` (:func:`.source.open_source`)."""
-    geometry, velocities, arc_factor = curvilinear_parts(source)
-    text = staggered_kernel_source()
-    (rhs,) = njit_functions(text, ("rhs",), "velocity_data_c_grid")
-    return StaggeredVelocitySystem(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text,
-                                   rhs=rhs, spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+    return grid_system(StaggeredVelocitySystem, staggered_kernel_source(), "velocity_data_c_grid", name, source, spec,
+                       coordinates)

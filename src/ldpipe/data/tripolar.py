@@ -1,0 +1,65 @@
+"""A tripolar global grid (ORCA-like) with a velocity field known exactly, as CF netCDF.
+
+South of the fold latitude phi0 the grid is a regular longitude–latitude grid; north of it a
+bipolar cap (Murray 1996, J. Comput. Phys. 126, 251) whose two poles lie on the circle phi0 at
+longitudes 0 and 180 (where an ocean model puts land), so the geographic North Pole is an
+ordinary point of the grid. In the stereographic plane of the North Pole, w = tan((90 - lat) / 2)
+e^(i lon), the circle phi0 is |w| = a, and the bipolar coordinates zeta = sigma + i tau of
+w = i a cot(zeta / 2) (foci w = +-a) are orthogonal, as the stereographic map is conformal: the
+cap's rows are the arcs sigma = pi/2 (the circle phi0) .. pi (the segment between the foci, through
+the pole), its columns the arcs tau = const, the column of longitude lon on the circle phi0 at the
+tau that puts it there (lon in (0, 180); the other half of the ring the same turned by 180
+degrees). The last row is the **north fold**: the node of column i is the node of column
+n - 1 - i, the row traversed twice, and along it the grid's i and j directions of the two
+columns are opposite (a velocity's grid components change sign across it).
+
+:func:`tripolar_grid` gives the coordinates; :func:`tripolar_dataset` a field on them, written by
+:func:`ldpipe.data.curvilinear.curvilinear_dataset` (``nav_lon``/``nav_lat``, NEMO's names).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import xarray as xr
+
+from .curvilinear import curvilinear_dataset
+
+
+def tripolar_grid(columns: int = 72, spacing: float = 5.0, fold_latitude: float = 60.0, cap_rows: int = 6,
+                  south: float = -75.0) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudes and latitudes (degrees, each (rows, columns)) of a tripolar grid (module
+    docstring): ``columns`` longitudes -180 + (i + 1/2) 360 / columns (an even number), rows every
+    ``spacing`` degrees from ``south`` up to the row below ``fold_latitude``, then ``cap_rows`` + 1
+    rows of the cap from the circle ``fold_latitude`` to the fold."""
+    if columns % 2:
+        raise ValueError(f"columns: expected an even number (the fold pairs column i with columns - 1 - i), got {columns}")
+    lon = -180.0 + (np.arange(columns) + 0.5) * 360.0 / columns
+    count = round((fold_latitude - south) / spacing)
+    rows = fold_latitude - spacing * np.arange(count, 0, -1)
+    a = math.tan(math.radians(90.0 - fold_latitude) / 2.0)
+    upper = np.where(lon > 0.0, lon, lon + 180.0)  # each column's partner in the half lon in (0, 180)
+    # i a cot(zeta / 2) = a e^(i lon) on the circle: tan(zeta / 2) = i e^(-i lon), sigma = pi / 2 there
+    tau = (2.0 * np.arctan(1j * np.exp(-1j * np.radians(upper)))).imag
+    sigma = 0.5 * np.pi * (1.0 + np.arange(cap_rows + 1) / cap_rows)
+    w = 1j * a / np.tan((sigma[:, None] + 1j * tau[None, :]) / 2.0)
+    w = np.where(lon > 0.0, w, -w)  # the other half: turned by 180 degrees about the pole
+    cap_lon = np.degrees(np.angle(w))
+    cap_lat = 90.0 - 2.0 * np.degrees(np.arctan(np.abs(w)))
+    longitudes = np.vstack([np.broadcast_to(lon, (count, columns)), cap_lon])
+    latitudes = np.vstack([np.broadcast_to(rows[:, None], (count, columns)), cap_lat])
+    return longitudes, latitudes
+
+
+def tripolar_dataset(field, times: np.ndarray, *, time_units: str = "days since 2000-01-01",
+                     **grid) -> xr.Dataset:
+    """``field(lon, lat, t) -> (u, v)`` (eastward, northward, m/s) on a tripolar grid
+    (:func:`tripolar_grid`'s options ``grid``) at ``times``, its coordinates ``nav_lon``, ``nav_lat``."""
+    lon, lat = tripolar_grid(**grid)
+    dataset = curvilinear_dataset(field, lon, lat, times, sphere=True, time_units=time_units)
+    dataset = dataset.rename({"lon_rho": "nav_lon", "lat_rho": "nav_lat", "eta": "y", "xi": "x"})
+    for name in ("u", "v"):
+        dataset[name].attrs["coordinates"] = "nav_lon nav_lat"
+    dataset.attrs["source"] = "ldpipe.data.tripolar (analytic, tripolar grid with its north fold)"
+    return dataset
