@@ -3,7 +3,7 @@
 The Python API (:mod:`ldpipe.api`) is re-exported here and imported on first use, so that
 ``import ldpipe`` stays cheap (no numba, no matplotlib): ``ldpipe.system``, ``ldpipe.section``,
 one function per stage (``ldpipe.equilibria``, ``ldpipe.ld_map``, ``ldpipe.periodic_orbits``,
-``ldpipe.manifolds``, ``ldpipe.poincare``, ``ldpipe.nhim``, ``ldpipe.orbit_validation``,
+``ldpipe.manifolds``, ``ldpipe.map_manifolds``, ``ldpipe.poincare``, ``ldpipe.nhim``, ``ldpipe.orbit_validation``,
 ``ldpipe.nhim_sampling``, ``ldpipe.transport``, ``ldpipe.saddle_flux``, ``ldpipe.normal_form``,
 ``ldpipe.accuracy_cost``, ``ldpipe.structures``, ``ldpipe.fsle``, ``ldpipe.lavd``),
 ``ldpipe.open_dataset`` and ``ldpipe.plot``. Every Dataset has the accessor ``ds.ldpipe.plot()``
@@ -19,9 +19,9 @@ from .errors import ConfigError, LdpipeError, OutputError, StageFileError
 
 #: The names :mod:`ldpipe.api` exports, available as ``ldpipe.NAME``.
 API = (
-    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
-    "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section",
-    "structures", "system", "transport",
+    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "map_manifolds",
+    "nhim", "nhim_sampling", "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot",
+    "poincare", "saddle_flux", "section", "structures", "system", "transport",
 )
 
 __all__ = ["ConfigError", "LdpipeError", "OutputError", "StageFileError", "__version__", *API]

@@ -126,3 +126,61 @@ def test_the_workflow_sizes_a_noisy_maps_jobs_by_its_paths():
             "axes": [{"name": "x", "range": [-1, 1], "points": 6}, {"name": "y", "range": [-1, 1], "points": 4}]}}}})
     assert ld_tile_points(config, "m", 2) == 3 * 4 * 16
     assert ld_map_points(config, "m") == 6 * 4 * 16
+
+
+def test_the_command_line_takes_every_key_of_the_noise_block(system, tmp_path, capsys):
+    """``ldpipe ld``'s noise options: the map of --diffusion, --noise-parameter, --noise-scheme,
+    --noise-dt, --seed and --members is the API's of the same block (the same engine, bit for
+    bit); with --map they change that entry's block; the other forms of the block (a diffusivity
+    per variable, rows of a full G, walls) are read as the configuration writes them; bad input
+    names the option, before anything is written."""
+    import yaml
+
+    from ldpipe.cli import main
+    from ldpipe.cli.main import build_parser
+    from ldpipe.cli.noise import noise_options
+
+    config = tmp_path / "flows.yaml"
+    entry = {"system": "sde_ou_gbm", "section": ldpipe.section(x=(-1, 1, 6), y=(0.5, 1.5, 4)), "tau": 0.5, "p": 0.5}
+    config.write_text(yaml.safe_dump({
+        "systems": {"sde_ou_gbm": {"vector_field": {"x": "-theta*x", "y": "mu*y"}, "coordinates": ["x", "y"],
+                                   "parameters": {"theta": 1.0, "mu": 1.0}}},
+        "ld_maps": {"noisy": {**entry, "noise": NOISE}}}))
+    described = ["ld", "--config", str(config), "--system", "sde_ou_gbm", "--axis", "x=-1:1:6", "--axis",
+                 "y=0.5:1.5:4", "--tau", "0.5", "--p", "0.5", "--quiet"]
+    noise = ["--diffusion", "x=sigma", "--diffusion", "y=beta*y", "--noise-parameter", "sigma=0.5",
+             "--noise-parameter", "beta=1", "--noise-scheme", "milstein", "--noise-dt", "0.05", "--seed", "42",
+             "--members", "3"]
+    assert main([*described, *noise, "-o", str(tmp_path / "cli.nc")]) == 0
+    expected = noisy_map(system)
+    with open_stage_file(tmp_path / "cli.nc", stage=LD_GRID) as written:
+        for name in expected.data_vars:
+            np.testing.assert_array_equal(written[name].values, expected[name].values, err_msg=name)
+    named = ["ld", "--config", str(config), "--map", "noisy", "--quiet"]
+    assert main([*named, "--seed", "7", "-o", str(tmp_path / "seed7.nc")]) == 0
+    reseeded = noisy_map(system, noise={**NOISE, "seed": 7})
+    with open_stage_file(tmp_path / "seed7.nc", stage=LD_GRID) as written:
+        np.testing.assert_array_equal(written.ld_forward.values, reseeded.ld_forward.values)
+    forms = build_parser().parse_args([*described, "--diffusion-row", "atan2(y, x), 0.1", "--diffusion-row", "0, 1",
+                                       "--reflect", "x=-2:2", "-o", "x.nc"])
+    assert noise_options(forms) == {"diffusion": [["atan2(y, x)", "0.1"], ["0", "1"]], "reflect": {"x": [-2.0, 2.0]}}
+    forms = build_parser().parse_args([*described, "--diffusivity", "x=0.5", "--diffusivity", "y=0", "-o", "x.nc"])
+    assert noise_options(forms) == {"diffusivity": {"x": 0.5, "y": 0.0}}
+    for options, message in (
+        (["--diffusivity", "0.1", "--diffusion", "x=1"], "the noise options (--diffusivity, --diffusion): give exactly one"),
+        (["--diffusivity", "x=abc"], "--diffusivity x: expected a number"),
+        (["--diffusivity", "0.1", "--members", "0"], "--members: 0 is less than the minimum of 1"),
+        (["--diffusion", "x=sigma", "--diffusion", "y=beta*y", "--noise-parameter", "sigma=1"],
+         "--diffusion y: unknown names ['beta']"),
+        (["--diffusion-row", "1, 0", "--diffusion-row", "0, foo("], "--diffusion-row 2 formula 2: cannot parse"),
+        (["--diffusion-row", "1, 0"], "--diffusion-row: expected a mapping variable -> formula, or 2 rows"),
+        (["--diffusivity", "0.1", "--reflect", "z=0:1"], "--reflect: ['z'] are not state variables"),
+        (["--diffusivity", "0.1", "--noise-dt", "2"], "--noise-dt: 2.0 is greater than the maximum of 1"),
+        (["--diffusion", "x=y", "--diffusion", "y=x", "--noise-scheme", "milstein"], "--noise-scheme: milstein needs"),
+        (["--diffusivity", "0.1", "--seed", "1.5"], "--seed: expected a whole number"),
+    ):
+        assert main([*described, *options, "-o", str(tmp_path / "bad.nc")]) == 2, options
+        assert message in capsys.readouterr().err, options
+    assert main([*named, "--diffusivity", "-1", "-o", str(tmp_path / "bad.nc")]) == 2
+    assert "--diffusivity: -1.0 is not valid" in capsys.readouterr().err  # the entry's block, with -1
+    assert not (tmp_path / "bad.nc").exists()

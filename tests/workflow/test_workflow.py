@@ -36,6 +36,26 @@ def test_a_map_of_one_tile_is_one_job_and_a_map_of_more_its_tiles_and_a_gather(w
     assert "results/ld/fig4_k-7.0/tile-2-of-3.nc" in result.stdout and "fig3_dE0.125/tile-" not in result.stdout
 
 
+def test_a_maps_manifolds_are_a_job_of_the_manifold_stage_after_its_equilibria(workdir):
+    """A manifold set naming a discrete map (a configuration added to config.yaml's): its rule
+    reads the map's equilibria file, and the file it writes is the API's from the same entry."""
+    import ldpipe
+
+    (workdir / "maps.yaml").write_text("systems:\n  henon: {map: henon}\n"
+                                       "manifolds:\n  henon_saddles: {system: henon, iterations: 6, "
+                                       "segment_points: 20}\n")
+    target = "results/manifolds/henon_saddles.nc"
+    result = run_snakemake(workdir, target, "--configfile", "maps.yaml")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert job_counts(result.stderr + result.stdout) == {"equilibria": 1, "map_manifolds": 1}
+    written = open_stage_file(workdir / target, stage="map_manifolds").load()
+    expected = ldpipe.map_manifolds(ldpipe.system(name="henon", map="henon"), name="henon_saddles", iterations=6,
+                                    segment_points=20)
+    for name in expected.variables:
+        np.testing.assert_array_equal(written[name].values, expected[name].values, err_msg=name)
+    assert written.attrs["parameters"] == expected.attrs["parameters"]
+
+
 # Planning reads the configuration and names files (ldpipe.stages.plan): it needs none of the
 # science's libraries. The expected set is the design, not a measurement: each of these, imported
 # by a plan, costs every `snakemake` command (and every SLURM job's own snakemake) a fixed start-up.

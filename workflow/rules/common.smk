@@ -34,7 +34,9 @@ TILED_MAPS = [name for name in LD_MAPS if name not in ONE_TILE_MAPS]
 # Maps whose structures (singular curves, FTLE ridges) are extracted into a file of their own.
 STRUCTURE_MAPS = [name for name in LD_MAPS if config["ld_maps"][name].get("structures")]
 UPO_FAMILIES = sorted(config["periodic_orbits"])
-MANIFOLD_SETS = sorted(config["manifolds"])
+# A manifold set names a periodic-orbit family (rule manifolds) or a discrete map (rule map_manifolds).
+MANIFOLD_SETS = sorted(name for name, spec in config["manifolds"].items() if "system" not in spec)
+MAP_MANIFOLD_SETS = sorted(name for name, spec in config["manifolds"].items() if "system" in spec)
 POINCARE_SECTIONS = sorted(config["poincare_sections"])
 FIGURES = list(config["figures"])
 NHIM_STUDIES = list(config["nhim"]["studies"])
@@ -57,6 +59,7 @@ wildcard_constraints:
     tiles=r"\d+",
     family=_one_of(UPO_FAMILIES),
     manifold=_one_of(MANIFOLD_SETS),
+    map_manifold=_one_of(MAP_MANIFOLD_SETS),
     section=_one_of(POINCARE_SECTIONS),
 
 
@@ -76,7 +79,7 @@ def all_targets():
         *expand(f"{RESULTS}/ld/{{map}}.nc", map=LD_MAPS),
         *expand(f"{RESULTS}/structures/{{map}}.nc", map=STRUCTURE_MAPS),
         *expand(f"{RESULTS}/upo/{{family}}.nc", family=UPO_FAMILIES),
-        *expand(f"{RESULTS}/manifolds/{{manifold}}.nc", manifold=MANIFOLD_SETS),
+        *expand(f"{RESULTS}/manifolds/{{manifold}}.nc", manifold=[*MANIFOLD_SETS, *MAP_MANIFOLD_SETS]),
         *expand(f"{RESULTS}/poincare/{{section}}.nc", section=POINCARE_SECTIONS),
         *expand(f"{RESULTS}/figures/{{figure}}.{{format}}", figure=FIGURES, format=["png", "pdf"]),
         *nhim_targets(),
@@ -185,6 +188,20 @@ def manifold_params(wildcards):
 
 def manifold_upo_file(wildcards):
     return f"{RESULTS}/upo/{config['manifolds'][wildcards.manifold]['orbits']}.nc"
+
+
+def map_manifold_params(wildcards):
+    return parameters_from_config(config, "manifolds", wildcards.map_manifold)
+
+
+def map_manifold_equilibria_file(wildcards):
+    return f"{RESULTS}/{config['manifolds'][wildcards.map_manifold]['system']}/equilibria.nc"
+
+
+def map_manifold_memory_mb(wildcards):
+    # The curves (manifold x branch x image x point x 2 coordinates doubles) of up to 8 saddles, four copies.
+    spec = config["manifolds"][wildcards.map_manifold]
+    return 1000 + 4 * 8 * 2 * 2 * (spec["iterations"] + 1) * spec["segment_points"] * 2 * 8 // 2**20
 
 
 def manifold_memory_mb(wildcards):

@@ -44,6 +44,29 @@ rule manifolds:
         "../scripts/manifolds.py"
 
 
+rule map_manifolds:
+    """Stable and unstable manifolds of the saddle fixed points of a discrete map, from fundamental segments."""
+    input:
+        equilibria=map_manifold_equilibria_file,
+        code=library_code("ldpipe.stages.manifolds"),
+    output:
+        f"{RESULTS}/manifolds/{{map_manifold}}.nc",
+    params:
+        stage=map_manifold_params,
+    log:
+        f"{RESULTS}/logs/manifolds/{{map_manifold}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/manifolds/{{map_manifold}}.tsv"
+    conda:
+        "../envs/ldpipe.yaml"
+    threads: 1
+    resources:
+        mem_mb=map_manifold_memory_mb,
+        runtime=30,
+    script:
+        "../scripts/map_manifolds.py"
+
+
 rule poincare:
     """A Poincaré surface of section: crossings of many trajectories on one energy surface."""
     input:

@@ -27,12 +27,12 @@ from .fluxes import normal_form, saddle_flux, transport
 from .invariant_sets import nhim, nhim_sampling, orbit_validation
 from .maps import ld_map
 from .measurements import accuracy_cost
-from .orbits import manifolds, periodic_orbits, poincare
+from .orbits import manifolds, map_manifolds, periodic_orbits, poincare
 from .structures import fsle, lavd, structures
 from .systems import equilibria, section, system
 
 __all__ = [
-    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "nhim", "nhim_sampling",
-    "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot", "poincare", "saddle_flux", "section",
-    "structures", "system", "transport",
+    "accuracy_cost", "chaos_indicators", "equilibria", "fsle", "lavd", "ld_map", "manifolds", "map_manifolds",
+    "nhim", "nhim_sampling", "normal_form", "open_dataset", "orbit_validation", "periodic_orbits", "plot",
+    "poincare", "saddle_flux", "section", "structures", "system", "transport",
 ]

@@ -112,7 +112,8 @@ def arguments_of(function: str, key: str) -> Iterator[None]:
         text = re.sub(rf"config key '{re.escape(key)}\.([^']*)'", r"argument '\1'", text)
         text = re.sub(rf"config key '{re.escape(key)}': unknown keys (\[[^]]*\]( \(did you mean [^)]*\))?); "
                       "allowed keys are", r"unknown arguments \1; allowed are", text)
-        text = text.replace("'system', ", "") if "unknown arguments" in text else text  # given as the object
+        if "unknown arguments" in text:  # given as the object
+            text = text.replace("'system', ", "").replace(", 'system']", "]")
         text = re.sub(rf"config key '{re.escape(key)}'", "the arguments", text)
         raise ConfigError(f"ldpipe.{function}: {text}") from None
 

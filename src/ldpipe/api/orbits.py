@@ -6,11 +6,12 @@ import xarray as xr
 
 from ..core.orbits.family import periodic_orbits_dataset
 from ..core.orbits.manifolds import manifolds_dataset
+from ..core.orbits.map_manifolds import map_manifolds_dataset
 from ..core.orbits.poincare import poincare_dataset
-from .systems import equilibria_input
+from .systems import equilibria as compute_equilibria, equilibria_input
 from .arguments import (
-    AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key, entry_parameters, family_config,
-    system_config,
+    AnySystem, api_function, arguments_of, calendar_times, energy_shorthand, entry_key, entry_parameters, equilibria_of,
+    family_config, system_config, system_entry,
 )
 
 
@@ -77,6 +78,46 @@ def manifolds(orbits: xr.Dataset, *, name: str = "manifolds", threads: int | Non
     with arguments_of("manifolds", entry_key("manifolds", "manifolds", name)):
         _, parameters = entry_parameters(entry, config, "manifolds", name, "manifolds")
         return manifolds_dataset(parameters, orbits, threads=threads)
+
+
+@api_function("$defs/map_manifold_set", taken=("system",))
+def map_manifolds(system: AnySystem, *, name: str = "manifolds", equilibria: xr.Dataset | None = None,
+                  **spec) -> xr.Dataset:
+    """The stable and unstable manifolds of a discrete map's saddle fixed points (the manifolds
+    stage, for a ``manifolds:`` entry naming a ``system``), grown from fundamental segments.
+
+    Parameters
+    ----------
+    system : DiscreteMapSystem
+        The map, from :func:`ldpipe.system` (two coordinates, with an inverse).
+    name : str
+        The entry's name (default ``"manifolds"``).
+    equilibria : xarray.Dataset, optional
+        The map's fixed points (:func:`ldpipe.equilibria`), whose saddles are taken; default
+        computed now with the map's ``equilibria`` settings, as the pipeline does. Those of
+        another system are refused.
+    **spec
+        The entry's keys: ``iterations``, ``segment_points``, ``first_distance``,
+        ``saddle_near``, ``escape_radius``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The manifolds' file (contract ``map_manifolds``): ``curve`` by fixed point, manifold,
+        branch, image and point.
+
+    Examples
+    --------
+    >>> import ldpipe
+    >>> henon = ldpipe.system(map="henon")
+    >>> m = ldpipe.map_manifolds(henon, iterations=12)  # doctest: +SKIP
+    """
+    with arguments_of("map_manifolds", entry_key("map_manifolds", "manifolds", name)):
+        _, parameters = entry_parameters({"system": system.name, **spec}, system_config(system), "manifolds", name,
+                                         "manifolds")
+        fixed = (compute_equilibria(system) if equilibria is None
+                 else equilibria_of(equilibria, system.name, system_entry(system), "the map"))
+        return map_manifolds_dataset(parameters, fixed)
 
 
 @api_function("$defs/poincare_section", taken=("system",))

@@ -23,6 +23,7 @@ from ..logs import log_to
 from ..systems import BUILTINS, is_discrete_map, is_vector_field
 from ..text import short_number
 from . import nhim, orbits
+from .noise import add_noise_options, named_by_option, noise_options, with_noise
 from .options import equilibria_file, finite_float, number
 
 EPILOG = """\
@@ -36,6 +37,8 @@ examples:
       --time variable --region x=4.5:6.5 --region y=-8.5:-5.5 --saddle-near 5.5,-7 -o slice.nc
   ldpipe ld --config config.yaml --map fig4_k-7.0 --refine-tolerance 0.002 --coarse-spacing 16 -o fig4a.nc
   ldpipe ld --config config.yaml --map fig4_k-7.0 --directions forward -o fig4a_forward.nc
+  ldpipe ld --config flows.yaml --system duffing --axis x=-1.5:1.5:201 --axis y=-1:1:201 --tau 10 \\
+      --p 0.5 --diffusivity 0.001 --members 16 --seed 0 -o duffing_noisy.nc
 """
 
 
@@ -193,43 +196,53 @@ def _run_ld(args: argparse.Namespace) -> None:
     from ..stages.plan import ld_map_tiles
     from ..config.parameters import parameters_from_config
 
-    if args.map is not None:
-        if args.config is None:
-            raise ConfigError("--map NAME needs --config FILE, the configuration that declares it")
-        config = load_config(args.config)
-        if args.map not in config["ld_maps"]:
-            raise ConfigError(f"{args.config}: no map {args.map!r} under 'ld_maps'; it declares {sorted(config['ld_maps'])}")
-    else:
-        if args.system is None:
-            raise ConfigError("give --config FILE --map NAME, or describe the map with --system, --axis, --solve, ...")
-        config = copy.deepcopy(load_config(args.config)) if args.config is not None else {"systems": {}}
-        if args.system not in config["systems"]:
-            if args.system not in BUILTINS:
-                raise ConfigError(f"--system {args.system!r} is neither a built-in ({', '.join(sorted(BUILTINS))}) nor in --config")
-            config["systems"][args.system] = {"builtin": args.system}
-        vector_field = is_vector_field(config["systems"][args.system])
-        config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field,
-                                                                    is_discrete_map(config["systems"][args.system]))
-        config = validate_config(config)
-        args.map = "cli"
-    if args.refine_tolerance is not None or args.coarse_spacing is not None or args.directions is not None:
-        config = copy.deepcopy(config)
-        if args.refine_tolerance is not None or args.coarse_spacing is not None:
-            refine = config["ld_maps"][args.map].setdefault("refine", {})
-            for key, value in (("tolerance", args.refine_tolerance), ("coarse_spacing", args.coarse_spacing)):
-                if value is not None:
-                    refine[key] = value
-        if args.directions is not None:
-            config["ld_maps"][args.map]["directions"] = args.directions
-        config = validate_config(config)
-    parameters = parameters_from_config(config, "ld", args.map)
-    with log_to(None), tempfile.TemporaryDirectory() as scratch:
-        if is_vector_field(config["systems"][parameters["system_name"]]):
-            equilibria = None  # a vector field's map has no energy and no saddle
+    noise = noise_options(args)
+    map_name = args.map if args.map is not None else "cli"
+    with named_by_option(map_name, noise, matrix=bool(args.diffusion_row)):
+        if args.map is not None:
+            if args.config is None:
+                raise ConfigError("--map NAME needs --config FILE, the configuration that declares it")
+            config = load_config(args.config)
+            if args.map not in config["ld_maps"]:
+                raise ConfigError(f"{args.config}: no map {args.map!r} under 'ld_maps'; it declares "
+                                  f"{sorted(config['ld_maps'])}")
         else:
-            equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
-        run_ld_map(**parameters, equilibria=equilibria, tiles=ld_map_tiles(config, args.map), threads=args.threads,
-                   show_progress=not args.quiet, output=args.output)
+            if args.system is None:
+                raise ConfigError("give --config FILE --map NAME, or describe the map with --system, --axis, --solve, ...")
+            config = copy.deepcopy(load_config(args.config)) if args.config is not None else {"systems": {}}
+            if args.system not in config["systems"]:
+                if args.system not in BUILTINS:
+                    raise ConfigError(f"--system {args.system!r} is neither a built-in ({', '.join(sorted(BUILTINS))}) "
+                                      "nor in --config")
+                config["systems"][args.system] = {"builtin": args.system}
+            vector_field = is_vector_field(config["systems"][args.system])
+            config.setdefault("ld_maps", {})["cli"] = _map_from_options(args, vector_field,
+                                                                        is_discrete_map(config["systems"][args.system]))
+            if noise:
+                with_noise(config["ld_maps"]["cli"], noise)
+            config = validate_config(config)
+            args.map = "cli"
+        if args.refine_tolerance is not None or args.coarse_spacing is not None or args.directions is not None or (
+                noise and map_name != "cli"):
+            config = copy.deepcopy(config)
+            if args.refine_tolerance is not None or args.coarse_spacing is not None:
+                refine = config["ld_maps"][args.map].setdefault("refine", {})
+                for key, value in (("tolerance", args.refine_tolerance), ("coarse_spacing", args.coarse_spacing)):
+                    if value is not None:
+                        refine[key] = value
+            if args.directions is not None:
+                config["ld_maps"][args.map]["directions"] = args.directions
+            if noise:
+                with_noise(config["ld_maps"][args.map], noise)
+            config = validate_config(config)
+        parameters = parameters_from_config(config, "ld", args.map)
+        with log_to(None), tempfile.TemporaryDirectory() as scratch:
+            if is_vector_field(config["systems"][parameters["system_name"]]):
+                equilibria = None  # a vector field's map has no energy and no saddle
+            else:
+                equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+            run_ld_map(**parameters, equilibria=equilibria, tiles=ld_map_tiles(config, args.map), threads=args.threads,
+                       show_progress=not args.quiet, output=args.output)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -338,6 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--directions", choices=tuple(DIRECTIONS),
                     help="the directions of time integrated: both, or forward or backward alone (default: the "
                          "map's directions, else both)")
+    add_noise_options(ld)
     ld.add_argument("--threads", type=int, metavar="N", help="threads (default: all cores)")
     ld.add_argument("--quiet", action="store_true", help="no progress bar")
     ld.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.nc", help="netCDF file to write")

@@ -44,12 +44,19 @@ def _run_upo(args: argparse.Namespace) -> None:
 
 
 def _run_manifolds(args: argparse.Namespace) -> None:
-    from ..stages.manifolds import run_manifolds
+    from ..stages.manifolds import run_manifolds, run_map_manifolds
     from ..stages.upo import run_upo
 
     config = _entry(args, "manifolds", args.manifold)
     parameters = parameters_from_config(config, "manifolds", args.manifold)
     with log_to(None), tempfile.TemporaryDirectory() as scratch:
+        if "orbits" not in parameters:  # a discrete map's fixed points: read from its equilibria
+            if args.upo is not None:
+                raise ConfigError(f"--upo: manifolds.{args.manifold} is of the fixed points of the map "
+                                  f"{parameters['system_name']!r}, which reads no family; give --equilibria or nothing")
+            equilibria = equilibria_file(config, parameters["system_name"], args.equilibria, Path(scratch))
+            run_map_manifolds(**parameters, equilibria=equilibria, output=args.output)
+            return
         upo = args.upo
         if upo is None:
             family = parameters_from_config(config, "upo", parameters["orbits"])
@@ -107,15 +114,19 @@ def register(commands, epilog: str) -> None:
         handler=_run_upo,
     )
     _stage_command(
-        commands, "manifolds", help="stable and unstable manifolds of a periodic orbit and their cuts by a section",
+        commands, "manifolds",
+        help="stable and unstable manifolds of a periodic orbit and their cuts by a section, or of a map's saddles",
         description=(
             "Globalize both branches of the stable and unstable manifolds of one orbit of a family (a "
-            "'manifolds' entry of the configuration) from the monodromy eigenvectors, and locate their "
-            "crossings of the surface of section as ordered curves."
+            "'manifolds' entry of the configuration naming 'orbits') from the monodromy eigenvectors, and "
+            "locate their crossings of the surface of section as ordered curves; or, for an entry naming a "
+            "discrete map under 'system', grow those of the map's saddle fixed points from fundamental "
+            "segments of their eigenvectors."
         ),
         epilog=epilog, entry=("manifold", "an entry under 'manifolds'"),
         inputs={"upo": "the family's file from `ldpipe upo` (default: computed now)",
-                "equilibria": "the system's equilibria file, if the family is computed now"},
+                "equilibria": "the system's equilibria file, if the family is computed now (a map's: "
+                              "default computed now)"},
         threads=True, handler=_run_manifolds,
     )
     _stage_command(

@@ -170,6 +170,13 @@ def _structures(config: dict, name: str, entry: dict) -> dict:
     return {"map_name": name, **({} if block is True else block)}
 
 
+def _manifolds(config: dict, name: str, entry: dict) -> dict:
+    """A manifold set names a periodic-orbit family (``orbits``, whose system it takes) or, for
+    the fixed points of a discrete map, its ``system``."""
+    system = entry.pop("system") if "system" in entry else config["periodic_orbits"][entry["orbits"]]["system"]
+    return {"name": name, "system_name": system, "system_spec": system_spec(config, system), **entry}
+
+
 def _figure(config: dict, name: str, entry: dict) -> dict:
     # The settings the drawing reads; the caption, which the report alone prints, is added by
     # ldpipe.stages.figures.figure_parameters (it reads other stages' parameters from here).
@@ -199,7 +206,7 @@ STAGES: dict[str, StageEntries] = {
     "ld": StageEntries(("ld_maps",), "map_name", drop=("tiles", "structures"), adjust=_map_entry),
     "structures": StageEntries(("ld_maps",), "map_name", build=_structures),
     "upo": StageEntries(("periodic_orbits",), "family"),
-    "manifolds": StageEntries(("manifolds",), "name", system_via="orbits"),
+    "manifolds": StageEntries(("manifolds",), "name", build=_manifolds),
     "poincare": StageEntries(("poincare_sections",), "name"),
     "nhim": StageEntries(("nhim", "studies"), "study", build=_nhim_study),
     "nhim_orbits": StageEntries(("nhim", "orbit_validation"), "study", build=_nhim_orbits),

@@ -53,6 +53,25 @@ def check_surface(surface: dict, coordinates: tuple[str, ...], key: str, system:
         )
 
 
+def check_map_manifolds(config: dict, spec: dict, key: str) -> None:
+    """A manifold set of a discrete map's saddle fixed points: a map of two coordinates (whose
+    saddles' manifolds are curves) with an inverse (the stable ones are iterated by it)."""
+    check_names([spec["system"]], "systems", f"{key}.system", config, "system")
+    system = config["systems"][spec["system"]]
+    if not is_discrete_map(system):
+        raise ConfigError(f"config key '{key}.system': system {spec['system']!r} is not a discrete map; the "
+                          "manifolds of a flow's periodic orbit are an entry naming its family under 'orbits'")
+    coordinates = system_coordinates(system)
+    if len(coordinates) != 2:
+        raise ConfigError(f"config key '{key}.system': map {spec['system']!r} has {len(coordinates)} coordinates; "
+                          "the manifolds of a map's fixed points are grown as curves, for maps of two coordinates")
+    if isinstance(system["map"], dict) and system.get("inverse") is None:
+        raise ConfigError(f"config key 'systems.{spec['system']}.inverse': {key} iterates "
+                          "the map backward for the stable manifolds, and the map gives no inverse; "
+                          "give one formula per coordinate for x_n in terms of x_{n+1}")
+    check_saddle_near(spec, coordinates, key)
+
+
 def check_family_energies(config: dict, family: str, energies: dict, key: str) -> None:
     """Every energy asked of a family is one of its target energies (same kind, excess or total)."""
     targets = config["periodic_orbits"][family]["energies"]
@@ -78,6 +97,9 @@ def check_orbits(config: dict) -> None:
             )
     for name, spec in config["manifolds"].items():
         key = f"manifolds.{name}"
+        if "system" in spec:
+            check_map_manifolds(config, spec, key)
+            continue
         check_names([spec["orbits"]], "periodic_orbits", f"{key}.orbits", config, "family")
         family = config["periodic_orbits"][spec["orbits"]]
         kind, value = next(iter(spec["energy"].items()))

@@ -28,7 +28,9 @@ from .integrator import kept_runner, run_units
 
 #: The schemes by their run-time code in ``sde_driver``: name -> (code, strong order with
 #: multiplicative noise, strong order with additive noise, weak order).
-SDE_SCHEMES = {"euler_maruyama": (0, 0.5, 1.0, 1.0), "milstein": (1, 1.0, 1.0, 1.0)}
+SDE_SCHEMES = {"euler_maruyama": (0, 0.5, 1.0, 1.0), "milstein": (1, 1.0, 1.0, 1.0), "heun": (2, 1.0, 1.0, 1.0)}
+#: The schemes that take only diagonal noise (g_i a function of x_i and t alone): their terms need dg_i/dx_i.
+DIAGONAL_SCHEMES = ("milstein", "heun")
 #: The common module of the Philox generator (a layer of :func:`ldpipe.engine.codegen.common_modules`).
 PHILOX_LAYER = (("common_philox", ("philox",)),)
 KERNELS = ("rhs",)
@@ -38,6 +40,9 @@ NOISE_KERNELS = "diffusion = njit(**JIT)(diffusion)\ndiffusion_slope = njit(**JI
 DIRECTION_WORDS = {1: 0, -1: 1}
 #: The largest ensemble and trajectory index the counter's words hold without reuse.
 MAX_MEMBERS = 1 << 20
+#: Faces of land cells a step is followed across before it is given up (not taken): a step a few
+#: cells long in a corner of land meets a handful.
+MAX_BOUNCES = 64
 
 
 @dataclass(frozen=True)
@@ -105,7 +110,7 @@ def stochastic_modules(system, noise):
     """The texts of the stochastic engine's modules for ``system`` with ``noise`` (module docstring)."""
     m = noise.n_noise
     constants = {"N": system.n_state, "M_NOISE": m, "BLOCKS": (m + 3) // 4, "LAST_PAIRS": 2 if m % 4 in (0, 3) else 1,
-                 **KINDS}
+                 "MAX_BOUNCES": MAX_BOUNCES, **KINDS}
     title = f"ldpipe.engine.stochastic: {system.n_state} state variables, {m} Wiener processes"
     from .codegen import template
 
@@ -147,6 +152,39 @@ def brownian_endpoints(seed: int, t0: float, trajectory: int, members: int, dire
     return math.sqrt(h) * out
 
 
+class LandWalls(NamedTuple):
+    """The land cells a planar data window's paths reflect off (``templates/sde_driver.py``):
+    ``cells`` (ny - 1, nx - 1), a cell with a land node at a corner (where the data's kernel has
+    no velocity, and a deterministic trajectory stops), between the grid lines ``xs`` and ``ys``."""
+
+    walls: bool
+    xs: np.ndarray
+    ys: np.ndarray
+    cells: np.ndarray
+
+
+NO_WALLS = LandWalls(False, np.zeros(2), np.zeros(2), np.zeros((1, 1), dtype=np.bool_))
+
+
+def land_walls(system, window) -> LandWalls:
+    """The land walls of ``system``'s data ``window`` (what its ``time_window`` bound): none for a
+    flow given by formulas or data without land; a ValueError for land in 3-D data, whose walls
+    are not implemented (its noisy paths would cross the sea floor)."""
+    land = getattr(window, "land", None)
+    if land is None or not np.any(land):
+        return NO_WALLS
+    if system.n_state != 2:
+        raise ValueError(f"system {system.name!r}: noise on 3-D velocity data with land is not supported (its paths "
+                         "would cross land and the sea floor); give a map without noise, or data without land")
+    if hasattr(window, "nodes"):  # a rectilinear grid: its node values
+        xs, ys = (np.asarray(nodes, dtype=np.float64) for nodes in window.nodes[:2])
+    else:  # a regular grid: first node, spacing, count
+        xs, ys = (first + step * np.arange(count, dtype=np.float64) for first, step, count in (window.x_grid,
+                                                                                              window.y_grid))
+    cells = land[:-1, :-1] | land[:-1, 1:] | land[1:, :-1] | land[1:, 1:]
+    return LandWalls(True, np.ascontiguousarray(xs), np.ascontiguousarray(ys), np.ascontiguousarray(cells))
+
+
 def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, settings: StochasticSettings,
                           escape_radius: float, t0: float = 0.0, index=None, threads: int | None = None
                           ) -> StochasticLDResult:
@@ -165,8 +203,8 @@ def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, 
     if system.hamiltonian:
         raise ValueError(f"system {system.name!r}: noise applies to a vector field or velocity data, not a Hamiltonian")
     code = SDE_SCHEMES[settings.scheme][0]
-    if settings.scheme == "milstein" and not noise.diagonal:
-        raise ValueError(f"scheme milstein: needs diagonal noise (g_i a function of x_i and t alone), got "
+    if settings.scheme in DIAGONAL_SCHEMES and not noise.diagonal:
+        raise ValueError(f"scheme {settings.scheme}: needs diagonal noise (g_i a function of x_i and t alone), got "
                          f"{noise.description}; use euler_maruyama")
     n = system.n_state
     states = np.ascontiguousarray(states, dtype=np.float64)
@@ -195,7 +233,8 @@ def compute_stochastic_ld(system, noise, states, direction: int, tau: float, p, 
                 n_steps, code, integrand.kind, integrand.p_exponent(p), np.asarray(noise.lower, dtype=np.float64),
                 np.asarray(noise.upper, dtype=np.float64), noise.reflecting, float(escape_radius), noise.constant)
         threads = threads or get_num_threads()
-        with system.time_window(t0, t0 + direction * tau):
+        with system.time_window(t0, t0 + direction * tau) as window:
+            args += tuple(land_walls(system, window))
             run_units(runner, items, max(1, min(256, total // (8 * threads) or 1)), args, outputs, threads)
     ld, time, escaped, started, end = outputs
     time[started & ~escaped] = tau  # the steps' sum can miss tau in the last bit

@@ -53,6 +53,9 @@ UPO = StageFile("upo", (
     "trajectory", "monodromy",
 ))
 MANIFOLDS = StageFile("manifolds", ("trajectory", "start_state", "section_state", "section_valid", "orbit_state"))
+#: The manifolds of a discrete map's saddle fixed points: per fixed point, manifold and branch, the images of a
+#: fundamental segment.
+MAP_MANIFOLDS = StageFile("map_manifolds", ("curve", "fixed_point_position", "multiplier", "eigenvector"))
 POINCARE = StageFile("poincare", ("initial_state", "crossing_state", "crossing_valid", "crossing_count", "escaped"))
 NHIM = StageFile("nhim", ("refined_point", "reference_point", "distance_refined", "residence_forward"))
 #: NHIM crossings of slices through periodic-orbit points: per slice, and per refined crossing.
@@ -92,6 +95,6 @@ ACCURACY_COST = StageFile(
 
 #: Every stage file's contract, by stage.
 CONTRACTS = {contract.stage: contract for contract in (
-    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
+    EQUILIBRIA, FLOW_EQUILIBRIA, LD_TILE, LD_GRID, UPO, MANIFOLDS, MAP_MANIFOLDS, POINCARE, NHIM, NHIM_ORBITS, NHIM_SAMPLING,
     TRANSPORT, SADDLE_FLUX, NORMAL_FORM, ACCURACY_COST, STRUCTURES, FSLE, LAVD,
 )}

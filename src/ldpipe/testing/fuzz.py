@@ -21,6 +21,7 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import xarray as xr
 
@@ -94,6 +95,18 @@ def _resolve(schema: dict, root: dict) -> dict:
     return schema
 
 
+def _chosen(schema: dict | None, root: dict, value) -> dict | None:
+    """``schema`` with its ``if``/``then``/``else`` resolved for the instance ``value`` (a
+    manifold set names an orbit family or a map: each form has its own keys)."""
+    if not schema:
+        return schema
+    schema = _resolve(schema, root)
+    if "if" not in schema:
+        return schema
+    branch = "then" if jsonschema.Draft202012Validator(schema["if"]).is_valid(value) else "else"
+    return _resolve(schema.get(branch, {}), root)
+
+
 def _properties(schema: dict, root: dict) -> set[str]:
     schema = _resolve(schema, root)
     names = set(schema.get("properties", {}))
@@ -110,6 +123,7 @@ def config_sites(config: dict, schema: dict) -> list[tuple]:
     sites: list[tuple] = []
 
     def walk(value, path: tuple, schema: dict | None) -> None:
+        schema = _chosen(schema, root, value)
         if path:
             sites.append(path)
         if isinstance(value, dict):

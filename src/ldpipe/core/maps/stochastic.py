@@ -23,7 +23,7 @@ import xarray as xr
 
 from ...engine import LDSettings
 from ...engine.settings import engine_escape_radius
-from ...engine.stochastic import SDE_SCHEMES, StochasticSettings, compute_stochastic_ld
+from ...engine.stochastic import DIAGONAL_SCHEMES, SDE_SCHEMES, StochasticSettings, compute_stochastic_ld
 from ...errors import ConfigError
 from ...systems.noise import Noise, parse_noise
 from ..sections import Section, section_states
@@ -36,7 +36,7 @@ PATHS_PER_CALL = 1 << 18
 MEMBER_FIELDS = {
     "ld": "Lagrangian descriptor of the drift along the noisy path, {label} time",
     "exit_time": "{label} integration time reached (|t - t0|): tau, or the escape time (0: not started)",
-    "escaped": "path escaped, or started outside the reflecting box ({label})",
+    "escaped": "path escaped, or started outside the reflecting box or on land ({label})",
 }
 BACKWARD_TIME = ("the reversed drift with the same noise: dx = -f(x, t0 - s) ds + G(x, t0 - s) dW_s, "
                  "s in [0, tau], with increments of its own")
@@ -51,9 +51,9 @@ def resolve_noise(parameters: dict, system) -> tuple[Noise, StochasticSettings]:
         settings = StochasticSettings.from_config(block)
     except ValueError as error:
         raise ConfigError(f"config key '{key}': {error}") from None
-    if settings.scheme == "milstein" and not noise.diagonal:
-        raise ConfigError(f"config key '{key}.scheme': milstein needs diagonal noise (g_i a function of x_i and t "
-                          f"alone), got {noise.description}; use euler_maruyama")
+    if settings.scheme in DIAGONAL_SCHEMES and not noise.diagonal:
+        raise ConfigError(f"config key '{key}.scheme': {settings.scheme} needs diagonal noise (g_i a function of x_i "
+                          f"and t alone), got {noise.description}; use euler_maruyama")
     return noise, settings
 
 
