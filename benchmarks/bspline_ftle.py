@@ -131,7 +131,8 @@ def main() -> None:
     steps = {}
     setups = {}
     for interpolation in ("cubic_convolution", "cubic_bspline"):
-        system = make_system(f"gyre_{interpolation}", {"velocity_data": {"path": str(path), "interpolation": interpolation}})
+        entry = {"path": str(path), "interpolation": interpolation}
+        system = make_system(f"gyre_{interpolation}", {"velocity_data": entry})
         setups[interpolation], _ = cpu_timed(system.data_window, T0, T0 + TAU)
         first, _ = cpu_timed(flow_map, system, states[:2], TAU, FlowSettings(rtol=1e-6, atol=1e-6), t0=T0)
 
@@ -213,10 +214,12 @@ def main() -> None:
     results.mkdir(exist_ok=True)
     stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
     record = {"nx": nx, "ny": ny, "rounds": args.rounds, "load": load, "setup_cpu_s": setups,
-              "difference_floor": {"median": float(np.median(difference_floor)), "worst": float(difference_floor.max())},
-              "rows": [{"method": name, "rtol": rtol, "cpu_s": times[name, rtol], "median_error": errors[name, rtol][0],
-                        "worst_error": errors[name, rtol][1],
-                        "steps": steps.get((name.removeprefix("ldpipe "), rtol))} for name in methods for rtol in rtols],
+              "difference_floor": {"median": float(np.median(difference_floor)),
+                                   "worst": float(difference_floor.max())},
+              "rows": [{"method": name, "rtol": rtol, "cpu_s": times[name, rtol],
+                        "median_error": errors[name, rtol][0], "worst_error": errors[name, rtol][1],
+                        "steps": steps.get((name.removeprefix("ldpipe "), rtol))}
+                       for name in methods for rtol in rtols],
               "matched": [{"matched_on": which, "target": target, "cpu_s": costs}
                           for (which, target), costs in matched.items()]}
     write_text_atomic(results / f"bspline_ftle_{stamp}.json", json.dumps(record, indent=1, allow_nan=True))

@@ -17,8 +17,9 @@ are converted from their units (``m/s``, ``km/day``, ...) to coordinate units pe
 (on the sphere, to degrees per time unit). The velocity between grid nodes is the cubic
 convolution of ``kernels/gridded_velocity.py`` (cubic in space and time; on a regular grid with
 ``interpolation: cubic_bspline`` the same kernel's cubic B-spline, on coefficients from
-:mod:`.bspline`), compiled into the flow engine like a formula's right-hand side; its data reach the compiled code through
-:mod:`ldpipe.systems.data_pointer`, so one compiled engine serves every dataset.
+:mod:`.bspline`), compiled into the flow engine like a formula's right-hand side; its data reach
+the compiled code through :mod:`ldpipe.systems.data_pointer`, so one compiled engine serves
+every dataset.
 
 The data may instead be given in memory, from Python (:mod:`.memory`): an ``xarray.Dataset``,
 lazy or not, or the DataArrays u, v (and w), kept in the process under the hash of their values.

@@ -3,8 +3,9 @@
 The velocity between grid nodes is the cubic convolution of ``kernels/gridded_velocity.py``
 (cubic in space and time, C1), or with ``interpolation: cubic_bspline`` the same kernel's cubic
 B-spline on coefficients prefiltered by :mod:`.bspline` (C2, fourth order); :func:`read_window`
-reads the nodes an engine call needs into the buffer the kernel reads (through :mod:`ldpipe.systems.data_pointer`), with the ring of a global
-longitude grid joined across the seam. :class:`VelocityDataSystem` is the system.
+reads the nodes an engine call needs into the buffer the kernel reads (through
+:mod:`ldpipe.systems.data_pointer`), with the ring of a global longitude grid joined across the
+seam. :class:`VelocityDataSystem` is the system.
 """
 
 from __future__ import annotations
