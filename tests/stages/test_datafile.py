@@ -184,7 +184,7 @@ def test_contracts_are_indexed_by_their_stage():
     assert all(stage == contract.stage for stage, contract in CONTRACTS.items())
     assert {"equilibria", "flow_equilibria", "ld_tile", "ld_grid", "upo", "manifolds", "poincare", "nhim",
             "nhim_orbits", "nhim_sampling", "transport", "saddle_flux", "normal_form", "accuracy_cost",
-            "structures", "fsle", "lavd"} == set(CONTRACTS)
+            "structures", "fsle", "lavd", "map_manifolds"} == set(CONTRACTS)
 
 
 def test_parameters_attribute_is_json(tmp_path):

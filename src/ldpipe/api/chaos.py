@@ -16,7 +16,7 @@ def chaos_indicators(system, *, section: dict, energy: float, tau: float, sigma:
 
     At each point x of the section's grid, L = the arc-length LD over [-tau, tau]; from L at x
     and at its neighbours x +- sigma along each axis (the solved momentum solved again), the
-    indicators D_L and S_L (Hillebrand et al. 2022) and the Laplacian |Delta L| (Daquin et al.
+    indicators D_L and S_L (Hillebrand et al. 2022) and the Laplacian ``|Delta L|`` (Daquin et al.
     2022); and with no neighbours the exact gradient of L along the section, carried along the
     variational equations. The reference is the SALI over ``reference_tau``. Each indicator is
     classified by a threshold of its own log10 values and its agreement with the SALI recorded.

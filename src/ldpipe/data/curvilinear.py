@@ -4,7 +4,9 @@ The double gyre of Shadden, Lekien & Marsden (2005, Physica D 212, 271, eq. 9; A
 eps = 0.25, omega = 2 pi / 10) on [0, 2] x [0, 1], sampled on a plane grid that is ``regular``
 (x, y aligned with i, j), ``rotated`` (by :data:`ROTATION` about the domain's centre) or
 ``curvilinear`` (the rotated grid bent smoothly: x = a + d sin(k b), y = b + d sin(k a) before
-the rotation, a and b even in i and j). The grid covers the domain with a margin, so the
+the rotation, a and b even in i and j; its cells not right-angled) or ``conformal`` (the rotated
+grid bent by the conformal map x + iy = w + d sin(k w), w = a + ib: orthogonal, as the grids of
+ROMS, CROCO and NEMO are, and curved). The grid covers the domain with a margin, so the
 interpolant's stencil at the domain's edge stays inside the data.
 
 :func:`curvilinear_dataset` writes any field ``field(x, y, t) -> (u, v)`` on given 2-D
@@ -27,10 +29,13 @@ from ..io.atomic import atomic_path
 A, EPS, OMEGA = 0.1, 0.25, 2 * math.pi / 10
 ROTATION = math.radians(30.0)
 BEND, BEND_WAVENUMBER = 0.08, 2.0  # d and k of the curvilinear grid (d k < 1: no cell folds)
+#: d and k of the conformal grid: |d k cos(k w)| <= d k cosh(k b) < 0.2 over the grid, so the map's
+#: derivative never vanishes (no cell folds) and the cells stay within a factor 1.2 of square.
+CONFORMAL_BEND, CONFORMAL_WAVENUMBER = 0.06, 1.2
 #: The grid's half-extents about the domain's centre (1, 0.5), in its own (a, b) frame: the rotated
 #: domain [0, 2] x [0, 1] with a margin of 0.1, and the bend's amplitude.
 HALF_EXTENT = (1.4, 1.2)
-GRIDS = ("regular", "rotated", "curvilinear")
+GRIDS = ("regular", "rotated", "curvilinear", "conformal")
 
 
 def double_gyre_velocity(x, y, t):
@@ -41,17 +46,22 @@ def double_gyre_velocity(x, y, t):
     return -np.pi * A * np.sin(np.pi * f) * np.cos(np.pi * y), np.pi * A * np.cos(np.pi * f) * np.sin(np.pi * y) * dfdx
 
 
-def plane_grid(kind: str, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+def plane_grid(kind: str, spacing: float, offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The 2-D coordinates (x, y), each (eta, xi), of a grid of ``kind`` (:data:`GRIDS`) whose
-    (a, b) frame has nodes every ``spacing`` (see the module docstring)."""
+    (a, b) frame has nodes every ``spacing`` (see the module docstring); with ``offset`` 0.5 the
+    corners of its cells instead (a C-grid's psi points: one fewer each way, every node shifted
+    by half a spacing in a and b)."""
     if kind not in GRIDS:
         raise ValueError(f"kind: expected one of {GRIDS}, got {kind!r}")
-    counts = [round(2 * half / spacing) + 1 for half in HALF_EXTENT]
-    a = -HALF_EXTENT[0] + spacing * np.arange(counts[0])
-    b = -HALF_EXTENT[1] + spacing * np.arange(counts[1])
+    counts = [round(2 * half / spacing) + 1 - math.ceil(offset) for half in HALF_EXTENT]
+    a = -HALF_EXTENT[0] + spacing * (offset + np.arange(counts[0]))
+    b = -HALF_EXTENT[1] + spacing * (offset + np.arange(counts[1]))
     B, Aa = np.meshgrid(b, a, indexing="ij")
     if kind == "curvilinear":
         Aa, B = Aa + BEND * np.sin(BEND_WAVENUMBER * B), B + BEND * np.sin(BEND_WAVENUMBER * Aa)
+    elif kind == "conformal":
+        bent = Aa + 1j * B + CONFORMAL_BEND * np.sin(CONFORMAL_WAVENUMBER * (Aa + 1j * B))
+        Aa, B = bent.real, bent.imag
     angle = 0.0 if kind == "regular" else ROTATION
     return (1.0 + math.cos(angle) * Aa - math.sin(angle) * B, 0.5 + math.sin(angle) * Aa + math.cos(angle) * B)
 
@@ -106,6 +116,25 @@ def double_gyre_dataset(kind: str, spacing: float, times: np.ndarray, **options)
     return curvilinear_dataset(double_gyre_velocity, x, y, times, **options)
 
 
+def double_gyre_c_grid_dataset(kind: str, spacing: float, times: np.ndarray, *, land=None) -> xr.Dataset:
+    """The double gyre on a plane grid of ``kind`` with ``spacing`` as a ROMS-like C-grid
+    (:func:`c_grid_dataset`, the cells' corners written too): on each face the velocity's
+    component along the line between the two centres it separates (the face's normal, on an
+    orthogonal grid such as ``conformal``), at the line's midpoint; ``land`` as there."""
+    x, y = plane_grid(kind, spacing)
+    along_i = np.arctan2(np.diff(y, axis=1), np.diff(x, axis=1))
+    along_j = np.arctan2(np.diff(y, axis=0), np.diff(x, axis=0))
+
+    def component(angle):
+        def face(X, Y, T):
+            u, v = double_gyre_velocity(X, Y, T)
+            return u * np.cos(angle) + v * np.sin(angle)
+        return face
+
+    return c_grid_dataset(component(along_i), component(along_j), x, y, times, land=land,
+                          corners=plane_grid(kind, spacing, offset=0.5))
+
+
 def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
     """Write ``dataset`` to ``path`` (netCDF), atomically."""
     path = Path(path)
@@ -129,7 +158,8 @@ def rotated_pole_grid(half_extent: tuple[float, float], spacing: float, tilt: fl
 
 
 def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarray, *, land=None,
-                   land_faces: str = "zero", sphere: bool = False) -> xr.Dataset:
+                   land_faces: str = "zero", sphere: bool = False,
+                   corners: tuple[np.ndarray, np.ndarray] | None = None) -> xr.Dataset:
     """An Arakawa C-grid (ROMS's layout): the cells' centres (x, y), each (eta, xi), ``x_rho``/
     ``y_rho`` on the plane, ``lon_rho``/``lat_rho`` (degrees) on the ``sphere``; u on the faces between centres (j, i) and (j, i + 1), (time, eta, xi_u),
     and v on those between (j, i) and (j + 1, i), (time, eta_v, xi), the velocities normal to the
@@ -137,7 +167,10 @@ def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarr
     faces' midpoints; ``land(i, j)`` (node indices) True at land centres, ``mask_rho`` 0 there
     and the faces by them 0 (``land_faces="zero"``, as ROMS writes them), or left as the field
     gives them for u and missing for v (``"unmasked"``: only the mask and the missing values say
-    where the coast is)."""
+    where the coast is). ``corners`` (x, y), each (eta - 1, xi - 1), are the cells' corners
+    (ROMS's psi points, :func:`plane_grid` with offset 0.5), written as ``x_psi``/``y_psi``
+    (``lon_psi``/``lat_psi``) on (eta_psi, xi_psi): trackers that interpolate a C-grid in cells
+    bounded by its corners (Parcels) need them."""
     T = np.asarray(times, dtype=float)[:, None, None]
     xu, yu = (x[:, :-1] + x[:, 1:]) / 2, (y[:, :-1] + y[:, 1:]) / 2
     xv, yv = (x[:-1] + x[1:]) / 2, (y[:-1] + y[1:]) / 2
@@ -153,13 +186,19 @@ def c_grid_dataset(u_face, v_face, x: np.ndarray, y: np.ndarray, times: np.ndarr
     else:
         raise ValueError(f"land_faces: expected 'zero' or 'unmasked', got {land_faces!r}")
     attrs = {"units": "m/s"}
+    names = ("lon", "lat") if sphere else ("x", "y")
+    coordinate_attrs = ({"units": "degrees_east"}, {"units": "degrees_north"}) if sphere else (
+        {"standard_name": "projection_x_coordinate"}, {"standard_name": "projection_y_coordinate"})
+    coords = {f"{names[0]}_rho": (("eta", "xi"), x, coordinate_attrs[0]),
+              f"{names[1]}_rho": (("eta", "xi"), y, coordinate_attrs[1]),
+              "time": ("time", np.asarray(times, dtype=float), {"units": "s"})}
+    if corners is not None:
+        if any(np.shape(c) != (x.shape[0] - 1, x.shape[1] - 1) for c in corners):
+            raise ValueError(f"corners: expected two arrays of shape {(x.shape[0] - 1, x.shape[1] - 1)}")
+        for name, values, attributes in zip(names, corners, coordinate_attrs):
+            coords[f"{name}_psi"] = (("eta_psi", "xi_psi"), np.asarray(values, dtype=float), dict(attributes))
     return xr.Dataset(
         {"u": (("time", "eta", "xi_u"), u, dict(attrs, long_name="velocity along the grid's i, on its faces")),
          "v": (("time", "eta_v", "xi"), v, dict(attrs, long_name="velocity along the grid's j, on its faces")),
          "mask_rho": (("eta", "xi"), water.astype(float), {"long_name": "1 at sea, 0 on land"})},
-        coords={("lon_rho" if sphere else "x_rho"): (("eta", "xi"), x, {"units": "degrees_east"} if sphere else
-                                                     {"standard_name": "projection_x_coordinate"}),
-                ("lat_rho" if sphere else "y_rho"): (("eta", "xi"), y, {"units": "degrees_north"} if sphere else
-                                                     {"standard_name": "projection_y_coordinate"}),
-                "time": ("time", np.asarray(times, dtype=float), {"units": "s"})},
-        attrs={"Conventions": "CF-1.8", "source": "ldpipe.data.curvilinear (analytic, Arakawa C-grid)"})
+        coords=coords, attrs={"Conventions": "CF-1.8", "source": "ldpipe.data.curvilinear (analytic, Arakawa C-grid)"})
