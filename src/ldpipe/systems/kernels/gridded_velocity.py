@@ -2,7 +2,10 @@
 # (x, y, t) by cubic convolution (Keys 1981, a = -1/2: Catmull-Rom) in x, y and t on the
 # data's regular grid, read through ldpipe.systems.data_pointer. Exact for polynomials of degree
 # <= 2 in each variable (the boundary nodes are extrapolated by Keys' rule, exact for quadratics),
-# third-order accurate in the grid spacing.
+# third-order accurate in the grid spacing, C1. With header slot 14 set, the same stencil applies
+# cubic B-spline weights to coefficients prefiltered from the data (velocity_data/bspline.py):
+# exact for cubics in each variable, fourth-order accurate, C2; one kernel and one compiled engine
+# serve both.
 #
 # The bound buffer (ldpipe.systems.velocity_data.DataWindow.buffer): a header of DATA_HEADER
 # values, then u and v on the padded grid as (ny + 2, nx + 2, nt + 2, 2): u and v side by side,
@@ -10,7 +13,8 @@
 # stages of a step) sweep several time cells while moving about one cell in space; then the land
 # cells (ny + 2, nx + 2): at (j, i) 1.0 where the cell from node (j, i) to (j + 1, i + 1) of the
 # window has a land corner (one read a call instead of four). Header: nt, ny, nx, x_first, dx,
-# y_first, dy, t_first, dt, sphere (0 or 1), radius, velocity_scale.
+# y_first, dy, t_first, dt, sphere (0 or 1), radius, velocity_scale, two slots of the curvilinear
+# LD metric, the interpolant (0 cubic convolution of the data, 1 cubic B-spline of coefficients).
 #
 # Boundaries: a point outside the grid's extent, or in a cell with a land corner, has velocity 0,
 # so a trajectory stops where it reaches land or the data's edge (the LD stage flags it); times
@@ -23,6 +27,7 @@ import math
 from ldpipe.systems.data_pointer import velocity_data_pointer
 
 DATA_HEADER = 16
+EDGE_SLACK = 1e-9  # cells: how far outside the B-spline's edge a point counts as on it
 
 
 def rhs(state, t, out):
@@ -39,6 +44,12 @@ def rhs(state, t, out):
         east -= 360.0 * math.floor(east / 360.0)
     fx = east / data[4]
     fy = (state[1] - data[5]) / data[6]
+    if data[14] > 0.0:
+        # the B-spline's value on the edge is a sum of three coefficients: a velocity the data make
+        # zero there (a wall) comes out as rounding, which would carry a trajectory sliding along the
+        # wall a hair outside, where it stops; within EDGE_SLACK cells it stays on the edge
+        fx = min(max(fx, 0.0), nx - 1.0) if fx > -EDGE_SLACK and fx < nx - 1.0 + EDGE_SLACK else fx
+        fy = min(max(fy, 0.0), ny - 1.0) if fy > -EDGE_SLACK and fy < ny - 1.0 + EDGE_SLACK else fy
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
         out[0] = 0.0
         out[1] = 0.0
@@ -57,18 +68,35 @@ def rhs(state, t, out):
     sx = fx - i
     sy = fy - j
     st = ft - k
-    wx0 = ((-0.5 * sx + 1.0) * sx - 0.5) * sx
-    wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
-    wx2 = ((-1.5 * sx + 2.0) * sx + 0.5) * sx
-    wx3 = (0.5 * sx - 0.5) * sx * sx
-    wy0 = ((-0.5 * sy + 1.0) * sy - 0.5) * sy
-    wy1 = (1.5 * sy - 2.5) * sy * sy + 1.0
-    wy2 = ((-1.5 * sy + 2.0) * sy + 0.5) * sy
-    wy3 = (0.5 * sy - 0.5) * sy * sy
-    wt0 = ((-0.5 * st + 1.0) * st - 0.5) * st
-    wt1 = (1.5 * st - 2.5) * st * st + 1.0
-    wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
-    wt3 = (0.5 * st - 0.5) * st * st
+    if data[14] > 0.0:  # cubic B-spline weights on prefiltered coefficients: C2
+        rx = 1.0 - sx
+        ry = 1.0 - sy
+        rt = 1.0 - st
+        wx0 = rx * rx * rx / 6.0
+        wx1 = ((0.5 * sx - 1.0) * sx * sx) + 2.0 / 3.0
+        wx2 = ((0.5 * rx - 1.0) * rx * rx) + 2.0 / 3.0
+        wx3 = sx * sx * sx / 6.0
+        wy0 = ry * ry * ry / 6.0
+        wy1 = ((0.5 * sy - 1.0) * sy * sy) + 2.0 / 3.0
+        wy2 = ((0.5 * ry - 1.0) * ry * ry) + 2.0 / 3.0
+        wy3 = sy * sy * sy / 6.0
+        wt0 = rt * rt * rt / 6.0
+        wt1 = ((0.5 * st - 1.0) * st * st) + 2.0 / 3.0
+        wt2 = ((0.5 * rt - 1.0) * rt * rt) + 2.0 / 3.0
+        wt3 = st * st * st / 6.0
+    else:  # cubic convolution on the data
+        wx0 = ((-0.5 * sx + 1.0) * sx - 0.5) * sx
+        wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
+        wx2 = ((-1.5 * sx + 2.0) * sx + 0.5) * sx
+        wx3 = (0.5 * sx - 0.5) * sx * sx
+        wy0 = ((-0.5 * sy + 1.0) * sy - 0.5) * sy
+        wy1 = (1.5 * sy - 2.5) * sy * sy + 1.0
+        wy2 = ((-1.5 * sy + 2.0) * sy + 0.5) * sy
+        wy3 = (0.5 * sy - 0.5) * sy * sy
+        wt0 = ((-0.5 * st + 1.0) * st - 0.5) * st
+        wt1 = (1.5 * st - 2.5) * st * st + 1.0
+        wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
+        wt3 = (0.5 * st - 0.5) * st * st
     qt = nt + 2
     step = 2 * qt  # from a node to its x neighbour
     u = 0.0

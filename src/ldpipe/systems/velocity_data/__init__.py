@@ -15,9 +15,11 @@ in its index space (:mod:`.curvilinear`; u and v on a C-grid's faces: :mod:`.sta
 The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
 are converted from their units (``m/s``, ``km/day``, ...) to coordinate units per time unit
 (on the sphere, to degrees per time unit). The velocity between grid nodes is the cubic
-convolution of ``kernels/gridded_velocity.py`` (cubic in space and time), compiled into the
-flow engine like a formula's right-hand side; its data reach the compiled code through
-:mod:`ldpipe.systems.data_pointer`, so one compiled engine serves every dataset.
+convolution of ``kernels/gridded_velocity.py`` (cubic in space and time; on a regular grid with
+``interpolation: cubic_bspline`` the same kernel's cubic B-spline, on coefficients from
+:mod:`.bspline`), compiled into the flow engine like a formula's right-hand side; its data reach
+the compiled code through :mod:`ldpipe.systems.data_pointer`, so one compiled engine serves
+every dataset.
 
 The data may instead be given in memory, from Python (:mod:`.memory`): an ``xarray.Dataset``,
 lazy or not, or the DataArrays u, v (and w), kept in the process under the hash of their values.
@@ -46,7 +48,7 @@ from .files import path_text, velocity_data_files
 from .memory import is_in_memory, memory_entry
 from .polar import PolarVelocitySystem, make_polar_system, pole_offsets
 from .rectilinear import RectilinearVelocitySystem, make_rectilinear_system
-from .regular import DataWindow, VelocityDataSystem, make_regular_system
+from .regular import CUBIC_CONVOLUTION, INTERPOLATIONS, DataWindow, VelocityDataSystem, make_regular_system
 from .source import DEFAULTS, DataSource, open_source, velocity_data_coordinates
 from .staggered import StaggeredVelocitySystem, make_staggered_system
 
@@ -64,6 +66,16 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
     if not isinstance(entry, dict):
         raise ConfigError(f"config key '{key}.velocity_data': expected a mapping (path, u, v, ...), got {entry!r}")
     source = open_source(entry, f"{key}.velocity_data")
+    interpolation = entry.get("interpolation", CUBIC_CONVOLUTION)
+    if interpolation not in INTERPOLATIONS:
+        raise ConfigError(f"config key '{key}.velocity_data.interpolation': expected one of {list(INTERPOLATIONS)}, "
+                          f"got {interpolation!r}")
+    if interpolation != CUBIC_CONVOLUTION and (source.staggered or source.grid_coordinates or source.nodes is not None
+                                               or source.x_global):
+        grid = ("a curvilinear grid" if source.staggered or source.grid_coordinates else
+                "a global longitude grid" if source.x_global else "an uneven or 3-D grid")
+        raise ConfigError(f"config key '{key}.velocity_data.interpolation': {interpolation!r} is offered on a regular "
+                          f"2-D grid that is not global; {source.label} is {grid}: use 'cubic_convolution'")
     if source.staggered:  # a C-grid: its face velocities, a coast a wall
         return make_staggered_system(name, source, spec, velocity_data_coordinates(entry))
     if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
@@ -89,4 +101,4 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
         poles = pole_offsets(source, f"{key}.velocity_data")
         if poles != (None, None):
             return make_polar_system(name, source, spec, poles)
-    return make_regular_system(name, source, window, spec)
+    return make_regular_system(name, source, window, spec, interpolation)

@@ -1,9 +1,11 @@
 """Velocity data on a regular grid (every axis uniform, 2-D): its window, kernel and system.
 
 The velocity between grid nodes is the cubic convolution of ``kernels/gridded_velocity.py``
-(cubic in space and time); :func:`read_window` reads the nodes an engine call needs into the
-buffer the kernel reads (through :mod:`ldpipe.systems.data_pointer`), with the ring of a global
-longitude grid joined across the seam. :class:`VelocityDataSystem` is the system.
+(cubic in space and time, C1), or with ``interpolation: cubic_bspline`` the same kernel's cubic
+B-spline on coefficients prefiltered by :mod:`.bspline` (C2, fourth order); :func:`read_window`
+reads the nodes an engine call needs into the buffer the kernel reads (through
+:mod:`ldpipe.systems.data_pointer`), with the ring of a global longitude grid joined across the
+seam. :class:`VelocityDataSystem` is the system.
 """
 
 from __future__ import annotations
@@ -20,12 +22,20 @@ import numpy as np
 from ...errors import ConfigError
 from ...jitcache import njit_functions
 from ..model import system_repr
+from .bspline import MARGIN, bspline_coefficients
 from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
 # entry is read for its coordinates (planning, figures) without it.
 
 HEADER = 16  # the kernel's DATA_HEADER
+#: The header slot saying which interpolant the kernel applies (0 cubic convolution, 1 cubic B-spline).
+INTERPOLATION_AT = 14
+#: The values of a ``velocity_data`` entry's ``interpolation`` key.
+CUBIC_CONVOLUTION, CUBIC_BSPLINE = "cubic_convolution", "cubic_bspline"
+INTERPOLATIONS = (CUBIC_CONVOLUTION, CUBIC_BSPLINE)
+#: The kernel's EDGE_SLACK: with the B-spline a point this many cells outside the grid counts as on its edge.
+EDGE_SLACK = 1e-9
 
 
 def kernel_source() -> str:
@@ -119,15 +129,21 @@ class DataWindow:
 
 
 def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], y: tuple[int, int],
-                convert: Callable | None = None) -> DataWindow:
+                convert: Callable | None = None, interpolation: str = CUBIC_CONVOLUTION) -> DataWindow:
     """Read nodes ``times``, ``y``, ``x`` (inclusive index ranges) and their real neighbours, padded;
     ``convert(u, v, rows, columns)`` (rows, columns: the slices of the grid read) turns the
     velocities read, land filled, into the ones the kernel interpolates (a curvilinear grid's
-    index velocities)."""
+    index velocities). With ``interpolation`` :data:`CUBIC_BSPLINE` the buffer holds the
+    B-spline coefficients of the nodes instead (:mod:`.bspline`, prefiltered over the window and
+    :data:`.bspline.MARGIN` more nodes each side where the data have them)."""
     (ta, tb), (ya, yb), (xa, xb) = times, y, x
+    bspline = interpolation == CUBIC_BSPLINE
+    if bspline and source.x_global:
+        raise ValueError("the cubic B-spline does not join a global longitude grid across its seam")
+    reach = MARGIN if bspline else 1
     counts = (source.t_grid[2], source.y_grid[2], source.x_grid[2])
-    lows = [max(0, lo - 1) for lo in (ta, ya, xa)]
-    highs = [min(n - 1, hi + 1) for hi, n in zip((tb, yb, xb), counts)]
+    lows = [max(0, lo - reach) for lo in (ta, ya, xa)]
+    highs = [min(n - 1, hi + reach) for hi, n in zip((tb, yb, xb), counts)]
     if source.x_global:  # every column has real neighbours, across the seam (indices modulo the count)
         lows[2], highs[2] = xa - 1, xb + 1
         columns = column_runs(xa - 1, xb + 1, counts[2])
@@ -158,6 +174,9 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
             a = np.moveaxis(array, axis, 0)
             start = lo - low_read
             stop = start + hi - lo + 1
+            if bspline:  # the coefficients of the nodes read are c[-1..n]: the window's and one each side
+                array = np.moveaxis(bspline_coefficients(a, 0)[start:stop + 2], 0, axis)
+                continue
             inner = a[start:stop]
             low = a[start - 1] if start > 0 else None
             high = a[stop] if stop < a.shape[0] else None
@@ -174,6 +193,7 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     header = np.zeros(HEADER)
     header[:12] = (tb - ta + 1, ny, nx, x_grid[0], x_grid[1], y_grid[0], y_grid[1], t_first, source.t_grid[1],
                    1.0 if source.sphere else 0.0, source.radius, source.velocity_scale)
+    header[INTERPOLATION_AT] = 1.0 if bspline else 0.0
     velocities = np.stack(padded, axis=-1).transpose(1, 2, 0, 3)  # (y, x, time, u/v): the kernel's layout
     buffer = np.concatenate([header, np.ascontiguousarray(velocities).ravel(), cells.ravel()])
     return DataWindow(np.ascontiguousarray(buffer), land.copy(), x_grid, y_grid)
@@ -191,6 +211,8 @@ class VelocityDataSystem:
     rhs: Callable
     spec: dict = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
+    #: :data:`CUBIC_CONVOLUTION` (C1, the data interpolated as read) or :data:`CUBIC_BSPLINE` (C2).
+    interpolation: str = CUBIC_CONVOLUTION
     _windows: WindowCache = field(default_factory=WindowCache, repr=False)
 
     hamiltonian: ClassVar[bool] = False
@@ -287,7 +309,7 @@ class VelocityDataSystem:
             ys = (0, self.source.y_grid[2] - 1)
         key = (times, xs, ys)
         if key not in self._windows:
-            self._windows[key] = read_window(self.source, times, xs, ys)
+            self._windows[key] = read_window(self.source, times, xs, ys, interpolation=self.interpolation)
         return self._windows[key]
 
     def x_window(self, low: float, high: float) -> tuple[int, int]:
@@ -336,7 +358,8 @@ class VelocityDataSystem:
         fx = east / window.x_grid[1]
         fy = (end_states[:, 1] - window.y_grid[0]) / window.y_grid[1]
         nx, ny = window.x_grid[2], window.y_grid[2]
-        outside = ~((fx >= 0.0) & (fx <= nx - 1) & (fy >= 0.0) & (fy <= ny - 1))
+        slack = EDGE_SLACK if self.interpolation == CUBIC_BSPLINE else 0.0  # as the kernel's edge test
+        outside = ~((fx >= -slack) & (fx <= nx - 1 + slack) & (fy >= -slack) & (fy <= ny - 1 + slack))
         i = np.clip(np.floor(np.nan_to_num(fx)).astype(int), 0, nx - 2)
         j = np.clip(np.floor(np.nan_to_num(fy)).astype(int), 0, ny - 2)
         land = window.land
@@ -371,9 +394,12 @@ class VelocityDataSystem:
         return axis, end_states[rows, axis] - gap * steps, sign
 
 
-def make_regular_system(name: str, source: DataSource, window: dict | None, spec: dict) -> VelocityDataSystem:
-    """The system of a checked regular ``source`` (:func:`.source.open_source`)."""
+def make_regular_system(name: str, source: DataSource, window: dict | None, spec: dict,
+                        interpolation: str = CUBIC_CONVOLUTION) -> VelocityDataSystem:
+    """The system of a checked regular ``source`` (:func:`.source.open_source`), interpolated by
+    ``interpolation``: both interpolants share one kernel and its compiled engine (the window's
+    header says which weights apply)."""
     text = kernel_source()
     (rhs,) = njit_functions(text, ("rhs",), "velocity_data")
     return VelocityDataSystem(name=name, coordinates=(source.x, source.y), source=source, window=window,
-                              kernel_source=text, rhs=rhs, spec=spec)
+                              kernel_source=text, rhs=rhs, spec=spec, interpolation=interpolation)

@@ -289,7 +289,8 @@ def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, 
 def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
     unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive",
-                                            "longitude", "latitude", "components", "angle", "c_grid"}
+                                            "longitude", "latitude", "components", "angle", "c_grid",
+                                            "interpolation"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
