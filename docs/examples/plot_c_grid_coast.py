@@ -17,8 +17,10 @@ the repelling material lines; points on land have none and are grey.
 """
 
 import os
+import textwrap
 
 import matplotlib.pyplot as plt
+
 import numpy as np
 
 import ldpipe
@@ -41,7 +43,7 @@ roms = double_gyre_c_grid_dataset("conformal", SPACING, times, land=land)
 gyre = ldpipe.system(name="gyre", velocity_data={
     "dataset": roms, "x": "x_rho", "y": "y_rho",
     "components": "grid", "mask": "mask_rho"})
-print(gyre.description)
+print(textwrap.fill(gyre.description, 72))
 
 section = ldpipe.section(x_rho=(-0.1, 2.1, POINTS),
                          y_rho=(-0.1, 1.1, POINTS * 6 // 11))

@@ -208,10 +208,10 @@ def compute_block(parameters: dict, equilibria: xr.Dataset | None, rows: slice,
 
     ``datasets``: the in-memory velocity data the system reads (:func:`block_datasets`), kept in
     the worker's process; a dask-backed one is read there on the task's own thread (the windows
-    the block needs, as numpy), not as tasks sent back to the cluster that runs this one."""
+    the block needs, as numpy: :class:`ldpipe.systems.velocity_data.files.FileSeries`), not as
+    tasks sent back to the cluster that runs this one."""
     register(datasets or {})
-    with importlib.import_module("dask").config.set(scheduler="synchronous"):
-        dataset = compute_ld_map(parameters, equilibria, rows=rows, threads=threads, show_progress=False)
+    dataset = compute_ld_map(parameters, equilibria, rows=rows, threads=threads, show_progress=False)
     check_finite(dataset, f"map {parameters['map_name']}, rows {rows.start}:{rows.stop}")
     return {name: variable.values for name, variable in dataset.data_vars.items()}
 

@@ -178,7 +178,10 @@ class FileSeries:
 
     def _read(self, index: int, name: str, indexers: dict) -> np.ndarray:
         try:
-            return np.asarray(self.dataset(index)[name].isel(indexers).values)
+            selected = self.dataset(index)[name].isel(indexers)
+            if selected.chunks is not None:  # dask-backed (given in memory): read on this thread, even in a
+                selected = selected.compute(scheduler="synchronous")  # Dask task, not by its cluster
+            return np.asarray(selected.values)
         except READ_ERRORS as error:
             raise unreadable(self.files[index], error) from None
 
