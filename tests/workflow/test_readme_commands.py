@@ -68,6 +68,8 @@ def plan(command: str) -> tuple[str, str, str]:
         return "covered", "", "CI's install of the test extra includes the docs extra (checked below)"
     if command == INSTALL_DASK:
         return "covered", "", "CI's install of the test extra includes the dask extra (checked below)"
+    if command == ".venv/bin/ruff check .":
+        return "covered", "", "tests/test_lint.py runs ruff check on the checkout with the project's settings"
     if command == BUILD_DOCS:
         return "covered", "", "tests/docs/test_docs.py runs it verbatim in a copy of docs/"
     if command in ('pytest -m "not slow"', '.venv/bin/pytest -m "not slow"', ".venv/bin/pytest"):

@@ -97,6 +97,8 @@ def numeric_times(entry: dict, source: DataSource | None, system_name: str, key:
         if not is_date(value):
             return float(value) if isinstance(value, str) else value
         if source is None:
+            if not _reads_as(pd.Timestamp, value):
+                raise ConfigError(f"config key '{key}.{where}': {value!r} is not of type 'number'")
             raise ConfigError(f"config key '{key}.{where}': {value!r} is a date, but system {system_name!r} has no "
                               "calendar (only velocity data whose time units read 'UNIT since DATE' have); give "
                               "t0 as a number")
@@ -112,12 +114,24 @@ def numeric_times(entry: dict, source: DataSource | None, system_name: str, key:
     tau = entry.get("tau")
     if is_duration(tau):
         if source is None:
+            if not _reads_as(pd.Timedelta, tau):
+                raise ConfigError(f"config key '{key}.tau': {tau!r} is not of type 'number'")
             raise ConfigError(f"config key '{key}.tau': {tau!r} is a duration, but system {system_name!r} "
                               "has no time unit (only velocity data have); give tau as a number")
         entry["tau"] = numeric_duration(tau, source, f"{key}.tau")
     elif isinstance(tau, str):
         entry["tau"] = float(tau)
     return entry
+
+
+def _reads_as(kind, value) -> bool:
+    """Whether ``value`` reads as a ``kind`` (pandas' Timestamp or Timedelta), not as nothing: text
+    that is neither a number nor a date (or duration) is refused as not a number, as the schema
+    refuses it where dates are not taken."""
+    try:
+        return not pd.isna(kind(value))
+    except (ValueError, TypeError, OverflowError):
+        return False
 
 
 def date_text(number: float, source: DataSource) -> str:
