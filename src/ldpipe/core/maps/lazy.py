@@ -29,8 +29,8 @@ import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
-from ...logs import get_logger
 from ...io.datafile import check_finite
+from ...logs import get_logger
 from ...systems import on_sphere
 from ...systems.velocity_data.memory import datasets_of, register
 from ..sections import section_states
@@ -42,8 +42,8 @@ from .symmetry import SETTING_KEY
 #: The install that brings what a lazy map needs.
 INSTALL = "pip install 'ldpipe[dask]'"
 #: The integration time of a block that ``chunks="auto"`` aims at: what a task costs besides its
-#: integration (the scheduler's round trip, the results' transfer, the band's set-up; measured
-#: by benchmarks/dask_scaling.py at 15-30 ms a block) is then a few per cent of it.
+#: integration (the scheduler's round trip, the results' transfer, the band's set-up: tens of
+#: milliseconds, benchmarks/dask_scaling.py measures it) is then a few per cent of it.
 AUTO_BLOCK_SECONDS = 1.0
 #: ... or more, so that what a block's engine calls cost besides their trajectories (a window of
 #: velocity data read) is at most this share of its integration.
