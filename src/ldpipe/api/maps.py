@@ -34,7 +34,7 @@ def ld_map(system: AnySystem, *, name: str | None = None, equilibria: xr.Dataset
     chunks : int, dict or "auto", optional
         Compute the map on Dask, in blocks of about ``chunks`` start points (whole rows of the first
         axis: ``chunks // columns`` rows, at least one), of ``{first_axis: rows}``, or ``"auto"``:
-        blocks of about one second of integration each, measured by a pilot of the map's own
+        blocks of about two seconds of integration each, measured by a pilot of the map's own
         trajectories. The Dataset returned at once holds dask arrays, and ``.compute()`` gives the
         map bit for bit as without ``chunks`` (see the guide's Dask page). Needs
         ``pip install 'ldpipe[dask]'``.

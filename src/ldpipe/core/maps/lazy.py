@@ -44,7 +44,7 @@ INSTALL = "pip install 'ldpipe[dask]'"
 #: The integration time of a block that ``chunks="auto"`` aims at: what a task costs besides its
 #: integration (the scheduler's round trip, the results' transfer, the band's set-up: tens of
 #: milliseconds, benchmarks/dask_scaling.py measures it) is then a few per cent of it.
-AUTO_BLOCK_SECONDS = 1.0
+AUTO_BLOCK_SECONDS = 2.0
 #: ... or more, so that what a block's engine calls cost besides their trajectories (a window of
 #: velocity data read) is at most this share of its integration.
 AUTO_FIXED_SHARE = 0.05
