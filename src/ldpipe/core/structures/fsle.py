@@ -27,6 +27,7 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import FSLE
 from ...io.datafile import stage_dataset
+from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
 #: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing).
@@ -154,17 +155,7 @@ def fsle_dataset(system, section: dict, parameters: dict, *, threads: int | None
     if system.hamiltonian:
         raise ConfigError(f"{where}: system {system.name!r} is a Hamiltonian; the FSLE is computed for vector "
                           "fields and velocity data")
-    axes_spec = section.get("axes", [])
-    if len(axes_spec) != 2:
-        raise ConfigError(f"{where}: section: expected two axes")
-    axes = tuple((axis["name"], np.linspace(*axis["range"], int(axis["points"]))) for axis in axes_spec)
-    fixed = dict(section.get("fixed") or {})
-    names = [name for name, _ in axes] + list(fixed)
-    unknown = sorted(set(names) - set(system.coordinates))
-    missing = sorted(set(system.coordinates) - set(names))
-    if unknown or missing or len(set(names)) != len(names):
-        raise ConfigError(f"{where}: section: axes and fixed must name each of {list(system.coordinates)} once "
-                          f"(unknown {unknown}, missing {missing})")
+    axes, fixed = section_grid(section, system.coordinates, where)
     spacing = tuple(abs(float(values[1] - values[0])) if len(values) > 1 else math.inf for _, values in axes)
     parameters = check_fsle_parameters(dict(parameters), spacing, where, key)
     dims = tuple(name for name, _ in axes)

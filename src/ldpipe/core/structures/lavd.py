@@ -34,6 +34,7 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import LAVD
 from ...io.datafile import stage_dataset
+from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
 DEFAULTS = {"duration": None, "interval": None, "t0": 0.0, "levels": 100, "convexity_deficiency": 0.01,
@@ -307,14 +308,7 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
         raise ConfigError(f"{where}: system {system.name!r}: the LAVD takes the vorticity from a vector field's "
                           "formulas or from velocity data on a regular or rectilinear grid (in the plane, or "
                           "on the sphere short of a pole)")
-    axes_spec = section.get("axes", [])
-    if len(axes_spec) != 2:
-        raise ConfigError(f"{where}: section: expected two axes")
-    axes = tuple((axis["name"], np.linspace(*axis["range"], int(axis["points"]))) for axis in axes_spec)
-    fixed = dict(section.get("fixed") or {})
-    names = [name for name, _ in axes] + list(fixed)
-    if sorted(names) != sorted(system.coordinates):
-        raise ConfigError(f"{where}: section: axes and fixed must name each of {list(system.coordinates)} once")
+    axes, fixed = section_grid(section, system.coordinates, where)
     parameters = check_lavd_parameters(dict(parameters), where, key)
     result = lavd_field(system, axes, fixed, parameters, threads=threads)
     values = [v for _, v in axes]
