@@ -31,7 +31,7 @@ sphere grid (``kernels/polar_ld_metric.py``): the arc length from |dX/dt|, which
 the basis, and M_p from u and v, whose turning with the basis near a pole the step control follows
 because E and N are states.
 End states are returned as longitude (in the grid's convention) and latitude: how many times a
-trajectory wound round the sphere is not kept. A spatial ``window`` keeps today's behaviour: the
+trajectory wound round the sphere is not kept. A spatial ``window`` keeps the regional sphere engine: the
 trajectories stop at its edges.
 """
 
