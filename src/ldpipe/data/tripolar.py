@@ -27,17 +27,9 @@ import xarray as xr
 from .curvilinear import curvilinear_dataset
 
 
-def tripolar_grid(columns: int = 72, spacing: float = 5.0, fold_latitude: float = 60.0, cap_rows: int = 6,
-                  south: float = -75.0) -> tuple[np.ndarray, np.ndarray]:
-    """Longitudes and latitudes (degrees, each (rows, columns)) of a tripolar grid (module
-    docstring): ``columns`` longitudes -180 + (i + 1/2) 360 / columns (an even number), rows every
-    ``spacing`` degrees from ``south`` up to the row below ``fold_latitude``, then ``cap_rows`` + 1
-    rows of the cap from the circle ``fold_latitude`` to the fold."""
-    if columns % 2:
-        raise ValueError(f"columns: expected an even number (the fold pairs column i with columns - 1 - i), got {columns}")
-    lon = -180.0 + (np.arange(columns) + 0.5) * 360.0 / columns
-    count = round((fold_latitude - south) / spacing)
-    rows = fold_latitude - spacing * np.arange(count, 0, -1)
+def cap_nodes(lon: np.ndarray, fold_latitude: float, cap_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudes and latitudes (degrees, (cap_rows + 1, len(lon))) of the cap's nodes of the
+    columns that leave the circle ``fold_latitude`` at longitudes ``lon`` (module docstring)."""
     a = math.tan(math.radians(90.0 - fold_latitude) / 2.0)
     upper = np.where(lon > 0.0, lon, lon + 180.0)  # each column's partner in the half lon in (0, 180)
     # i a cot(zeta / 2) = a e^(i lon) on the circle: tan(zeta / 2) = i e^(-i lon), sigma = pi / 2 there
@@ -45,19 +37,66 @@ def tripolar_grid(columns: int = 72, spacing: float = 5.0, fold_latitude: float 
     sigma = 0.5 * np.pi * (1.0 + np.arange(cap_rows + 1) / cap_rows)
     w = 1j * a / np.tan((sigma[:, None] + 1j * tau[None, :]) / 2.0)
     w = np.where(lon > 0.0, w, -w)  # the other half: turned by 180 degrees about the pole
-    cap_lon = np.degrees(np.angle(w))
-    cap_lat = 90.0 - 2.0 * np.degrees(np.arctan(np.abs(w)))
+    return np.degrees(np.angle(w)), 90.0 - 2.0 * np.degrees(np.arctan(np.abs(w)))
+
+
+def column_longitudes(columns: int) -> np.ndarray:
+    """The columns' longitudes, -180 + (i + 1/2) 360 / columns (an even number)."""
+    if columns % 2:
+        raise ValueError(f"columns: expected an even number (the fold pairs column i with columns - 1 - i), got {columns}")
+    return -180.0 + (np.arange(columns) + 0.5) * 360.0 / columns
+
+
+def tripolar_grid(columns: int = 72, spacing: float = 5.0, fold_latitude: float = 60.0, cap_rows: int = 6,
+                  south: float = -75.0) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudes and latitudes (degrees, each (rows, columns)) of a tripolar grid (module
+    docstring): ``columns`` longitudes -180 + (i + 1/2) 360 / columns (an even number), rows every
+    ``spacing`` degrees from ``south`` up to the row below ``fold_latitude``, then ``cap_rows`` + 1
+    rows of the cap from the circle ``fold_latitude`` to the fold."""
+    lon = column_longitudes(columns)
+    count = round((fold_latitude - south) / spacing)
+    rows = fold_latitude - spacing * np.arange(count, 0, -1)
+    cap_lon, cap_lat = cap_nodes(lon, fold_latitude, cap_rows)
     longitudes = np.vstack([np.broadcast_to(lon, (count, columns)), cap_lon])
     latitudes = np.vstack([np.broadcast_to(rows[:, None], (count, columns)), cap_lat])
     return longitudes, latitudes
 
 
+#: The step (degrees of the columns' longitude on the fold circle) of :func:`tripolar_angle`'s differences.
+ANGLE_STEP = 1e-5
+
+
+def tripolar_angle(columns: int = 72, spacing: float = 5.0, fold_latitude: float = 60.0, cap_rows: int = 6,
+                   south: float = -75.0) -> np.ndarray:
+    """The angle (radians, counter-clockwise from east) of the grid's i direction at each node of
+    :func:`tripolar_grid`: 0 south of the cap; in the cap the direction of the cap's map as its
+    column moves along the circle, by centred differences of :data:`ANGLE_STEP` (rounding-level,
+    a reference for the grid's own differences)."""
+    lon, lat = tripolar_grid(columns, spacing, fold_latitude, cap_rows, south)
+    angle = np.zeros(lon.shape)
+    ahead = cap_nodes(lon[0] + ANGLE_STEP, fold_latitude, cap_rows)
+    behind = cap_nodes(lon[0] - ANGLE_STEP, fold_latitude, cap_rows)
+    lam, phi = np.radians(lon[-cap_rows - 1:]), np.radians(lat[-cap_rows - 1:])
+
+    def unit(pair):
+        a, b = np.radians(pair[0]), np.radians(pair[1])
+        return np.stack([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)], axis=-1)
+    along = unit(ahead) - unit(behind)
+    east = np.stack([-np.sin(lam), np.cos(lam), np.zeros_like(lam)], axis=-1)
+    north = np.stack([-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)], axis=-1)
+    angle[-cap_rows - 1:] = np.arctan2(np.einsum("...k,...k", along, north), np.einsum("...k,...k", along, east))
+    return angle
+
+
 def tripolar_dataset(field, times: np.ndarray, *, time_units: str = "days since 2000-01-01",
-                     **grid) -> xr.Dataset:
+                     components: str = "geographic", **grid) -> xr.Dataset:
     """``field(lon, lat, t) -> (u, v)`` (eastward, northward, m/s) on a tripolar grid
-    (:func:`tripolar_grid`'s options ``grid``) at ``times``, its coordinates ``nav_lon``, ``nav_lat``."""
+    (:func:`tripolar_grid`'s options ``grid``) at ``times``, its coordinates ``nav_lon``, ``nav_lat``;
+    with ``components="grid"`` u, v along the grid's i and j (:func:`tripolar_angle`)."""
     lon, lat = tripolar_grid(**grid)
-    dataset = curvilinear_dataset(field, lon, lat, times, sphere=True, time_units=time_units)
+    angle = tripolar_angle(**grid) if components == "grid" else None
+    dataset = curvilinear_dataset(field, lon, lat, times, sphere=True, time_units=time_units, components=components,
+                                  angle=angle)
     dataset = dataset.rename({"lon_rho": "nav_lon", "lat_rho": "nav_lat", "eta": "y", "xi": "x"})
     for name in ("u", "v"):
         dataset[name].attrs["coordinates"] = "nav_lon nav_lat"

@@ -29,6 +29,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
+from .folded import folded_grid, make_folded_system
 from .grid_geometry import GridGeometry, angle_from_coordinates, keys_padded, wrapped
 from .regular import DataWindow, VelocityDataSystem, index_window, kernel_source, read_window
 from .source import DataSource, kernel_text
@@ -226,7 +227,8 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
     if fold:
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds onto "
                           f"itself along its {fold} row (node i on node n - 1 - i: a tripolar grid's north fold); "
-                          "joining a fold is not supported yet")
+                          "a fold is joined on a grid that goes all round the sphere with its velocities at the "
+                          "nodes (not a C-grid's faces), its fold its last row")
     if pole or jumps > LONGITUDE_JUMP:
         why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
@@ -247,5 +249,12 @@ def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module
 
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
                             ) -> CurvilinearVelocitySystem:
-    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
+    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`); a sphere's grid
+    that goes all round it and ends on a north fold is :mod:`.folded`'s."""
+    if source.sphere and not source.staggered:
+        with source.open() as dataset:
+            x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
+        grid = folded_grid(source, x, y)
+        if grid is not None:
+            return make_folded_system(name, source, spec, coordinates, grid)
     return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates)

@@ -1,0 +1,213 @@
+"""Velocity data on a tripolar global grid (ldpipe.data.tripolar), joined across its seam, its north
+fold and the south pole, against closed forms.
+
+- Solid-body rotations (test_poles.py's fields: about the axis through (lon 0, lat 0), through
+  (lon 0, lat 30) and about the polar axis), sampled at the nodes of tripolar grids of 5 degrees
+  whose regular part reaches the south pole (a row at it, or half a spacing from it) and whose cap
+  (a Murray bipolar cap north of 60 or 62.5 N) ends on the north fold: a point is after t the start
+  rotated by omega t about the axis (closed form, Rodrigues' formula), having run
+  omega R sin(angle to the axis) t (its arc length, closed form). The starts' circles cross both
+  poles and the fold, or go round the North Pole inside the cap, or along the rows across the
+  seam; they keep 10 degrees or more from the cap's own poles (lon 0 and 180 on the fold
+  latitude), where the grid's cells shrink to nothing. The rotation is an isometry: its FTLE is 0.
+- The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at the order of the
+  cubic interpolants (third), or no worse than second where the cap meets the regular part with a
+  kink in the grid's spacing.
+- Refused by name: a fold whose mirrored nodes do not match, a grid of 2-D coordinates that is a
+  regular grid reaching the north pole, a grid starting near the south pole but not at it or half a
+  spacing from it.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+from support.workflow import documented_yaml
+
+from ldpipe.config import validate_config
+from ldpipe.config.parameters import parameters_from_config
+from ldpipe.core.maps.assembly import compute_ld_map
+from ldpipe.data.curvilinear import curvilinear_dataset, write_dataset
+from ldpipe.data.tripolar import tripolar_dataset
+from ldpipe.engine import LDSettings, compute_ld
+from ldpipe.errors import ConfigError
+from ldpipe.systems import make_system
+
+pytestmark = pytest.mark.compiles  # the folded grid's engine, loaded by this file's tests alone
+TIGHT = {"rtol": 1e-10, "atol": 1e-10}
+RADIUS, OMEGA, DAY = 6.371e6, 2 * math.pi / (4 * 86400.0), 86400.0  # a turn in 4 days
+#: Tripolar grids of 5 degrees: the regular part from the south pole (a row at it) to the cap at
+#: 60 N, or from half a spacing from it to the cap at 62.5 N.
+GRIDS = {"pole_row": {"fold_latitude": 60.0, "south": -90.0}, "half_spacing": {"fold_latitude": 62.5, "south": -87.5}}
+
+
+def grid_options(columns=72, fold_latitude=60.0, south=-90.0):
+    spacing = 360.0 / columns
+    return {"columns": columns, "spacing": spacing, "fold_latitude": fold_latitude,
+            "cap_rows": round((90.0 - fold_latitude) / spacing), "south": south}
+
+
+def axis(tilt):
+    return np.array([math.cos(math.radians(tilt)), 0.0, math.sin(math.radians(tilt))])
+
+
+def unit(points):
+    lam, phi = np.radians(points[..., 0]), np.radians(points[..., 1])
+    return np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
+
+
+def rotation(tilt):
+    """omega a x X about ``axis(tilt)`` as (u, v), east and north (test_poles.py's)."""
+    sin_a, cos_a = math.sin(math.radians(tilt)), math.cos(math.radians(tilt))
+
+    def field(lon, lat, t):
+        lam, phi = np.radians(lon), np.radians(lat)
+        return (OMEGA * RADIUS * (sin_a * np.cos(phi) - cos_a * np.sin(phi) * np.cos(lam)) + 0 * t,
+                OMEGA * RADIUS * cos_a * np.sin(lam) + 0 * lat + 0 * t)
+    return field
+
+
+def rotated(starts, days, tilt):
+    """The starts rotated by OMEGA * days about ``axis(tilt)`` (Rodrigues' formula)."""
+    angle, a, r = OMEGA * days * DAY, axis(tilt), unit(starts)
+    r = r * math.cos(angle) + np.cross(a, r) * math.sin(angle) + np.outer(r @ a, a) * (1 - math.cos(angle))
+    return np.column_stack([np.degrees(np.arctan2(r[:, 1], r[:, 0])),
+                            np.degrees(np.arctan2(r[:, 2], np.hypot(r[:, 0], r[:, 1])))])
+
+
+def great_circle_degrees(a, b):
+    return np.degrees(2 * np.arcsin(0.5 * np.linalg.norm(unit(a) - unit(b), axis=1)))
+
+
+#: Starts of each rotation. 0: circles x = const: through both poles and the fold (x = 0, and
+#: 0.017), through the cap beside the pole (x = -0.15, 0.17), south of the cap (x = -0.72), round
+#: the axis (x = 0.98). 90: along rows (the equator across the seam, 45 S), round the pole inside
+#: the cap across the fold (75, 80, 88 N), round the south pole (89 S). 30: through the North Pole
+#: (60 degrees from the axis), the South Pole (120), and the cap beside them (50, 70 degrees).
+STARTS = {0.0: np.array([[90.0, 0.0], [89.0, 0.0], [100.0, -30.0], [200.0, 40.0], [10.0, 5.0], [0.0, 80.0],
+                         [-90.0, 70.0]]),
+          90.0: np.array([[178.0, 0.0], [-150.0, -45.0], [30.0, 75.0], [100.0, 80.0], [-10.0, 88.0], [45.0, -89.0]]),
+          30.0: np.array([[0.0, -30.0], [180.0, 30.0], [0.0, -20.0], [0.0, -40.0], [90.0, 60.0]])}
+
+
+def write(path, tilt, **options):
+    write_dataset(tripolar_dataset(rotation(tilt), np.arange(0.0, 4.01, 0.5), **grid_options(**options)), path)
+    return path
+
+
+def folded_system(path, name="globe"):
+    return make_system(name, {"velocity_data": {"path": str(path), "coordinates": "sphere"}})
+
+
+@pytest.fixture(scope="module")
+def grids(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tripolar")
+    return {(name, tilt): write(folder / f"{name}_{tilt:g}.nc", tilt, **options)
+            for name, options in GRIDS.items() for tilt in (0.0, 90.0)}
+
+
+def run(system, tilt, direction=1, t0=0.4, days=3.2):
+    starts = STARTS[tilt]
+    arc = compute_ld(system, starts, direction, LDSettings(tau=days, p="arclength", **TIGHT), t0=t0)
+    speed = OMEGA * RADIUS * np.sqrt(np.clip(1.0 - (unit(starts) @ axis(tilt)) ** 2, 0.0, None))
+    errors = great_circle_degrees(arc.end_state, rotated(starts, direction * days, tilt))
+    return arc, errors, arc.ld / (speed * days * DAY / 1000.0) - 1.0
+
+
+@pytest.mark.parametrize("tilt", [0.0, 90.0])
+@pytest.mark.parametrize("grid", sorted(GRIDS))
+def test_rotations_cross_the_poles_the_fold_and_the_seam(grids, grid, tilt):
+    system = folded_system(grids[grid, tilt])
+    assert system.engine_name == "velocity_data_folded" and system.grid.south == (0 if grid == "pole_row" else 1)
+    for direction, t0 in ((1, 0.4), (-1, 3.6)):
+        arc, errors, arc_error = run(system, tilt, direction, t0)
+        assert not arc.failed.any() and (arc.time == 3.2).all()
+        flags = system.stop_flags(arc.end_state, t0, t0 + direction * 3.2)
+        assert not flags["left_data"].any() and not flags["on_land"].any()
+        # measured: <= 3.1e-3 degrees (cubic convolution on the 5 degree grid; largest 1 degree from
+        # the South Pole and where the circles run through the cap)
+        assert errors.max() < 1e-2, errors
+        # measured: relative error <= 7.5e-6 about the equatorial axis, 6.1e-4 about the polar one (its
+        # circle of radius 1 degree round the South Pole, 5 degree cells)
+        assert np.abs(arc_error).max() < (2e-5 if tilt == 0.0 else 2e-3), arc_error
+        assert (arc.end_state[:, 0] >= -180.0).all() and (arc.end_state[:, 0] < 180.0).all()  # the grid's convention
+
+
+def test_the_tilted_rotation_converges_in_the_cap(tmp_path):
+    errors = {}
+    for columns in (36, 72, 144):
+        system = folded_system(write(tmp_path / f"tilted_{columns}.nc", 30.0, columns=columns))
+        arc, position, arc_error = run(system, 30.0)
+        assert not arc.failed.any() and (arc.time == 3.2).all()
+        errors[columns] = np.array([position.max(), np.abs(arc_error).max()])
+    # measured: positions 1.9e-2, 3.5e-3, 9.2e-4 degrees, arc lengths 1.2e-4, 2.6e-5, 6.2e-6 relative:
+    # each halving of the spacing divides them by 3.8 to 5.4, second order (the cap's spacing is 1.5
+    # times the regular part's where they meet, a kink the cubics see); a first-order error (e.g. the
+    # velocity's grid angle off by a cell) would divide them by 2
+    assert np.all(errors[36] / errors[72] > 3.0) and np.all(errors[72] / errors[144] > 3.0), errors
+    assert errors[144][0] < 3e-3
+
+
+def test_the_rotation_has_zero_ftle_across_the_pole(grids):
+    # A map round the North Pole inside the cap whose circles cross the pole and the fold within the
+    # time; the rotation's FTLE is 0 (closed form) but for the differences' error.
+    system = folded_system(grids["half_spacing", 0.0])
+    section = {"axes": [{"name": "lon", "range": [80.0, 100.0], "points": 5},
+                        {"name": "lat", "range": [80.0, 89.5], "points": 4}]}
+    entry = {"system": "globe", "t0": 1.0, "tau": 0.5, "p": "arclength", "ftle": True,
+             "integrator": {"rtol": 1e-10, "atol": 1e-10}, "section": section}
+    config = validate_config({"systems": {"globe": system.spec}, "ld_maps": {"pole": entry}})
+    dataset = compute_ld_map(parameters_from_config(config, "ld", "pole"), None, show_progress=False)
+    for label in ("forward", "backward"):
+        assert dataset[f"ftle_defined_{label}"].values.all()
+        # measured: |FTLE| <= 1.04e-3 per day (the differences' error over 2.5 degrees)
+        assert np.abs(dataset[f"ftle_{label}"].values).max() < 5e-3, label
+        ends = np.column_stack([dataset[f"end_lon_{label}"].values.ravel(), dataset[f"end_lat_{label}"].values.ravel()])
+        lon, lat = np.meshgrid(dataset.lon.values, dataset.lat.values, indexing="ij")
+        expected = rotated(np.column_stack([lon.ravel(), lat.ravel()]), 0.5 if label == "forward" else -0.5, 0.0)
+        assert great_circle_degrees(ends, expected).max() < 2e-3  # measured 5.6e-4
+    assert (np.abs(dataset.end_lon_forward.values) > 90.0).any()  # across the pole: on the far side
+
+
+def refused(path, dataset):
+    write_dataset(dataset, path)
+    return folded_system(path)
+
+
+def test_folds_and_poles_the_grid_cannot_join_are_refused(tmp_path):
+    field, times = rotation(0.0), np.arange(0.0, 2.01)
+    torn = tripolar_dataset(field, times, **grid_options(36))
+    lon = torn.nav_lon.values.copy()
+    lon[-1, 3] += 0.5  # column 3's fold node moved off column 32's
+    torn = torn.assign_coords(nav_lon=(("y", "x"), lon, torn.nav_lon.attrs))
+    # the two nodes' distance (degrees of arc): the chord of half a degree of longitude at their latitude
+    apart = math.degrees(2 * math.sin(math.radians(0.25)) * math.cos(math.radians(torn.nav_lat.values[-1, 3])))
+    with pytest.raises(ConfigError, match=r"\('nav_lon', 'nav_lat'\) goes all round the sphere, but its last row does "
+                                          rf"not fold onto itself: its nodes of columns 3 and 32 are {apart:.4g} degrees"):
+        refused(tmp_path / "torn.nc", torn)
+    lon, lat = np.meshgrid(np.arange(0.0, 359.0, 10.0), np.arange(-90.0, 90.1, 10.0))
+    regular = curvilinear_dataset(field, lon, lat, times, sphere=True, time_units="days since 2000-01-01")
+    with pytest.raises(ConfigError, match=r"\('lon_rho', 'lat_rho'\) is a regular longitude/latitude grid reaching "
+                                          r"the north pole.*give its 1-D longitudes and latitudes"):
+        refused(tmp_path / "regular.nc", regular)
+    near = tripolar_dataset(field, times, **grid_options(36, fold_latitude=61.0, south=-88.0))
+    assert near.nav_lat.values[0, 0] == -89.0  # 15 rows of 10 degrees below 61 N
+    with pytest.raises(ConfigError, match=r"starts 1 degrees from the south pole, less than its spacing 10 but neither"):
+        refused(tmp_path / "near.nc", near)
+
+
+def test_the_orca_entry_reads_a_tripolar_file_with_nemos_names(tmp_path, monkeypatch):
+    # The guide's NEMO ORCA block, as written: u, v along the grid's i and j at the T points (turned
+    # by the generator's own angle, from its cap's map; the system turns them back by the nodes'),
+    # NEMO's names. The equatorial rotation's circles through the poles and the fold end where the
+    # closed form puts them.
+    monkeypatch.chdir(tmp_path)
+    dataset = tripolar_dataset(rotation(0.0), np.arange(0.0, 4.01, 0.5), components="grid", **grid_options())
+    write_dataset(dataset.rename(u="uo", v="vo", time="time_counter"), "orca_1d_0001.nc")
+    entry = yaml.safe_load(documented_yaml("path: orca_1d_*.nc"))["systems"]["orca"]["velocity_data"]
+    system = make_system("orca", {"velocity_data": entry})
+    arc, errors, arc_error = run(system, 0.0)
+    assert not arc.failed.any() and (arc.time == 3.2).all()
+    # measured: as with east and north components (<= 1.8e-3 degrees, 7.5e-6 relative)
+    assert errors.max() < 6e-3 and np.abs(arc_error).max() < 2e-5, (errors, arc_error)
