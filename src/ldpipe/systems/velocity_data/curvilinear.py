@@ -16,8 +16,8 @@ metric P, interpolated from its nodes, gives the velocity in coordinate units pe
 the plane and in the data's velocity units on the sphere (the arc length in km), as a regular
 grid's LD.
 
-A C-grid's face velocities are :mod:`.staggered`'s. Not yet: grids through a pole or folded
-(tripolar), 3-D data, spatial windows, uneven times; a map's region box (variable-time LDs).
+A C-grid's face velocities are :mod:`.staggered`'s; a tripolar global grid (joined across its
+fold) is :mod:`.folded`'s. Not yet: other grids through a pole or folded, 3-D data, spatial windows, uneven times; a map's region box (variable-time LDs).
 """
 
 from __future__ import annotations
