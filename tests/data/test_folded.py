@@ -6,13 +6,15 @@ fold and the south pole, against closed forms.
   whose regular part reaches the south pole (a row at it, or half a spacing from it) and whose cap
   (a Murray bipolar cap north of 60 or 62.5 N) ends on the north fold: a point is after t the start
   rotated by omega t about the axis (closed form, Rodrigues' formula), having run
-  omega R sin(angle to the axis) t (its arc length, closed form). The starts' circles cross both
-  poles and the fold, or go round the North Pole inside the cap, or along the rows across the
-  seam; they keep 10 degrees or more from the cap's own poles (lon 0 and 180 on the fold
-  latitude), where the grid's cells shrink to nothing. The rotation is an isometry: its FTLE is 0.
-- The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at the order of the
-  cubic interpolants (third), or no worse than second where the cap meets the regular part with a
-  kink in the grid's spacing.
+  omega R sin(angle to the axis) t (its arc length, closed form); M_1 along the circles through
+  the poles is quad's integral of the closed form. The starts' circles cross both poles and the
+  fold, or go round the North Pole inside the cap, or along the rows across the seam; they keep
+  10 degrees or more from the cap's own poles (lon 0 and 180 on the fold latitude), where the
+  grid's cells shrink to nothing. The rotation is an isometry: its FTLE is 0 (closed form).
+- The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at second order
+  or better (the cubics' third, less where the cap meets the regular part with a kink in the
+  rows' spacing).
+- The guide's ORCA block, as written, on such a file with NEMO's names and grid components.
 - Refused by name: a fold whose mirrored nodes do not match, a grid of 2-D coordinates that is a
   regular grid reaching the north pole, a grid starting near the south pole but not at it or half a
   spacing from it.
@@ -23,6 +25,7 @@ import math
 import numpy as np
 import pytest
 import yaml
+from scipy.integrate import quad
 from support.workflow import documented_yaml
 
 from ldpipe.config import validate_config
@@ -91,6 +94,17 @@ STARTS = {0.0: np.array([[90.0, 0.0], [89.0, 0.0], [100.0, -30.0], [200.0, 40.0]
           30.0: np.array([[0.0, -30.0], [180.0, 30.0], [0.0, -20.0], [0.0, -40.0], [90.0, 60.0]])}
 
 
+def m_1(start, days, tilt):
+    """M_1 along the closed-form circle: the integral of |u| + |v| (m/s times days), by quad."""
+    field = rotation(tilt)
+
+    def integrand(t):
+        lon, lat = rotated(start[None], t, tilt)[0]
+        u, v = field(lon, lat, 0.0)
+        return abs(u) + abs(v)
+    return quad(integrand, 0.0, days, limit=400, epsabs=1e-10, epsrel=1e-12)[0]
+
+
 def write(path, tilt, **options):
     write_dataset(tripolar_dataset(rotation(tilt), np.arange(0.0, 4.01, 0.5), **grid_options(**options)), path)
     return path
@@ -132,6 +146,12 @@ def test_rotations_cross_the_poles_the_fold_and_the_seam(grids, grid, tilt):
         # circle of radius 1 degree round the South Pole, 5 degree cells)
         assert np.abs(arc_error).max() < (2e-5 if tilt == 0.0 else 2e-3), arc_error
         assert (arc.end_state[:, 0] >= -180.0).all() and (arc.end_state[:, 0] < 180.0).all()  # the grid's convention
+    if tilt == 0.0:
+        starts = STARTS[tilt][:3]
+        m1 = compute_ld(system, starts, 1, LDSettings(tau=3.2, p=1.0, **TIGHT), t0=0.4)
+        # M_1 from u and v in the local basis, which turns fast at the pole (quad of the closed
+        # form along the circle): measured relative error <= 1.1e-5
+        np.testing.assert_allclose(m1.ld, [m_1(start, 3.2, tilt) for start in starts], rtol=4e-5)
 
 
 def test_the_tilted_rotation_converges_in_the_cap(tmp_path):
