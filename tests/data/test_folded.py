@@ -154,6 +154,25 @@ def test_rotations_cross_the_poles_the_fold_and_the_seam(grids, grid, tilt):
         np.testing.assert_allclose(m1.ld, [m_1(start, 3.2, tilt) for start in starts], rtol=4e-5)
 
 
+def test_a_rotation_speeding_up_in_time(tmp_path):
+    # omega (1 + t / 4) (t in days) about the equatorial axis: a point turns by omega (t + t^2 / 8)
+    # days (closed form); the time interpolant, cubic, is exact for the linear growth.
+    steady = rotation(0.0)
+
+    def field(lon, lat, t):
+        u, v = steady(lon, lat, t)
+        return u * (1.0 + t / 4.0), v * (1.0 + t / 4.0)
+    path = tmp_path / "speeding.nc"
+    write_dataset(tripolar_dataset(field, np.arange(0.0, 4.01, 0.5), **grid_options()), path)
+    system = folded_system(path)
+    starts = STARTS[0.0]
+    for direction, t0, t1 in ((1, 0.4, 3.6), (-1, 3.6, 0.4)):
+        arc = compute_ld(system, starts, direction, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=t0)
+        turned = (t1 + t1 ** 2 / 8.0) - (t0 + t0 ** 2 / 8.0)  # days of the steady rotation
+        errors = great_circle_degrees(arc.end_state, rotated(starts, turned, 0.0))
+        assert errors.max() < 1e-2, errors  # measured 3.1e-3 degrees (the steady rotation's 1.8e-3, sped up)
+
+
 def test_the_tilted_rotation_converges_in_the_cap(tmp_path):
     errors = {}
     for columns in (36, 72, 144):
