@@ -14,6 +14,8 @@ fold and the south pole, against closed forms.
 - The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at second order
   or better (the cubics' third, less where the cap meets the regular part with a kink in the
   rows' spacing).
+- Land round the cap's own poles stops a circle that runs into it, on its circle; a grid whose
+  first row is not at the south pole is an edge there (the stop time in closed form).
 - The guide's ORCA block, as written, on such a file with NEMO's names and grid components.
 - Refused by name: a fold whose mirrored nodes do not match, a grid of 2-D coordinates that is a
   regular grid reaching the north pole, a grid starting near the south pole but not at it or half a
@@ -250,3 +252,34 @@ def test_the_orca_entry_reads_a_tripolar_file_with_nemos_names(tmp_path, monkeyp
     assert not arc.failed.any() and (arc.time == 3.2).all()
     # measured: as with east and north components (<= 1.8e-3 degrees, 7.5e-6 relative)
     assert errors.max() < 6e-3 and np.abs(arc_error).max() < 2e-5, (errors, arc_error)
+
+
+def test_land_at_the_caps_poles_and_the_southern_edge_stop_trajectories(tmp_path):
+    # Land on the nodes within 10 degrees of the cap's poles (lon 0 and 180 on 60 N, where models
+    # put it) and the grid's first row at 75 S (an edge, no pole). About the equatorial axis the
+    # circle x = 0.5 (from lon 60 on the equator) runs north into the cap's pole at lon 0 after a
+    # quarter turn: it stops entering a cell with a land corner, 10 degrees from that pole or up to a
+    # cell's diagonal (7.1 degrees at 50 N) more, on its circle. The circle through both poles (from
+    # lon 90) crosses the North Pole, runs down the meridian -90 and leaves the data at 75 S, 255
+    # degrees on (closed form); the circle x = 0.98 runs on, unflagged.
+    dataset = tripolar_dataset(rotation(0.0), np.arange(0.0, 4.01, 0.5), **grid_options(south=-75.0))
+    poles = unit(np.array([[0.0, 60.0], [180.0, 60.0]]))
+    nodes = unit(np.stack([dataset.nav_lon.values, dataset.nav_lat.values], axis=-1))
+    land = (np.degrees(np.arccos(np.clip(nodes @ poles.T, -1.0, 1.0))) < 10.0).any(axis=-1)
+    dataset = dataset.assign(u=dataset.u.where(~land), v=dataset.v.where(~land))
+    write_dataset(dataset, tmp_path / "land.nc")
+    system = folded_system(tmp_path / "land.nc")
+    starts = np.array([[60.0, 0.0], [90.0, 0.0], [10.0, 5.0]])
+    arc = compute_ld(system, starts, 1, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=0.4)
+    flags = system.stop_flags(arc.end_state, 0.4, 3.6)
+    assert flags["on_land"].tolist() == [True, False, False] and flags["left_data"].tolist() == [False, True, False]
+    # each stopped where its circle is at the time it moved (closed form), the arc length that time's
+    errors = great_circle_degrees(arc.end_state, np.vstack([rotated(start[None], time, 0.0)
+                                                            for start, time in zip(starts, arc.time)]))
+    assert errors.max() < 1e-2, errors  # measured 3.7e-3 degrees, as the circles' own errors
+    distance = great_circle_degrees(arc.end_state[:1], np.array([[0.0, 60.0]]))[0]
+    assert 10.0 <= distance <= 17.1, distance  # measured 12.0 degrees
+    # measured: on 75 S within 5e-8 degrees (the kernel stops it just past the row), on the meridian
+    # -90 to rounding; the time 2e-5 days late (the interpolation's 1.8e-3 degrees along the circle)
+    np.testing.assert_allclose(arc.end_state[1], [-90.0, -75.0], atol=1e-6)
+    np.testing.assert_allclose(arc.time[1:], [255.0 / 90.0, 3.2], rtol=5e-5)
