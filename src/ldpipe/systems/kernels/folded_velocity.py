@@ -23,7 +23,8 @@
 # first row's latitude and 6 the spacing (the regular part), 7 t_first, 8 dt, 9 the window row of
 # grid row 0, 10 radius, 11 velocity_scale (the LD section reads both), 12 the cap's first latitude,
 # 13 where the positions start, 14 where the land cells start, 15 where the table starts, 16 the
-# table's M, 17 its half-width in the stereographic plane, 18 the fold row F.
+# table's M, 17 its half-width in the stereographic plane, 18 the fold's row F (the last row, or
+# half a row beyond it).
 import math
 
 import numba

@@ -1,9 +1,11 @@
 """Velocity data on a global curvilinear grid (tripolar, ORCA-like): joined across its seam and its north fold.
 
 A tripolar grid is a regular longitude/latitude grid all round the sphere up to a latitude, and
-north of it a cap whose rows end on the **north fold**: the last row traversed twice, its node of
-column i the node of column n - 1 - i (a T-point fold, as :mod:`ldpipe.data.tripolar` writes
-it). The geographic North Pole is an ordinary point of the cap; its own two poles (where its cells
+north of it a cap whose rows end on the **north fold**: either the last row is on it, traversed
+twice, its node of column i the node of column n - 1 - i (as :mod:`ldpipe.data.tripolar` writes
+by default), or the fold lies half a row above the last row but one, the last row its mirror
+(node i of the last row is node n - 1 - i of the row below: NEMO's F-point pivot, as ORCA1's T
+points; the mirrored row is not read). The geographic North Pole is an ordinary point of the cap; its own two poles (where its cells
 shrink to nothing) lie on the cap's first row, where models put land.
 
 The state is the 3-D position on the sphere, as on a regular global grid (:mod:`.polar`, whose
@@ -14,13 +16,13 @@ smooth field on the sphere, with no sign flips across the fold or a pole (a velo
 components change sign across the fold, u and v across a pole). The indices of a point: below
 the cap, the regular part's closed form; in the cap, Gauss-Newton on the cubic convolution of the
 nodes' positions from the node a lookup table of the cap's stereographic plane gives. The
-stencil reads across the seam (the ring's columns), across the fold (row F + d of column i is row
-F - d of column n - 1 - i) and, when the regular part reaches the south pole (a row at it or half a
+stencil reads across the seam (the ring's columns), across the fold (at row F, the row F + d of
+column i is row F - d of column n - 1 - i) and, when the regular part reaches the south pole (a row at it or half a
 spacing from it), across that pole (row -d of column i is row d, or d - 1, of column i + n/2).
 
 A point where Newton does not converge (within about a cell of the cap's poles) stops there, as on
-land. Not read: an F-point fold (NEMO's ORCA1, ORCA12: the fold between two rows), halo columns
-repeated at the seam, a cap that is not a grid's last rows, C-grid velocities on a folded grid.
+land. Not read: a T-point pivot (the fold through nodes, node i on node n - i: NEMO's ORCA2,
+ORCA025, ORCA12), halo columns repeated at the seam (refused: drop them), a cap that is not a grid's last rows, C-grid velocities on a folded grid.
 """
 
 from __future__ import annotations
@@ -55,10 +57,11 @@ def unit_vectors(lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
 
 
-def fold_mismatch(lon: np.ndarray, lat: np.ndarray) -> tuple[float, int]:
-    """The largest distance (degrees of arc) between the last row's nodes i and n - 1 - i, and its column."""
-    points = unit_vectors(lon[-1], lat[-1])
-    distance = np.degrees(np.linalg.norm(points - points[::-1], axis=-1))
+def fold_mismatch(lon: np.ndarray, lat: np.ndarray, row: int = -1) -> tuple[float, int]:
+    """The largest distance (degrees of arc) between the last row's node i and node n - 1 - i of
+    ``row`` (the last row: a row on the fold; the one below: a row mirroring it), and its column."""
+    distance = np.degrees(np.linalg.norm(unit_vectors(lon[-1], lat[-1]) - unit_vectors(lon[row], lat[row])[::-1],
+                                         axis=-1))
     return float(distance.max()), int(np.argmax(distance))
 
 
@@ -80,6 +83,7 @@ class FoldedGrid:
     lat0: float
     dlat: float
     south: int | None  # None: a southern edge; 0: a row at the south pole; 1: the first row half a spacing from it
+    fold: float  # the fold's row: the last row (on the fold), or half a row beyond it (a mirrored row dropped)
     points: np.ndarray = field(repr=False, default=None)  # (ny, n, 3) unit vectors
 
     @property
@@ -98,8 +102,8 @@ class FoldedGrid:
     def source_rows(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For grid rows ``rows`` (past the fold, or the south pole, too): the grid row each reads
         and whether its columns are mirrored (n - 1 - i: past the fold) or turned half round (past the pole)."""
-        fold = self.shape[0] - 1
-        source = np.where(rows > fold, 2 * fold - rows, rows)
+        fold = self.fold
+        source = np.where(rows > fold, np.rint(2 * fold - rows).astype(int), rows)
         if self.south is not None:
             source = np.where(rows < 0, -rows - self.south, source)
         return source, np.sign(rows - fold).clip(0) - (rows < 0)
@@ -143,16 +147,25 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
     None if it does not go round. A ConfigError names the coordinates if it goes round but does not
     end on a fold whose mirrored nodes match, or has no regular longitude/latitude part below its cap."""
     names = source.grid_coordinates
+    points = unit_vectors(lon, lat)
+    if lon.shape[1] > 4 and np.allclose(points[:, :2], points[:, -2:], rtol=0.0, atol=1e-9):
+        raise ConfigError(f"velocity data {source.label}: the curvilinear grid {names} repeats its first two columns "
+                          "as its last two (a model's halo columns): drop its first and last column from every "
+                          "variable, e.g. dataset.isel(x=slice(1, -1)), so that each column is read once")
     if not goes_round(lon):
         return None
     ny, n = lon.shape
     mismatch, column = fold_mismatch(lon, lat)
-    if mismatch > FOLD_TOLERANCE:
+    fold = ny - 1.0
+    if mismatch > FOLD_TOLERANCE and ny > 2 and fold_mismatch(lon, lat, -2)[0] <= FOLD_TOLERANCE:
+        lon, lat, ny, fold = lon[:-1], lat[:-1], ny - 1, ny - 1.5  # the last row mirrors the row below: dropped
+    elif mismatch > FOLD_TOLERANCE:
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {names} goes all round the sphere, but "
                           f"its last row does not fold onto itself: its nodes of columns {column} and {n - 1 - column} "
-                          f"are {mismatch:.4g} degrees apart; a global curvilinear grid is read when it ends on a "
-                          "north fold whose node i is node n - 1 - i (a T-point fold; an F-point fold, or halo "
-                          "columns repeated at the seam, are not supported)")
+                          f"are {mismatch:.4g} degrees apart, nor does it mirror the row below it; a global "
+                          "curvilinear grid is read when its last row is on a north fold whose node i is node "
+                          "n - 1 - i, or mirrors the row below so (a fold half a row above that row, NEMO's F-point "
+                          "pivot); a T-point pivot (node i on node n - i) is not supported")
     if n % 2:
         raise ConfigError(f"velocity data {source.label}: the folded grid {names} has an odd number of columns ({n})")
     dlon = 360.0 / n
@@ -185,7 +198,7 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
         raise ConfigError(f"velocity data {source.label}: the folded grid {names} starts {gap:.6g} degrees from the "
                           f"south pole, less than its spacing {dlat:.6g} but neither at the pole nor half a spacing "
                           "from it, so no row across the pole continues the grid")
-    return FoldedGrid(lon, lat, regular, float(lon[0, 0]), dlon, float(lat[0, 0]), dlat, south,
+    return FoldedGrid(lon, lat, regular, float(lon[0, 0]), dlon, float(lat[0, 0]), dlat, south, fold,
                       unit_vectors(lon, lat))
 
 
@@ -262,7 +275,7 @@ def read_folded_window(source: DataSource, grid: FoldedGrid, angle: np.ndarray |
     header[13] = HEADER + velocity.size
     header[14] = header[13] + points.size
     header[15] = header[14] + cells.size
-    header[16:19] = (TABLE_SIZE, half, ny - 1)
+    header[16:19] = (TABLE_SIZE, half, grid.fold)
     buffer = np.concatenate([header, velocity.ravel(), points.ravel(), cells.ravel(), values.ravel()])
     x_grid = (0.0, 1.0, n)
     y_grid = (-float(grid.first_row), 1.0, rows)
