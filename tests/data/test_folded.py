@@ -250,10 +250,11 @@ def test_folds_and_poles_the_grid_cannot_join_are_refused(tmp_path):
 def test_the_orca_entry_reads_a_tripolar_file_with_nemos_names(tmp_path, monkeypatch):
     # The guide's NEMO ORCA block, as written: u, v along the grid's i and j at the T points (turned
     # by the generator's own angle, from its cap's map; the system turns them back by the nodes'),
-    # NEMO's names. The equatorial rotation's circles through the poles and the fold end where the
+    # NEMO's names and its F-point pivot (the last row mirroring the one below). The equatorial rotation's circles through the poles and the fold end where the
     # closed form puts them.
     monkeypatch.chdir(tmp_path)
-    dataset = tripolar_dataset(rotation(0.0), np.arange(0.0, 4.01, 0.5), components="grid", **grid_options())
+    dataset = tripolar_dataset(rotation(0.0), np.arange(0.0, 4.01, 0.5), components="grid",
+                               **grid_options(last_row="mirror"))
     write_dataset(dataset.rename(u="uo", v="vo", time="time_counter"), "orca_1d_0001.nc")
     entry = yaml.safe_load(documented_yaml("path: orca_1d_*.nc"))["systems"]["orca"]["velocity_data"]
     system = make_system("orca", {"velocity_data": entry})
