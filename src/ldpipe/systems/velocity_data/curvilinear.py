@@ -228,7 +228,7 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds onto "
                           f"itself along its {fold} row (node i on node n - 1 - i: a tripolar grid's north fold); "
                           "a fold is joined on a grid that goes all round the sphere with its velocities at the "
-                          "nodes (not a C-grid's faces), its fold its last row")
+                          "nodes (not a C-grid's faces)")
     if pole or jumps > LONGITUDE_JUMP:
         why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
