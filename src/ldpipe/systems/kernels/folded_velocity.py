@@ -16,7 +16,7 @@
 # units times velocity_scale) on the window's padded nodes (rows, columns, time, 3), the nodes'
 # unit positions (rows, columns, 3), the land cells (rows, columns: 1 where the cell from (r, c) to
 # (r + 1, c + 1) has a land node) and the lookup table (M, M, 2). The window's rows are the grid's
-# rows, 3 more beyond the fold (row F + d is row F - d of column n - 1 - i) and, if the grid reaches
+# rows, 3 more beyond the fold (row F + d is row F - d of column P - i) and, if the grid reaches
 # the south pole, 3 beyond it (column i + n / 2), each padded by one; its columns the ring with the
 # first column again at its end, padded by the real columns across the seam. Header: 0 nt, 1 the
 # window's rows, 2 the grid's columns n, 3 the first column's longitude and 4 the spacing, 5 the
@@ -24,7 +24,8 @@
 # grid row 0, 10 radius, 11 velocity_scale (the LD section reads both), 12 the cap's first latitude,
 # 13 where the positions start, 14 where the land cells start, 15 where the table starts, 16 the
 # table's M, 17 its half-width in the stereographic plane, 18 the fold's row F (the last row, or
-# half a row beyond it).
+# half a row beyond it), 19 the pivot P: across the fold column i continues as column P - i (n - 1
+# or n).
 import math
 
 import numba
@@ -59,7 +60,7 @@ def folded_cell(data, fi, fj):
     n = data[2]
     fold = data[18]
     if fj > fold:
-        fi = n - 1.0 - fi
+        fi = data[19] - fi
         fj = 2.0 * fold - fj
     fi -= n * math.floor(fi / n)
     return fi, fj + data[9]

@@ -57,11 +57,14 @@ def unit_vectors(lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
 
 
-def fold_mismatch(lon: np.ndarray, lat: np.ndarray, row: int = -1) -> tuple[float, int]:
-    """The largest distance (degrees of arc) between the last row's node i and node n - 1 - i of
-    ``row`` (the last row: a row on the fold; the one below: a row mirroring it), and its column."""
-    distance = np.degrees(np.linalg.norm(unit_vectors(lon[-1], lat[-1]) - unit_vectors(lon[row], lat[row])[::-1],
-                                         axis=-1))
+def fold_mismatch(lon: np.ndarray, lat: np.ndarray, row: int = -1, pivot: int = -1, last: int = -1
+                  ) -> tuple[float, int]:
+    """The largest distance (degrees of arc) between node i of row ``last`` and node ``pivot`` - i
+    (modulo n) of ``row`` (the same row: a row on the fold; the one below: a row mirroring it), and its column."""
+    n = lon.shape[1]
+    partner = (pivot - np.arange(n)) % n
+    distance = np.degrees(np.linalg.norm(unit_vectors(lon[last], lat[last])
+                                         - unit_vectors(lon[row], lat[row])[partner], axis=-1))
     return float(distance.max()), int(np.argmax(distance))
 
 
@@ -84,6 +87,7 @@ class FoldedGrid:
     dlat: float
     south: int | None  # None: a southern edge; 0: a row at the south pole; 1: the first row half a spacing from it
     fold: float  # the fold's row: the last row (on the fold), or half a row beyond it (a mirrored row dropped)
+    pivot: int  # across the fold column i continues as column pivot - i: n - 1 (F pivot) or n (T pivot)
     points: np.ndarray = field(repr=False, default=None)  # (ny, n, 3) unit vectors
 
     @property
@@ -101,7 +105,7 @@ class FoldedGrid:
 
     def source_rows(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For grid rows ``rows`` (past the fold, or the south pole, too): the grid row each reads
-        and whether its columns are mirrored (n - 1 - i: past the fold) or turned half round (past the pole)."""
+        and whether its columns are mirrored (pivot - i: past the fold) or turned half round (past the pole)."""
         fold = self.fold
         source = np.where(rows > fold, np.rint(2 * fold - rows).astype(int), rows)
         if self.south is not None:
@@ -118,7 +122,7 @@ class FoldedGrid:
         for position, (row, how) in enumerate(zip(source, kind)):
             if row < 0:  # below a southern edge: Keys' padding
                 continue
-            mapped = (n - 1 - columns) if how > 0 else (columns + n // 2) % n if how < 0 else columns
+            mapped = (self.pivot - columns) % n if how > 0 else (columns + n // 2) % n if how < 0 else columns
             out[..., position, :] = array[..., row, mapped]
         if self.south is None:
             out[..., 0, :] = 3 * out[..., 1, :] - 3 * out[..., 2, :] + out[..., 3, :]
@@ -135,7 +139,7 @@ class FoldedGrid:
         centres = -half + (np.arange(TABLE_SIZE) + 0.5) * (2.0 * half / TABLE_SIZE)
         wx, wy = np.meshgrid(centres, centres)  # [b, a]: row b of y, column a of x
         scale = 2.0 / (1.0 + wx ** 2 + wy ** 2)  # the inverse stereographic map
-        targets = np.stack([wx * scale, wy * scale, 1.0 - scale], axis=-1)
+        targets = np.stack([wx * scale, wy * scale, scale - 1.0], axis=-1)
         _, flat = cKDTree(cap.reshape(-1, 3)).query(targets.reshape(-1, 3))
         j, i = np.unravel_index(flat, cap.shape[:2])
         table = np.stack([i, j + self.regular_rows - 1], axis=-1).astype(float)
@@ -155,17 +159,23 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
     if not goes_round(lon):
         return None
     ny, n = lon.shape
-    mismatch, column = fold_mismatch(lon, lat)
-    fold = ny - 1.0
-    if mismatch > FOLD_TOLERANCE and ny > 2 and fold_mismatch(lon, lat, -2)[0] <= FOLD_TOLERANCE:
-        lon, lat, ny, fold = lon[:-1], lat[:-1], ny - 1, ny - 1.5  # the last row mirrors the row below: dropped
-    elif mismatch > FOLD_TOLERANCE:
+    mismatch, column = fold_mismatch(lon, lat, -1, n - 1)
+    fold, pivot = ny - 1.0, n - 1
+    if mismatch <= FOLD_TOLERANCE:  # the last row on the fold, an F pivot
+        pass
+    elif fold_mismatch(lon, lat, -1, n)[0] <= FOLD_TOLERANCE:  # the last row on the fold, a T pivot
+        pivot = n
+    elif ny > 3 and fold_mismatch(lon, lat, -2, n - 1)[0] <= FOLD_TOLERANCE:  # F pivot, the last row mirrored
+        lon, lat, ny, fold = lon[:-1], lat[:-1], ny - 1, ny - 1.5
+    elif ny > 3 and max(fold_mismatch(lon, lat, -3, n)[0], fold_mismatch(lon, lat, -2, n, -2)[0]) <= FOLD_TOLERANCE:
+        lon, lat, ny, fold, pivot = lon[:-1], lat[:-1], ny - 1, ny - 2.0, n  # T pivot, the last row mirrored
+    else:
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {names} goes all round the sphere, but "
                           f"its last row does not fold onto itself: its nodes of columns {column} and {n - 1 - column} "
                           f"are {mismatch:.4g} degrees apart, nor does it mirror the row below it; a global "
                           "curvilinear grid is read when its last row is on a north fold whose node i is node "
-                          "n - 1 - i, or mirrors the row below so (a fold half a row above that row, NEMO's F-point "
-                          "pivot); a T-point pivot (node i on node n - i) is not supported")
+                          "n - 1 - i (F pivot) or n - i (T pivot), or when it mirrors so the row below it (NEMO's "
+                          "F pivot: the fold half a row above that row) or the row below the fold (NEMO's T pivot)")
     if n % 2:
         raise ConfigError(f"velocity data {source.label}: the folded grid {names} has an odd number of columns ({n})")
     dlon = 360.0 / n
@@ -184,7 +194,7 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
                           "spaced latitudes with the first row's longitudes before its cap; it needs at least 4 (the "
                           "regular part south of the cap, its points located by longitude and latitude)")
     cap_latitude = float(lat[regular - 1, 0])
-    if lat[regular:].size and lat[regular:].min() <= cap_latitude:
+    if lat[regular:].size and lat[regular:].min() < cap_latitude - REGULAR_TOLERANCE:  # (a T pivot's poles on it)
         raise ConfigError(f"velocity data {source.label}: the cap of the folded grid {names} reaches "
                           f"{lat[regular:].min():.6g} degrees, south of its first row ({cap_latitude:.6g}); "
                           "its cap must lie north of it")
@@ -198,7 +208,7 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
         raise ConfigError(f"velocity data {source.label}: the folded grid {names} starts {gap:.6g} degrees from the "
                           f"south pole, less than its spacing {dlat:.6g} but neither at the pole nor half a spacing "
                           "from it, so no row across the pole continues the grid")
-    return FoldedGrid(lon, lat, regular, float(lon[0, 0]), dlon, float(lat[0, 0]), dlat, south, fold,
+    return FoldedGrid(lon, lat, regular, float(lon[0, 0]), dlon, float(lat[0, 0]), dlat, south, fold, pivot,
                       unit_vectors(lon, lat))
 
 
@@ -275,7 +285,7 @@ def read_folded_window(source: DataSource, grid: FoldedGrid, angle: np.ndarray |
     header[13] = HEADER + velocity.size
     header[14] = header[13] + points.size
     header[15] = header[14] + cells.size
-    header[16:19] = (TABLE_SIZE, half, grid.fold)
+    header[16:20] = (TABLE_SIZE, half, grid.fold, grid.pivot)
     buffer = np.concatenate([header, velocity.ravel(), points.ravel(), cells.ravel(), values.ravel()])
     x_grid = (0.0, 1.0, n)
     y_grid = (-float(grid.first_row), 1.0, rows)
