@@ -1,12 +1,14 @@
 """Velocity data on a global curvilinear grid (tripolar, ORCA-like): joined across its seam and its north fold.
 
 A tripolar grid is a regular longitude/latitude grid all round the sphere up to a latitude, and
-north of it a cap whose rows end on the **north fold**: either the last row is on it, traversed
-twice, its node of column i the node of column n - 1 - i (as :mod:`ldpipe.data.tripolar` writes
-by default), or the fold lies half a row above the last row but one, the last row its mirror
-(node i of the last row is node n - 1 - i of the row below: NEMO's F-point pivot, as ORCA1's T
-points; the mirrored row is not read). The geographic North Pole is an ordinary point of the cap; its own two poles (where its cells
-shrink to nothing) lie on the cap's first row, where models put land.
+north of it a cap whose rows end on the **north fold**, across which the grid's i and j reverse:
+column i continues as column P - i, with P = n - 1 (an F-point pivot: the fold's ends between
+columns) or n (a T-point pivot: a column through each end). Either the last row is on the fold,
+traversed twice (node i is node P - i), or, as NEMO writes it, the last row mirrors another and
+is not read: the row below it (F pivot: the fold half a row above that row) or the row below the
+fold (T pivot: the fold on the last row but one). The geographic North Pole is an ordinary point
+of the cap; its own two poles (where its cells shrink to nothing) lie on the cap's first row,
+where models put land.
 
 The state is the 3-D position on the sphere, as on a regular global grid (:mod:`.polar`, whose
 states, LD section and end states it shares): no singularity at either geographic pole. The
@@ -17,12 +19,13 @@ components change sign across the fold, u and v across a pole). The indices of a
 the cap, the regular part's closed form; in the cap, Gauss-Newton on the cubic convolution of the
 nodes' positions from the node a lookup table of the cap's stereographic plane gives. The
 stencil reads across the seam (the ring's columns), across the fold (at row F, the row F + d of
-column i is row F - d of column n - 1 - i) and, when the regular part reaches the south pole (a row at it or half a
-spacing from it), across that pole (row -d of column i is row d, or d - 1, of column i + n/2).
+column i is row F - d of column P - i) and, when the regular part reaches the south pole (a row
+at it or half a spacing from it), across that pole (row -d of column i is row d, or d - 1, of
+column i + n/2).
 
-A point where Newton does not converge (within about a cell of the cap's poles) stops there, as on
-land. Not read: a T-point pivot (the fold through nodes, node i on node n - i: NEMO's ORCA2,
-ORCA025, ORCA12), halo columns repeated at the seam (refused: drop them), a cap that is not a grid's last rows, C-grid velocities on a folded grid.
+A point where Newton does not converge (within about a cell of the cap's poles) stops there, as
+on land. Not read: halo columns repeated at the seam (refused: drop them), a cap that is not a
+grid's last rows, C-grid velocities on a folded grid.
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ from .polar import DEGREES, ROWS_BEYOND, PolarVelocitySystem, positions
 from .regular import DataWindow, index_window
 from .source import DataSource, check_speeds, fill_land, kernel_text
 
-#: How near (degrees of arc) the nodes i and n - 1 - i of the last row must be to be one node of a fold.
+#: How near (degrees of arc) two nodes the fold pairs must be to be one node.
 FOLD_TOLERANCE = 1e-6
 #: How near (in spacings) a row's latitudes and a column's longitudes must be to the regular part's.
 REGULAR_TOLERANCE = 1e-6
