@@ -11,6 +11,9 @@ fold and the south pole, against closed forms.
   fold, or go round the North Pole inside the cap, or along the rows across the seam; they keep
   10 degrees or more from the cap's own poles (lon 0 and 180 on the fold latitude), where the
   grid's cells shrink to nothing. The rotation is an isometry: its FTLE is 0 (closed form).
+- A differential rotation (each circle about the equatorial axis at its own rate, quadratic in
+  the position: a solid-body rotation is linear, which the interpolation of positions and
+  velocities from the same nodes reproduces whichever nodes they are) on every layout.
 - The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at second order
   or better (the cubics' third, less where the cap meets the regular part with a kink in the
   rows' spacing).
@@ -166,6 +169,34 @@ def test_rotations_cross_the_poles_the_fold_and_the_seam(grids, grid, tilt):
         # M_1 from u and v in the local basis, which turns fast at the pole (quad of the closed
         # form along the circle): measured relative error <= 1.7e-5
         np.testing.assert_allclose(m1.ld, [m_1(start, 3.2, tilt) for start in starts], rtol=4e-5)
+
+
+def differential(lon, lat, t):
+    """omega (1 + a.X) a x X about the equatorial axis a: each circle x = c turns at its own rate
+    omega (1 + c), quadratic in X (a solid-body rotation, linear in X, is interpolated exactly from
+    any nodes as long as the positions come from the same ones: this one is not)."""
+    u, v = rotation(0.0)(lon, lat, t)
+    factor = 1.0 + np.cos(np.radians(lat)) * np.cos(np.radians(lon))
+    return u * factor, v * factor
+
+
+@pytest.mark.parametrize("grid", sorted(GRIDS))
+def test_a_differential_rotation_across_the_fold(tmp_path, grid):
+    # Each start turns by omega (1 + c) t about the axis, c = a.X its circle's (closed form), and
+    # runs omega (1 + c) R sqrt(1 - c^2) t.
+    path = tmp_path / f"{grid}.nc"
+    write_dataset(tripolar_dataset(differential, np.arange(0.0, 4.01, 0.5), **grid_options(**GRIDS[grid])), path)
+    system = folded_system(path)
+    starts = STARTS[0.0]
+    c = unit(starts) @ axis(0.0)
+    arc = compute_ld(system, starts, 1, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=0.4)
+    assert not arc.failed.any() and (arc.time == 3.2).all()
+    expected = np.vstack([rotated(start[None], 3.2 * (1.0 + k), 0.0) for start, k in zip(starts, c)])
+    speed = OMEGA * RADIUS * (1.0 + c) * np.sqrt(1.0 - c ** 2)
+    # measured: <= 6.6e-3 degrees and 3.8e-5 relative (the T pivots, whose columns collapse onto the
+    # cap's poles; 3.5e-3 to 5.0e-3 degrees on the others)
+    assert great_circle_degrees(arc.end_state, expected).max() < 2e-2
+    np.testing.assert_allclose(arc.ld, speed * 3.2 * DAY / 1000.0, rtol=1e-4)
 
 
 def test_a_rotation_speeding_up_in_time(tmp_path):
