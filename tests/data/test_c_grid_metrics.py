@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
@@ -210,3 +211,17 @@ def test_a_uniform_flow_through_slanted_faces_moves_in_straight_lines(tmp_path):
     # measured 4e-9 m of 5.8 km (the integrator), the arc length 3e-14 relative
     np.testing.assert_allclose(result.end_state, starts + flow * tau, rtol=0, atol=1e-6)
     np.testing.assert_allclose(result.ld, np.hypot(*flow) * tau, rtol=1e-10)
+
+
+def test_a_dataset_in_memory_keeps_its_metrics(gyre_file):
+    # the same data from memory and from the file: the metrics found by name in both, so the same
+    # numbers reach the kernel and the end points agree bit for bit (an invariant)
+    path, _ = gyre_file
+    with xr.open_dataset(path) as dataset:
+        memory = ldpipe.system(name="memory", velocity_data={"dataset": dataset.load(), **ENTRY})
+    from_file = make_system("file", {"velocity_data": {"path": str(path), **ENTRY}})
+    assert memory.grid_attributes() == from_file.grid_attributes()
+    starts = from_file.states_from_engine(np.array([[6.3, 10.2]]))
+    settings = LDSettings(tau=5e4, p=0.5, **TIGHT)
+    np.testing.assert_array_equal(compute_ld(memory, starts, 1, settings, t0=1e5).end_state,
+                                  compute_ld(from_file, starts, 1, settings, t0=1e5).end_state)
