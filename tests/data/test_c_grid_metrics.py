@@ -26,7 +26,7 @@ import ldpipe
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
-from ldpipe.data.curvilinear import c_grid_dataset, write_dataset
+from ldpipe.data.curvilinear import c_grid_dataset, curvilinear_dataset, write_dataset
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
@@ -181,6 +181,12 @@ def test_bad_metrics_are_refused_naming_the_variable(gyre_file, tmp_path):
                       r"inverse")
     refused(good, r"velocity_data\.metrics\.u_face': metric 'pm' \(u_face\) is 2-D float64 of shape \(20, 24\); "
                   r"expected numbers of shape \(20, 23\)", metrics={"dx": "pm", "dy": "pn", "u_face": "pm"})
+    # on a collocated grid (u, v at the centres) the coordinates' metric maps the trajectories back
+    X, Y, pm, pn, _ = stretched_grid()
+    collocated = curvilinear_dataset(lambda x, y, t: (0 * x + 0.1 + 0 * t, 0 * y + 0 * t), X, Y, np.arange(4.0),
+                                     components="grid").assign(pm=good.pm, pn=good.pn)
+    refused(collocated, r"velocity_data\.metrics': a model's metrics are read on a C-grid",
+            metrics={"dx": "pm", "dy": "pn"})
     # a tighter tolerance refuses the analytic metric (measured: it differs from the coordinates' 5.5e-4)
     refused(good, r"metric 'pm' \(dx\) .* beyond metric_tolerance 1e-05", metric_tolerance=1e-5)
 
