@@ -75,7 +75,7 @@ def test_the_roms_and_nemo_entries_read_their_models_layouts_alike(roms_faces, t
     write_dataset(nemo, "nemo_1d_0001.nc")
 
     systems = {name: make_system(name, {"velocity_data": documented_entry(marker, name)})
-               for marker, name in (("roms_his_*.nc", "roms"), ("c_grid: nemo", "nemo_c_grid"))}
+               for marker, name in (("roms_his_*.nc", "roms"), ("nemo_c_grid:", "nemo_c_grid"))}
     frame = np.array([[-6.0, -4.0], [0.0, 5.0], [5.0, 0.0]])
     starts, t = frame_point(frame), 2e4
     settings = LDSettings(tau=t, p="arclength", rtol=1e-10, atol=1e-10)

@@ -34,16 +34,12 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
 from .grid_geometry import GridGeometry
-
-if TYPE_CHECKING:  # the source imports this module to read an entry's metrics
-    from .source import DataSource
 
 #: What each model calls its metrics (the roles of :data:`METRIC_ROLES`), looked for in this order
 #: when the entry names none: the first model whose ``dx`` and ``dy`` the file holds.
@@ -175,8 +171,9 @@ def sine_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(1.0 - cosine * cosine)
 
 
-def face_conversion(source: DataSource, geometry: GridGeometry, along_i: np.ndarray, along_j: np.ndarray) -> FaceConversion:
-    """The face conversion of a checked C-grid ``source`` (module docstring): from the file's metrics
+def face_conversion(source, geometry: GridGeometry, along_i: np.ndarray, along_j: np.ndarray) -> FaceConversion:
+    """The face conversion of a checked C-grid ``source`` (a :class:`.source.DataSource`, which
+    module imports this one) (module docstring): from the file's metrics
     (read and checked here) if it gives them, else from the coordinates (``along_i``, ``along_j``:
     the distances between neighbouring centres, :func:`.staggered.face_lengths`)."""
     e_i, e_j = physical_vectors(geometry, source.radius)
@@ -202,7 +199,7 @@ def face_conversion(source: DataSource, geometry: GridGeometry, along_i: np.ndar
                                                                            for role, name in names.items()))
 
 
-def read_metrics(source: DataSource) -> dict[str, np.ndarray]:
+def read_metrics(source) -> dict[str, np.ndarray]:
     """The file's metrics by role, in the coordinates' length units (metres on the sphere): a
     ConfigError names a variable with missing or non-positive values."""
     out = {}
@@ -222,7 +219,7 @@ def read_metrics(source: DataSource) -> dict[str, np.ndarray]:
     return out
 
 
-def check_metric(source: DataSource, name: str, role: str, value: np.ndarray, coordinates: np.ndarray) -> None:
+def check_metric(source, name: str, role: str, value: np.ndarray, coordinates: np.ndarray) -> None:
     """A ConfigError naming ``name`` if it differs from the coordinates' length (or area) by more than
     the source's ``metric_tolerance``, relative."""
     ratio = value / coordinates
