@@ -31,7 +31,7 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
 
-pytestmark = pytest.mark.compiles  # the C-grid's kernel, as test_c_grid.py loads it
+pytestmark = [pytest.mark.compiles, pytest.mark.xdist_group("c_grid_engine")]  # test_c_grid.py's engine
 NX, NY, LX, LY, SIGMA_X, SIGMA_Y = 24, 20, 23000.0, 19000.0, 0.08, 0.06
 PSI0 = 700.0  # m^2/s: velocities of about 0.1 m/s
 ENTRY = {"x": "x_rho", "y": "y_rho", "components": "grid"}

@@ -25,7 +25,7 @@ from ldpipe.systems import make_system
 
 from support.workflow import documented_yaml
 
-pytestmark = pytest.mark.compiles  # the C-grid's kernel, as test_c_grid.py loads it
+pytestmark = [pytest.mark.compiles, pytest.mark.xdist_group("c_grid_engine")]  # test_c_grid.py's engine
 RADIUS, H, C, TILT = 6371000.0, 1.0, 1e-5, 30.0
 
 
