@@ -19,6 +19,7 @@ import pytest
 import xarray as xr
 import yaml
 
+from ldpipe.config import validate_config
 from ldpipe.data.curvilinear import c_grid_dataset, rotated_pole_grid, write_dataset
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
@@ -158,6 +159,7 @@ def test_the_nemo_entry_with_its_mesh_metrics_reads_them(roms_faces, tmp_path, m
     }, coords={"nav_lon": (("y", "x"), faces.lon_rho.values, {"units": "degrees_east"}),
                "nav_lat": (("y", "x"), faces.lat_rho.values, {"units": "degrees_north"})})
     write_dataset(nemo, "nemo_mesh_1d_0001.nc")
+    validate_config(yaml.safe_load(documented_yaml("nemo_mesh_1d_*.nc")))  # the block as a configuration
     system = make_system("nemo_metrics", {"velocity_data": documented_entry("nemo_mesh_1d_*.nc", "nemo_metrics")})
     assert system.grid_attributes() == {"grid_metrics": "dx: e1t, dy: e2t, u_face: e2u, v_face: e1v",
                                         "metric_tolerance": 0.05}
