@@ -7,13 +7,13 @@ grid whose u and v have these shapes is read as such (:func:`.source.c_grid`); N
 the centres' shape (their last column and row the outer faces, not read), when the entry says
 ``c_grid: nemo``. Either is integrated in
 index space as :mod:`.curvilinear` does, with the staggered interpolant of
-``kernels/staggered_velocity.py``: a face's velocity (normal to the face) becomes an index velocity
-by the grid's metrics (:mod:`.grid_metrics`): the file's, as the flux through the face (u times
-its length) over the cell's area, or from the coordinates u / (L sin theta), L the distance
-between the two centres it separates (on the sphere great-circle metres) and theta the angle of
-the face to that line; linear across a cell between its two faces and constant along them. A face next to a land centre (the ``mask``'s
-zeros) or with a missing value is closed (0), so a coast is a wall: trajectories come up to it
-and never cross; only land centres are land. The LD is physical, by the centres' metric
+``kernels/staggered_velocity.py``: a face's velocity (normal to the face) becomes an index
+velocity by the grid's metrics (:mod:`.grid_metrics`): the file's, as the flux through the face
+(u times its length) over the cell's area, or from the coordinates u / (L sin theta), L the
+distance between the two centres it separates (on the sphere great-circle metres) and theta the
+angle of the face to that line; linear across a cell between its two faces and constant along
+them. A face next to a land centre (the ``mask``'s zeros) or with a missing value is closed (0),
+so a coast is a wall: trajectories come up to it and never cross; only land centres are land. The LD is physical, by the centres' metric
 (``kernels/curvilinear_ld_metric.py``), as on a collocated curvilinear grid.
 """
 
