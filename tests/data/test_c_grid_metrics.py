@@ -197,31 +197,37 @@ def sheared_grid(h, shear, n):
     return h * I + shear * h * J, h * J
 
 
-@pytest.mark.parametrize("with_metrics", [False, True])
-def test_a_uniform_flow_through_slanted_faces_moves_in_straight_lines(tmp_path, with_metrics):
+@pytest.mark.parametrize("metrics", ["", "NEMO", "MITgcm"])
+def test_a_uniform_flow_through_slanted_faces_moves_in_straight_lines(tmp_path, metrics):
     # On the sheared grid x = h i + s h j, y = h j the u faces run along e_j = h (s, 1) and the v
     # faces along e_i = h (1, 0): a uniform flow (U, V) writes u = (U - s V) / sqrt(1 + s^2) on every
     # u face (its component along the face's normal (1, -s) / sqrt(1 + s^2)) and v = V on every v
     # face. Its trajectories are x0 + (U, V) t, the arc length |(U, V)| t (closed forms); the grid is
     # affine, so every interpolant is exact and only the integrator's tolerance is left. (Taking u as
     # the velocity along the line between centres, u / h, moves them sin theta = 0.89 as fast.) With
-    # the file's metrics (NEMO's names, exact: e1t = e1v = h, e2t = e2u = h sqrt(1 + s^2)) the flux
-    # u e2u over the area e1t e2t sin theta = h^2 is the same index velocity.
+    # the file's metrics, exact, the flux over the area is the same index velocity: NEMO's e1t = e1v
+    # = h, e2t = e2u = h sqrt(1 + s^2), the area e1t e2t sin theta = h^2; MITgcm's the same lengths
+    # (dxF, dxG; dyG) and its area rA = h^2 read as given, with dyF 4 % long (within the tolerance;
+    # used only where rA or dyG is missing, so rA must be read for the closed form to hold).
     h, shear, n, flow = 1000.0, 0.5, 20, np.array([0.05, 0.03])
     x, y = sheared_grid(h, shear, n)
     u_normal = (flow[0] - shear * flow[1]) / math.sqrt(1 + shear**2)
     dataset = c_grid_dataset(lambda X, Y, T: u_normal + 0 * X + 0 * T, lambda X, Y, T: flow[1] + 0 * X + 0 * T,
                              x, y, np.arange(0.0, 4e5 + 1, 1e5))
-    if with_metrics:
+    if metrics:
+        names = {"NEMO": ("e1t", "e2t", "e2u", "e1v"), "MITgcm": ("dxF", "dyF", "dyG", "dxG")}[metrics]
         metres = {"units": "m"}
         slanted = h * math.sqrt(1 + shear**2)
-        dataset = dataset.assign(e1t=(("eta", "xi"), np.full((n, n), h), metres),
-                                 e2t=(("eta", "xi"), np.full((n, n), slanted), metres),
-                                 e2u=(("eta", "xi_u"), np.full((n, n - 1), slanted), metres),
-                                 e1v=(("eta_v", "xi"), np.full((n - 1, n), h), metres))
+        dataset = dataset.assign({names[0]: (("eta", "xi"), np.full((n, n), h), metres),
+                                  names[1]: (("eta", "xi"), np.full((n, n), slanted), metres),
+                                  names[2]: (("eta", "xi_u"), np.full((n, n - 1), slanted), metres),
+                                  names[3]: (("eta_v", "xi"), np.full((n - 1, n), h), metres)})
+        if metrics == "MITgcm":
+            dataset["rA"] = (("eta", "xi"), np.full((n, n), h * h), {"units": "m^2"})
+            dataset["dyF"] = dataset.dyF * 1.04
     path = write_dataset(dataset, tmp_path / "sheared.nc")
     system = make_system("sheared", {"velocity_data": {"path": str(path), **ENTRY}})
-    assert bool(system.faces.metrics) == with_metrics
+    assert ("rA" in system.faces.metrics) == (metrics == "MITgcm") and bool(system.faces.metrics) == bool(metrics)
     starts = system.states_from_engine(np.array([[3.0, 4.0], [5.5, 2.2], [2.1, 7.7]]))
     tau = 1e5  # about 6 cells
     result = compute_ld(system, starts, 1, LDSettings(tau=tau, p="arclength", **TIGHT), t0=1e5)
