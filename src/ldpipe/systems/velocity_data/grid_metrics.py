@@ -115,14 +115,16 @@ def metric_variables(entry: dict, dataset: xr.Dataset, centres: tuple[str, ...],
         if variable.shape != shapes[role] or variable.dtype.kind not in "iuf":
             raise ConfigError(f"config key '{where}': metric {name!r} ({role}) is {variable.ndim}-D {variable.dtype} "
                               f"of shape {variable.shape}; expected numbers of shape {shapes[role]} (the "
-                              f"{'u faces' if role == 'u_face' else 'v faces' if role == 'v_face' else 'centres'})")
+                              f"{'u faces' if role == 'u_face' else 'v faces' if role == 'v_face' else 'centres'}; "
+                              f"metrics: {FROM_COORDINATES} computes them from the coordinates instead)")
         read = metric_units(variable.attrs.get("units"))
         powers = (2,) if role == "area" else (1, -1)
         if read is None or read[1] not in powers:
             wanted = "an area, e.g. 'm2'" if role == "area" else "a length ('m', 'km') or its inverse ('1/m', 'm-1')"
             raise ConfigError(f"config key '{where}': metric {name!r} ({role}) has units "
                               f"{variable.attrs.get('units')!r}; expected {wanted} (if the file leaves them out, "
-                              f"set them: ds[{name!r}].attrs['units'] = 'm')")
+                              f"set them with xarray, e.g. ds[{name!r}].attrs['units'] = "
+                              f"{'m2' if role == 'area' else '1/m' if name in ('pm', 'pn') else 'm'!r})")
         found.append((role, name, read[0], read[1]))
     return tuple(found)
 
@@ -231,4 +233,5 @@ def check_metric(source, name: str, role: str, value: np.ndarray, coordinates: n
     raise ConfigError(f"velocity data {source.label}: metric {name!r} ({role}) gives a {what} of {value[j, i]:.6g} at "
                       f"(j, i) = ({j}, {i}), where the grid's coordinates give {coordinates[j, i]:.6g} (ratio "
                       f"{ratio[j, i]:.4g}, beyond metric_tolerance {source.metric_tolerance:g}): is it in other units "
-                      "than its units attribute says, or of another grid?")
+                      f"than its units attribute says, or of another grid? (metrics: {FROM_COORDINATES} ignores the "
+                      "file's)")
