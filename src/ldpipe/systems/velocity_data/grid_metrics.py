@@ -170,14 +170,14 @@ def sine_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The sine of the angle between vectors a and b (last axis 2), as sqrt(1 - cos^2): exactly 1
     where they are at right angles to rounding (cos^2 below half an ulp of 1)."""
     cosine = (a * b).sum(-1) / (np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1))
-    return np.sqrt(1.0 - cosine * cosine)
+    return np.sqrt(np.maximum(1.0 - cosine * cosine, 0.0))
 
 
 def face_conversion(source, geometry: GridGeometry, along_i: np.ndarray, along_j: np.ndarray) -> FaceConversion:
-    """The face conversion of a checked C-grid ``source`` (a :class:`.source.DataSource`, which
-    module imports this one) (module docstring): from the file's metrics
-    (read and checked here) if it gives them, else from the coordinates (``along_i``, ``along_j``:
-    the distances between neighbouring centres, :func:`.staggered.face_lengths`)."""
+    """The face conversion (module docstring) of a checked C-grid ``source``, a
+    :class:`.source.DataSource` (not annotated: that module imports this one): from the file's
+    metrics, read and checked here, if it gives them, else from the coordinates (``along_i``,
+    ``along_j``: the distances between neighbouring centres, :func:`.staggered.face_lengths`)."""
     e_i, e_j = physical_vectors(geometry, source.radius)
     step_i, step_j = centre_steps(geometry, source.radius)
     face_j = (e_j[:, :-1] + e_j[:, 1:]) / 2  # the u faces' direction: the grid's j direction there
