@@ -119,22 +119,35 @@ def data_vorticity(system, states: np.ndarray, t: float) -> np.ndarray:
     sphere = system.source.sphere
     # on the sphere: metres of arc per degree, and the difference step in radians
     metres, h = (system.source.radius * math.pi / 180.0, math.radians(step)) if sphere else (1.0, step)
-    out = np.empty(2)
-    result = np.empty(len(states))
+    states = np.asarray(states, dtype=float).reshape(-1, 2)
+    x, y = states[:, 0], states[:, 1]
+    # the stencil of every state at once: east, west, north, south of it
+    stencil = np.empty((4, len(states), 2))
+    stencil[:, :, 0], stencil[:, :, 1] = x, y
+    stencil[0, :, 0] += step
+    stencil[1, :, 0] -= step
+    stencil[2, :, 1] += step
+    stencil[3, :, 1] -= step
+    rates = stencil_rates(system, stencil.reshape(-1, 2), float(t)).reshape(4, len(states), 2)
+    v_east, v_west = rates[0, :, 1] * metres, rates[1, :, 1] * metres
+    u_north, u_south = rates[2, :, 0] * metres, rates[3, :, 0] * metres
+    if sphere:  # u cos(lat) north and south of the point: u = R cos(lat) d lon/dt on the sphere
+        u_north = u_north * np.cos(np.radians(y + step)) ** 2
+        u_south = u_south * np.cos(np.radians(y - step)) ** 2
+    curl = (v_east - v_west - u_north + u_south) / (2 * h)
+    return curl / (system.source.radius * np.cos(np.radians(y))) if sphere else curl
+
+
+def stencil_rates(system, points: np.ndarray, t: float) -> np.ndarray:
+    """The data interpolant's rates (k, 2) at ``points`` (k, 2) and time ``t``: the compiled
+    kernel's ``rhs`` once a point, into rows of one array (no array made per call)."""
+    points = np.ascontiguousarray(points, dtype=float)
+    rates = np.empty_like(points)
+    rhs = system.rhs
     with system.time_window(t, t):
-        for row, (x, y) in enumerate(np.asarray(states, dtype=float)):
-            system.rhs(np.array([x + step, y]), float(t), out)
-            v_east = out[1] * metres
-            system.rhs(np.array([x - step, y]), float(t), out)
-            v_west = out[1] * metres
-            # u cos(lat) north and south of the point: u = R cos(lat) d lon/dt on the sphere
-            system.rhs(np.array([x, y + step]), float(t), out)
-            u_north = out[0] * metres * (math.cos(math.radians(y + step)) ** 2 if sphere else 1.0)
-            system.rhs(np.array([x, y - step]), float(t), out)
-            u_south = out[0] * metres * (math.cos(math.radians(y - step)) ** 2 if sphere else 1.0)
-            curl = (v_east - v_west - u_north + u_south) / (2 * h)
-            result[row] = curl / (system.source.radius * math.cos(math.radians(y))) if sphere else curl
-    return result
+        for row in range(len(points)):
+            rhs(points[row], t, rates[row])
+    return rates
 
 
 def area_weights(system, states: np.ndarray) -> np.ndarray:
