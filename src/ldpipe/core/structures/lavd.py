@@ -19,7 +19,10 @@ a smooth integrand).
 A rotationally coherent vortex is centred on a maximum of the LAVD; its boundary is the outermost
 LAVD level whose superlevel set around the maximum is bounded by one closed curve, convex enough:
 its convexity deficiency, (area of its convex hull − its area) / its area, at most
-``convexity_deficiency``. Levels are tried from the maximum down in ``levels`` equal steps to the
+``convexity_deficiency``: in the plane in the section's coordinates, on the sphere in the Lambert
+azimuthal equal-area projection about the vortex's centre (:func:`ldpipe.core.sphere.tangent_plane`,
+km), where a shape convex on the sphere stays convex to second order in its size over the Earth's
+radius while the longitude–latitude chart bends it (a great circle heading east bows poleward there). Levels are tried from the maximum down in ``levels`` equal steps to the
 field's minimum; at each, of the closed contours around the maximum the innermost (the boundary
 of the superlevel component that holds the maximum) is taken.
 """
@@ -34,6 +37,7 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import LAVD
 from ...io.datafile import stage_dataset
+from ..sphere import sphere_radius_km, tangent_plane
 from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
@@ -200,17 +204,6 @@ def _area(ring: np.ndarray) -> float:
     return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
-def sphere_area(ring: np.ndarray, radius: float, lon_column: int) -> float:
-    """The area (in the square of ``radius``'s unit) on the sphere inside the closed polygon
-    ``ring`` of (longitude, latitude) in degrees (``lon_column`` the longitude's): by Green's
-    theorem the integral of cos(lat) over it is the loop integral of -sin(lat) d lon, by the
-    trapezoidal rule along each edge."""
-    lon = np.radians(ring[:, lon_column])
-    lat = np.radians(ring[:, 1 - lon_column])
-    sines = np.sin(lat)
-    return radius**2 * 0.5 * abs(float(np.sum((sines + np.roll(sines, -1)) * (np.roll(lon, -1) - lon))))
-
-
 def _hull_area(points: np.ndarray) -> float:
     """The area of the convex hull of ``points`` (Andrew's monotone chain)."""
     pts = sorted(set(map(tuple, np.round(points, 15))))
@@ -273,10 +266,26 @@ def _peak(field: np.ndarray, axes, i: int, j: int) -> tuple[float, float]:
                  for index, s, values in zip((i, j), step, axes))
 
 
-def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: dict) -> list[dict]:
+def vortex_plane(system, dims: tuple[str, str]):
+    """Where a vortex's shape is measured (:func:`coherent_vortices`' ``plane``): on the sphere the
+    equal-area projection about its centre, in km (the section's axes ``dims``, in either order);
+    in the plane None (the section's own coordinates)."""
+    radius = sphere_radius_km(system) if is_sphere_velocity_data(system) else None
+    if radius is None:
+        return None
+    order = [dims.index(system.source.x), dims.index(system.source.y)]  # (lon, lat) columns
+
+    def plane(ring: np.ndarray, centre) -> np.ndarray:
+        return tangent_plane(ring[:, order], np.asarray(centre, dtype=float)[order], radius)
+    return plane
+
+
+def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: dict, plane=None) -> list[dict]:
     """The rotationally coherent vortices of an LAVD field: for each maximum (highest first, none
     inside an earlier vortex), its ``centre``, ``boundary`` (m, 2, closed), ``level``, ``area`` and
-    ``convexity_deficiency``; maxima with no acceptable contour are left out."""
+    ``convexity_deficiency``; maxima with no acceptable contour are left out. ``plane(ring,
+    centre)`` (:func:`vortex_plane`) maps a contour to where its area and convexity are measured
+    (None: the axes' coordinates)."""
     import contourpy  # here: only the vortex search needs it
 
     coordinates = [np.asarray(values, float) for values in axes]
@@ -298,9 +307,10 @@ def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: 
                 if best is None:  # a contour too small to draw yet, next to the maximum
                     continue
                 break
-            ring = min(rings, key=_area)
-            area = _area(ring)
-            deficiency = (_hull_area(ring) - area) / area if area > 0 else math.inf
+            flat = [ring if plane is None else plane(ring, centre) for ring in rings]
+            inner = min(range(len(rings)), key=lambda k: _area(flat[k]))
+            ring, area = rings[inner], _area(flat[inner])
+            deficiency = (_hull_area(flat[inner]) - area) / area if area > 0 else math.inf
             if deficiency > parameters["convexity_deficiency"]:
                 break
             best = {"centre": centre, "boundary": ring, "level": float(level), "area": area,
@@ -325,16 +335,14 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
     parameters = check_lavd_parameters(dict(parameters), where, key)
     result = lavd_field(system, axes, fixed, parameters, threads=threads)
     values = [v for _, v in axes]
-    vortices = coherent_vortices(result["lavd"], result["defined"], values, parameters)
     dims = tuple(name for name, _ in axes)
+    vortices = coherent_vortices(result["lavd"], result["defined"], values, parameters, vortex_plane(system, dims))
     boundary = np.concatenate([v["boundary"] for v in vortices]) if vortices else np.zeros((0, 2))
     per_vortex = lambda name: np.array([v[name] for v in vortices], dtype=float)  # noqa: E731
-    if is_sphere_velocity_data(system):  # the area on the Earth, not in the chart's square degrees
-        lon_column = dims.index(system.source.x)
-        area = np.array([sphere_area(v["boundary"], system.source.radius / 1000.0, lon_column) for v in vortices])
+    area = per_vortex("area")  # where the shape is measured (vortex_plane): on the sphere equal-area, km2
+    if is_sphere_velocity_data(system):
         area_attributes = {"long_name": "area on the sphere inside the boundary, at t0", "units": "km2"}
     else:
-        area = per_vortex("area")
         area_attributes = {"long_name": "area inside the boundary, at t0"}
     centres = np.array([v["centre"] for v in vortices]).reshape(-1, 2)
     if len(centres):
@@ -369,7 +377,9 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
         "area": (("vortex",), area.reshape(-1), area_attributes),
         "level": (("vortex",), per_vortex("level"), {"long_name": "the LAVD on the boundary"}),
         "convexity_deficiency": (("vortex",), per_vortex("convexity_deficiency"), {
-            "long_name": "(convex hull area - area) / area of the boundary, in the section's coordinates"}),
+            "long_name": "(convex hull area - area) / area of the boundary, "
+                         + ("in the Lambert azimuthal equal-area projection about the centre"
+                            if is_sphere_velocity_data(system) else "in the section's coordinates")}),
     }
     dataset = xr.Dataset(variables, coords={name: values for name, values in axes})
     dataset.attrs.update({"system": system.name, "axes": " ".join(dims),
