@@ -137,12 +137,14 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
     log_previous = np.full((count, 4), math.log(delta0))
     interval, max_time = parameters["interval"], parameters["max_time"]
     checks = max(1, math.ceil(max_time / interval - 1e-9))
-    elapsed = 0.0
-    for _ in range(checks):
+    for check in range(checks):
+        # from the check's index, not summed: a sum of steps overshoots max_time by rounding, and
+        # a backward run's last window would start before the data's first time
+        elapsed = min(check * interval, max_time)
         active = np.flatnonzero(~reached & ~stopped)
         if not len(active):
             break
-        step = min(interval, max_time - elapsed)
+        step = min((check + 1) * interval, max_time) - elapsed
         moved = flow_map(system, particles[active].reshape(-1, len(coordinates)), direction * step, settings,
                          t0=parameters["t0"] + direction * elapsed, threads=threads)
         particles[active] = moved.end_state.reshape(len(active), 5, -1)
@@ -162,7 +164,6 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
             angle[active[hit]] = _stretching_angle(positions(plane[hit]), delta0)
         stopped[active[~ok]] = True
         log_previous[active] = log_now
-        elapsed += step
     stopped &= ~reached
     with np.errstate(divide="ignore"):
         fsle = np.where(reached, math.log(delta_f / delta0) / np.where(reached, time, 1.0), 0.0)
