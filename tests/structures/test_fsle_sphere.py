@@ -7,6 +7,10 @@ m/s; time in days): separations are great-circle distances in km, against closed
   1 % above the initial one is never reached. The points run from the equator to 82 N, where the
   chart's degrees of longitude are 1 / cos(82) = 7 times shorter in km than at the start: measured
   in lon/lat degrees an east-west pair would separate sevenfold.
+- The same rotation on a global grid through the poles (integrated as 3-D positions): in 1.6 days
+  the points run 144 degrees, from the equator over the north pole and down the other side, where
+  their longitudes jump by 180 degrees and wrap at the seam; still no separation grows (closed
+  form), nor one of points started at the pole itself.
 - Zonal flow sheared in latitude, d lon/dt = W + A (lat - 45 degrees) (radians a day), on a grid
   joined across its seam: each particle keeps its latitude and its longitude runs linearly, so
   every neighbour's great-circle distance is known at every time (closed form: the neighbours'
@@ -62,6 +66,24 @@ def test_a_rotation_keeps_great_circle_separations_up_to_high_latitude(tmp_path)
         assert not result[f"fsle_reached_{label}"].values.any(), label
         assert not result[f"fsle_{label}"].values.any()
     assert result.attrs["separation_units"] == "km"
+
+
+@pytest.mark.compiles  # the polar grid's flow-map engine, which no other test loads
+def test_a_rotation_over_the_pole_keeps_great_circle_separations(tmp_path):
+    path = write_velocity_file(tmp_path / "globe.nc", equatorial_rotation, np.arange(0.0, 359.0, 2.0),
+                               np.arange(-90.0, 90.01, 2.0), np.arange(-3.0, 3.01, 1.0), names=("lon", "lat"),
+                               time_units="days since 2000-01-01")
+    system = sphere_system(path, "equatorial_rotation_globe")
+    assert system.engine_name == "velocity_data_polar"
+    settings = {"initial_separation": 20.0, "final_separation": 20.2, "integrator": {"rtol": 1e-10, "atol": 1e-10}}
+    # 144 degrees along circles through the poles and near them; starts at the pole too
+    for section, days in ((ldpipe.section(lon=(85.0, 95.0, 3), lat=(0.0, 10.0, 3)), 1.6),
+                          (ldpipe.section(lon=(0.0, 90.0, 2), lat=(88.0, 90.0, 2)), 1.0)):
+        result = ldpipe.fsle(system, section=section, max_time=days, **settings)
+        for label in ("forward", "backward"):
+            assert result[f"fsle_defined_{label}"].values.all()
+            # closed form: an isometry (measured: separations within 1 % on the 2-degree grid)
+            assert not result[f"fsle_reached_{label}"].values.any(), (label, section)
 
 
 # --- zonal flow sheared in latitude, across the seam --------------------------------------------------
