@@ -176,3 +176,19 @@ def test_sphere_fsle_arguments_are_km_and_its_axes_lon_lat(zonal):
                                           r"great-circle distance in km, expected less than half its circumference"):
         ldpipe.fsle(zonal, section=ldpipe.section(lon=(0.0, 4.0, 3), lat=(40.0, 41.0, 2)),
                     final_separation=30000.0, max_time=0.1)
+
+
+def test_a_sphere_fsle_section_is_longitude_and_latitude(tmp_path):
+    # 3-D data on the sphere: a section of longitude and depth has no great-circle separations
+    from support.gridded import write_velocity_file_3d
+
+    path = write_velocity_file_3d(tmp_path / "three.nc", lambda x, y, z, t: (0.1 + 0 * x, 0 * y, 0 * z),
+                                  np.arange(0.0, 10.01, 1.0), np.arange(40.0, 45.01, 1.0), np.array([0.0, 10.0, 20.0]),
+                                  np.arange(0.0, 2.01, 1.0), names=("lon", "lat", "depth"),
+                                  time_units="days since 2000-01-01")
+    system = ldpipe.system(name="three", velocity_data={"path": str(path), "coordinates": "sphere", "w": "w"})
+    with pytest.raises(ConfigError, match=r"^ldpipe.fsle: section: system 'three' is on the sphere: the FSLE's "
+                                          r"section axes must be its longitude 'lon' and latitude 'lat', got "
+                                          r"\['lon', 'depth'\]"):
+        ldpipe.fsle(system, section=ldpipe.section(lon=(2.0, 4.0, 3), depth=(5.0, 15.0, 3), fixed={"lat": 41.0}),
+                    final_separation=10.0, max_time=1.0)
