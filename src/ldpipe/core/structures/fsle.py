@@ -37,7 +37,8 @@ from ..sphere import great_circle_distance, sphere_radius_km, step_along, unit_v
 from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
-#: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing).
+#: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing,
+#: on the sphere as km of arc).
 DEFAULTS = {"initial_separation": None, "final_separation": None, "max_time": None, "interval": None,
             "t0": 0.0, "integrator": {}}
 # the direction of a neighbour's offset from its point: (axis, sign) for the 4 neighbours
@@ -174,7 +175,7 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
 def sphere_columns(system, names: list[str]) -> list[int]:
     """The state's columns of longitude and latitude, of a system on the sphere whose section's
     axes ``names`` must be these two; a ConfigError otherwise."""
-    lon, lat = system.source.x, system.source.y
+    lon, lat = system.coordinates[:2]  # a sphere's state: longitude, latitude (then a depth)
     if sorted(names) != sorted((lon, lat)):
         raise ConfigError(f"system {system.name!r} is on the sphere: the FSLE's section axes must be its longitude "
                           f"{lon!r} and latitude {lat!r}, got {names}")

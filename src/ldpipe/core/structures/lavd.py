@@ -273,7 +273,7 @@ def vortex_plane(system, dims: tuple[str, str]):
     radius = sphere_radius_km(system) if is_sphere_velocity_data(system) else None
     if radius is None:
         return None
-    order = [dims.index(system.source.x), dims.index(system.source.y)]  # (lon, lat) columns
+    order = [dims.index(name) for name in system.coordinates[:2]]  # the (lon, lat) columns
 
     def plane(ring: np.ndarray, centre) -> np.ndarray:
         return tangent_plane(ring[:, order], np.asarray(centre, dtype=float)[order], radius)
