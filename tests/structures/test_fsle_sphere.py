@@ -192,3 +192,19 @@ def test_a_sphere_fsle_section_is_longitude_and_latitude(tmp_path):
                                           r"\['lon', 'depth'\]"):
         ldpipe.fsle(system, section=ldpipe.section(lon=(2.0, 4.0, 3), depth=(5.0, 15.0, 3), fixed={"lat": 41.0}),
                     final_separation=10.0, max_time=1.0)
+
+
+def test_a_curvilinear_sphere_grid_s_state_is_longitude_latitude(tmp_path):
+    # its source's x, y are the grid's index dimensions (xi, eta); the state, and the FSLE's
+    # section, are longitude and latitude (the FSLE on such a grid was checked against the sheared
+    # zonal flow's closed form outside the suite: its engine is compiled by no other test)
+    from ldpipe.core.structures.fsle import sphere_columns
+    from ldpipe.data.curvilinear import curvilinear_dataset
+
+    i, j = np.meshgrid(np.arange(0, 9), np.arange(0, 7), indexing="xy")
+    lon, lat = 170.0 + 0.5 * (0.9 * i - 0.4 * j), 38.0 + 0.5 * (0.4 * i + 0.9 * j)
+    curvilinear_dataset(sheared_zonal, lon, lat, np.arange(0.0, 2.01, 1.0), sphere=True,
+                        time_units="days since 2000-01-01").to_netcdf(tmp_path / "curved.nc")
+    system = sphere_system(tmp_path / "curved.nc", "curved")
+    assert (system.source.x, system.source.y) == ("xi", "eta")
+    assert sphere_columns(system, ["lat", "lon"]) == [0, 1]
