@@ -14,9 +14,9 @@ fold and the south pole, against closed forms.
 - A differential rotation (each circle about the equatorial axis at its own rate, quadratic in
   the position: a solid-body rotation is linear, which the interpolation of positions and
   velocities from the same nodes reproduces whichever nodes they are) on every layout.
-- The tilted rotation's error falls as the grid refines (36, 72, 144 columns) at second order
-  or better (the cubics' third, less where the cap meets the regular part with a kink in the
-  rows' spacing).
+- The tilted differential rotation's error falls as the grid refines (36, 72, 144 columns) at
+  second order or better (the cubics' third, less where the cap meets the regular part with a
+  kink in the rows' spacing).
 - Land round the cap's own poles stops a circle that runs into it, on its circle; a grid whose
   first row is not at the south pole is an edge there (the stop time in closed form).
 - The guide's ORCA block, as written, on such a file with NEMO's names and grid components.
@@ -218,19 +218,35 @@ def test_a_rotation_speeding_up_in_time(tmp_path):
         assert errors.max() < 1e-2, errors  # measured 3.1e-3 degrees (the steady rotation's 1.8e-3, sped up)
 
 
-def test_the_tilted_rotation_converges_in_the_cap(tmp_path):
+def test_a_tilted_differential_rotation_converges_in_the_cap(tmp_path):
+    # omega (1 + a.X) a x X about the tilted axis: each circle c = a.X turns by omega (1 + c) t
+    # (closed form), through the cap and across the fold and the poles; quadratic in X, so the
+    # interpolation's error shows (a rigid rotation's would not, but for the positions' projection).
+    a = axis(30.0)
+
+    def field(lon, lat, t):
+        u, v = rotation(30.0)(lon, lat, t)
+        lam, phi = np.radians(lon), np.radians(lat)
+        factor = 1.0 + a[0] * np.cos(phi) * np.cos(lam) + a[2] * np.sin(phi)
+        return u * factor, v * factor
+    starts = STARTS[30.0]
+    c = unit(starts) @ a
+    expected = np.vstack([rotated(start[None], 3.2 * (1.0 + k), 30.0) for start, k in zip(starts, c)])
+    speed = OMEGA * RADIUS * (1.0 + c) * np.sqrt(1.0 - c ** 2)
     errors = {}
     for columns in (36, 72, 144):
-        system = folded_system(write(tmp_path / f"tilted_{columns}.nc", 30.0, columns=columns))
-        arc, position, arc_error = run(system, 30.0)
+        path = tmp_path / f"tilted_{columns}.nc"
+        write_dataset(tripolar_dataset(field, np.arange(0.0, 4.01, 0.5), **grid_options(columns)), path)
+        arc = compute_ld(folded_system(path), starts, 1, LDSettings(tau=3.2, p="arclength", **TIGHT), t0=0.4)
         assert not arc.failed.any() and (arc.time == 3.2).all()
-        errors[columns] = np.array([position.max(), np.abs(arc_error).max()])
-    # measured: positions 1.9e-2, 3.5e-3, 9.2e-4 degrees, arc lengths 1.2e-4, 2.6e-5, 6.2e-6 relative:
-    # each halving of the spacing divides them by 3.8 to 5.4, second order (the cap's spacing is 1.5
-    # times the regular part's where they meet, a kink the cubics see); a first-order error (e.g. the
-    # velocity's grid angle off by a cell) would divide them by 2
+        errors[columns] = np.array([great_circle_degrees(arc.end_state, expected).max(),
+                                    np.abs(arc.ld / (speed * 3.2 * DAY / 1000.0) - 1.0).max()])
+    # measured: positions 5.0e-2, 7.1e-3, 1.8e-3 degrees, arc lengths 2.2e-4, 1.7e-5, 3.2e-6
+    # relative: each halving of the spacing divides them by 3.9 to 12.7, second order or better (the
+    # cubics' third, less where the cap meets the regular part with a kink in the rows' spacing);
+    # a first-order error (e.g. the velocity's grid angle off by a cell) would divide them by 2
     assert np.all(errors[36] / errors[72] > 3.0) and np.all(errors[72] / errors[144] > 3.0), errors
-    assert errors[144][0] < 3e-3
+    assert errors[144][0] < 5e-3
 
 
 def test_the_rotation_has_zero_ftle_across_the_pole(grids):
