@@ -38,13 +38,13 @@ import numpy as np
 from ...errors import ConfigError
 from ...jitcache import njit_functions
 from .grid_geometry import CENTRED
-from .polar import DEGREES, ROWS_BEYOND, PolarVelocitySystem, positions
+from .polar import ROWS_BEYOND, PolarVelocitySystem
 from .regular import DataWindow, index_window
 from .source import DataSource, check_speeds, fill_land, kernel_text
 
 #: How near (degrees of arc) two nodes the fold pairs must be to be one node.
 FOLD_TOLERANCE = 1e-6
-#: How near (in spacings) a row's latitudes and a column's longitudes must be to the regular part's.
+#: How near (in longitude spacings) a row's latitudes and a column's longitudes must be to the regular part's.
 REGULAR_TOLERANCE = 1e-6
 #: The largest difference (radians) between a file's rotation angle and the nodes' before it is refused.
 ANGLE_TOLERANCE = 0.05
@@ -183,7 +183,7 @@ def folded_grid(source: DataSource, lon: np.ndarray, lat: np.ndarray) -> FoldedG
         raise ConfigError(f"velocity data {source.label}: the folded grid {names} has an odd number of columns ({n})")
     dlon = 360.0 / n
     regular = 0
-    while (regular < ny and np.allclose(lat[regular], lat[regular, 0], atol=REGULAR_TOLERANCE)
+    while (regular < ny and np.allclose(lat[regular], lat[regular, 0], atol=REGULAR_TOLERANCE * dlon)
            and np.allclose(np.mod(lon[regular] - lon[0] + 180.0, 360.0) - 180.0, 0.0, atol=REGULAR_TOLERANCE * dlon)):
         regular += 1
     if regular == ny:
@@ -359,4 +359,4 @@ def make_folded_system(name: str, source: DataSource, spec: dict, coordinates: t
                                 rhs=rhs, spec=spec, grid=grid, angle=angle, table=grid.lookup_table())
 
 
-__all__ = ["DEGREES", "FoldedGrid", "FoldedVelocitySystem", "folded_grid", "make_folded_system", "positions"]
+__all__ = ["FoldedGrid", "FoldedVelocitySystem", "folded_grid", "make_folded_system"]
