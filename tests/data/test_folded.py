@@ -270,6 +270,33 @@ def test_the_rotation_has_zero_ftle_across_the_pole(grids):
     assert (np.abs(dataset.end_lon_forward.values) > 90.0).any()  # across the pole: on the far side
 
 
+@pytest.mark.parametrize("grid", ["pole_row", "t_pivot"])
+def test_the_rows_beyond_the_fold_continue_the_caps_map(grids, grid):
+    # The cap is the bipolar map w = i a cot((sigma + i tau) / 2) of the North Pole's stereographic
+    # plane (ldpipe.data.tripolar), its rows sigma = pi/2 .. pi (the fold); continued past pi, its
+    # rows beyond the fold are the same map at sigma = pi + d pi / (2 rows) (closed form). The
+    # window's nodes there (read in the kernel's buffer, positions after the velocities) must be
+    # those points: column i continued as the fold pairs it (n - 1 - i, or n - i for a T pivot).
+    system = folded_system(grids[grid, 0.0])
+    window = system.data_window(1.0, 2.0)
+    header, folded = window.buffer[:24], system.grid
+    rows, n = int(header[1]), int(header[2])
+    positions = window.buffer[int(header[13]):int(header[14])].reshape(rows + 2, n + 3, 3)
+    options = grid_options(**GRIDS[grid])
+    lon = folded.lon[0]
+    a, cap_rows = math.tan(math.radians(90.0 - options["fold_latitude"]) / 2.0), options["cap_rows"]
+    for d in (1, 2, 3):
+        sigma = math.pi + d * 0.5 * math.pi / cap_rows
+        upper = np.where(lon > 0.0, lon, lon + 180.0)
+        poles = np.isclose(np.sin(np.radians(lon)), 0.0, atol=1e-12)
+        tau = (2.0 * np.arctan(1j * np.exp(-1j * np.radians(np.where(poles, 90.0, upper))))).imag
+        w = np.where(lon > 0.0, 1.0, -1.0) * 1j * a / np.tan((sigma + 1j * tau) / 2.0)
+        w[poles] = np.where(np.cos(np.radians(lon[poles])) > 0.0, a, -a)
+        expected = unit(np.column_stack([np.degrees(np.angle(w)), 90.0 - 2.0 * np.degrees(np.arctan(np.abs(w)))]))
+        row = int(folded.fold) + d + folded.first_row + 1  # the buffer's row: the window's padded
+        np.testing.assert_allclose(positions[row, 1:n + 1], expected, atol=1e-12)
+
+
 def test_newtons_first_guess_in_the_cap_is_a_node_near_the_point():
     # The lookup table of the cap's stereographic plane gives each point of the cap a node near it
     # (the nearest to its table cell's centre): at most the cell's half-diagonal plus a node's
