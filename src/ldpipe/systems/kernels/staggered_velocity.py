@@ -11,8 +11,10 @@
 # The bound buffer: a header of DATA_HEADER values, then U as (ny, nx - 1, nt + 2), V as
 # (ny - 1, nx, nt + 2) (each face's times together, padded by one time on each side), then the
 # land nodes (ny, nx) (1.0 on land: its cell is land, its faces closed), then the LD metric's P
-# (kernels/curvilinear_ld_metric.py). Header: nt, ny, nx, x_first 0, dx 1, y_first 0, dy 1, t_first,
-# dt, 0, radius, 1, P's offset, the arc length's factor, V's offset, the land's offset.
+# (kernels/curvilinear_ld_metric.py). Header: nt, ny, nx (the centres read), i0, 1, j0, 1
+# (i0, j0 the first centre read: 0, 0 for the whole grid, a window's box elsewhere; the state is
+# the whole grid's indices), t_first, dt, 0, radius, 1, P's offset, the arc length's factor, V's
+# offset, the land's offset.
 #
 # A point within NEAR_WALL of a closed face on its land side (a step overshoots a wall by about the
 # integrator's tolerance) takes the water cell's linear velocity, continued: it points back at the
@@ -41,8 +43,8 @@ def rhs(state, t, out):
         out[0] = math.nan
         out[1] = math.nan
         return
-    fi = state[0]
-    fj = state[1]
+    fi = state[0] - data[3]  # from the box's first centre (an integer: exact)
+    fj = state[1] - data[5]
     if not (fi >= 0.5 and fi <= nx - 1.5 and fj >= 0.5 and fj <= ny - 1.5):
         return
     i = min(int(fi + 0.5), nx - 2)

@@ -278,9 +278,6 @@ def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, 
     """What a :class:`DataSource` records of a curvilinear grid beyond its coordinates' names."""
     if three_d:
         raise ConfigError(f"config key '{key}.w': 3-D data on a curvilinear grid are not supported yet")
-    if entry.get("window") is not None:
-        raise ConfigError(f"config key '{key}.window': a window of a curvilinear grid is not supported yet; "
-                          "the whole grid is read")
     components = velocity_components(entry, dataset, key)
     angle = angle_variable({**entry, "components": components}, dataset, dataset[coordinates[0]].dims, key)
     return {"components": components, "angle": angle[0] if angle else None, "angle_scale": angle[1] if angle else 1.0}

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, grid_system
-from .grid_geometry import GridGeometry, keys_padded
+from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, NodeBox, box_padded, grid_system
+from .grid_geometry import GridGeometry
 from .regular import HEADER, DataWindow, extend_keys, index_window
 from .source import DataSource, check_speeds, kernel_text
 
@@ -76,21 +76,21 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         return super().description.replace("curvilinear grid", "C-grid")
 
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The window of the data [start, end] needs over the whole grid (read once; the last few are kept)."""
+        """The window of the data [start, end] needs over the box read (:attr:`box`; read once, the last few kept)."""
         self.check_times(start, end)
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if times not in self._windows:
-            self._windows[times] = read_staggered_window(self.source, self.geometry, times, self.velocities.metric,
-                                                         self.arc_factor)
+            self._windows[times] = read_staggered_window(self.source, self.geometry, self.box, times,
+                                                         self.velocities.metric, self.arc_factor)
         return self._windows[times]
 
     def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:
         """Where trajectories stopped: ``left_data`` out of the cells with both faces in the data,
         ``on_land`` in a land cell (a start there: no trajectory enters one)."""
         window = self.data_window(start, end)
-        fi, fj = np.nan_to_num(self.engine_states(end_states), nan=-1.0).T
-        ny, nx = self.geometry.shape
+        fi, fj = (np.nan_to_num(self.engine_states(end_states), nan=-1.0) - self.box_origin).T
+        nx, ny = window.x_grid[2], window.y_grid[2]
         outside = ~((fi >= 0.5) & (fi <= nx - 1.5) & (fj >= 0.5) & (fj <= ny - 1.5))
         on_land = np.ones(len(fi), dtype=bool)
         for di in (-FACE_SLACK, FACE_SLACK):  # a point on a wall's face (to rounding) is at sea
@@ -100,12 +100,17 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
                 on_land &= window.land[j, i]
         return {"on_land": on_land & ~outside, "left_data": outside}
 
+    @property
+    def box_origin(self) -> np.ndarray:
+        """The whole grid's indices (i, j) of the box's first centre."""
+        return np.array([self.box[0][0], self.box[1][0]], dtype=float)
+
     def stop_lines(self, end_states: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The data's edge each trajectory that left it passed (an index line i or j = 1/2 or n - 3/2,
-        the engine's state); for one in a land cell (it started there) the nearest face."""
-        indices = np.nan_to_num(self.engine_states(end_states), nan=-1.0)
-        ny, nx = self.geometry.shape
-        lows, highs = np.array([0.5, 0.5]), np.array([nx - 1.5, ny - 1.5])
+        """The data's edge each trajectory that left it passed (an index line i or j = 1/2 or n - 3/2
+        of the box read, in the engine's state); for one in a land cell (it started there) the nearest face."""
+        indices = np.nan_to_num(self.engine_states(end_states), nan=-1.0) - self.box_origin
+        (ia, ib), (ja, jb) = self.box
+        lows, highs = np.array([0.5, 0.5]), np.array([ib - ia - 0.5, jb - ja - 0.5])
         below, above = indices < lows, indices > highs
         outside = below | above
         faces = np.floor(indices + 0.5) - 0.5
@@ -115,46 +120,56 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         axis = np.where(outside.any(axis=1), np.argmax(outside, axis=1), np.argmin(distance, axis=1))
         rows = np.arange(len(end_states))
         gap = indices[rows, axis] - lines[rows, axis]
-        return axis, lines[rows, axis], np.where(gap >= 0.0, 1, -1)
+        return axis, lines[rows, axis] + self.box_origin[axis], np.where(gap >= 0.0, 1, -1)
 
 
-def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tuple[int, int], metric: np.ndarray,
-                          arc_factor: float) -> DataWindow:
-    """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours."""
+def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeBox, times: tuple[int, int],
+                          metric: np.ndarray, arc_factor: float) -> DataWindow:
+    """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours,
+    over the centres of ``box`` (the whole grid's indices; ``geometry`` covers it) and the faces between them."""
     ta, tb = times
+    (ia, ib), (ja, jb) = box
     count = source.t_grid[2]
     first, last = max(0, ta - 1), min(count - 1, tb + 1)
     with source.open() as dataset:
-        region = {source.time: slice(first, last + 1)}
-        u = np.asarray(dataset.read(source.u, region), dtype=float)
-        v = np.asarray(dataset.read(source.v, region), dtype=float)
-        water = np.asarray(dataset.read(source.mask, {})) != 0 if source.mask else np.ones(geometry.shape, dtype=bool)
-    if source.staggered == "nemo":  # the outer faces east of the last column and north of the last row
-        u, v = u[:, :, :-1], v[:, :-1, :]
+        def faces(name: str, rows: slice, columns: slice) -> np.ndarray:  # the face arrays' own dimensions
+            time, y, x = dataset.dataset(0)[name].dims
+            return np.asarray(dataset.read(name, {time: slice(first, last + 1), y: rows, x: columns}), dtype=float)
+
+        # u between centres (j, i) and (j, i + 1), v between (j, i) and (j + 1, i): NEMO's outer
+        # faces (its arrays' last column and row) are never among them
+        u = faces(source.u, slice(ja, jb + 1), slice(ia, ib))
+        v = faces(source.v, slice(ja, jb), slice(ia, ib + 1))
+        ny, nx = jb - ja + 1, ib - ia + 1
+        water = (np.asarray(dataset.read(source.mask, {source.y: slice(ja, jb + 1), source.x: slice(ia, ib + 1)})) != 0
+                 if source.mask else np.ones((ny, nx), dtype=bool))
     check_speeds(source, [u, v])
     open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
     open_v = np.isfinite(v) & (water[:-1] & water[1:])
     along_i, along_j = face_lengths(geometry, source.radius)
+    i0, j0 = geometry.offset
+    along_i = along_i[ja - j0:jb - j0 + 1, ia - i0:ib - i0]
+    along_j = along_j[ja - j0:jb - j0, ia - i0:ib - i0 + 1]
     u = np.where(open_u, u, 0.0) * source.velocity_scale / along_i
     v = np.where(open_v, v, 0.0) * source.velocity_scale / along_j
     start, stop = ta - first, ta - first + tb - ta + 1
     u_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(u, start, stop), 0, -1))  # (ny, nx - 1, nt + 2)
     v_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(v, start, stop), 0, -1))
-    ny, nx = geometry.shape
     land = (~water).astype(float)
     header = np.zeros(HEADER)
-    header[:12] = (tb - ta + 1, ny, nx, 0.0, 1.0, 0.0, 1.0, source.t_grid[0] + source.t_grid[1] * ta,
+    header[:12] = (tb - ta + 1, ny, nx, float(ia), 1.0, float(ja), 1.0, source.t_grid[0] + source.t_grid[1] * ta,
                    source.t_grid[1], 0.0, source.radius, 1.0)
     header[V_AT] = HEADER + u_faces.size
     header[LAND_AT] = header[V_AT] + v_faces.size
     header[METRIC_AT] = header[LAND_AT] + land.size
     header[ARC_FACTOR_AT] = arc_factor
-    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), keys_padded(metric).ravel()])
-    return DataWindow(np.ascontiguousarray(buffer), ~water, (0.0, 1.0, nx), (0.0, 1.0, ny))
+    padded_metric = box_padded(metric, box, geometry.offset, (source.y_grid[2], source.x_grid[2]))
+    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), padded_metric.ravel()])
+    return DataWindow(np.ascontiguousarray(buffer), ~water, (float(ia), 1.0, nx), (float(ja), 1.0, ny))
 
 
-def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
-                          ) -> StaggeredVelocitySystem:
-    """The system of a checked C-grid ``source`` (:func:`.source.open_source`)."""
+def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
+                          window: dict | None = None, key: str = "window") -> StaggeredVelocitySystem:
+    """The system of a checked C-grid ``source`` (:func:`.source.open_source`) over its ``window``."""
     return grid_system(StaggeredVelocitySystem, staggered_kernel_source(), "velocity_data_c_grid", name, source, spec,
-                       coordinates)
+                       coordinates, window, key)
