@@ -6,7 +6,9 @@ north by the grid's angle (the file's, else the coordinates'), then d(i, j)/dt =
 with J = dX/d(i, j) at the node (:mod:`.grid_geometry`: fourth-order differences) and dX/dt the
 velocity in coordinate units (degrees on the sphere). Between nodes the regular grid's kernel
 (``kernels/gridded_velocity.py``, cubic convolution in i, j and t) interpolates them on the unit
-grid, unchanged; land and the grid's edge stop trajectories as they do there.
+grid, unchanged; land and the grid's edge stop trajectories as they do there. Uneven times (monthly
+means) are interpolated by the same kernel with the rectilinear grid's non-uniform cubic in time
+(the window's header slot :data:`.regular.TIMES_AT`), exact for quadratics in time.
 
 Starts are mapped to indices by Newton's method on the interpolated coordinates, end states
 back by that interpolant (:meth:`CurvilinearVelocitySystem.engine_states`,
@@ -23,7 +25,7 @@ edges are the data's edges; the geometry is built over the box and :data:`GEOMET
 nodes, so that inside the box every value is the whole grid's bit for bit.
 
 A C-grid's face velocities are :mod:`.staggered`'s. Not yet: grids through a pole or folded
-(tripolar), 3-D data, uneven times; a map's region box (variable-time LDs).
+(tripolar), 3-D data; a map's region box (variable-time LDs).
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from ...errors import ConfigError
 from ...jitcache import njit_functions
 from .grid_geometry import GridGeometry, angle_from_coordinates, wrapped
 from .regular import DataWindow, VelocityDataSystem, extend_keys, index_window, kernel_source, read_window
-from .source import DataSource, at_least_three_nodes, kernel_text
+from .source import DataSource, at_least_three_nodes, kernel_text, node_window
 
 #: The largest difference (radians) between a file's rotation angle and the coordinates' before the
 #: file's is refused (an angle in degrees labelled radians, or of another grid, differs by far more).
@@ -155,8 +157,7 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
         """The window of the data [start, end] needs over the box read (:attr:`box`), as index
         velocities with the LD's metric after them (read once; the last few are kept)."""
         self.check_times(start, end)
-        low, high = sorted((start, end))
-        times = index_window(self.source.t_grid, low, high)
+        times = time_indices(self.source, *sorted((start, end)))
         if times not in self._windows:
             index_source = replace(self.source, sphere=False, velocity_scale=1.0)
             window = read_window(index_source, times, *self.box, convert=self.convert)
@@ -186,6 +187,14 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
         """The grid line each stopped trajectory crossed last, as an index (i or j) and its value:
         the engine's state, so its crossing is located where the engine integrates."""
         return super().stop_lines(np.nan_to_num(self.engine_states(end_states), nan=-1.0), start, end)
+
+
+def time_indices(source: DataSource, low: float, high: float) -> tuple[int, int]:
+    """The time indices [a, b] whose intervals cover [low, high]: of even times, or of uneven ones
+    (``source.nodes``, the kernel then interpolating them by the non-uniform cubic)."""
+    if source.nodes is None:
+        return index_window(source.t_grid, low, high)
+    return node_window(np.asarray(source.nodes[-1]), low, high)
 
 
 def box_padded(values: np.ndarray, box: NodeBox, offset: tuple[int, int], shape: tuple[int, int]) -> np.ndarray:

@@ -21,13 +21,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, NodeBox, box_padded, grid_system
+from .curvilinear import (
+    ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, NodeBox, box_padded, grid_system, time_indices,
+)
 from .grid_geometry import GridGeometry
-from .regular import HEADER, DataWindow, extend_keys, index_window
-from .source import DataSource, check_speeds, kernel_text
+from .regular import HEADER, DataWindow, extend_keys
+from .source import DataSource, check_speeds, kernel_text, pad_axis
 
 #: Header slots of the staggered kernel beyond the LD metric's: where V and the land nodes start.
 V_AT, LAND_AT = 14, 15
+#: The header slot of where uneven times start in the buffer (0: even times, from slots 7 and 8).
+STAGGERED_TIMES_AT = 9
 #: How far past a wall's face (in cells) a point counts as on it, at sea: a step may overshoot the
 #: wall by about the integrator's tolerance, and the kernel turns such a point back (its NEAR_WALL).
 FACE_SLACK = 1e-3
@@ -78,8 +82,7 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
     def data_window(self, start: float, end: float) -> DataWindow:
         """The window of the data [start, end] needs over the box read (:attr:`box`; read once, the last few kept)."""
         self.check_times(start, end)
-        low, high = sorted((start, end))
-        times = index_window(self.source.t_grid, low, high)
+        times = time_indices(self.source, *sorted((start, end)))
         if times not in self._windows:
             self._windows[times] = read_staggered_window(self.source, self.geometry, self.box, times,
                                                          self.velocities.metric, self.arc_factor)
@@ -153,8 +156,14 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeB
     u = np.where(open_u, u, 0.0) * source.velocity_scale / along_i
     v = np.where(open_v, v, 0.0) * source.velocity_scale / along_j
     start, stop = ta - first, ta - first + tb - ta + 1
-    u_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(u, start, stop), 0, -1))  # (ny, nx - 1, nt + 2)
-    v_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(v, start, stop), 0, -1))
+    time_nodes = None
+    if source.nodes is not None:  # uneven times: ghosts on the end nodes' parabola, as an uneven axis's
+        times_read = np.asarray(source.nodes[-1])[first:last + 1]
+        (u, time_nodes), (v, _) = (pad_axis(a, 0, times_read, start, stop) for a in (u, v))
+    else:
+        u, v = padded_in_time(u, start, stop), padded_in_time(v, start, stop)
+    u_faces = np.ascontiguousarray(np.moveaxis(u, 0, -1))  # (ny, nx - 1, nt + 2)
+    v_faces = np.ascontiguousarray(np.moveaxis(v, 0, -1))
     land = (~water).astype(float)
     header = np.zeros(HEADER)
     header[:12] = (tb - ta + 1, ny, nx, float(ia), 1.0, float(ja), 1.0, source.t_grid[0] + source.t_grid[1] * ta,
@@ -165,6 +174,9 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeB
     header[ARC_FACTOR_AT] = arc_factor
     padded_metric = box_padded(metric, box, geometry.offset, (source.y_grid[2], source.x_grid[2]))
     buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), padded_metric.ravel()])
+    if time_nodes is not None:
+        buffer[STAGGERED_TIMES_AT] = len(buffer)
+        buffer = np.concatenate([buffer, time_nodes])
     return DataWindow(np.ascontiguousarray(buffer), ~water, (float(ia), 1.0, nx), (float(ja), 1.0, ny))
 
 
