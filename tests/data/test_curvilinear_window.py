@@ -10,6 +10,8 @@
 - Closed form: a uniform flow on the rotated grid (affine, so the interpolants are exact) leaves
   the box through its edge, an index line of the grid, after the time the ray takes to reach it.
 - A window with no node of the grid in it is refused, naming ``window``.
+- A window south of a tripolar grid's fold (the whole grid refused by it) is read: a rotation about
+  the polar axis against its closed form.
 """
 
 import math
@@ -24,6 +26,7 @@ from ldpipe.data.curvilinear import (
     ROTATION, curvilinear_dataset, double_gyre_c_grid_dataset, double_gyre_dataset, plane_grid, rotated_pole_grid,
     write_dataset,
 )
+from ldpipe.data.tripolar import tripolar_dataset
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
@@ -172,3 +175,24 @@ def test_a_window_across_the_dateline_keeps_the_whole_grids_trajectories(tmp_pat
     np.testing.assert_array_equal(result.end_state, expected.end_state)
     np.testing.assert_array_equal(result.ld, expected.ld)
     assert boxed.box != whole.box
+
+
+def test_a_window_south_of_a_tripolar_grids_fold_is_read(tmp_path):
+    # the whole ORCA-like grid is refused by its north fold; a window south of it (where the grid is
+    # a regular 5-degree longitude-latitude grid) and off its seam is read. A rotation about the
+    # polar axis, a turn in 40 days, is linear in the index there: lon0 + omega t, lat0 (closed form);
+    # the starts on rows of the grid, where the LD's metric (cos lat) is the nodes' own, so the arc
+    # length omega R cos(lat0) t is exact too
+    radius, omega = 6371000.0, 2 * math.pi / (40 * 86400.0)
+    field = lambda lon, lat, t: (omega * radius * np.cos(np.radians(lat)) + 0 * t, 0 * lat)  # noqa: E731
+    path = write_dataset(tripolar_dataset(field, np.arange(0.0, 2.01, 0.5)), tmp_path / "tripolar.nc")
+    entry = {"path": str(path), "coordinates": "sphere"}
+    with pytest.raises(ConfigError, match=r"folds onto itself along its last row"):
+        make_system("whole", {"velocity_data": entry})
+    boxed = make_system("boxed", {"velocity_data": entry | {"window": {"lon": [-60.0, 60.0], "lat": [-40.0, 20.0]}}})
+    starts = np.array([[-20.0, -30.0], [0.0, 0.0], [12.5, 10.0]])
+    result = compute_ld(boxed, starts, 1, LDSettings(tau=1.0, p="arclength", **TIGHT), t0=0.5)
+    # measured: 2.5e-14 degrees, the arc length 5.2e-14 relative (rounding)
+    np.testing.assert_allclose(result.end_state, starts + [math.degrees(omega * 86400.0), 0.0], rtol=0, atol=1e-12)
+    arc = omega * 86400.0 * radius * np.cos(np.radians(starts[:, 1])) / 1000.0
+    np.testing.assert_allclose(result.ld, arc, rtol=1e-12)
