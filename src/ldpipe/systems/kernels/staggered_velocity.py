@@ -72,34 +72,8 @@ def rhs(state, t, out):
     wt1 = (1.5 * st - 2.5) * st * st + 1.0
     wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
     wt3 = (0.5 * st - 0.5) * st * st
-    if data[9] > 0.0:
-        # uneven times (their padded values at data[9]): the non-uniform cubic of
-        # rectilinear_velocity.py in time (as gridded_velocity.py writes it out), exact for quadratics
-        base = int(data[9])
-        tc = min(max(t, data[base + 1]), data[base + nt])
-        low = 0
-        high = nt - 1
-        while high - low > 1:
-            middle = (low + high) >> 1
-            if data[base + 1 + middle] <= tc:
-                low = middle
-            else:
-                high = middle
-        k = low
-        h0 = data[base + k + 1] - data[base + k]
-        h1 = data[base + k + 2] - data[base + k + 1]
-        h2 = data[base + k + 3] - data[base + k + 2]
-        s = (tc - data[base + k + 1]) / h1
-        s2 = s * s
-        s3 = s2 * s
-        h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-        h10 = s3 - 2.0 * s2 + s
-        h01 = 3.0 * s2 - 2.0 * s3
-        h11 = s3 - s2
-        wt0 = -h10 * h1 * h1 / (h0 * (h0 + h1))
-        wt1 = h00 + h10 * (h1 - h0) / h0 - h11 * h2 / (h1 + h2)
-        wt2 = h01 + h10 * h0 / (h0 + h1) + h11 * (h2 - h1) / h2
-        wt3 = h11 * h1 * h1 / (h2 * (h1 + h2))
+    if data[9] > 0.0:  # uneven times (their padded values at data[9]): kernels/uneven_time_weights.py
+        k, wt0, wt1, wt2, wt3 = uneven_time_weights(data, int(data[9]), nt, t)
     qt = nt + 2
     a = fi - (i - 0.5)  # from the west face, 0 .. 1
     west = DATA_HEADER + (j * (nx - 1) + i - 1) * qt + k

@@ -47,7 +47,7 @@ def kernel_source() -> str:
     """The data kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    text = kernel_text("velocity_units.py") + kernel_text("gridded_velocity.py")
+    text = kernel_text("velocity_units.py") + kernel_text("uneven_time_weights.py") + kernel_text("gridded_velocity.py")
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
 
 
