@@ -179,10 +179,10 @@ def test_a_window_across_the_dateline_keeps_the_whole_grids_trajectories(tmp_pat
 
 def test_a_window_south_of_a_tripolar_grids_fold_is_read(tmp_path):
     # the whole ORCA-like grid is refused by its north fold; a window south of it (where the grid is
-    # a regular 5-degree longitude-latitude grid) and off its seam is read. A rotation about the
-    # polar axis, a turn in 40 days, is linear in the index there: lon0 + omega t, lat0 (closed form);
-    # the starts on rows of the grid, where the LD's metric (cos lat) is the nodes' own, so the arc
-    # length omega R cos(lat0) t is exact too
+    # a regular 5-degree longitude-latitude grid) is read. A rotation about the polar axis, a turn
+    # in 40 days, is linear in the index there: lon0 + omega t, lat0 (closed form); the starts on
+    # rows of the grid, where the LD's metric (cos lat) is the nodes' own, so the arc length
+    # omega R cos(lat0) t is exact too
     radius, omega = 6371000.0, 2 * math.pi / (40 * 86400.0)
     field = lambda lon, lat, t: (omega * radius * np.cos(np.radians(lat)) + 0 * t, 0 * lat)  # noqa: E731
     path = write_dataset(tripolar_dataset(field, np.arange(0.0, 2.01, 0.5)), tmp_path / "tripolar.nc")
