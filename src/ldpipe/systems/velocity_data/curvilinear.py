@@ -325,15 +325,17 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
 
 
 def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module: str, name: str, source: DataSource,
-                spec: dict, coordinates: tuple[str, str], window: dict | None = None,
-                key: str = "window") -> CurvilinearVelocitySystem:
+                spec: dict, coordinates: tuple[str, str], window: dict | None = None, key: str = "window",
+                extra=None) -> CurvilinearVelocitySystem:
     """A system of ``system_class`` (curvilinear, or a C grid) of a checked ``source``
     (:func:`.source.open_source`) over its ``window`` (the whole grid if None; ``key`` names it):
-    its grid's geometry and index velocities, and the kernel ``text`` compiled as the module ``module``."""
+    its grid's geometry and index velocities, the fields ``extra(geometry)`` gives (a C-grid's
+    faces, over the geometry's nodes), and the kernel ``text`` compiled as the module ``module``."""
     geometry, velocities, arc_factor, box = curvilinear_parts(source, window, coordinates, key)
+    fields = extra(geometry) if extra else {}
     (rhs,) = njit_functions(text, ("rhs",), module)
     return system_class(name=name, coordinates=coordinates, source=source, window=window, kernel_source=text, rhs=rhs,
-                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor, box=box)
+                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor, box=box, **fields)
 
 
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],

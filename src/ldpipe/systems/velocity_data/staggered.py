@@ -7,17 +7,19 @@ grid whose u and v have these shapes is read as such (:func:`.source.c_grid`); N
 the centres' shape (their last column and row the outer faces, not read), when the entry says
 ``c_grid: nemo``. Either is integrated in
 index space as :mod:`.curvilinear` does, with the staggered interpolant of
-``kernels/staggered_velocity.py``: a face's velocity is the index velocity u / L, L the distance
-between the two centres it separates (on the sphere great-circle metres), linear across a cell
-between its two faces and constant along them. A face next to a land centre (the ``mask``'s
-zeros) or with a missing value is closed (0), so a coast is a wall: trajectories come up to it
-and never cross; only land centres are land. The LD is physical, by the centres' metric
+``kernels/staggered_velocity.py``: a face's velocity (normal to the face) becomes an index
+velocity by the grid's metrics (:mod:`.grid_metrics`): the file's, as the flux through the face
+(u times its length) over the cell's area, or from the coordinates u / (L sin theta), L the
+distance between the two centres it separates (on the sphere great-circle metres) and theta the
+angle of the face to that line; linear across a cell between its two faces and constant along
+them. A face next to a land centre (the ``mask``'s zeros) or with a missing value is closed (0),
+so a coast is a wall: trajectories come up to it and never cross; only land centres are land. The LD is physical, by the centres' metric
 (``kernels/curvilinear_ld_metric.py``), as on a collocated curvilinear grid.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,6 +27,7 @@ from .curvilinear import (
     ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, NodeBox, box_padded, grid_system, time_indices,
 )
 from .grid_geometry import GridGeometry
+from .grid_metrics import FaceConversion, face_conversion
 from .regular import HEADER, DataWindow, extend_keys
 from .source import DataSource, check_speeds, kernel_text, pad_axis
 
@@ -72,6 +75,15 @@ def padded_in_time(values: np.ndarray, start: int, stop: int) -> np.ndarray:
 class StaggeredVelocitySystem(CurvilinearVelocitySystem):
     """A flow from a C-grid's face velocities, integrated in the grid's indices (module docstring)."""
 
+    faces: FaceConversion = field(default=None, repr=False)
+
+    def grid_attributes(self) -> dict[str, str | float]:
+        """What a map's file records of the C-grid's metrics: the variables read (or that they came
+        from the coordinates) and the tolerance they were checked to."""
+        if not self.faces.metrics:
+            return {"grid_metrics": "from the coordinates"}
+        return {"grid_metrics": self.faces.metrics, "metric_tolerance": self.source.metric_tolerance}
+
     @property
     def engine_name(self) -> str:
         return "velocity_data_c_grid"
@@ -85,7 +97,7 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         self.check_times(start, end)
         times = time_indices(self.source, *sorted((start, end)))
         if times not in self._windows:
-            self._windows[times] = read_staggered_window(self.source, self.geometry, self.box, times,
+            self._windows[times] = read_staggered_window(self.source, self.geometry, self.faces, self.box, times,
                                                          self.velocities.metric, self.arc_factor)
         return self._windows[times]
 
@@ -127,35 +139,34 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         return axis, lines[rows, axis] + self.box_origin[axis], np.where(gap >= 0.0, 1, -1)
 
 
-def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeBox, times: tuple[int, int],
-                          metric: np.ndarray, arc_factor: float) -> DataWindow:
+def read_staggered_window(source: DataSource, geometry: GridGeometry, faces: FaceConversion, box: NodeBox,
+                          times: tuple[int, int], metric: np.ndarray, arc_factor: float) -> DataWindow:
     """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours,
-    over the centres of ``box`` (the whole grid's indices; ``geometry`` covers it) and the faces between them."""
+    over the centres of ``box`` (the whole grid's indices; ``geometry`` and ``faces`` cover it) and
+    the faces between them."""
     ta, tb = times
     (ia, ib), (ja, jb) = box
     count = source.t_grid[2]
     first, last = max(0, ta - 1), min(count - 1, tb + 1)
     with source.open() as dataset:
-        def faces(name: str, rows: slice, columns: slice) -> np.ndarray:  # the face arrays' own dimensions
+        def face_values(name: str, rows: slice, columns: slice) -> np.ndarray:  # the face arrays' own dimensions
             time, y, x = dataset.dataset(0)[name].dims
             return np.asarray(dataset.read(name, {time: slice(first, last + 1), y: rows, x: columns}), dtype=float)
 
         # u between centres (j, i) and (j, i + 1), v between (j, i) and (j + 1, i): NEMO's outer
         # faces (its arrays' last column and row) are never among them
-        u = faces(source.u, slice(ja, jb + 1), slice(ia, ib))
-        v = faces(source.v, slice(ja, jb), slice(ia, ib + 1))
+        u = face_values(source.u, slice(ja, jb + 1), slice(ia, ib))
+        v = face_values(source.v, slice(ja, jb), slice(ia, ib + 1))
         ny, nx = jb - ja + 1, ib - ia + 1
         water = (np.asarray(dataset.read(source.mask, {source.y: slice(ja, jb + 1), source.x: slice(ia, ib + 1)})) != 0
                  if source.mask else np.ones((ny, nx), dtype=bool))
     check_speeds(source, [u, v])
     open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
     open_v = np.isfinite(v) & (water[:-1] & water[1:])
-    along_i, along_j = face_lengths(geometry, source.radius)
-    i0, j0 = geometry.offset
-    along_i = along_i[ja - j0:jb - j0 + 1, ia - i0:ib - i0]
-    along_j = along_j[ja - j0:jb - j0, ia - i0:ib - i0 + 1]
-    u = np.where(open_u, u, 0.0) * source.velocity_scale / along_i
-    v = np.where(open_v, v, 0.0) * source.velocity_scale / along_j
+    i0, j0 = geometry.offset  # the box in the geometry's nodes (faces' and cells' arrays are the geometry's)
+    rows, columns = slice(ja - j0, jb - j0 + 1), slice(ia - i0, ib - i0 + 1)
+    u = np.where(open_u, u, 0.0) * source.velocity_scale / faces.u_divisor[rows, columns.start:columns.stop - 1]
+    v = np.where(open_v, v, 0.0) * source.velocity_scale / faces.v_divisor[rows.start:rows.stop - 1, columns]
     start, stop = ta - first, ta - first + tb - ta + 1
     time_nodes = None
     if source.nodes is not None:  # uneven times: ghosts on the end nodes' parabola, as an uneven axis's
@@ -171,10 +182,11 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeB
                    source.t_grid[1], 0.0, source.radius, 1.0)
     header[V_AT] = HEADER + u_faces.size
     header[LAND_AT] = header[V_AT] + v_faces.size
-    header[METRIC_AT] = header[LAND_AT] + land.size
+    header[METRIC_AT] = header[LAND_AT] + 2 * land.size  # the cells' scales after the land
     header[ARC_FACTOR_AT] = arc_factor
     padded_metric = box_padded(metric, box, geometry.offset, (source.y_grid[2], source.x_grid[2]))
-    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), padded_metric.ravel()])
+    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), faces.cell_scale[rows, columns].ravel(),
+                             padded_metric.ravel()])
     if time_nodes is not None:
         buffer[STAGGERED_TIMES_AT] = len(buffer)
         buffer = np.concatenate([buffer, time_nodes])
@@ -183,6 +195,10 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, box: NodeB
 
 def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
                           window: dict | None = None, key: str = "window") -> StaggeredVelocitySystem:
-    """The system of a checked C-grid ``source`` (:func:`.source.open_source`) over its ``window``."""
+    """The system of a checked C-grid ``source`` (:func:`.source.open_source`) over its ``window``:
+    its faces' conversion over the geometry's nodes (the box read and a margin)."""
+    def faces(geometry: GridGeometry) -> dict:
+        return {"faces": face_conversion(source, geometry, *face_lengths(geometry, source.radius))}
+
     return grid_system(StaggeredVelocitySystem, staggered_kernel_source(), "velocity_data_c_grid", name, source, spec,
-                       coordinates, window, key)
+                       coordinates, window, key, faces)
