@@ -351,7 +351,11 @@ class FoldedVelocitySystem(PolarVelocitySystem):
 
 def make_folded_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
                        grid: FoldedGrid) -> FoldedVelocitySystem:
-    """The system of a checked tripolar ``source`` whose layout is ``grid`` (:func:`folded_grid`)."""
+    """The system of a checked tripolar ``source`` whose layout is ``grid`` (:func:`folded_grid`);
+    a ConfigError names the time variable if its times are uneven (the kernel's are even)."""
+    if source.nodes is not None:
+        raise ConfigError(f"velocity data {source.label}: the times of {source.time!r} are unevenly spaced; a tripolar "
+                          "global grid is read at evenly spaced times")
     angle = folded_angle(source, grid)
     text = folded_kernel_source()
     (rhs,) = njit_functions(text, ("rhs",), "velocity_data_folded")
