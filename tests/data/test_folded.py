@@ -20,7 +20,7 @@ fold and the south pole, against closed forms.
 - Land round the cap's own poles stops a circle that runs into it, on its circle; a grid whose
   first row is not at the south pole is an edge there (the stop time in closed form).
 - The guide's ORCA block, as written, on such a file with NEMO's names and grid components.
-- Refused by name: a fold whose mirrored nodes do not match, halo columns, a grid of 2-D coordinates that is a
+- Refused by name: a fold whose mirrored nodes do not match, halo columns, uneven times, a grid of 2-D coordinates that is a
   regular grid reaching the north pole, a grid starting near the south pole but not at it or half a
   spacing from it.
 """
@@ -343,6 +343,10 @@ def test_folds_and_poles_the_grid_cannot_join_are_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"\('lon_rho', 'lat_rho'\) is a regular longitude/latitude grid reaching "
                                           r"the north pole.*give its 1-D longitudes and latitudes"):
         refused(tmp_path / "regular.nc", regular)
+    uneven = tripolar_dataset(field, np.array([0.0, 0.5, 1.5, 2.0]), **grid_options(36))
+    with pytest.raises(ConfigError, match=r"the times of 'time' are unevenly spaced; a tripolar global grid is read "
+                                          r"at evenly spaced times"):
+        refused(tmp_path / "uneven.nc", uneven)
     near = tripolar_dataset(field, times, **grid_options(36, fold_latitude=61.0, south=-88.0))
     assert near.nav_lat.values[0, 0] == -89.0  # 15 rows of 10 degrees below 61 N
     with pytest.raises(ConfigError, match=r"starts 1 degrees from the south pole, less than its spacing 10 but neither"):
