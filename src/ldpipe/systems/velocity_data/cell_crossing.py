@@ -16,8 +16,8 @@ tolerances, at a cost per face crossed instead of per step.
 
 Where the kernel's velocity is zero the trajectory stops as DOP853's does: on a closed face (a
 coast: the series never crosses it, to rounding, and the position is kept in its cell), at the
-data's edge (the trajectory stops on the edge line, moved one rounding unit outside, where the
-stop flags see it), in a land cell or outside the cells read (it does not move). A face is looked
+data's edge (the trajectory stops on the edge line, moved :data:`EDGE_OUTSIDE` outside, where
+the stop flags see it), in a land cell or outside the cells read (it does not move). A face is looked
 for at :data:`SAMPLES` points of a piece: a trajectory that touches a face and turns back between
 two of them (a tangency within a fraction of a data step) is kept in its cell, an error of the
 excursion's depth times the cell-to-cell jump of the velocity along the face.
@@ -39,6 +39,9 @@ SERIES_TOL = 1e-15
 MAX_TERMS = 40
 #: Points of a piece at which the positions are checked for a face passed (see the module docstring).
 SAMPLES = 4
+#: How far past the data's edge (in cells) a trajectory that reaches it is left: outside to the stop
+#: flags through the round trip to the grid's coordinates and back (rounding there: ~1e-13 cells).
+EDGE_OUTSIDE = 1e-9
 RECIPROCALS = 1.0 / np.maximum(np.arange(MAX_TERMS), 1.0)
 # Outcome codes (ldpipe.engine's flow_status): the duration integrated, or failed (the piece cap, a state not finite).
 COMPLETED, FAILED = 0, 3
@@ -238,9 +241,9 @@ def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_p
             if leaving:  # on the data's edge, where the velocity is zero: moved just outside, stopped
                 fi, fj = i - 0.5 + a, j - 0.5 + b
                 if exit_axis == 0:
-                    fi = np.nextafter(fi, fi + step)
+                    fi += step * EDGE_OUTSIDE
                 else:
-                    fj = np.nextafter(fj, fj + step)
+                    fj += step * EDGE_OUTSIDE
                 o_end[kk, 0], o_end[kk, 1] = fi, fj
                 break
         else:
