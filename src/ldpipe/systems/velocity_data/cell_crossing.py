@@ -1,9 +1,9 @@
 """The flow map of the C-grid interpolant by exact cell crossing: no step control, no tolerance.
 
 In a cell of ``kernels/staggered_velocity.py`` and a data interval the interpolant separates:
-the index velocity along i is U_w(s) + (U_e(s) - U_w(s)) a, a in [0, 1] the position from the
-cell's west face and U_w, U_e the cubics in time s of its two faces (Keys' cubic convolution of
-their data), and likewise along j with b. Each fractional position obeys a scalar linear ODE with
+the index velocity along i is (U_w(s) + (U_e(s) - U_w(s)) a) times the cell's scale, a in
+[0, 1] the position from the cell's west face and U_w, U_e the cubics in time s of its two faces
+(Keys' cubic convolution of their data), and likewise along j with b. Each fractional position obeys a scalar linear ODE with
 polynomial coefficients, whose solution is an entire function of time; its Taylor series follows
 from a three-term recurrence (Hairer, Nørsett & Wanner I, sec. I.8) and is summed here until its
 terms fall below :data:`SERIES_TOL` cells. A trajectory therefore runs in pieces, each the part of
@@ -82,13 +82,14 @@ def _series(x0, p, q, scale, h, c):
         if tiny and small:
             return n + 2, h
         small = tiny
-    while True:  # not converged over the span in MAX_TERMS terms (a rare, fast piece): a shorter one
+    for _ in range(64):  # not converged over the span in MAX_TERMS terms (a rare, fast piece): a shorter one
         h *= 0.5
         hn = 1.0
         for n in range(1, MAX_TERMS - 1):
             hn *= h
             if abs(c[n]) * hn < SERIES_TOL and abs(c[n + 1]) * hn * h < SERIES_TOL:
                 return n + 2, h
+    return MAX_TERMS, h  # not finite: the caller fails the trajectory
 
 
 @njit(cache=True)
@@ -190,7 +191,8 @@ def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_p
             if direction < 0:  # in the reversed time -s: odd powers change sign
                 pa[1], pa[3], qa[1], qa[3] = -pa[1], -pa[3], -qa[1], -qa[3]
                 pb[1], pb[3], qb[1], qb[3] = -pb[1], -pb[3], -qb[1], -qb[3]
-            scale = dt * direction
+            # the cell's scale (1 / its area when the faces carry fluxes, else 1), after the land
+            scale = dt * direction * data[land_at + ny * nx + j * nx + i]
             na, span = _series(a, pa, qa, scale, span, ca)
             nb, span = _series(b, pb, qb, scale, span, cb)
             # Faces a trajectory may pass: open ones (water beyond) and the data's edge; a closed
@@ -219,6 +221,9 @@ def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_p
                 lo, a_lo, b_lo = s, va, vb
             a = min(max(_value(ca, na, exit_s), 0.0), 1.0)
             b = min(max(_value(cb, nb, exit_s), 0.0), 1.0)
+            if not (math.isfinite(ca[na - 1]) and math.isfinite(cb[nb - 1])):
+                status = FAILED
+                break
             if exit_axis < 0 and exit_s == span and span == remaining:
                 remaining = 0.0
                 continue
