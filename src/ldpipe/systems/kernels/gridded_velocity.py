@@ -31,6 +31,7 @@ from ldpipe.systems.data_stencil import stencil_velocity
 
 DATA_HEADER = 16
 EDGE_SLACK = 1e-9  # cells: how far outside the B-spline's edge a point counts as on it
+SIXTH = 1.0 / 6.0  # a product: a division costs several times as much
 
 
 @numba.njit(inline="always")  # compiled into rhs, with the engine's options
@@ -71,18 +72,18 @@ def grid_velocity(x, y, t):
         rx = 1.0 - sx
         ry = 1.0 - sy
         rt = 1.0 - st
-        wx0 = rx * rx * rx / 6.0
+        wx0 = rx * rx * rx * SIXTH
         wx1 = ((0.5 * sx - 1.0) * sx * sx) + 2.0 / 3.0
         wx2 = ((0.5 * rx - 1.0) * rx * rx) + 2.0 / 3.0
-        wx3 = sx * sx * sx / 6.0
-        wy0 = ry * ry * ry / 6.0
+        wx3 = sx * sx * sx * SIXTH
+        wy0 = ry * ry * ry * SIXTH
         wy1 = ((0.5 * sy - 1.0) * sy * sy) + 2.0 / 3.0
         wy2 = ((0.5 * ry - 1.0) * ry * ry) + 2.0 / 3.0
-        wy3 = sy * sy * sy / 6.0
-        wt0 = rt * rt * rt / 6.0
+        wy3 = sy * sy * sy * SIXTH
+        wt0 = rt * rt * rt * SIXTH
         wt1 = ((0.5 * st - 1.0) * st * st) + 2.0 / 3.0
         wt2 = ((0.5 * rt - 1.0) * rt * rt) + 2.0 / 3.0
-        wt3 = st * st * st / 6.0
+        wt3 = st * st * st * SIXTH
     else:  # cubic convolution on the data
         wx0 = ((-0.5 * sx + 1.0) * sx - 0.5) * sx
         wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
