@@ -203,15 +203,15 @@ def test_accessor_draws_the_map_on_the_given_axes(hh_config, hh_map, tmp_path):
     try:
         assert hh_map.ldpipe.plot(ax=ax, descriptor="forward") is ax
         (mesh,) = ax.collections
-        drawn = np.ma.masked_invalid(mesh.get_array()).reshape(hh_map.ld_forward.shape)
-        allowed = hh_map.allowed.values
-        # the forward LD as xarray draws it ((y, py) rows, py horizontal), forbidden points masked (drawn grey)
+        drawn = np.ma.masked_invalid(mesh.get_array()).reshape(hh_map.ld_forward.shape[::-1])
+        allowed = hh_map.allowed.values.T
+        # the forward LD with its first axis, y, across (the mesh's rows are py), forbidden points masked (grey)
         np.testing.assert_array_equal(np.ma.getmaskarray(drawn), ~allowed)
-        np.testing.assert_array_equal(drawn.compressed(), hh_map.ld_forward.values[allowed])
+        np.testing.assert_array_equal(drawn.compressed(), hh_map.ld_forward.values.T[allowed])
         # the colour scale: the schema's default percentiles [5, 99.9] of the allowed values
-        expected = np.percentile(hh_map.ld_forward.values[allowed], [5.0, 99.9])
+        expected = np.percentile(hh_map.ld_forward.values.T[allowed], [5.0, 99.9])
         np.testing.assert_array_equal(mesh.get_clim(), expected)
-        assert ax.get_xlabel() == "$p_y$" and ax.get_ylabel() == "$y$"
+        assert ax.get_xlabel() == "$y$" and ax.get_ylabel() == "$p_y$"
     finally:
         plt.close(figure)
     # any Dataset has the accessor once ldpipe is imported, however it was opened

@@ -51,7 +51,7 @@ print(f"distance to it: {float(points.distance_refined[0]):.1e} after refinement
 fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, descriptor in zip(axes, ("forward", "backward")):
     # x across, as the point (x, p_x) drawn on it
-    ld.ldpipe.plot(ax=ax, descriptor=descriptor, x="x")
+    ld.ldpipe.plot(ax=ax, descriptor=descriptor)
     ax.plot(*refined, "r+", markersize=14, markeredgewidth=2,
             label="refined NHIM point")
     ax.legend(loc="lower right")

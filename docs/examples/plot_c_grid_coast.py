@@ -53,7 +53,7 @@ print("starts on land:", int(ftle.start_on_land.sum()),
       "of", ftle.start_on_land.size)
 
 fig, ax = plt.subplots(figsize=(8, 4.4), layout="constrained")
-ftle.ldpipe.plot("ftle_forward", ax=ax, x="x_rho", cmap="magma")
+ftle.ldpipe.plot("ftle_forward", ax=ax, cmap="magma")
 # every fourth grid line of the file, i and j
 ax.plot(x[::4].T, y[::4].T, color="white", lw=0.4, alpha=0.6)
 ax.plot(x[:, ::4], y[:, ::4], color="white", lw=0.4, alpha=0.6)

@@ -52,7 +52,7 @@ for z, state, bound in zip(slices, states, points.refined_uncertainty.values):
 fig, axes = plt.subplots(1, len(maps) + 1, figsize=(4 * len(maps) + 4, 3.6),
                          layout="constrained")
 for ax, ld, state, z in zip(axes, maps, states, slices):
-    ld.ldpipe.plot(ax=ax, x="x")  # x across, as the point (x, p_x)
+    ld.ldpipe.plot(ax=ax)  # x across: the section's first axis, as the point (x, p_x)
     ax.text(0.03, 0.95, f"z = {z:.2f}", transform=ax.transAxes, va="top",
             bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
     ax.plot(state[0], state[3], "r+", markersize=14, markeredgewidth=2)

@@ -36,7 +36,7 @@ maps = {}
 for ax, p in zip(axes, (0.5, "arclength")):
     maps[p] = ldpipe.ld_map(eddy, name=f"eddy_{p}", section=section,
                             tau=TAU, p=p)
-    maps[p].ldpipe.plot(ax=ax, x="x")
+    maps[p].ldpipe.plot(ax=ax)
     ax.set_aspect("equal")
     ax.set_title("$M_{1/2}$" if p == 0.5 else "arc length", loc="left")
 plt.show()

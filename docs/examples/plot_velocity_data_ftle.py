@@ -38,6 +38,6 @@ print("points with an FTLE:", defined, "of", ftle.ftle_forward.size)
 
 fig, ax = plt.subplots(figsize=(8, 4.6), layout="constrained")
 # longitude across, as on a chart
-ftle.ldpipe.plot("ftle_forward", ax=ax, x="lon", cmap="magma")
+ftle.ldpipe.plot("ftle_forward", ax=ax, cmap="magma")
 ax.set_title("forward FTLE over 8 days from 2000-01-02")
 plt.show()

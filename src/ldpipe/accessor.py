@@ -32,8 +32,8 @@ class LdpipeAccessor:
         """Draw what the file holds on ``ax`` (a new figure's if None) and return the axes.
 
         An LD map draws ``variable`` (``"ld_forward"``, ``"ftle_backward"``, a flag ...; by
-        default the LD, forward plus backward) oriented as ``ds[variable].plot()`` draws it, its
-        missing points grey, with matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``, ``ax``,
+        default the LD, forward plus backward) with the map's first axis horizontal, as the
+        workflow's figures draw it, its missing points grey, with matplotlib's ``cmap``, ``vmin``, ``vmax``, ``norm``, ``ax``,
         ``add_colorbar``; see :func:`ldpipe.plot` for every option. ``ds.ldpipe.plot(ax)``, an
         axes first, draws the default on it."""
         if variable is not None and not isinstance(variable, str):  # ds.ldpipe.plot(ax): the axes given first

@@ -22,7 +22,9 @@ from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
 
-pytestmark = pytest.mark.compiles  # the C-grid's kernel and engine are loaded by these tests alone
+#: The C-grid's kernel and engine are loaded by these tests alone, and by test_c_grid_metrics and
+#: test_model_conventions, in the same xdist group so one worker compiles them.
+pytestmark = [pytest.mark.compiles, pytest.mark.xdist_group("c_grid_engine")]
 H, U0, V0 = 0.1, 0.5, 0.3
 ENTRY = {"x": "x_rho", "y": "y_rho", "components": "grid", "mask": "mask_rho"}
 

@@ -215,7 +215,8 @@ def test_bad_curvilinear_data_is_refused_naming_the_variable(tmp_path):
                                           r"longitude .* round a pole.* not supported yet"):
         data_system(write_dataset(polar, tmp_path / "polar.nc"), coordinates="sphere")
     regular = write_velocity_file(tmp_path / "regular.nc", rotation, np.linspace(0, 2, 5), np.linspace(0, 1, 5), times)
-    with pytest.raises(ConfigError, match=r"velocity_data': components, angle and c_grid are of a curvilinear grid"):
+    with pytest.raises(ConfigError, match=r"velocity_data': components, angle, c_grid and metrics are of a curvilinear "
+                                          r"grid"):
         data_system(regular, components="grid")
 
 

@@ -114,3 +114,31 @@ def test_the_example_writer_splits_the_example_along_time(tmp_path):
     system = make_system("cli", {"velocity_data": {"path": str(tmp_path / "series" / "example_*.nc"),
                                                    "coordinates": "sphere"}})
     assert system.source.time_range == (0.0, 1.5) and system.source.t_grid[2] == 7  # every 6 hours, as one file
+
+
+def test_later_files_grids_are_compared_on_their_edges_and_middle_lines(tmp_path):
+    # a series of a large grid must not read every file's grid whole: each later file's 2-D grid
+    # variable is read on its four edges and its middle row and column (3 rows and 3 columns of a
+    # 40 x 60 grid: 3 * 60 + 3 * 40 = 300 values, not 2400), and a node changed on the middle row
+    # (a grid moved there, as a regridded file would be) is refused naming the variable
+    from ldpipe.systems.velocity_data.files import grid_lines, series_times
+    import xarray as xr
+
+    lon, lat = np.meshgrid(np.linspace(-60.0, -30.0, 60), np.linspace(20.0, 40.0, 40))
+    grid = xr.DataArray(lon, dims=("y", "x"))
+    assert grid_lines(grid).size == 300
+    def write(name, times, shift=0.0):
+        moved = lon.copy()
+        moved[20, 30] += shift
+        dataset = xr.Dataset({"u": (("time", "y", "x"), np.zeros((len(times), 40, 60))),
+                              "nav_lon": (("y", "x"), moved), "nav_lat": (("y", "x"), lat)},
+                             coords={"time": ("time", times, {"units": "days since 2000-01-01"})})
+        dataset.to_netcdf(tmp_path / name)
+        return str(tmp_path / name)
+    first, same = write("a.nc", [0.0, 1.0]), write("b.nc", [2.0, 3.0])
+    times, starts = series_times([first, same], ("u", "nav_lon", "nav_lat"), "time", "k.path")
+    np.testing.assert_array_equal(times, [0.0, 1.0, 2.0, 3.0])
+    assert starts == (0, 2)
+    moved = write("c.nc", [2.0, 3.0], shift=0.1)
+    with pytest.raises(ConfigError, match=r"grids of .*a\.nc and .*c\.nc differ \(variable 'nav_lon'\)"):
+        series_times([first, moved], ("u", "nav_lon", "nav_lat"), "time", "k.path")

@@ -1,6 +1,7 @@
 """The guide's entries for each model's files read files written in that model's layout.
 
-docs/guide/velocity_data.md gives an entry per model convention (ROMS, NEMO, HYCOM); each is
+docs/guide/velocity_data.md gives an entry per model convention (ROMS, NEMO with and without its
+mesh's metrics, HYCOM); each is
 taken from the page as written and made into a system in a folder holding a file named and laid
 out as that model writes it (one level), written here from one C-grid of ldpipe.data.curvilinear:
 a rotated-pole grid (spacing 1 degree, tilted 30 degrees) whose u faces carry c times the
@@ -18,13 +19,14 @@ import pytest
 import xarray as xr
 import yaml
 
+from ldpipe.config import validate_config
 from ldpipe.data.curvilinear import c_grid_dataset, rotated_pole_grid, write_dataset
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.systems import make_system
 
 from support.workflow import documented_yaml
 
-pytestmark = pytest.mark.compiles  # the C-grid's kernel, as test_c_grid.py loads it
+pytestmark = [pytest.mark.compiles, pytest.mark.xdist_group("c_grid_engine")]  # test_c_grid.py's engine
 RADIUS, H, C, TILT = 6371000.0, 1.0, 1e-5, 30.0
 
 
@@ -74,7 +76,7 @@ def test_the_roms_and_nemo_entries_read_their_models_layouts_alike(roms_faces, t
     write_dataset(nemo, "nemo_1d_0001.nc")
 
     systems = {name: make_system(name, {"velocity_data": documented_entry(marker, name)})
-               for marker, name in (("roms_his_*.nc", "roms"), ("c_grid: nemo", "nemo_c_grid"))}
+               for marker, name in (("roms_his_*.nc", "roms"), ("nemo_c_grid:", "nemo_c_grid"))}
     frame = np.array([[-6.0, -4.0], [0.0, 5.0], [5.0, 0.0]])
     starts, t = frame_point(frame), 2e4
     settings = LDSettings(tau=t, p="arclength", rtol=1e-10, atol=1e-10)
@@ -130,3 +132,46 @@ def test_the_conformal_grid_is_orthogonal_and_its_corners_are_its_cells_corners(
     for centres, corner in zip((x, y), corners):
         mean = (centres[:-1, :-1] + centres[1:, :-1] + centres[:-1, 1:] + centres[1:, 1:]) / 4
         np.testing.assert_allclose(corner, mean, rtol=0, atol=1e-14)
+
+
+def test_the_nemo_entry_with_its_mesh_metrics_reads_them(roms_faces, tmp_path, monkeypatch):
+    # NEMO's layout with its mesh's metrics, exact on the rotated-pole grid: e1t = R cos(phi') h and
+    # e2t = R h at the T points, e2u = R h on the u faces, e1v = R cos(phi' + h/2) h on the v faces
+    # (h in radians). A u face's flux is then u e2u and a cell's area e1t e2t, so the index velocity
+    # of row phi' is c 2 asin(cos(phi') sin(h/2)) / (cos(phi') h) (closed form), along the frame's
+    # latitude circle. The outer column of e2u and row of e1v hold 1 m, refused if read.
+    monkeypatch.chdir(tmp_path)
+    faces = roms_faces
+    outer_u = xr.full_like(faces.u.isel(xi_u=[0]), 9.0)
+    outer_v = xr.full_like(faces.v.isel(eta_v=[0]), -9.0)
+    h = math.radians(H)
+    phi = np.radians(np.arange(-8.0, 8.0 + H / 2, H))[:, None] + 0 * faces.lon_rho.values
+    e1v = RADIUS * np.cos(phi + h / 2) * h
+    e2u = np.full(phi.shape, RADIUS * h)
+    e1v[-1], e2u[:, -1] = 1.0, 1.0
+    metres = {"units": "m"}
+    nemo = xr.Dataset({
+        "uo": xr.concat([faces.u, outer_u], "xi_u").rename(xi_u="x", eta="y", time="time_counter"),
+        "vo": xr.concat([faces.v, outer_v], "eta_v").rename(eta_v="y", xi="x", time="time_counter"),
+        "tmask": faces.mask_rho.rename(eta="y", xi="x").drop_vars(["lon_rho", "lat_rho"]),
+        "e1t": (("y", "x"), RADIUS * np.cos(phi) * h, metres), "e2t": (("y", "x"), np.full(phi.shape, RADIUS * h), metres),
+        "e2u": (("y", "x"), e2u, metres), "e1v": (("y", "x"), e1v, metres),
+    }, coords={"nav_lon": (("y", "x"), faces.lon_rho.values, {"units": "degrees_east"}),
+               "nav_lat": (("y", "x"), faces.lat_rho.values, {"units": "degrees_north"})})
+    write_dataset(nemo, "nemo_mesh_1d_0001.nc")
+    validate_config(yaml.safe_load(documented_yaml("nemo_mesh_1d_*.nc")))  # the block as a configuration
+    system = make_system("nemo_metrics", {"velocity_data": documented_entry("nemo_mesh_1d_*.nc", "nemo_metrics")})
+    assert system.grid_attributes() == {"grid_metrics": "dx: e1t, dy: e2t, u_face: e2u, v_face: e1v",
+                                        "metric_tolerance": 0.05}
+    frame = np.array([[-6.0, -4.0], [0.0, 5.0], [5.0, 0.0]])
+    t = 2e4
+    cos_phi = np.cos(np.radians(frame[:, 1]))
+    rate = C * 2 * np.arcsin(cos_phi * math.sin(h / 2)) / (cos_phi * h)  # index per second
+    result = compute_ld(system, frame_point(frame), 1, LDSettings(tau=t, p="arclength", rtol=1e-10, atol=1e-10),
+                        t0=1e4)
+    end = frame_point(frame + np.column_stack([rate * H * t, 0 * rate]))
+    # measured 4.3e-6 degrees, as the entries without metrics (the coordinates' cubic between centres):
+    # on this grid the exact metrics and the great-circle distances differ by 1e-7, so what this
+    # checks is the documented entry, NEMO's layout of the metrics and their units on the sphere
+    # (the metrics' effect is tests/data/test_c_grid_metrics.py's)
+    np.testing.assert_allclose(result.end_state, end, rtol=0, atol=2e-5)

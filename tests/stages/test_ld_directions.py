@@ -199,7 +199,8 @@ def test_what_needs_both_directions_refuses_one_naming_directions():
 def test_plot_draws_the_direction_a_map_has(barbanis_system, equilibria):
     forward = barbanis_map(barbanis_system, equilibria, directions="forward", ftle=False)
     ax = forward.ldpipe.plot()
-    drawn = np.asarray(ax.collections[0].get_array()).reshape(forward.ld_forward.shape)  # as xarray draws it
+    # the map's first axis across: the mesh's rows run along the second
+    drawn = np.asarray(ax.collections[0].get_array()).reshape(forward.ld_forward.shape[::-1]).T
     assert np.array_equal(drawn[forward.allowed.values], forward.ld_forward.values[forward.allowed.values])
     plt.close("all")
     with pytest.raises(ConfigError, match=r"ld_maps\.m\.directions.*directions: forward.*needs the backward"):

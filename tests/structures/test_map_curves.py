@@ -244,8 +244,8 @@ def test_structures_api_names_a_bad_argument(saddle_maps):
 
 def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
     # identity of the drawing: the lines on the axes are the file's curves, stable and unstable
-    # in their colours; over the map, drawn as xarray draws it (its second axis across), with the
-    # curves' coordinates in that order, and alone in the file's
+    # in their colours; over the map, drawn with its first axis across, as the figures draw it,
+    # and alone, each in the file's order of the curves' coordinates
     import matplotlib.pyplot as plt
 
     from ldpipe.figures import style
@@ -256,11 +256,11 @@ def test_curves_are_drawn_over_their_map_and_alone(saddle_maps):
     try:
         dataset.ldpipe.plot(over, structures=found)
         found.ldpipe.plot(alone)
-        for ax, order in ((over, [1, 0]), (alone, [0, 1])):
+        for ax, order in ((over, [0, 1]), (alone, [0, 1])):
             drawn = {line.get_color(): np.column_stack([line.get_xdata(), line.get_ydata()]) for line in ax.lines}
             for manifold, colour in (("stable", style.STABLE_COLOR), ("unstable", style.UNSTABLE_COLOR)):
                 np.testing.assert_array_equal(drawn[colour], curves_of(found, manifold=manifold)[0][:, order])
-        assert over.get_xlabel() == f"${dataset.allowed.dims[1]}$"  # the map's second axis across
+        assert over.get_xlabel() == f"${dataset.allowed.dims[0]}$"  # the map's first axis across
         assert over.collections  # the map itself
     finally:
         plt.close(figure)

@@ -58,8 +58,9 @@ def plot(dataset: xr.Dataset, ax=None, variable: str | None = None, **options):
         Where to draw.
     variable : str, optional
         For an LD map, the variable drawn: ``"ld_forward"``, ``"ftle_forward"``, a flag such as
-        ``"allowed"`` ...; by default the LD ``descriptor``. It is drawn as
-        ``dataset[variable].plot()`` draws it (the same dimension horizontal), with missing
+        ``"allowed"`` ...; by default the LD ``descriptor``. It is drawn as the workflow's
+        figures draw it, the map's first axis horizontal (``lon``, ``x``: xarray's own
+        ``.plot()`` puts the last one there unless given ``x=``), with missing
         points (never integrated, or not defined) in grey and the axes and colour bar labelled
         with their symbols and units.
     **options

@@ -87,9 +87,12 @@ def fsle(system, *, section: dict, final_separation: float, max_time: float, ini
     section : dict
         Two axes and the other coordinates fixed, as an LD map's (:func:`section`).
     final_separation, max_time : float
-        The separation to reach (in the axes' units) and the longest time to wait for it.
+        The separation to reach and the longest time to wait for it. Separations are in the axes'
+        units in the plane, and great-circle distances in km on the sphere (velocity data with
+        longitude and latitude).
     initial_separation : float, optional
-        Default: the grid's smaller spacing (the grid's own neighbours, on a square grid).
+        Default: the grid's smaller spacing (the grid's own neighbours, on a square grid; on the
+        sphere the smaller spacing in degrees as km of arc).
     interval : float, optional
         How often the separations are checked (default max_time / 100); between checks a
         separation is taken to grow exponentially.

@@ -80,14 +80,15 @@ def map_field(dataset: xr.Dataset, variable: str | None, descriptor: str) -> tup
 
 
 def _horizontal_vertical(dims: tuple, x: str | None, y: str | None) -> tuple[str, str]:
-    """The coordinates drawn horizontally and vertically, as xarray chooses them: the last
-    dimension horizontal unless ``x`` or ``y`` names one."""
+    """The coordinates drawn horizontally and vertically: the map's first axis (the section's
+    first coordinate: ``lon``, ``x``, ``q1``) horizontal, as the workflow's figures draw it, unless
+    ``x`` or ``y`` names one. (xarray's own ``.plot()`` draws the last dimension horizontally.)"""
     dims = tuple(str(d) for d in dims)
     for given, key in ((x, "x"), (y, "y")):
         if given is not None and given not in dims:
             raise ConfigError(f"plot option {key}={given!r}: expected one of the map's coordinates {list(dims)}")
     if x is None and y is None:
-        return dims[1], dims[0]
+        return dims[0], dims[1]
     if x is None:
         return next(d for d in dims if d != y), y
     return x, y if y is not None else next(d for d in dims if d != x)
@@ -95,8 +96,8 @@ def _horizontal_vertical(dims: tuple, x: str | None, y: str | None) -> tuple[str
 
 def _draw_ld_map(ax, dataset: xr.Dataset, variable: str | None = None, manifolds=(), structures=(),
                  **options) -> None:
-    """A field of an LD map as xarray's ``dataset[variable].plot()`` draws it (the same dimension
-    horizontal, the same cells), with missing points in the figures' neutral grey, the figures'
+    """A field of an LD map as xarray's ``dataset[variable].plot(x=first axis)`` draws it (the
+    same cells), with missing points in the figures' neutral grey, the figures'
     robust colour scale unless ``vmin``, ``vmax`` or ``norm`` say otherwise, and the axes and
     colour bar labelled with the paper's symbols and their units."""
     passed = {key: options.pop(key) for key in MATPLOTLIB_OPTIONS if key in options}

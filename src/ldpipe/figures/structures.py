@@ -17,7 +17,7 @@ def draw_structure_curves(ax, sources: list[str | Path | xr.Dataset], *, linewid
                           along: tuple[str, str] | None = None) -> tuple[str, str]:
     """Every curve of each structures file in ``sources`` on ``ax``; returns the files' axes.
     ``along``: the coordinates ``ax`` draws across and up, when they are the files' axes swapped
-    (``ds.ldpipe.plot()`` draws as xarray does, the map's second axis across)."""
+    (``ds.ldpipe.plot(x=...)`` can put the map's second axis across)."""
     axes = ("", "")
     for source in sources:
         structures = open_stage_file(source, stage=STRUCTURES)

@@ -191,6 +191,7 @@ def compute_ld_map(
         dataset.attrs.update(noise_attributes(noise, stochastic, settings.tau))
     dataset.attrs.update({"tile": tile, "tiles": tiles})
     dataset.attrs.update(system.kinetic_attributes())
+    dataset.attrs.update(getattr(system, "grid_attributes", dict)())  # velocity data's metrics, if any
     add_ld_units(dataset, system, settings.p)
     note_allowed_points(dataset, whole_map=False)  # the whole map warns (finish_ld_map), not each tile or block
     return dataset

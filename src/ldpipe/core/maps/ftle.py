@@ -26,7 +26,7 @@ one off the energy surface (S missing) is not defined: a one-sided difference th
 the square root at its singular point.
 
 On the sphere (state longitude, latitude in degrees) lengths are great-circle ones: the end
-states are differenced as 3-D positions on the sphere (``sphere_positions``, in degrees of arc),
+states are differenced as 3-D positions on the sphere (:func:`ldpipe.core.sphere.sphere_positions`, in degrees of arc),
 so neither the seam nor a pole between neighbours' end points breaks the differences; a step of
 the grid along longitude counts cos(latitude) times one along latitude at the start point
 (``sphere_metric``); the Earth's radius cancels in the ratio. A start point at a pole has no
@@ -158,13 +158,6 @@ def beside(points: np.ndarray) -> np.ndarray:
     return near
 
 
-def sphere_positions(end_states: np.ndarray) -> np.ndarray:
-    """End states (..., 2) as longitude, latitude in degrees, as 3-D positions (..., 3) on the
-    sphere of radius 180/pi: a chord between near points is their great-circle distance in degrees."""
-    lon, lat = np.radians(end_states[..., 0]), np.radians(end_states[..., 1])
-    return np.degrees(np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=-1))
-
-
 #: How near a pole (degrees of latitude) a start point is at it: no longitude step there.
 POLE_LATITUDE = 90.0 - 1e-9
 
@@ -172,7 +165,7 @@ POLE_LATITUDE = 90.0 - 1e-9
 def sphere_metric(end_positions: np.ndarray, axis_values: tuple[np.ndarray, np.ndarray],
                   axes: tuple[str, str], coordinates: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
     """The length scales of :func:`ftle`'s ``metric`` on the sphere: 1 for the end points' 3-D
-    positions (:func:`sphere_positions`, n0, n1, 3); at the grid's points along its axes (n0, n1,
+    positions (:func:`ldpipe.core.sphere.sphere_positions`, n0, n1, 3); at the grid's points along its axes (n0, n1,
     2) cos(latitude) for longitude and 1 for latitude, NaN for longitude at a pole (undefined there)."""
     lon, lat = coordinates
     grid = np.meshgrid(*axis_values, indexing="ij")

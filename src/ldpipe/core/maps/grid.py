@@ -23,7 +23,8 @@ from ...io.contracts import LD_GRID
 from ...io.datafile import missing_value_encoding, open_stage_file
 from .. import trajectories
 from ..trajectories import ESCAPED, STEP_UNDERFLOW, FlowMap, FlowSettings
-from .ftle import END_STATE_NAME, ftle, sphere_metric, sphere_positions, variational_ftle
+from ..sphere import sphere_positions
+from .ftle import END_STATE_NAME, ftle, sphere_metric, variational_ftle
 from .pilot import check_map_time
 from .symmetry import MapMirror
 from ...logs import get_logger, progress_bar

@@ -4,17 +4,23 @@ computes it (d'Ovidio et al. 2004).
 Each grid point is advected with its four neighbours at the initial separation δ0 along the two
 axes (±δ0 on each). The FSLE is λ = ln(δf / δ0) / τ, where τ is the first time any neighbour's
 distance from the point reaches the final separation δf; where none does within the maximum time,
-λ = 0 (AVISO's convention) and the point is flagged as not reached. Distances are Euclidean in the
-axes' own units (degrees for longitude and latitude, as AVISO's δ0 = 0.04° and δf = 0.6°).
+λ = 0 (AVISO's convention) and the point is flagged as not reached. In the plane distances are
+Euclidean in the axes' own units. On the sphere (velocity data with longitude and latitude in
+degrees) they are great-circle distances in km (:mod:`ldpipe.core.sphere`), and so are δ0 and δf:
+the four neighbours start δ0 east, west, north and south of their point along great circles, and a
+separation is measured as the sphere has it across the longitude's seam and over a pole, where the
+chart's degrees would stretch an east-west pair by 1 / cos(latitude).
 
 The particles are advanced by the flow map (:func:`ldpipe.core.trajectories.flow_map`) over
 checking intervals; between two checks the distance is taken as growing exponentially (linear in
 its logarithm), so a pair whose separation grows as e^(λt) reaches δf at exactly ln(δf/δ0)/λ.
 
 The direction of stretching: at the check where δf is reached, the deformation gradient by
-central differences of the four neighbours, F = [(x₊₀ − x₋₀), (x₊₁ − x₋₁)] / (2 δ0), and the
-eigenvector of the Cauchy–Green tensor FᵀF with the largest eigenvalue: the direction at the start
-that the flow stretches most, as an angle from the first axis in (−π/2, π/2].
+central differences of the four neighbours, F = [(x₊₀ − x₋₀), (x₊₁ − x₋₁)] / (2 δ0) (on the sphere
+x the 3-D position in km), and the eigenvector of the Cauchy–Green tensor FᵀF with the largest
+eigenvalue: the direction at the start that the flow stretches most, as an angle from the first
+axis (on the sphere from the start point's own east or north, as that axis is longitude or
+latitude) in (−π/2, π/2].
 """
 
 from __future__ import annotations
@@ -27,10 +33,12 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import FSLE
 from ...io.datafile import stage_dataset
+from ..sphere import great_circle_distance, sphere_radius_km, step_along, unit_vectors
 from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
-#: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing).
+#: The defaults of the FSLE's parameters (``initial_separation`` None: the grid's smaller spacing,
+#: on the sphere as km of arc).
 DEFAULTS = {"initial_separation": None, "final_separation": None, "max_time": None, "interval": None,
             "t0": 0.0, "integrator": {}}
 # the direction of a neighbour's offset from its point: (axis, sign) for the 4 neighbours
@@ -44,9 +52,11 @@ def _positive(value, key: str, where: str) -> float:
 
 
 def check_fsle_parameters(parameters: dict, spacing: tuple[float, float], where: str = "fsle",
-                          key: str = "key") -> dict:
+                          key: str = "key", radius: float | None = None) -> dict:
     """``parameters`` with the defaults filled and checked; a ConfigError naming the key
-    (``key`` says what a key is called where the parameters come from: 'key', 'argument')."""
+    (``key`` says what a key is called where the parameters come from: 'key', 'argument').
+    ``radius``: the sphere's in km, where separations are great-circle km (``spacing`` still in
+    degrees: the default δ0 is the smaller spacing as km of arc), None in the plane."""
     unknown = sorted(set(parameters) - set(DEFAULTS))
     if unknown:
         raise ConfigError(f"{where}: unknown {key}s {unknown}; allowed are {sorted(DEFAULTS)}")
@@ -55,9 +65,13 @@ def check_fsle_parameters(parameters: dict, spacing: tuple[float, float], where:
     for required in ("final_separation", "max_time"):
         if checked[required] is None:
             raise ConfigError(f"{where}: {name(required)} is required")
-    delta0 = min(spacing) if checked["initial_separation"] is None else checked["initial_separation"]
+    default = min(spacing) * (math.pi * radius / 180.0 if radius is not None else 1.0)
+    delta0 = default if checked["initial_separation"] is None else checked["initial_separation"]
     checked["initial_separation"] = _positive(delta0, name("initial_separation"), where)
     checked["final_separation"] = _positive(checked["final_separation"], name("final_separation"), where)
+    if radius is not None and checked["final_separation"] >= math.pi * radius:
+        raise ConfigError(f"{where}: {name('final_separation')}: {checked['final_separation']}; on the sphere a "
+                          f"great-circle distance in km, expected less than half its circumference {math.pi * radius:.6g}")
     if checked["final_separation"] <= checked["initial_separation"]:
         raise ConfigError(f"{where}: {name('final_separation')}: {checked['final_separation']}; expected more "
                           f"than the initial separation {checked['initial_separation']}")
@@ -91,8 +105,31 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
     base[:, index[0]], base[:, index[1]] = grid[0].ravel(), grid[1].ravel()
     delta0, delta_f = parameters["initial_separation"], parameters["final_separation"]
     particles = np.repeat(base[:, None, :], 5, axis=1)  # the point, then its neighbours
-    for k, (axis, sign) in enumerate(NEIGHBOURS, start=1):
-        particles[:, k, index[axis]] += sign * delta0
+    radius = sphere_radius_km(system)
+    if radius is None:
+        for k, (axis, sign) in enumerate(NEIGHBOURS, start=1):
+            particles[:, k, index[axis]] += sign * delta0
+        plane_columns = index
+
+        def separations(plane):
+            return np.linalg.norm(plane[:, 1:] - plane[:, :1], axis=-1)
+
+        def positions(plane):
+            return plane
+    else:
+        plane_columns = sphere_columns(system, names)
+        # east (1, 0) along longitude, north (0, 1) along latitude, in the axes' order
+        directions = [(1.0, 0.0) if plane_columns[0] == index[axis] else (0.0, 1.0) for axis in (0, 1)]
+        for k, (axis, sign) in enumerate(NEIGHBOURS, start=1):
+            east, north = directions[axis]
+            particles[:, k, plane_columns] = step_along(base[:, plane_columns], sign * east, sign * north, delta0,
+                                                        radius)
+
+        def separations(plane):
+            return great_circle_distance(plane[:, 1:], plane[:, :1], radius)
+
+        def positions(plane):
+            return radius * unit_vectors(plane)
     settings = FlowSettings(**parameters["integrator"])
     reached = np.zeros(count, dtype=bool)
     stopped = np.zeros(count, dtype=bool)
@@ -101,18 +138,20 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
     log_previous = np.full((count, 4), math.log(delta0))
     interval, max_time = parameters["interval"], parameters["max_time"]
     checks = max(1, math.ceil(max_time / interval - 1e-9))
-    elapsed = 0.0
-    for _ in range(checks):
+    for check in range(checks):
+        # from the check's index, not summed: a sum of steps overshoots max_time by rounding, and
+        # a backward run's last window would start before the data's first time
+        elapsed = min(check * interval, max_time)
         active = np.flatnonzero(~reached & ~stopped)
         if not len(active):
             break
-        step = min(interval, max_time - elapsed)
+        step = min((check + 1) * interval, max_time) - elapsed
         moved = flow_map(system, particles[active].reshape(-1, len(coordinates)), direction * step, settings,
                          t0=parameters["t0"] + direction * elapsed, threads=threads)
         particles[active] = moved.end_state.reshape(len(active), 5, -1)
         ok = (moved.status == COMPLETED).reshape(len(active), 5).all(axis=1)
-        plane = particles[active][:, :, index]
-        log_now = np.log(np.maximum(np.linalg.norm(plane[:, 1:] - plane[:, :1], axis=-1), 1e-300))
+        plane = particles[active][:, :, plane_columns]
+        log_now = np.log(np.maximum(separations(plane), 1e-300))
         log_target = math.log(delta_f)
         crossed = (log_now >= log_target) & ok[:, None]
         hit = crossed.any(axis=1)
@@ -123,10 +162,9 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
             fraction = np.where(crossed[hit], np.clip(fraction, 0.0, 1.0), np.inf)
             time[active[hit]] = elapsed + step * fraction.min(axis=1)
             reached[active[hit]] = True
-            angle[active[hit]] = _stretching_angle(plane[hit], delta0)
+            angle[active[hit]] = _stretching_angle(positions(plane[hit]), delta0)
         stopped[active[~ok]] = True
         log_previous[active] = log_now
-        elapsed += step
     stopped &= ~reached
     with np.errstate(divide="ignore"):
         fsle = np.where(reached, math.log(delta_f / delta0) / np.where(reached, time, 1.0), 0.0)
@@ -134,9 +172,20 @@ def fsle_field(system, axes: tuple[tuple[str, np.ndarray], tuple[str, np.ndarray
             "angle": angle.reshape(shape), "defined": (~stopped).reshape(shape)}
 
 
+def sphere_columns(system, names: list[str]) -> list[int]:
+    """The state's columns of longitude and latitude, of a system on the sphere whose section's
+    axes ``names`` must be these two; a ConfigError otherwise."""
+    lon, lat = system.coordinates[:2]  # a sphere's state: longitude, latitude (then a depth)
+    if sorted(names) != sorted((lon, lat)):
+        raise ConfigError(f"system {system.name!r} is on the sphere: the FSLE's section axes must be its longitude "
+                          f"{lon!r} and latitude {lat!r}, got {names}")
+    return [list(system.coordinates).index(lon), list(system.coordinates).index(lat)]
+
+
 def _stretching_angle(plane: np.ndarray, delta0: float) -> np.ndarray:
     """The angle from the first axis of the initial direction stretched most: the largest
-    eigenvector of FᵀF, F from the neighbours' central differences (``plane`` (k, 5, 2))."""
+    eigenvector of FᵀF, F from the neighbours' central differences (``plane`` (k, 5, d): the
+    positions, in the plane the axes' values, on the sphere 3-D in km)."""
     columns = np.stack([(plane[:, 1] - plane[:, 2]), (plane[:, 3] - plane[:, 4])], axis=-1) / (2 * delta0)
     cauchy_green = np.einsum("kij,kil->kjl", columns, columns)
     vectors = np.linalg.eigh(cauchy_green)[1][:, :, -1]
@@ -157,7 +206,13 @@ def fsle_dataset(system, section: dict, parameters: dict, *, threads: int | None
                           "fields and velocity data")
     axes, fixed = section_grid(section, system.coordinates, where)
     spacing = tuple(abs(float(values[1] - values[0])) if len(values) > 1 else math.inf for _, values in axes)
-    parameters = check_fsle_parameters(dict(parameters), spacing, where, key)
+    radius = sphere_radius_km(system)
+    if radius is not None:
+        try:
+            sphere_columns(system, [name for name, _ in axes])
+        except ConfigError as error:
+            raise ConfigError(f"{where}: section: {error}") from None
+    parameters = check_fsle_parameters(dict(parameters), spacing, where, key, radius)
     dims = tuple(name for name, _ in axes)
     variables = {}
     for label, direction in (("forward", 1), ("backward", -1)):
@@ -171,7 +226,8 @@ def fsle_dataset(system, section: dict, parameters: dict, *, threads: int | None
         variables[f"fsle_time_{label}"] = (dims, result["time"], {
             "long_name": f"time to reach the final separation ({label}); 0 where not reached", "units": "time"})
         variables[f"fsle_angle_{label}"] = (dims, result["angle"], {
-            "long_name": f"initial direction stretched most ({label}), from the first axis", "units": "radian",
+            "long_name": f"initial direction stretched most ({label}), from the first axis"
+                         + (" (its local east or north)" if radius is not None else ""), "units": "radian",
             "comment": "largest eigenvector of the Cauchy-Green tensor of the neighbours' deformation when the "
                        "final separation is reached; 0 where not reached"})
         variables[f"fsle_defined_{label}"] = (dims, result["defined"], {
@@ -180,7 +236,11 @@ def fsle_dataset(system, section: dict, parameters: dict, *, threads: int | None
     dataset.attrs.update({
         "system": system.name, "t0": parameters["t0"], "initial_separation": parameters["initial_separation"],
         "final_separation": parameters["final_separation"], "max_time": parameters["max_time"],
-        "interval": parameters["interval"], "neighbours": "the four at +-initial_separation along the two axes",
+        "interval": parameters["interval"],
+        **({"separation_units": "km", "neighbours": "the four at initial_separation east, west, north and south "
+            "along great circles; separations are great-circle distances"} if radius is not None else
+           {"neighbours": "the four at +-initial_separation along the two axes; separations are Euclidean in "
+            "the axes' units"}),
         **{key: value for key, value in FlowSettings(**parameters["integrator"]).__dict__.items()},
     })
     return stage_dataset(dataset, stage=FSLE, title=f"FSLE of {system.name}",

@@ -19,7 +19,10 @@ a smooth integrand).
 A rotationally coherent vortex is centred on a maximum of the LAVD; its boundary is the outermost
 LAVD level whose superlevel set around the maximum is bounded by one closed curve, convex enough:
 its convexity deficiency, (area of its convex hull − its area) / its area, at most
-``convexity_deficiency``. Levels are tried from the maximum down in ``levels`` equal steps to the
+``convexity_deficiency``: in the plane in the section's coordinates, on the sphere in the Lambert
+azimuthal equal-area projection about the vortex's centre (:func:`ldpipe.core.sphere.tangent_plane`,
+km), where a shape convex on the sphere stays convex to second order in its size over the Earth's
+radius while the longitude–latitude chart bends it (a great circle heading east bows poleward there). Levels are tried from the maximum down in ``levels`` equal steps to the
 field's minimum; at each, of the closed contours around the maximum the innermost (the boundary
 of the superlevel component that holds the maximum) is taken.
 """
@@ -34,6 +37,7 @@ import xarray as xr
 from ...errors import ConfigError
 from ...io.contracts import LAVD
 from ...io.datafile import stage_dataset
+from ..sphere import sphere_radius_km, tangent_plane
 from .grid import section_grid
 from ..trajectories import COMPLETED, FlowSettings, checked_flow_settings, flow_map
 
@@ -119,22 +123,35 @@ def data_vorticity(system, states: np.ndarray, t: float) -> np.ndarray:
     sphere = system.source.sphere
     # on the sphere: metres of arc per degree, and the difference step in radians
     metres, h = (system.source.radius * math.pi / 180.0, math.radians(step)) if sphere else (1.0, step)
-    out = np.empty(2)
-    result = np.empty(len(states))
+    states = np.asarray(states, dtype=float).reshape(-1, 2)
+    x, y = states[:, 0], states[:, 1]
+    # the stencil of every state at once: east, west, north, south of it
+    stencil = np.empty((4, len(states), 2))
+    stencil[:, :, 0], stencil[:, :, 1] = x, y
+    stencil[0, :, 0] += step
+    stencil[1, :, 0] -= step
+    stencil[2, :, 1] += step
+    stencil[3, :, 1] -= step
+    rates = stencil_rates(system, stencil.reshape(-1, 2), float(t)).reshape(4, len(states), 2)
+    v_east, v_west = rates[0, :, 1] * metres, rates[1, :, 1] * metres
+    u_north, u_south = rates[2, :, 0] * metres, rates[3, :, 0] * metres
+    if sphere:  # u cos(lat) north and south of the point: u = R cos(lat) d lon/dt on the sphere
+        u_north = u_north * np.cos(np.radians(y + step)) ** 2
+        u_south = u_south * np.cos(np.radians(y - step)) ** 2
+    curl = (v_east - v_west - u_north + u_south) / (2 * h)
+    return curl / (system.source.radius * np.cos(np.radians(y))) if sphere else curl
+
+
+def stencil_rates(system, points: np.ndarray, t: float) -> np.ndarray:
+    """The data interpolant's rates (k, 2) at ``points`` (k, 2) and time ``t``: the compiled
+    kernel's ``rhs`` once a point, into rows of one array (no array made per call)."""
+    points = np.ascontiguousarray(points, dtype=float)
+    rates = np.empty_like(points)
+    rhs = system.rhs
     with system.time_window(t, t):
-        for row, (x, y) in enumerate(np.asarray(states, dtype=float)):
-            system.rhs(np.array([x + step, y]), float(t), out)
-            v_east = out[1] * metres
-            system.rhs(np.array([x - step, y]), float(t), out)
-            v_west = out[1] * metres
-            # u cos(lat) north and south of the point: u = R cos(lat) d lon/dt on the sphere
-            system.rhs(np.array([x, y + step]), float(t), out)
-            u_north = out[0] * metres * (math.cos(math.radians(y + step)) ** 2 if sphere else 1.0)
-            system.rhs(np.array([x, y - step]), float(t), out)
-            u_south = out[0] * metres * (math.cos(math.radians(y - step)) ** 2 if sphere else 1.0)
-            curl = (v_east - v_west - u_north + u_south) / (2 * h)
-            result[row] = curl / (system.source.radius * math.cos(math.radians(y))) if sphere else curl
-    return result
+        for row in range(len(points)):
+            rhs(points[row], t, rates[row])
+    return rates
 
 
 def area_weights(system, states: np.ndarray) -> np.ndarray:
@@ -185,17 +202,6 @@ def lavd_field(system, axes, fixed: dict, parameters: dict, *, threads: int | No
 def _area(ring: np.ndarray) -> float:
     x, y = ring[:, 0], ring[:, 1]
     return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
-
-
-def sphere_area(ring: np.ndarray, radius: float, lon_column: int) -> float:
-    """The area (in the square of ``radius``'s unit) on the sphere inside the closed polygon
-    ``ring`` of (longitude, latitude) in degrees (``lon_column`` the longitude's): by Green's
-    theorem the integral of cos(lat) over it is the loop integral of -sin(lat) d lon, by the
-    trapezoidal rule along each edge."""
-    lon = np.radians(ring[:, lon_column])
-    lat = np.radians(ring[:, 1 - lon_column])
-    sines = np.sin(lat)
-    return radius**2 * 0.5 * abs(float(np.sum((sines + np.roll(sines, -1)) * (np.roll(lon, -1) - lon))))
 
 
 def _hull_area(points: np.ndarray) -> float:
@@ -260,10 +266,26 @@ def _peak(field: np.ndarray, axes, i: int, j: int) -> tuple[float, float]:
                  for index, s, values in zip((i, j), step, axes))
 
 
-def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: dict) -> list[dict]:
+def vortex_plane(system, dims: tuple[str, str]):
+    """Where a vortex's shape is measured (:func:`coherent_vortices`' ``plane``): on the sphere the
+    equal-area projection about its centre, in km (the section's axes ``dims``, in either order);
+    in the plane None (the section's own coordinates)."""
+    radius = sphere_radius_km(system) if is_sphere_velocity_data(system) else None
+    if radius is None:
+        return None
+    order = [dims.index(name) for name in system.coordinates[:2]]  # the (lon, lat) columns
+
+    def plane(ring: np.ndarray, centre) -> np.ndarray:
+        return tangent_plane(ring[:, order], np.asarray(centre, dtype=float)[order], radius)
+    return plane
+
+
+def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: dict, plane=None) -> list[dict]:
     """The rotationally coherent vortices of an LAVD field: for each maximum (highest first, none
     inside an earlier vortex), its ``centre``, ``boundary`` (m, 2, closed), ``level``, ``area`` and
-    ``convexity_deficiency``; maxima with no acceptable contour are left out."""
+    ``convexity_deficiency``; maxima with no acceptable contour are left out. ``plane(ring,
+    centre)`` (:func:`vortex_plane`) maps a contour to where its area and convexity are measured
+    (None: the axes' coordinates)."""
     import contourpy  # here: only the vortex search needs it
 
     coordinates = [np.asarray(values, float) for values in axes]
@@ -285,9 +307,10 @@ def coherent_vortices(field: np.ndarray, defined: np.ndarray, axes, parameters: 
                 if best is None:  # a contour too small to draw yet, next to the maximum
                     continue
                 break
-            ring = min(rings, key=_area)
-            area = _area(ring)
-            deficiency = (_hull_area(ring) - area) / area if area > 0 else math.inf
+            flat = [ring if plane is None else plane(ring, centre) for ring in rings]
+            inner = min(range(len(rings)), key=lambda k: _area(flat[k]))
+            ring, area = rings[inner], _area(flat[inner])
+            deficiency = (_hull_area(flat[inner]) - area) / area if area > 0 else math.inf
             if deficiency > parameters["convexity_deficiency"]:
                 break
             best = {"centre": centre, "boundary": ring, "level": float(level), "area": area,
@@ -312,16 +335,14 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
     parameters = check_lavd_parameters(dict(parameters), where, key)
     result = lavd_field(system, axes, fixed, parameters, threads=threads)
     values = [v for _, v in axes]
-    vortices = coherent_vortices(result["lavd"], result["defined"], values, parameters)
     dims = tuple(name for name, _ in axes)
+    vortices = coherent_vortices(result["lavd"], result["defined"], values, parameters, vortex_plane(system, dims))
     boundary = np.concatenate([v["boundary"] for v in vortices]) if vortices else np.zeros((0, 2))
     per_vortex = lambda name: np.array([v[name] for v in vortices], dtype=float)  # noqa: E731
-    if is_sphere_velocity_data(system):  # the area on the Earth, not in the chart's square degrees
-        lon_column = dims.index(system.source.x)
-        area = np.array([sphere_area(v["boundary"], system.source.radius / 1000.0, lon_column) for v in vortices])
+    area = per_vortex("area")  # where the shape is measured (vortex_plane): on the sphere equal-area, km2
+    if is_sphere_velocity_data(system):
         area_attributes = {"long_name": "area on the sphere inside the boundary, at t0", "units": "km2"}
     else:
-        area = per_vortex("area")
         area_attributes = {"long_name": "area inside the boundary, at t0"}
     centres = np.array([v["centre"] for v in vortices]).reshape(-1, 2)
     if len(centres):
@@ -356,7 +377,9 @@ def lavd_dataset(system, section: dict, parameters: dict, *, threads: int | None
         "area": (("vortex",), area.reshape(-1), area_attributes),
         "level": (("vortex",), per_vortex("level"), {"long_name": "the LAVD on the boundary"}),
         "convexity_deficiency": (("vortex",), per_vortex("convexity_deficiency"), {
-            "long_name": "(convex hull area - area) / area of the boundary, in the section's coordinates"}),
+            "long_name": "(convex hull area - area) / area of the boundary, "
+                         + ("in the Lambert azimuthal equal-area projection about the centre"
+                            if is_sphere_velocity_data(system) else "in the section's coordinates")}),
     }
     dataset = xr.Dataset(variables, coords={name: values for name, values in axes})
     dataset.attrs.update({"system": system.name, "axes": " ".join(dims),

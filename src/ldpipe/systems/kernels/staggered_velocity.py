@@ -10,7 +10,9 @@
 #
 # The bound buffer: a header of DATA_HEADER values, then U as (ny, nx - 1, nt + 2), V as
 # (ny - 1, nx, nt + 2) (each face's times together, padded by one time on each side), then the
-# land nodes (ny, nx) (1.0 on land: its cell is land, its faces closed), then the LD metric's P
+# land nodes (ny, nx) (1.0 on land: its cell is land, its faces closed), then each cell's scale
+# (ny, nx): the index velocity is the faces' interpolated values times it (1 / the cell's area
+# when U and V are fluxes, from a model's metrics; else 1), then the LD metric's P
 # (kernels/curvilinear_ld_metric.py). Header: nt, ny, nx, x_first 0, dx 1, y_first 0, dy 1, t_first,
 # dt, 0, radius, 1, P's offset, the arc length's factor, V's offset, the land's offset.
 #
@@ -80,5 +82,6 @@ def rhs(state, t, out):
     north = south + nx * qt
     v_south = wt0 * data[south] + wt1 * data[south + 1] + wt2 * data[south + 2] + wt3 * data[south + 3]
     v_north = wt0 * data[north] + wt1 * data[north + 1] + wt2 * data[north + 2] + wt3 * data[north + 3]
-    out[0] = (1.0 - a) * u_west + a * u_east
-    out[1] = (1.0 - b) * v_south + b * v_north
+    scale = data[land + ny * nx + j * nx + i]
+    out[0] = ((1.0 - a) * u_west + a * u_east) * scale
+    out[1] = ((1.0 - b) * v_south + b * v_north) * scale

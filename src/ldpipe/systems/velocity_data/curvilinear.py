@@ -235,14 +235,16 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
 
 
 def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module: str, name: str, source: DataSource,
-                spec: dict, coordinates: tuple[str, str]) -> CurvilinearVelocitySystem:
+                spec: dict, coordinates: tuple[str, str], extra=None) -> CurvilinearVelocitySystem:
     """A system of ``system_class`` (curvilinear, or a C grid) of a checked ``source``
-    (:func:`.source.open_source`): its grid's geometry and index velocities, and the kernel
-    ``text`` compiled as the module ``module``."""
+    (:func:`.source.open_source`): its grid's geometry and index velocities, the fields
+    ``extra(geometry)`` gives (a C-grid's faces), and the kernel ``text`` compiled as the module
+    ``module``."""
     geometry, velocities, arc_factor = curvilinear_parts(source)
+    fields = extra(geometry) if extra else {}
     (rhs,) = njit_functions(text, ("rhs",), module)
     return system_class(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text, rhs=rhs,
-                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor)
+                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor, **fields)
 
 
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]

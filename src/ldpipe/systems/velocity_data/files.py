@@ -87,11 +87,24 @@ def _grid_of(dataset: xr.Dataset, name: str, time: str) -> dict[str, np.ndarray]
             for dim in dataset[name].dims if dim != time}
 
 
+def grid_lines(variable: xr.DataArray) -> np.ndarray:
+    """The values of a grid variable (2-D coordinates, a mask, an angle) that a series compares
+    from file to file: a 2-D one's edge rows and columns and its middle row and column, read
+    alone, so that opening hundreds of files of a large grid does not read each one's grid whole;
+    other shapes whole."""
+    if variable.ndim != 2:
+        return np.asarray(variable.values).ravel()
+    rows, columns = variable.shape
+    lines = [variable[k, :] for k in sorted({0, rows // 2, rows - 1})]
+    lines += [variable[:, k] for k in sorted({0, columns // 2, columns - 1})]
+    return np.concatenate([np.asarray(line.values).ravel() for line in lines])
+
+
 def series_times(files: list[str], variables: tuple[str, ...], time: str, key: str) -> tuple[np.ndarray, tuple[int, ...]]:
     """The time coordinate of the files read as one, and the index of each file's first time.
 
     Each file after the first must hold ``variables`` on the first file's dimensions and grid
-    (the same coordinate values), with the same units, and times after the previous file's
+    (the same coordinate values; a 2-D grid variable compared on :func:`grid_lines`), with the same units, and times after the previous file's
     last; a ConfigError names both files otherwise (different grids, overlapping or
     out-of-order times)."""
     times, starts = [], []
@@ -99,8 +112,9 @@ def series_times(files: list[str], variables: tuple[str, ...], time: str, key: s
         reference = {name: (first[name].dims, _grid_of(first, name, time), first[name].attrs.get("units"))
                      for name in variables if name in first.variables}
         # variables without time (a mask, a curvilinear grid's coordinates) are the grid: the same in every file
-        fixed = {name: np.asarray(first[name].values) for name in variables
+        fixed = {name: grid_lines(first[name]) for name in variables
                  if name in first.variables and time not in first[name].dims}
+        first_shapes = {name: first[name].shape for name in fixed}
         time_units = first[time].attrs.get("units") if time in first.variables else None
     count = 0
     for index, name in enumerate(files):
@@ -111,7 +125,8 @@ def series_times(files: list[str], variables: tuple[str, ...], time: str, key: s
             if index:
                 _check_like_first(dataset, name, files[0], reference, time, time_units, key)
                 for variable, grid_values in fixed.items():
-                    if not np.array_equal(np.asarray(dataset[variable].values), grid_values, equal_nan=True):
+                    if (dataset[variable].shape != first_shapes[variable]
+                            or not np.array_equal(grid_lines(dataset[variable]), grid_values, equal_nan=True)):
                         raise ConfigError(f"config key '{key}': the grids of {files[0]} and {name} differ (variable "
                                           f"{variable!r}); every file of a series is on one grid")
         if values.dtype.kind in "iuf" and values.size:

@@ -28,6 +28,7 @@ import numpy as np
 import xarray as xr
 
 from ...errors import ConfigError
+from .grid_metrics import FROM_COORDINATES, MODEL_METRICS
 
 #: In-memory datasets of this process by their hash (:func:`memory_entry`).
 DATASETS: dict[str, xr.Dataset] = {}
@@ -107,6 +108,18 @@ def _digest(dataset: xr.Dataset, names: list[str]) -> str:
     return "sha256:" + sha.hexdigest()
 
 
+def grid_variables(entry: dict, dataset: xr.Dataset) -> list[str]:
+    """A curvilinear grid's variables besides the velocities and coordinates that the entry names
+    (``angle``, ``metrics``) or that are found by name (a C-grid's metrics, :mod:`.grid_metrics`)."""
+    names = [entry["angle"]] if isinstance(entry.get("angle"), str) else []
+    metrics = entry.get("metrics")
+    if isinstance(metrics, dict):
+        names += [name for name in metrics.values() if isinstance(name, str)]
+    elif metrics != FROM_COORDINATES:
+        names += [name for model in MODEL_METRICS.values() for name in model.values() if name in dataset.variables]
+    return names
+
+
 def memory_entry(value, key: str, defaults: Mapping[str, str]) -> dict:
     """The ``velocity_data`` entry of data in memory, its dataset kept in :data:`DATASETS`.
 
@@ -134,6 +147,7 @@ def memory_entry(value, key: str, defaults: Mapping[str, str]) -> dict:
         entry.setdefault(role, dim)
     names = [entry.get(role, defaults.get(role, role)) for role in ("u", "v")] + ([entry["w"]] if three_d else [])
     names += [entry[role] for role in roles] + ([entry["mask"]] if entry.get("mask") else [])
+    names += grid_variables(entry, dataset)
     for role, name in zip(("u", "v", "w") if three_d else ("u", "v"), names):
         if name not in dataset.variables:
             raise ConfigError(f"config key '{key}.{role}': variable {name!r} not in the dataset (it has "

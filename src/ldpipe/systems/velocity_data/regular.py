@@ -277,6 +277,10 @@ class VelocityDataSystem:
     def kinetic_attributes(self) -> dict[str, str]:
         return {}
 
+    def grid_attributes(self) -> dict[str, str | float]:
+        """What a map's file records of the grid's metrics: nothing but on a C-grid (:mod:`.staggered`)."""
+        return {}
+
     @property
     def coordinate_bound(self) -> float:
         """A bound on |x|, |y| of any trajectory that can move (twice the data's extent, and 720

@@ -22,6 +22,7 @@ from ...errors import ConfigError
 from .. import kernels
 from .files import FileSeries, data_files, open_dataset, path_text, series_times
 from .grid_coordinates import angle_variable, curvilinear_coordinates, velocity_components
+from .grid_metrics import METRIC_TOLERANCE, metric_variables
 from .memory import memory_dataset
 
 # scipy.ndimage is imported where a land mask is filled: a velocity-data entry is read for its
@@ -161,6 +162,11 @@ class DataSource:
     #: between nodes (j, i) and (j, i + 1), v on those between (j, i) and (j + 1, i), the nodes the
     #: cells' centres
     staggered: str = ""
+    #: A C-grid's metrics read from the file (:mod:`.grid_metrics`): (role, variable, metres per unit,
+    #: power of the length) each; empty: computed from the coordinates
+    metrics: tuple[tuple[str, str, float, int], ...] = ()
+    metric_tolerance: float = METRIC_TOLERANCE  # the relative difference from the coordinates' lengths allowed
+    coordinate_metres: float = 1.0  # metres per unit of the coordinates on the plane (1 on the sphere: metres)
     file_starts: tuple[int, ...] = (0,)  # the time index of each file's first time
     memory: str = ""  # the hash of a dataset given in memory (:mod:`.memory`), no path
     time_reference: str = ""  # the time coordinate's units as written ("days since 2000-01-01"), if any
@@ -290,7 +296,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
     entry = {**DEFAULTS, **spec}
     unknown = set(entry) - set(DEFAULTS) - {"path", "memory", "x", "y", "window", "mask", "w", "z", "positive",
                                             "longitude", "latitude", "components", "angle", "c_grid",
-                                            "interpolation"}
+                                            "interpolation", "metrics", "metric_tolerance"}
     if unknown:
         raise ConfigError(f"config key '{key}': unknown keys {sorted(unknown)}")
     sphere = entry["coordinates"] == "sphere"
@@ -316,9 +322,9 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if grid_coordinates:  # the state's axes are the grid's index dimensions
             curvilinear = curvilinear_entry(entry, dataset, grid_coordinates, three_d, key)
             entry["y"], entry["x"] = dataset[grid_coordinates[0]].dims
-        elif {"components", "angle", "c_grid"} & set(entry):
-            raise ConfigError(f"config key '{key}': components, angle and c_grid are of a curvilinear grid's velocities; "
-                              "this grid's coordinates are 1-D (u and v along them)")
+        elif {"components", "angle", "c_grid", "metrics", "metric_tolerance"} & set(entry):
+            raise ConfigError(f"config key '{key}': components, angle, c_grid and metrics are of a curvilinear grid's "
+                              "velocities; this grid's coordinates are 1-D (u and v along them)")
         checked = ("time",) if grid_coordinates else axis_roles
         for role in velocities + checked + (("mask",) if entry.get("mask") else ()):
             name = entry[role]
@@ -338,6 +344,12 @@ def _checked_source(spec: dict, key: str) -> DataSource:
         if staggered and curvilinear["components"] != "grid":
             raise ConfigError(f"config key '{key}.components': a C-grid's u and v are normal to its cells' faces; "
                               "give components: grid")
+        if grid_coordinates:
+            curvilinear["metrics"] = metric_variables(entry, dataset, dataset[grid_coordinates[0]].dims, staggered, key)
+            tolerance = entry.get("metric_tolerance", METRIC_TOLERANCE)
+            if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not tolerance > 0:
+                raise ConfigError(f"config key '{key}.metric_tolerance': expected a number above 0, got {tolerance!r}")
+            curvilinear["metric_tolerance"] = float(tolerance)
         scales = []
         for role in velocities:
             variable = dataset[entry[role]]
@@ -404,7 +416,7 @@ def _checked_source(spec: dict, key: str) -> DataSource:
                       calendar=str(calendar or ""),
                       metres_per_second=tuple(metres / seconds for metres, seconds in scales),
                       nodes=None if regular else tuple(tuple(float(v) for v in nodes[role]) for role in axis_roles),
-                      grid_coordinates=grid_coordinates, staggered=staggered, **curvilinear)
+                      grid_coordinates=grid_coordinates, staggered=staggered, coordinate_metres=length, **curvilinear)
 
 
 #: How far, in grid spacings, a longitude grid's span may be from 360 degrees (one spacing short, or

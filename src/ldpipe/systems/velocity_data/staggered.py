@@ -7,22 +7,25 @@ grid whose u and v have these shapes is read as such (:func:`.source.c_grid`); N
 the centres' shape (their last column and row the outer faces, not read), when the entry says
 ``c_grid: nemo``. Either is integrated in
 index space as :mod:`.curvilinear` does, with the staggered interpolant of
-``kernels/staggered_velocity.py``: a face's velocity is the index velocity u / L, L the distance
-between the two centres it separates (on the sphere great-circle metres), linear across a cell
-between its two faces and constant along them. A face next to a land centre (the ``mask``'s
-zeros) or with a missing value is closed (0), so a coast is a wall: trajectories come up to it
-and never cross; only land centres are land. The LD is physical, by the centres' metric
+``kernels/staggered_velocity.py``: a face's velocity (normal to the face) becomes an index
+velocity by the grid's metrics (:mod:`.grid_metrics`): the file's, as the flux through the face
+(u times its length) over the cell's area, or from the coordinates u / (L sin theta), L the
+distance between the two centres it separates (on the sphere great-circle metres) and theta the
+angle of the face to that line; linear across a cell between its two faces and constant along
+them. A face next to a land centre (the ``mask``'s zeros) or with a missing value is closed (0),
+so a coast is a wall: trajectories come up to it and never cross; only land centres are land. The LD is physical, by the centres' metric
 (``kernels/curvilinear_ld_metric.py``), as on a collocated curvilinear grid.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, grid_system
 from .grid_geometry import GridGeometry, keys_padded
+from .grid_metrics import FaceConversion, face_conversion
 from .regular import HEADER, DataWindow, extend_keys, index_window
 from .source import DataSource, check_speeds, kernel_text
 
@@ -67,6 +70,15 @@ def padded_in_time(values: np.ndarray, start: int, stop: int) -> np.ndarray:
 class StaggeredVelocitySystem(CurvilinearVelocitySystem):
     """A flow from a C-grid's face velocities, integrated in the grid's indices (module docstring)."""
 
+    faces: FaceConversion = field(default=None, repr=False)
+
+    def grid_attributes(self) -> dict[str, str | float]:
+        """What a map's file records of the C-grid's metrics: the variables read (or that they came
+        from the coordinates) and the tolerance they were checked to."""
+        if not self.faces.metrics:
+            return {"grid_metrics": "from the coordinates"}
+        return {"grid_metrics": self.faces.metrics, "metric_tolerance": self.source.metric_tolerance}
+
     @property
     def engine_name(self) -> str:
         return "velocity_data_c_grid"
@@ -81,8 +93,8 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         low, high = sorted((start, end))
         times = index_window(self.source.t_grid, low, high)
         if times not in self._windows:
-            self._windows[times] = read_staggered_window(self.source, self.geometry, times, self.velocities.metric,
-                                                         self.arc_factor)
+            self._windows[times] = read_staggered_window(self.source, self.geometry, self.faces, times,
+                                                         self.velocities.metric, self.arc_factor)
         return self._windows[times]
 
     def stop_flags(self, end_states: np.ndarray, start: float, end: float) -> dict[str, np.ndarray]:
@@ -118,8 +130,8 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         return axis, lines[rows, axis], np.where(gap >= 0.0, 1, -1)
 
 
-def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tuple[int, int], metric: np.ndarray,
-                          arc_factor: float) -> DataWindow:
+def read_staggered_window(source: DataSource, geometry: GridGeometry, faces: FaceConversion, times: tuple[int, int],
+                          metric: np.ndarray, arc_factor: float) -> DataWindow:
     """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours."""
     ta, tb = times
     count = source.t_grid[2]
@@ -134,9 +146,8 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tup
     check_speeds(source, [u, v])
     open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
     open_v = np.isfinite(v) & (water[:-1] & water[1:])
-    along_i, along_j = face_lengths(geometry, source.radius)
-    u = np.where(open_u, u, 0.0) * source.velocity_scale / along_i
-    v = np.where(open_v, v, 0.0) * source.velocity_scale / along_j
+    u = np.where(open_u, u, 0.0) * source.velocity_scale / faces.u_divisor
+    v = np.where(open_v, v, 0.0) * source.velocity_scale / faces.v_divisor
     start, stop = ta - first, ta - first + tb - ta + 1
     u_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(u, start, stop), 0, -1))  # (ny, nx - 1, nt + 2)
     v_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(v, start, stop), 0, -1))
@@ -147,14 +158,18 @@ def read_staggered_window(source: DataSource, geometry: GridGeometry, times: tup
                    source.t_grid[1], 0.0, source.radius, 1.0)
     header[V_AT] = HEADER + u_faces.size
     header[LAND_AT] = header[V_AT] + v_faces.size
-    header[METRIC_AT] = header[LAND_AT] + land.size
+    header[METRIC_AT] = header[LAND_AT] + 2 * land.size  # the cells' scales after the land
     header[ARC_FACTOR_AT] = arc_factor
-    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), keys_padded(metric).ravel()])
+    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), faces.cell_scale.ravel(),
+                             keys_padded(metric).ravel()])
     return DataWindow(np.ascontiguousarray(buffer), ~water, (0.0, 1.0, nx), (0.0, 1.0, ny))
 
 
 def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
                           ) -> StaggeredVelocitySystem:
     """The system of a checked C-grid ``source`` (:func:`.source.open_source`)."""
+    def faces(geometry: GridGeometry) -> dict:
+        return {"faces": face_conversion(source, geometry, *face_lengths(geometry, source.radius))}
+
     return grid_system(StaggeredVelocitySystem, staggered_kernel_source(), "velocity_data_c_grid", name, source, spec,
-                       coordinates)
+                       coordinates, faces)
