@@ -14,7 +14,10 @@
 # cells (ny + 2, nx + 2): at (j, i) 1.0 where the cell from node (j, i) to (j + 1, i + 1) of the
 # window has a land corner (one read a call instead of four). Header: nt, ny, nx, x_first, dx,
 # y_first, dy, t_first, dt, sphere (0 or 1), radius, velocity_scale, two slots of the curvilinear
-# LD metric, the interpolant (0 cubic convolution of the data, 1 cubic B-spline of coefficients).
+# LD metric, the interpolant (0 cubic convolution of the data, 1 cubic B-spline of coefficients),
+# and 0, or where a curvilinear grid's uneven times start (nt + 2 values, padded as
+# rectilinear_velocity.py pads an axis; t_first and dt then unused, the time weights that
+# kernel's non-uniform cubic).
 #
 # Boundaries: a point outside the grid's extent, or in a cell with a land corner, has velocity 0,
 # so a trajectory stops where it reaches land or the data's edge (the LD stage flags it); times
@@ -97,6 +100,8 @@ def grid_velocity(x, y, t):
         wt1 = (1.5 * st - 2.5) * st * st + 1.0
         wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
         wt3 = (0.5 * st - 0.5) * st * st
+    if data[15] > 0.0:  # uneven times (a curvilinear grid's): kernels/uneven_time_weights.py
+        k, wt0, wt1, wt2, wt3 = uneven_time_weights(data, int(data[15]), nt, t)
     qt = nt + 2
     # the 4 x 4 nodes from (i, j) at the time levels k .. k + 3: a node's (u, v) at the 4 levels are
     # 8 doubles side by side, its x neighbour's 2 qt further, its y neighbour's 2 qt px
