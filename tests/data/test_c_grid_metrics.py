@@ -56,9 +56,8 @@ def stretched_grid():
     return X, Y, pm, pn, np.meshgrid(xc, yc)
 
 
-def grid_file(path, u, v, pm, pn, X, Y, **variables):
+def grid_file(path, u, v, pm, pn, X, Y, times=np.arange(0.0, 4e5 + 1, 1e5), **variables):
     """A ROMS-like C-grid file of steady face velocities u (NY, NX - 1), v (NY - 1, NX) in m/s, with pm, pn."""
-    times = np.arange(0.0, 4e5 + 1, 1e5)
 
     def steady(values):
         return lambda xm, ym, t: np.broadcast_to(values, np.broadcast_shapes(xm.shape, t.shape))
@@ -123,6 +122,37 @@ def test_psi_is_conserved_with_the_files_metrics_and_not_without(gyre_file):
     # ignored 8.8e-4 at every tolerance
     assert drift["read"] < 1e-7
     assert drift["ignored"] > 3e-4
+
+
+def test_a_window_keeps_the_whole_grids_trajectories_with_the_files_metrics_at_uneven_times(tmp_path):
+    # identity: a window's box reads the faces, the land and the cells' scales (1 / area, from pm,
+    # pn) of its nodes only, so for trajectories inside it the map is the whole grid's bit for bit;
+    # and psi stays conserved (the invariant of test_psi_is_conserved_...) with the file's metrics
+    # read over the box, at uneven output times (a steady flow: their cubic is the flow itself)
+    X, Y, pm, pn, (XC, YC) = stretched_grid()
+    psi = PSI0 * np.sin(np.pi * XC / LX) * np.sin(np.pi * YC / LY)
+    u, v = faces_from_psi(psi, pm, pn)
+    times = np.array([0.0, 0.6e5, 1.5e5, 1.9e5, 2.8e5, 3.3e5, 4.4e5])
+    path = grid_file(tmp_path / "uneven.nc", u, v, pm, pn, X, Y, times=times)
+    # the centres' columns 6 .. 17 and rows 5 .. 14: the box one more each side, its geometry (three
+    # more) inside the grid, so nothing of the window's starts at the grid's first node
+    window = {"x_rho": [X[0, 6], X[0, 17]], "y_rho": [Y[5, 0], Y[14, 0]]}
+    whole = make_system("whole", {"velocity_data": {"path": str(path), **ENTRY}})
+    boxed = make_system("boxed", {"velocity_data": {"path": str(path), **ENTRY, "window": window}})
+    assert boxed.box == ((5, 18), (4, 15)) and boxed.geometry.offset == (2, 1)
+    assert boxed.grid_attributes() == whole.grid_attributes() == {"grid_metrics": "dx: pm, dy: pn",
+                                                                  "metric_tolerance": 0.1}
+    starts = np.array([[10.3, 8.2], [13.1, 10.6], [11.0, 11.4]])  # indices: round the gyre's centre, in the box
+    settings = LDSettings(tau=3e5, p=0.5, **TIGHT)
+    wanted = compute_ld(whole, whole.states_from_engine(starts), 1, settings, t0=0.5e5)
+    result = compute_ld(boxed, boxed.states_from_engine(starts), 1, settings, t0=0.5e5)
+    np.testing.assert_array_equal(result.end_state, wanted.end_state)
+    np.testing.assert_array_equal(result.ld, wanted.ld)
+    end = boxed.engine_states(result.end_state)
+    assert np.abs(end - starts).max() > 2.0  # they moved (measured 2.9 cells)
+    assert (end[:, 0] > 5.5).all() and (end[:, 0] < 17.5).all() and (end[:, 1] > 4.5).all() and (end[:, 1] < 14.5).all()
+    # measured 8.8e-10 of PSI0, the integrator's error; with metrics: coordinates 2.2e-4
+    assert np.abs(bilinear(psi, end) - bilinear(psi, starts)).max() / PSI0 < 5e-9
 
 
 def test_a_uniform_flux_crosses_each_cell_in_its_area_over_the_flux(tmp_path):

@@ -11,7 +11,8 @@
 # * ``step_ld`` to the quadrature of that velocity, the arc length times header value 13 (on the
 #   sphere the data's velocity unit in km per time unit: the LD in km).
 #
-# Header values read (ldpipe.systems.velocity_data.curvilinear): 1, 2 the grid's ny, nx; 12 where
+# Header values read (ldpipe.systems.velocity_data.curvilinear): 1, 2 the ny, nx of the box of the
+# grid read (the whole grid, or a window's); 3, 5 the indices i, j of its first node; 12 where
 # P's nodes start in the buffer, (ny + 2, nx + 2, 4) padded as the velocities are
 # (P[0] P[1]; P[2] P[3]) row by row; 13 the arc length's factor.
 # ruff: noqa: F821  (the engine's functions, constants and the kernel's pointer come from the generated module)
@@ -26,8 +27,8 @@ def curvilinear_metric(head, fi, fj, P):
     velocity is 0 whatever P is)."""
     ny = int(head[1])
     nx = int(head[2])
-    fx = min(max(fi, 0.0), nx - 1.0)
-    fy = min(max(fj, 0.0), ny - 1.0)
+    fx = min(max(fi - head[3], 0.0), nx - 1.0)  # from the box's first node (an integer: exact)
+    fy = min(max(fj - head[5], 0.0), ny - 1.0)
     i = min(int(fx), nx - 2)
     j = min(int(fy), ny - 2)
     sx = fx - i
@@ -55,8 +56,8 @@ def curvilinear_metric(head, fi, fj, P):
 
 
 @njit(**JIT)
-def dense(xv, t, h, K, xs, QC, VC):
-    _index_dense(xv, t, h, K, xs, QC, VC)
+def dense(xv, t, h, K, xs, fs, QC, VC):
+    _index_dense(xv, t, h, K, xs, fs, QC, VC)
     head = velocity_data_pointer()  # the raw pointer, as the kernels read it
     physical = np.empty((DENSE_STAGES, 2))
     P = np.empty(4)

@@ -13,8 +13,12 @@
 # land nodes (ny, nx) (1.0 on land: its cell is land, its faces closed), then each cell's scale
 # (ny, nx): the index velocity is the faces' interpolated values times it (1 / the cell's area
 # when U and V are fluxes, from a model's metrics; else 1), then the LD metric's P
-# (kernels/curvilinear_ld_metric.py). Header: nt, ny, nx, x_first 0, dx 1, y_first 0, dy 1, t_first,
-# dt, 0, radius, 1, P's offset, the arc length's factor, V's offset, the land's offset.
+# (kernels/curvilinear_ld_metric.py). Faces, land and scales are all the box's: row j, column i
+# of each is the whole grid's centre (j0 + j, i0 + i). Header: nt, ny, nx (the centres read),
+# i0, 1, j0, 1 (i0, j0 the first centre read: 0, 0 for the whole grid, a window's box elsewhere;
+# the state is the whole grid's indices), t_first, dt, 0 or where uneven times start (nt + 2
+# values, padded as rectilinear_velocity.py pads an axis), radius, 1, P's offset, the arc
+# length's factor, V's offset, the land's offset.
 #
 # A point within NEAR_WALL of a closed face on its land side (a step overshoots a wall by about the
 # integrator's tolerance) takes the water cell's linear velocity, continued: it points back at the
@@ -43,8 +47,8 @@ def rhs(state, t, out):
         out[0] = math.nan
         out[1] = math.nan
         return
-    fi = state[0]
-    fj = state[1]
+    fi = state[0] - data[3]  # from the box's first centre (an integer: exact)
+    fj = state[1] - data[5]
     if not (fi >= 0.5 and fi <= nx - 1.5 and fj >= 0.5 and fj <= ny - 1.5):
         return
     i = min(int(fi + 0.5), nx - 2)
@@ -71,6 +75,8 @@ def rhs(state, t, out):
     wt1 = (1.5 * st - 2.5) * st * st + 1.0
     wt2 = ((-1.5 * st + 2.0) * st + 0.5) * st
     wt3 = (0.5 * st - 0.5) * st * st
+    if data[9] > 0.0:  # uneven times (their padded values at data[9]): kernels/uneven_time_weights.py
+        k, wt0, wt1, wt2, wt3 = uneven_time_weights(data, int(data[9]), nt, t)
     qt = nt + 2
     a = fi - (i - 0.5)  # from the west face, 0 .. 1
     west = DATA_HEADER + (j * (nx - 1) + i - 1) * qt + k

@@ -76,11 +76,8 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
                 "a global longitude grid" if source.x_global else "an uneven or 3-D grid")
         raise ConfigError(f"config key '{key}.velocity_data.interpolation': {interpolation!r} is offered on a regular "
                           f"2-D grid that is not global; {source.label} is {grid}: use 'cubic_convolution'")
-    if source.staggered:  # a C-grid: its face velocities, a coast a wall
-        return make_staggered_system(name, source, spec, velocity_data_coordinates(entry))
-    if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
-        return make_curvilinear_system(name, source, spec, velocity_data_coordinates(entry))
-    coordinates = (source.x, source.y)
+    # a curvilinear grid's state is its coordinates (x, y or longitude, latitude), not its index dimensions
+    coordinates = velocity_data_coordinates(entry) if source.grid_coordinates else (source.x, source.y)
     window = entry.get("window")
     if window is not None:
         if sorted(set(window) - {source.z}) != sorted(coordinates):
@@ -95,6 +92,10 @@ def make_velocity_data_system(name: str, spec: dict, key: str) -> VelocityDataSy
                                       " (a window across the dateline of a regional grid: write its longitudes "
                                       "in the grid's convention, e.g. [170, 190])" if source.sphere
                                       and coordinate == coordinates[0] else ""))
+    if source.staggered:  # a C-grid: its face velocities, a coast a wall
+        return make_staggered_system(name, source, spec, coordinates, window, f"{key}.velocity_data.window")
+    if source.grid_coordinates:  # 2-D coordinates: integrated in the grid's indices
+        return make_curvilinear_system(name, source, spec, coordinates, window, f"{key}.velocity_data.window")
     if source.nodes is not None:  # a non-uniform axis, or 3-D: the rectilinear kernel
         return make_rectilinear_system(name, source, window, spec)
     if source.x_global and window is None:  # a global grid reaching a pole: integrated as 3-D positions

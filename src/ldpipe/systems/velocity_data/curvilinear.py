@@ -6,7 +6,9 @@ north by the grid's angle (the file's, else the coordinates'), then d(i, j)/dt =
 with J = dX/d(i, j) at the node (:mod:`.grid_geometry`: fourth-order differences) and dX/dt the
 velocity in coordinate units (degrees on the sphere). Between nodes the regular grid's kernel
 (``kernels/gridded_velocity.py``, cubic convolution in i, j and t) interpolates them on the unit
-grid, unchanged; land and the grid's edge stop trajectories as they do there.
+grid, unchanged; land and the grid's edge stop trajectories as they do there. Uneven times (monthly
+means) are interpolated by the same kernel with the rectilinear grid's non-uniform cubic in time
+(the window's header slot :data:`.regular.TIMES_AT`), exact for quadratics in time.
 
 Starts are mapped to indices by Newton's method on the interpolated coordinates, end states
 back by that interpolant (:meth:`CurvilinearVelocitySystem.engine_states`,
@@ -16,8 +18,14 @@ metric P, interpolated from its nodes, gives the velocity in coordinate units pe
 the plane and in the data's velocity units on the sphere (the arc length in km), as a regular
 grid's LD.
 
+A spatial ``window`` (an interval of each coordinate: x, y or longitude, latitude) is read as the
+box of nodes that covers it (:func:`window_box`): the nodes inside it and one more each side.
+Only that box is read per window of times (with the stencil's ring of real neighbours), and its
+edges are the data's edges; the geometry is built over the box and :data:`GEOMETRY_MARGIN` more
+nodes, so that inside the box every value is the whole grid's bit for bit.
+
 A C-grid's face velocities are :mod:`.staggered`'s. Not yet: grids through a pole or folded
-(tripolar), 3-D data, spatial windows, uneven times; a map's region box (variable-time LDs).
+(tripolar), 3-D data; a map's region box (variable-time LDs).
 """
 
 from __future__ import annotations
@@ -29,15 +37,21 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
-from .grid_geometry import GridGeometry, angle_from_coordinates, keys_padded, wrapped
-from .regular import DataWindow, VelocityDataSystem, index_window, kernel_source, read_window
-from .source import DataSource, kernel_text
+from .grid_geometry import GridGeometry, angle_from_coordinates, wrapped
+from .regular import DataWindow, VelocityDataSystem, extend_keys, index_window, kernel_source, read_window
+from .source import DataSource, at_least_three_nodes, kernel_text, node_window
 
 #: The largest difference (radians) between a file's rotation angle and the coordinates' before the
 #: file's is refused (an angle in degrees labelled radians, or of another grid, differs by far more).
 ANGLE_TOLERANCE = 0.05
 #: Header slots the curvilinear LD metric reads (the regular kernel's header leaves them free).
 METRIC_AT, ARC_FACTOR_AT = 12, 13
+#: Nodes of the geometry beyond the box a window reads: the stencil's one real neighbour, and two
+#: more for the metric's centred fourth-order differences there (then the whole grid's, bit for bit).
+GEOMETRY_MARGIN = 3
+
+#: An inclusive box of a grid's nodes: ((first column i, last), (first row j, last)).
+NodeBox = tuple[tuple[int, int], tuple[int, int]]
 
 
 @dataclass(frozen=True)
@@ -99,6 +113,7 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
     geometry: GridGeometry = field(default=None, repr=False)
     velocities: IndexVelocities = field(default=None, repr=False)
     arc_factor: float = 1.0
+    box: NodeBox = ((0, 0), (0, 0))  # the nodes read: the whole grid, or the box covering a ``window``
 
     @property
     def engine_name(self) -> str:
@@ -127,17 +142,26 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
     def states_from_engine(self, engine_states: np.ndarray) -> np.ndarray:
         return self.geometry.coordinates(engine_states)
 
+    @property
+    def grid_shape(self) -> tuple[int, int]:
+        """The whole grid's (ny, nx)."""
+        return self.source.y_grid[2], self.source.x_grid[2]
+
+    def convert(self, u: np.ndarray, v: np.ndarray, rows: slice, columns: slice) -> tuple[np.ndarray, np.ndarray]:
+        """Index velocities from u, v read at the whole grid's ``rows``, ``columns`` (the geometry's box)."""
+        i0, j0 = self.geometry.offset
+        return self.velocities.convert(u, v, slice(rows.start - j0, rows.stop - j0),
+                                       slice(columns.start - i0, columns.stop - i0))
+
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The window of the data [start, end] needs over the whole grid, as index velocities with
-        the LD's metric after them (read once; the last few are kept)."""
+        """The window of the data [start, end] needs over the box read (:attr:`box`), as index
+        velocities with the LD's metric after them (read once; the last few are kept)."""
         self.check_times(start, end)
-        low, high = sorted((start, end))
-        times = index_window(self.source.t_grid, low, high)
+        times = time_indices(self.source, *sorted((start, end)))
         if times not in self._windows:
-            ny, nx = self.geometry.shape
             index_source = replace(self.source, sphere=False, velocity_scale=1.0)
-            window = read_window(index_source, times, (0, nx - 1), (0, ny - 1), convert=self.velocities.convert)
-            metric = keys_padded(self.velocities.metric)
+            window = read_window(index_source, times, *self.box, convert=self.convert)
+            metric = box_padded(self.velocities.metric, self.box, self.geometry.offset, self.grid_shape)
             buffer = np.concatenate([window.buffer, metric.ravel()])
             buffer[METRIC_AT], buffer[ARC_FACTOR_AT] = len(window.buffer), self.arc_factor
             self._windows[times] = replace(window, buffer=np.ascontiguousarray(buffer))
@@ -165,18 +189,48 @@ class CurvilinearVelocitySystem(VelocityDataSystem):
         return super().stop_lines(np.nan_to_num(self.engine_states(end_states), nan=-1.0), start, end)
 
 
+def time_indices(source: DataSource, low: float, high: float) -> tuple[int, int]:
+    """The time indices [a, b] whose intervals cover [low, high]: of even times, or of uneven ones
+    (``source.nodes``, the kernel then interpolating them by the non-uniform cubic)."""
+    if source.nodes is None:
+        return index_window(source.t_grid, low, high)
+    return node_window(np.asarray(source.nodes[-1]), low, high)
+
+
+def box_padded(values: np.ndarray, box: NodeBox, offset: tuple[int, int], shape: tuple[int, int]) -> np.ndarray:
+    """``values`` (a geometry's nodes from the whole grid's node ``offset``, (ny, nx, ...)) over
+    ``box`` padded by one node each side as the velocities are: the real neighbour where the whole
+    grid (``shape``) has one, else Keys' extrapolation (the whole grid: :func:`.grid_geometry.keys_padded`)."""
+    out = np.asarray(values, dtype=float)
+    for axis, (low, high), first, count in ((0, box[1], offset[1], shape[0]), (1, box[0], offset[0], shape[1])):
+        a = np.moveaxis(out, axis, 0)
+        start, stop = low - first, high - first + 1
+        below = a[start - 1] if low > 0 else None
+        above = a[stop] if high < count - 1 else None
+        out = np.moveaxis(extend_keys(a[start:stop], 0, below, above), 0, axis)
+    return out
+
+
+def region_of(source: DataSource, geometry: GridGeometry) -> dict[str, slice]:
+    """The indexers of a geometry's nodes in the dataset (its index dimensions)."""
+    (i0, j0), (ny, nx) = geometry.offset, geometry.shape
+    return {source.y: slice(j0, j0 + ny), source.x: slice(i0, i0 + nx)}
+
+
 def file_angle(source: DataSource, geometry: GridGeometry) -> np.ndarray | None:
-    """The file's rotation angle in radians, checked against the coordinates' (a ConfigError names
-    the variable if they differ by more than :data:`ANGLE_TOLERANCE`, e.g. degrees read as radians)."""
+    """The file's rotation angle in radians at the geometry's nodes, checked against the coordinates'
+    (a ConfigError names the variable if they differ by more than :data:`ANGLE_TOLERANCE`, e.g.
+    degrees read as radians)."""
     if source.angle is None:
         return None
     with source.open() as dataset:
-        values = np.asarray(dataset.read(source.angle, {}), dtype=float) * source.angle_scale
+        values = np.asarray(dataset.read(source.angle, region_of(source, geometry)), dtype=float) * source.angle_scale
     if not np.all(np.isfinite(values)):
         raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} has missing values")
     difference = np.abs(wrapped(values - angle_from_coordinates(geometry)))
     if difference.max() > ANGLE_TOLERANCE:
         j, i = np.unravel_index(int(np.argmax(difference)), difference.shape)
+        i, j = i + geometry.offset[0], j + geometry.offset[1]
         raise ConfigError(f"velocity data {source.label}: the angle variable {source.angle!r} differs from the grid "
                           f"coordinates' rotation by {difference.max():.3g} rad at node (j, i) = ({j}, {i}) (read "
                           f"with its units as {source.angle_scale:g} rad per unit): is it in the wrong unit, or of "
@@ -184,16 +238,52 @@ def file_angle(source: DataSource, geometry: GridGeometry) -> np.ndarray | None:
     return values
 
 
-def curvilinear_parts(source: DataSource) -> tuple[GridGeometry, IndexVelocities, float]:
+def window_box(source: DataSource, x: np.ndarray, y: np.ndarray, window: dict, names: tuple[str, str],
+               key: str) -> NodeBox:
+    """The box of nodes whose cells cover ``window`` (an interval of each coordinate ``names``: x
+    and y, or longitude and latitude) on a grid of nodes ``x``, ``y``: the nodes inside it and one
+    more each side, within the grid, at least three a side. A ConfigError naming ``key`` if no node is inside."""
+    (x_low, x_high), (y_low, y_high) = window[names[0]], window[names[1]]
+    if source.sphere:  # a longitude interval eastward from x_low, in either convention
+        inside_x = np.mod(x - x_low, 360.0) <= x_high - x_low
+    else:
+        inside_x = (x >= x_low) & (x <= x_high)
+    inside = inside_x & (y >= y_low) & (y <= y_high)
+    if not inside.any():
+        raise ConfigError(f"config key '{key}': no node of the curvilinear grid {source.grid_coordinates} of "
+                          f"{source.label} lies in the window {names[0]} {list(window[names[0]])}, {names[1]} "
+                          f"{list(window[names[1]])} (the grid spans {names[0]} [{x.min():.6g}, {x.max():.6g}], "
+                          f"{names[1]} [{y.min():.6g}, {y.max():.6g}]); give a window on the grid, a cell wide at least")
+    box = []
+    for axis, count in ((1, x.shape[1]), (0, x.shape[0])):
+        nodes = np.flatnonzero(inside.any(axis=1 - axis))
+        box.append(at_least_three_nodes(max(0, int(nodes[0]) - 1), min(count - 1, int(nodes[-1]) + 1), count))
+    return box[0], box[1]
+
+
+def curvilinear_parts(source: DataSource, window: dict | None = None, names: tuple[str, str] = ("x", "y"),
+                      key: str = "window") -> tuple[GridGeometry, IndexVelocities, float, NodeBox]:
     """A checked curvilinear ``source``'s geometry, its velocities' conversion and the LD's metric,
-    and the arc length's factor."""
+    the arc length's factor, and the box of nodes read: the whole grid, or the box covering
+    ``window`` (:func:`window_box`: an interval of each coordinate ``names``; ``key`` names it), the geometry then over the box and
+    :data:`GEOMETRY_MARGIN` nodes more each side."""
     with source.open() as dataset:
         x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
-    geometry = GridGeometry.from_coordinates(x, y, source.sphere)
+    ny, nx = x.shape
+    centre = float(x[ny // 2, nx // 2]) if source.sphere else None  # the whole grid's branch of longitude
+    if window is None:
+        box = ((0, nx - 1), (0, ny - 1))
+    else:
+        box = window_box(source, x, y, window, names, key)
+    (ia, ib), (ja, jb) = box
+    i0, j0 = max(0, ia - GEOMETRY_MARGIN), max(0, ja - GEOMETRY_MARGIN)
+    i1, j1 = min(nx, ib + GEOMETRY_MARGIN + 1), min(ny, jb + GEOMETRY_MARGIN + 1)
+    geometry = GridGeometry.from_coordinates(x[j0:j1, i0:i1], y[j0:j1, i0:i1], source.sphere, centre, (i0, j0))
+    del x, y  # a large grid's coordinates: only the box's are kept
     if source.sphere:
         check_no_pole(source, geometry)
     velocities, arc_factor = index_velocities(source, geometry, file_angle(source, geometry))
-    return geometry, velocities, arc_factor
+    return geometry, velocities, arc_factor, box
 
 
 #: The largest jump of longitude (degrees) between neighbouring nodes of a grid that is neither
@@ -235,19 +325,21 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
 
 
 def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module: str, name: str, source: DataSource,
-                spec: dict, coordinates: tuple[str, str], extra=None) -> CurvilinearVelocitySystem:
+                spec: dict, coordinates: tuple[str, str], window: dict | None = None, key: str = "window",
+                extra=None) -> CurvilinearVelocitySystem:
     """A system of ``system_class`` (curvilinear, or a C grid) of a checked ``source``
-    (:func:`.source.open_source`): its grid's geometry and index velocities, the fields
-    ``extra(geometry)`` gives (a C-grid's faces), and the kernel ``text`` compiled as the module
-    ``module``."""
-    geometry, velocities, arc_factor = curvilinear_parts(source)
+    (:func:`.source.open_source`) over its ``window`` (the whole grid if None; ``key`` names it):
+    its grid's geometry and index velocities, the fields ``extra(geometry)`` gives (a C-grid's
+    faces, over the geometry's nodes), and the kernel ``text`` compiled as the module ``module``."""
+    geometry, velocities, arc_factor, box = curvilinear_parts(source, window, coordinates, key)
     fields = extra(geometry) if extra else {}
     (rhs,) = njit_functions(text, ("rhs",), module)
-    return system_class(name=name, coordinates=coordinates, source=source, window=None, kernel_source=text, rhs=rhs,
-                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor, **fields)
+    return system_class(name=name, coordinates=coordinates, source=source, window=window, kernel_source=text, rhs=rhs,
+                        spec=spec, geometry=geometry, velocities=velocities, arc_factor=arc_factor, box=box, **fields)
 
 
-def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
-                            ) -> CurvilinearVelocitySystem:
-    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`)."""
-    return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates)
+def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
+                            window: dict | None = None, key: str = "window") -> CurvilinearVelocitySystem:
+    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`) over its ``window``."""
+    return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates,
+                       window, key)

@@ -10,6 +10,10 @@ The metric dX/d(i, j) at the nodes is taken by fourth-order differences (one-sid
 rows next to an edge): its error is two orders below the interpolant's, so converting velocities
 to index velocities costs no order. :meth:`GridGeometry.indices` inverts X by Newton's method
 from the nearest node (a k-d tree; on the sphere over unit vectors).
+
+A geometry may hold a box of a larger grid (a spatial ``window``): its ``offset`` is the index
+(i, j) of its first node, and every index it takes or gives is the whole grid's. An integer offset
+is subtracted exactly, so inside the box the interpolants give the whole grid's values bit for bit.
 """
 
 from __future__ import annotations
@@ -92,21 +96,31 @@ class GridGeometry:
     centre_longitude: float = 0.0  # the sphere's longitudes are unwrapped into [centre - 180, centre + 180)
     padded: np.ndarray = field(repr=False, default=None)
     jacobian: np.ndarray = field(repr=False, default=None)  # (ny, nx, 2, 2): d(x, y)/d(i, j)
+    offset: tuple[int, int] = (0, 0)  # the whole grid's index (i, j) of the first node (module docstring)
 
     @classmethod
-    def from_coordinates(cls, x: np.ndarray, y: np.ndarray, sphere: bool) -> GridGeometry:
+    def from_coordinates(cls, x: np.ndarray, y: np.ndarray, sphere: bool, centre: float | None = None,
+                         offset: tuple[int, int] = (0, 0)) -> GridGeometry:
+        """The geometry of nodes ``x``, ``y`` (a box of a grid from node ``offset``); on the sphere
+        the longitudes taken about ``centre`` (default: the middle node's)."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-        centre = 0.0
-        if sphere:  # one branch of longitude about the grid's centre: continuous across the dateline
+        if not sphere:
+            centre = 0.0
+        elif centre is None:  # one branch of longitude about the grid's centre: continuous across the dateline
             centre = float(x[x.shape[0] // 2, x.shape[1] // 2])
+        if sphere:
             x = centre + np.mod(x - centre + 180.0, 360.0) - 180.0
         stacked = np.stack([x, y], axis=-1)
         jacobian = np.stack([index_derivative(stacked, 1), index_derivative(stacked, 0)], axis=-1)
-        return cls(x, y, sphere, centre, keys_padded(stacked), jacobian)
+        return cls(x, y, sphere, centre, keys_padded(stacked), jacobian, (int(offset[0]), int(offset[1])))
 
     @property
     def shape(self) -> tuple[int, int]:
         return self.x.shape
+
+    def _at(self, fi: np.ndarray, fj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`interpolate` of the coordinates at the whole grid's indices (fi, fj)."""
+        return interpolate(self.padded, fi - self.offset[0], fj - self.offset[1])
 
     def branch(self, longitudes: np.ndarray) -> np.ndarray:
         """Longitudes on the grid's branch (the sphere's); other coordinates unchanged."""
@@ -118,12 +132,12 @@ class GridGeometry:
     def coordinates(self, indices: np.ndarray) -> np.ndarray:
         """The coordinates (x, y) at fractional indices (rows (i, j))."""
         indices = np.atleast_2d(np.asarray(indices, dtype=float))
-        return interpolate(self.padded, indices[:, 0], indices[:, 1])[0]
+        return self._at(indices[:, 0], indices[:, 1])[0]
 
     def coordinate_jacobian(self, indices: np.ndarray) -> np.ndarray:
         """d(x, y)/d(i, j) of the interpolated coordinates at fractional indices: (n, 2, 2)."""
         indices = np.atleast_2d(np.asarray(indices, dtype=float))
-        _, d_i, d_j = interpolate(self.padded, indices[:, 0], indices[:, 1])
+        _, d_i, d_j = self._at(indices[:, 0], indices[:, 1])
         return np.stack([d_i, d_j], axis=-1)
 
     def _embedded(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -146,7 +160,7 @@ class GridGeometry:
         out = np.full((len(points), 2), np.nan)
         _, flat = self._node_tree.query(self._embedded(points[usable, 0], points[usable, 1]))
         j, i = np.unravel_index(flat, self.shape)
-        out[usable] = np.column_stack([i, j])
+        out[usable] = np.column_stack([i + self.offset[0], j + self.offset[1]])
         return out
 
     def indices(self, points: np.ndarray) -> np.ndarray:
@@ -161,7 +175,7 @@ class GridGeometry:
             if not active.any():
                 break
             at = guess[active]
-            value, d_i, d_j = interpolate(self.padded, at[:, 0], at[:, 1])
+            value, d_i, d_j = self._at(at[:, 0], at[:, 1])
             residual = value - points[active]
             jacobian = np.stack([d_i, d_j], axis=-1)
             determinant = np.linalg.det(jacobian)

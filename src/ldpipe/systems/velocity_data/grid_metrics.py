@@ -185,13 +185,13 @@ def face_conversion(source, geometry: GridGeometry, along_i: np.ndarray, along_j
     if not source.metrics:
         return FaceConversion(along_i * sine_between(step_i, face_j), along_j * sine_between(step_j, face_i),
                               np.ones(geometry.shape), "")
-    values = read_metrics(source)
+    values = read_metrics(source, geometry)
     length = {"dx": np.linalg.norm(e_i, axis=-1), "dy": np.linalg.norm(e_j, axis=-1),
               "u_face": np.linalg.norm(face_j, axis=-1), "v_face": np.linalg.norm(face_i, axis=-1),
               "area": np.abs(e_i[..., 0] * e_j[..., 1] - e_i[..., 1] * e_j[..., 0])}
     names = {role: name for role, name, _, _ in source.metrics}
     for role, value in values.items():
-        check_metric(source, names[role], role, value, length[role])
+        check_metric(source, names[role], role, value, length[role], geometry.offset)
     dx, dy = values["dx"], values["dy"]
     # ROMS's face lengths from pn, pm: on_u = 2 / (pn_i + pn_i+1), om_v = 2 / (pm_j + pm_j+1)
     u_face = values.get("u_face", 2.0 / (1.0 / dy[:, :-1] + 1.0 / dy[:, 1:]))
@@ -201,29 +201,34 @@ def face_conversion(source, geometry: GridGeometry, along_i: np.ndarray, along_j
                                                                            for role, name in names.items()))
 
 
-def read_metrics(source) -> dict[str, np.ndarray]:
-    """The file's metrics by role, in the coordinates' length units (metres on the sphere): a
-    ConfigError names a variable with missing or non-positive values."""
+def read_metrics(source, geometry: GridGeometry) -> dict[str, np.ndarray]:
+    """The file's metrics by role over the geometry's nodes (the whole grid, or a window's box and
+    margin: the centres there, the faces between them), in the coordinates' length units (metres
+    on the sphere): a ConfigError names a variable with missing or non-positive values."""
+    (i0, j0), (ny, nx) = geometry.offset, geometry.shape
+    # NEMO's outer faces (east of the last column, north of the last row) are never among them
+    extent = {"u_face": (ny, nx - 1), "v_face": (ny - 1, nx)}
     out = {}
     with source.open() as dataset:
         for role, name, metres, power in source.metrics:
-            values = np.asarray(dataset.read(name, {}), dtype=float)
-            if source.staggered == "nemo":  # the outer faces east of the last column and north of the last row
-                values = values[:, :-1] if role == "u_face" else values[:-1] if role == "v_face" else values
+            rows, columns = extent.get(role, (ny, nx))
+            y, x = dataset.dataset(0)[name].dims
+            values = np.asarray(dataset.read(name, {y: slice(j0, j0 + rows), x: slice(i0, i0 + columns)}), dtype=float)
             bad = ~(np.isfinite(values) & (values > 0.0))
             if bad.any():
-                where = tuple(int(k) for k in np.argwhere(bad)[0])
+                j, i = (int(k) for k in np.argwhere(bad)[0])
                 raise ConfigError(f"velocity data {source.label}: metric {name!r} ({role}) has {int(bad.sum())} "
-                                  f"missing or non-positive values (the first {float(values[where]):g} at index {where}); "
-                                  "every cell needs its metrics, land too")
+                                  f"missing or non-positive values (the first {float(values[j, i]):g} at index "
+                                  f"{(j + j0, i + i0)}); every cell needs its metrics, land too")
             values = values * (metres / source.coordinate_metres) ** power  # the coordinates' length units
             out[role] = 1.0 / values if power < 0 else values
     return out
 
 
-def check_metric(source, name: str, role: str, value: np.ndarray, coordinates: np.ndarray) -> None:
+def check_metric(source, name: str, role: str, value: np.ndarray, coordinates: np.ndarray,
+                 offset: tuple[int, int]) -> None:
     """A ConfigError naming ``name`` if it differs from the coordinates' length (or area) by more than
-    the source's ``metric_tolerance``, relative."""
+    the source's ``metric_tolerance``, relative (``offset``: the whole grid's (i, j) of the values' first)."""
     ratio = value / coordinates
     worst = np.abs(ratio - 1.0)
     if not worst.max() > source.metric_tolerance:
@@ -231,7 +236,7 @@ def check_metric(source, name: str, role: str, value: np.ndarray, coordinates: n
     j, i = np.unravel_index(int(np.argmax(worst)), worst.shape)
     what = "area" if role == "area" else "length"
     raise ConfigError(f"velocity data {source.label}: metric {name!r} ({role}) gives a {what} of {value[j, i]:.6g} at "
-                      f"(j, i) = ({j}, {i}), where the grid's coordinates give {coordinates[j, i]:.6g} (ratio "
+                      f"(j, i) = ({j + offset[1]}, {i + offset[0]}), where the grid's coordinates give {coordinates[j, i]:.6g} (ratio "
                       f"{ratio[j, i]:.4g}, beyond metric_tolerance {source.metric_tolerance:g}): is it in other units "
                       f"than its units attribute says, or of another grid? (metrics: {FROM_COORDINATES} ignores the "
                       "file's)")

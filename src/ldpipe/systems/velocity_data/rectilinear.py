@@ -25,7 +25,7 @@ import numpy as np
 from ...jitcache import njit_functions
 from .. import kernels
 from .regular import VelocityDataSystem
-from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
+from .source import DataSource, check_speeds, fill_land, kernel_text, node_window, pad_axis, sphere_ld_metric_source
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made: a velocity-data entry is
 # read for its coordinates (planning, figures) without it.
@@ -43,43 +43,6 @@ def rectilinear_kernel_source(dims: int) -> str:
 
     text = kernel_text("velocity_units.py") + kernel_text("rectilinear_velocity.py")
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\nGRID_DIMS = {dims}\n" + text
-
-
-def node_window(values: np.ndarray, low: float, high: float) -> tuple[int, int]:
-    """The node indices [a, b] whose cells cover [low, high], at least 3 nodes, inside the axis."""
-    count = len(values)
-    slack = 1e-9 * (values[-1] - values[0]) / (count - 1)  # as the regular grid's rounding allowance
-    a = max(0, int(np.searchsorted(values, low + slack, side="right")) - 1)
-    b = min(count - 1, int(np.searchsorted(values, high - slack, side="left")))
-    return at_least_three_nodes(a, b, count)
-
-
-def quadratic_ghost(nodes: np.ndarray, values: np.ndarray, at: float) -> np.ndarray:
-    """The parabola through (nodes[k], values[k]), k = 0, 1, 2, at ``at`` (values' first axis)."""
-    c0, c1, c2 = nodes
-    weights = ((at - c1) * (at - c2) / ((c0 - c1) * (c0 - c2)), (at - c0) * (at - c2) / ((c1 - c0) * (c1 - c2)),
-               (at - c0) * (at - c1) / ((c2 - c0) * (c2 - c1)))
-    return weights[0] * values[0] + weights[1] * values[1] + weights[2] * values[2]
-
-
-def pad_axis(array: np.ndarray, axis: int, nodes: np.ndarray, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes ``start`` .. ``stop - 1`` of ``array`` along ``axis`` (``nodes`` the values of what was
-    read) with one more on each side: the real neighbour if read, else a ghost at the mirrored
-    spacing on the parabola through the three end nodes. Returns (values, node values)."""
-    a = np.moveaxis(array, axis, 0)
-    inner, inner_nodes = a[start:stop], nodes[start:stop]
-    if start > 0:
-        low, low_node = a[start - 1], nodes[start - 1]
-    else:
-        low_node = 2.0 * inner_nodes[0] - inner_nodes[1]
-        low = quadratic_ghost(inner_nodes[:3], inner[:3], low_node)
-    if stop < a.shape[0]:
-        high, high_node = a[stop], nodes[stop]
-    else:
-        high_node = 2.0 * inner_nodes[-1] - inner_nodes[-2]
-        high = quadratic_ghost(inner_nodes[-3:], inner[-3:], high_node)
-    padded = np.moveaxis(np.concatenate([low[None], inner, high[None]]), 0, axis)
-    return padded, np.concatenate([[low_node], inner_nodes, [high_node]])
 
 
 @dataclass(frozen=True)

@@ -23,12 +23,17 @@ from ...errors import ConfigError
 from ...jitcache import njit_functions
 from ..model import system_repr
 from .bspline import MARGIN, bspline_coefficients
-from .source import DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, sphere_ld_metric_source
+from .source import (
+    DataSource, at_least_three_nodes, check_speeds, fill_land, kernel_text, pad_axis, sphere_ld_metric_source,
+)
 
 # data_pointer (llvmlite and numba) is imported where a kernel is made or bound: a velocity-data
 # entry is read for its coordinates (planning, figures) without it.
 
 HEADER = 16  # the kernel's DATA_HEADER
+#: The header slot holding where a window's uneven times start in the buffer (0: even times, from
+#: slots 7 and 8); read by the kernel for a curvilinear grid's data (:mod:`.curvilinear`).
+TIMES_AT = 15
 #: The header slot saying which interpolant the kernel applies (0 cubic convolution, 1 cubic B-spline).
 INTERPOLATION_AT = 14
 #: The values of a ``velocity_data`` entry's ``interpolation`` key.
@@ -39,11 +44,12 @@ EDGE_SLACK = 1e-9
 
 
 def kernel_source() -> str:
-    """The data kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
-    from .. import data_pointer
+    """The data kernel's text, with the digests of the pointer's and the stencil's modules (their code
+    is inlined into the kernel)."""
+    from .. import data_pointer, data_stencil
 
-    text = kernel_text("velocity_units.py") + kernel_text("gridded_velocity.py")
-    return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
+    text = kernel_text("velocity_units.py") + kernel_text("uneven_time_weights.py") + kernel_text("gridded_velocity.py")
+    return f"# data_pointer {data_pointer.SOURCE_DIGEST}, data_stencil {data_stencil.SOURCE_DIGEST}\n" + text
 
 
 def extend_keys(array: np.ndarray, axis: int, low_real: np.ndarray | None, high_real: np.ndarray | None) -> np.ndarray:
@@ -135,7 +141,9 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     velocities read, land filled, into the ones the kernel interpolates (a curvilinear grid's
     index velocities). With ``interpolation`` :data:`CUBIC_BSPLINE` the buffer holds the
     B-spline coefficients of the nodes instead (:mod:`.bspline`, prefiltered over the window and
-    :data:`.bspline.MARGIN` more nodes each side where the data have them)."""
+    :data:`.bspline.MARGIN` more nodes each side where the data have them). Uneven times (a
+    curvilinear grid's ``source.nodes``) are padded as an uneven axis is (:func:`.source.pad_axis`)
+    and written after the land cells, their start in header slot :data:`TIMES_AT`."""
     (ta, tb), (ya, yb), (xa, xb) = times, y, x
     bspline = interpolation == CUBIC_BSPLINE
     if bspline and source.x_global:
@@ -169,11 +177,16 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
         copies = first_copies(np.arange(xa - 1, xb + 2) % counts[2])
         u, v = u[..., copies], v[..., copies]
     padded = []
+    time_nodes = None
     for array in (u, v):
         for axis, (lo, hi, low_read, high_read) in enumerate(zip((ta, ya, xa), (tb, yb, xb), lows, highs)):
             a = np.moveaxis(array, axis, 0)
             start = lo - low_read
             stop = start + hi - lo + 1
+            if axis == 0 and source.nodes is not None:  # uneven times: ghosts on the end nodes' parabola
+                times = np.asarray(source.nodes[-1])[low_read:high_read + 1]
+                array, time_nodes = pad_axis(array, 0, times, start, stop)
+                continue
             if bspline:  # the coefficients of the nodes read are c[-1..n]: the window's and one each side
                 array = np.moveaxis(bspline_coefficients(a, 0)[start:stop + 2], 0, axis)
                 continue
@@ -196,6 +209,9 @@ def read_window(source: DataSource, times: tuple[int, int], x: tuple[int, int], 
     header[INTERPOLATION_AT] = 1.0 if bspline else 0.0
     velocities = np.stack(padded, axis=-1).transpose(1, 2, 0, 3)  # (y, x, time, u/v): the kernel's layout
     buffer = np.concatenate([header, np.ascontiguousarray(velocities).ravel(), cells.ravel()])
+    if time_nodes is not None:
+        buffer[TIMES_AT] = len(buffer)
+        buffer = np.concatenate([buffer, time_nodes])
     return DataWindow(np.ascontiguousarray(buffer), land.copy(), x_grid, y_grid)
 
 

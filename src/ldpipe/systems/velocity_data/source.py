@@ -2,7 +2,8 @@
 
 :func:`open_source` reads the entry against its file (nothing but the coordinates is read) into a
 :class:`DataSource`, which both grids' systems use (:mod:`.regular`, :mod:`.rectilinear`); with it
-live what they share: the stencil's least window (:func:`at_least_three_nodes`), land given its
+live what they share: the stencil's least window (:func:`at_least_three_nodes`), an uneven axis's
+window and padding (:func:`node_window`, :func:`pad_axis`), land given its
 nearest water's values (:func:`fill_land`) and the sphere's LD metric section
 (:func:`sphere_ld_metric_source`).
 """
@@ -284,9 +285,6 @@ def curvilinear_entry(entry: dict, dataset: xr.Dataset, coordinates: tuple[str, 
     """What a :class:`DataSource` records of a curvilinear grid beyond its coordinates' names."""
     if three_d:
         raise ConfigError(f"config key '{key}.w': 3-D data on a curvilinear grid are not supported yet")
-    if entry.get("window") is not None:
-        raise ConfigError(f"config key '{key}.window': a window of a curvilinear grid is not supported yet; "
-                          "the whole grid is read")
     components = velocity_components(entry, dataset, key)
     angle = angle_variable({**entry, "components": components}, dataset, dataset[coordinates[0]].dims, key)
     return {"components": components, "angle": angle[0] if angle else None, "angle_scale": angle[1] if angle else 1.0}
@@ -399,9 +397,6 @@ def _checked_source(spec: dict, key: str) -> DataSource:
             vertical_scale = vertical_sign(entry, dataset, key) * w_metres / z_length * data_seconds / w_seconds
     grids = {role: (float(values[0]), float(np.diff(values).mean()), len(values)) for role, values in nodes.items()}
     regular = not three_d and all(is_uniform(values) for values in nodes.values())  # the uniform kernel's grid
-    if grid_coordinates and not regular:
-        raise ConfigError(f"config key '{key}.time': the times of {entry['time']!r} are unevenly spaced; a curvilinear "
-                          "grid's data are read at even times (not yet at uneven ones)")
     x_global = False
     if sphere and regular and not grid_coordinates:  # the seam is joined on the uniform kernel's grids only
         grids["x"], x_global = seam_grid(grids["x"], entry["x"], f"{key}.x")
@@ -480,6 +475,43 @@ def at_least_three_nodes(a: int, b: int, count: int) -> tuple[int, int]:
         else:
             a -= 1
     return a, b
+
+
+def node_window(values: np.ndarray, low: float, high: float) -> tuple[int, int]:
+    """The node indices [a, b] whose cells cover [low, high], at least 3 nodes, inside the axis."""
+    count = len(values)
+    slack = 1e-9 * (values[-1] - values[0]) / (count - 1)  # as the regular grid's rounding allowance
+    a = max(0, int(np.searchsorted(values, low + slack, side="right")) - 1)
+    b = min(count - 1, int(np.searchsorted(values, high - slack, side="left")))
+    return at_least_three_nodes(a, b, count)
+
+
+def quadratic_ghost(nodes: np.ndarray, values: np.ndarray, at: float) -> np.ndarray:
+    """The parabola through (nodes[k], values[k]), k = 0, 1, 2, at ``at`` (values' first axis)."""
+    c0, c1, c2 = nodes
+    weights = ((at - c1) * (at - c2) / ((c0 - c1) * (c0 - c2)), (at - c0) * (at - c2) / ((c1 - c0) * (c1 - c2)),
+               (at - c0) * (at - c1) / ((c2 - c0) * (c2 - c1)))
+    return weights[0] * values[0] + weights[1] * values[1] + weights[2] * values[2]
+
+
+def pad_axis(array: np.ndarray, axis: int, nodes: np.ndarray, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes ``start`` .. ``stop - 1`` of ``array`` along ``axis`` (``nodes`` the values of what was
+    read) with one more on each side: the real neighbour if read, else a ghost at the mirrored
+    spacing on the parabola through the three end nodes. Returns (values, node values)."""
+    a = np.moveaxis(array, axis, 0)
+    inner, inner_nodes = a[start:stop], nodes[start:stop]
+    if start > 0:
+        low, low_node = a[start - 1], nodes[start - 1]
+    else:
+        low_node = 2.0 * inner_nodes[0] - inner_nodes[1]
+        low = quadratic_ghost(inner_nodes[:3], inner[:3], low_node)
+    if stop < a.shape[0]:
+        high, high_node = a[stop], nodes[stop]
+    else:
+        high_node = 2.0 * inner_nodes[-1] - inner_nodes[-2]
+        high = quadratic_ghost(inner_nodes[-3:], inner[-3:], high_node)
+    padded = np.moveaxis(np.concatenate([low[None], inner, high[None]]), 0, axis)
+    return padded, np.concatenate([[low_node], inner_nodes, [high_node]])
 
 
 def fill_land(values: np.ndarray, land: np.ndarray) -> np.ndarray:

@@ -23,14 +23,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .curvilinear import ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, grid_system
-from .grid_geometry import GridGeometry, keys_padded
+from .curvilinear import (
+    ARC_FACTOR_AT, METRIC_AT, CurvilinearVelocitySystem, NodeBox, box_padded, grid_system, time_indices,
+)
+from .grid_geometry import GridGeometry
 from .grid_metrics import FaceConversion, face_conversion
-from .regular import HEADER, DataWindow, extend_keys, index_window
-from .source import DataSource, check_speeds, kernel_text
+from .regular import HEADER, DataWindow, extend_keys
+from .source import DataSource, check_speeds, kernel_text, pad_axis
 
 #: Header slots of the staggered kernel beyond the LD metric's: where V and the land nodes start.
 V_AT, LAND_AT = 14, 15
+#: The header slot of where uneven times start in the buffer (0: even times, from slots 7 and 8).
+STAGGERED_TIMES_AT = 9
 #: How far past a wall's face (in cells) a point counts as on it, at sea: a step may overshoot the
 #: wall by about the integrator's tolerance, and the kernel turns such a point back (its NEAR_WALL).
 FACE_SLACK = 1e-3
@@ -40,7 +44,8 @@ def staggered_kernel_source() -> str:
     """The C-grid kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + kernel_text("staggered_velocity.py")
+    return (f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + kernel_text("uneven_time_weights.py")
+            + kernel_text("staggered_velocity.py"))
 
 
 def face_lengths(geometry: GridGeometry, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -88,12 +93,11 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         return super().description.replace("curvilinear grid", "C-grid")
 
     def data_window(self, start: float, end: float) -> DataWindow:
-        """The window of the data [start, end] needs over the whole grid (read once; the last few are kept)."""
+        """The window of the data [start, end] needs over the box read (:attr:`box`; read once, the last few kept)."""
         self.check_times(start, end)
-        low, high = sorted((start, end))
-        times = index_window(self.source.t_grid, low, high)
+        times = time_indices(self.source, *sorted((start, end)))
         if times not in self._windows:
-            self._windows[times] = read_staggered_window(self.source, self.geometry, self.faces, times,
+            self._windows[times] = read_staggered_window(self.source, self.geometry, self.faces, self.box, times,
                                                          self.velocities.metric, self.arc_factor)
         return self._windows[times]
 
@@ -101,8 +105,8 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         """Where trajectories stopped: ``left_data`` out of the cells with both faces in the data,
         ``on_land`` in a land cell (a start there: no trajectory enters one)."""
         window = self.data_window(start, end)
-        fi, fj = np.nan_to_num(self.engine_states(end_states), nan=-1.0).T
-        ny, nx = self.geometry.shape
+        fi, fj = (np.nan_to_num(self.engine_states(end_states), nan=-1.0) - self.box_origin).T
+        nx, ny = window.x_grid[2], window.y_grid[2]
         outside = ~((fi >= 0.5) & (fi <= nx - 1.5) & (fj >= 0.5) & (fj <= ny - 1.5))
         on_land = np.ones(len(fi), dtype=bool)
         for di in (-FACE_SLACK, FACE_SLACK):  # a point on a wall's face (to rounding) is at sea
@@ -112,12 +116,17 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
                 on_land &= window.land[j, i]
         return {"on_land": on_land & ~outside, "left_data": outside}
 
+    @property
+    def box_origin(self) -> np.ndarray:
+        """The whole grid's indices (i, j) of the box's first centre."""
+        return np.array([self.box[0][0], self.box[1][0]], dtype=float)
+
     def stop_lines(self, end_states: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The data's edge each trajectory that left it passed (an index line i or j = 1/2 or n - 3/2,
-        the engine's state); for one in a land cell (it started there) the nearest face."""
-        indices = np.nan_to_num(self.engine_states(end_states), nan=-1.0)
-        ny, nx = self.geometry.shape
-        lows, highs = np.array([0.5, 0.5]), np.array([nx - 1.5, ny - 1.5])
+        """The data's edge each trajectory that left it passed (an index line i or j = 1/2 or n - 3/2
+        of the box read, in the engine's state); for one in a land cell (it started there) the nearest face."""
+        indices = np.nan_to_num(self.engine_states(end_states), nan=-1.0) - self.box_origin
+        (ia, ib), (ja, jb) = self.box
+        lows, highs = np.array([0.5, 0.5]), np.array([ib - ia - 0.5, jb - ja - 0.5])
         below, above = indices < lows, indices > highs
         outside = below | above
         faces = np.floor(indices + 0.5) - 0.5
@@ -127,49 +136,69 @@ class StaggeredVelocitySystem(CurvilinearVelocitySystem):
         axis = np.where(outside.any(axis=1), np.argmax(outside, axis=1), np.argmin(distance, axis=1))
         rows = np.arange(len(end_states))
         gap = indices[rows, axis] - lines[rows, axis]
-        return axis, lines[rows, axis], np.where(gap >= 0.0, 1, -1)
+        return axis, lines[rows, axis] + self.box_origin[axis], np.where(gap >= 0.0, 1, -1)
 
 
-def read_staggered_window(source: DataSource, geometry: GridGeometry, faces: FaceConversion, times: tuple[int, int],
-                          metric: np.ndarray, arc_factor: float) -> DataWindow:
-    """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours."""
+def read_staggered_window(source: DataSource, geometry: GridGeometry, faces: FaceConversion, box: NodeBox,
+                          times: tuple[int, int], metric: np.ndarray, arc_factor: float) -> DataWindow:
+    """The kernel's buffer for times ``times`` (an inclusive index range) and their real neighbours,
+    over the centres of ``box`` (the whole grid's indices; ``geometry`` and ``faces`` cover it) and
+    the faces between them."""
     ta, tb = times
+    (ia, ib), (ja, jb) = box
     count = source.t_grid[2]
     first, last = max(0, ta - 1), min(count - 1, tb + 1)
     with source.open() as dataset:
-        region = {source.time: slice(first, last + 1)}
-        u = np.asarray(dataset.read(source.u, region), dtype=float)
-        v = np.asarray(dataset.read(source.v, region), dtype=float)
-        water = np.asarray(dataset.read(source.mask, {})) != 0 if source.mask else np.ones(geometry.shape, dtype=bool)
-    if source.staggered == "nemo":  # the outer faces east of the last column and north of the last row
-        u, v = u[:, :, :-1], v[:, :-1, :]
+        def face_values(name: str, rows: slice, columns: slice) -> np.ndarray:  # the face arrays' own dimensions
+            time, y, x = dataset.dataset(0)[name].dims
+            return np.asarray(dataset.read(name, {time: slice(first, last + 1), y: rows, x: columns}), dtype=float)
+
+        # u between centres (j, i) and (j, i + 1), v between (j, i) and (j + 1, i): NEMO's outer
+        # faces (its arrays' last column and row) are never among them
+        u = face_values(source.u, slice(ja, jb + 1), slice(ia, ib))
+        v = face_values(source.v, slice(ja, jb), slice(ia, ib + 1))
+        ny, nx = jb - ja + 1, ib - ia + 1
+        water = (np.asarray(dataset.read(source.mask, {source.y: slice(ja, jb + 1), source.x: slice(ia, ib + 1)})) != 0
+                 if source.mask else np.ones((ny, nx), dtype=bool))
     check_speeds(source, [u, v])
     open_u = np.isfinite(u) & (water[:, :-1] & water[:, 1:])  # a face by a land centre, or missing, is closed
     open_v = np.isfinite(v) & (water[:-1] & water[1:])
-    u = np.where(open_u, u, 0.0) * source.velocity_scale / faces.u_divisor
-    v = np.where(open_v, v, 0.0) * source.velocity_scale / faces.v_divisor
+    i0, j0 = geometry.offset  # the box in the geometry's nodes (faces' and cells' arrays are the geometry's)
+    rows, columns = slice(ja - j0, jb - j0 + 1), slice(ia - i0, ib - i0 + 1)
+    u = np.where(open_u, u, 0.0) * source.velocity_scale / faces.u_divisor[rows, columns.start:columns.stop - 1]
+    v = np.where(open_v, v, 0.0) * source.velocity_scale / faces.v_divisor[rows.start:rows.stop - 1, columns]
     start, stop = ta - first, ta - first + tb - ta + 1
-    u_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(u, start, stop), 0, -1))  # (ny, nx - 1, nt + 2)
-    v_faces = np.ascontiguousarray(np.moveaxis(padded_in_time(v, start, stop), 0, -1))
-    ny, nx = geometry.shape
+    time_nodes = None
+    if source.nodes is not None:  # uneven times: ghosts on the end nodes' parabola, as an uneven axis's
+        times_read = np.asarray(source.nodes[-1])[first:last + 1]
+        (u, time_nodes), (v, _) = (pad_axis(a, 0, times_read, start, stop) for a in (u, v))
+    else:
+        u, v = padded_in_time(u, start, stop), padded_in_time(v, start, stop)
+    u_faces = np.ascontiguousarray(np.moveaxis(u, 0, -1))  # (ny, nx - 1, nt + 2)
+    v_faces = np.ascontiguousarray(np.moveaxis(v, 0, -1))
     land = (~water).astype(float)
     header = np.zeros(HEADER)
-    header[:12] = (tb - ta + 1, ny, nx, 0.0, 1.0, 0.0, 1.0, source.t_grid[0] + source.t_grid[1] * ta,
+    header[:12] = (tb - ta + 1, ny, nx, float(ia), 1.0, float(ja), 1.0, source.t_grid[0] + source.t_grid[1] * ta,
                    source.t_grid[1], 0.0, source.radius, 1.0)
     header[V_AT] = HEADER + u_faces.size
     header[LAND_AT] = header[V_AT] + v_faces.size
     header[METRIC_AT] = header[LAND_AT] + 2 * land.size  # the cells' scales after the land
     header[ARC_FACTOR_AT] = arc_factor
-    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), faces.cell_scale.ravel(),
-                             keys_padded(metric).ravel()])
-    return DataWindow(np.ascontiguousarray(buffer), ~water, (0.0, 1.0, nx), (0.0, 1.0, ny))
+    padded_metric = box_padded(metric, box, geometry.offset, (source.y_grid[2], source.x_grid[2]))
+    buffer = np.concatenate([header, u_faces.ravel(), v_faces.ravel(), land.ravel(), faces.cell_scale[rows, columns].ravel(),
+                             padded_metric.ravel()])
+    if time_nodes is not None:
+        buffer[STAGGERED_TIMES_AT] = len(buffer)
+        buffer = np.concatenate([buffer, time_nodes])
+    return DataWindow(np.ascontiguousarray(buffer), ~water, (float(ia), 1.0, nx), (float(ja), 1.0, ny))
 
 
-def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str]
-                          ) -> StaggeredVelocitySystem:
-    """The system of a checked C-grid ``source`` (:func:`.source.open_source`)."""
+def make_staggered_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
+                          window: dict | None = None, key: str = "window") -> StaggeredVelocitySystem:
+    """The system of a checked C-grid ``source`` (:func:`.source.open_source`) over its ``window``:
+    its faces' conversion over the geometry's nodes (the box read and a margin)."""
     def faces(geometry: GridGeometry) -> dict:
         return {"faces": face_conversion(source, geometry, *face_lengths(geometry, source.radius))}
 
     return grid_system(StaggeredVelocitySystem, staggered_kernel_source(), "velocity_data_c_grid", name, source, spec,
-                       coordinates, faces)
+                       coordinates, window, key, faces)
