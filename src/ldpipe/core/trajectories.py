@@ -316,6 +316,10 @@ def _cell_crossing_flow_map(system, states: np.ndarray, duration: float, setting
     if count:
         engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
         with system.time_window(t0, t0 + float(duration)) as window:
+            if window.buffer[9] > 0.0:  # the staggered kernel's header: where uneven times start
+                raise ValueError(f"system {system.name!r}: method 'cell_crossing' needs the data at evenly "
+                                 "spaced times (its series are per data interval of one length); use method "
+                                 "'dop853'")
             args = (window.buffer, float(t0), 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.max_steps)
             run_units(cell_crossing_endpoints, engine_states, max(1, min(256, count // (8 * _thread_count(threads)) or 1)),
                       args, outputs, _thread_count(threads))

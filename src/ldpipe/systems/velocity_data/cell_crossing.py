@@ -137,9 +137,9 @@ def _face_time(c, n, face, lo, hi, x_lo, x_hi):
 @njit(nogil=True, cache=True)
 def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_pieces, o_end, o_status, o_time,
                             o_steps):
-    """End indices (i, j) of trajectories start..stop-1 of ``states`` (rows of fractional indices)
-    over |t - t0| = tau in ``direction`` (+1, -1) through the C-grid window ``data`` (the staggered
-    kernel's buffer), with the outcome codes, the time |t - t0| reached and the pieces run (at
+    """End indices (i, j) of trajectories start..stop-1 of ``states`` (rows of the grid's fractional
+    indices) over |t - t0| = tau in ``direction`` (+1, -1) through the C-grid window ``data`` (the
+    staggered kernel's buffer, at even times), with the outcome codes, the time |t - t0| reached and the pieces run (at
     most ``max_pieces``, else the trajectory fails where it is)."""
     nt, ny, nx = int(data[0]), int(data[1]), int(data[2])
     t_first, dt = data[7], data[8]
@@ -148,9 +148,10 @@ def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_p
     pa, qa, pb, qb = np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4)
     other = np.zeros(4)
     ca, cb = np.zeros(MAX_TERMS), np.zeros(MAX_TERMS)
+    i0, j0 = data[3], data[5]  # the window's first centre (its box of the grid; integers: exact)
     for kk in range(start, stop):
-        fi, fj = states[kk, 0], states[kk, 1]
-        o_end[kk, 0], o_end[kk, 1] = fi, fj
+        fi, fj = states[kk, 0] - i0, states[kk, 1] - j0
+        o_end[kk, 0], o_end[kk, 1] = states[kk, 0], states[kk, 1]
         o_steps[kk] = 0
         if not (math.isfinite(fi) and math.isfinite(fj)):
             o_status[kk], o_time[kk] = FAILED, 0.0
@@ -249,12 +250,12 @@ def cell_crossing_endpoints(states, start, stop, data, t0, direction, tau, max_p
                     fi += step * EDGE_OUTSIDE
                 else:
                     fj += step * EDGE_OUTSIDE
-                o_end[kk, 0], o_end[kk, 1] = fi, fj
+                o_end[kk, 0], o_end[kk, 1] = fi + i0, fj + j0
                 break
         else:
-            o_end[kk, 0], o_end[kk, 1] = i - 0.5 + a, j - 0.5 + b
+            o_end[kk, 0], o_end[kk, 1] = i - 0.5 + a + i0, j - 0.5 + b + j0
         if status == FAILED:
-            o_end[kk, 0], o_end[kk, 1] = i - 0.5 + a, j - 0.5 + b
+            o_end[kk, 0], o_end[kk, 1] = i - 0.5 + a + i0, j - 0.5 + b + j0
             o_time[kk] = tau - remaining * dt
         o_status[kk] = status
         o_steps[kk] = pieces
