@@ -312,3 +312,14 @@ def test_cell_crossing_is_the_c_grids_and_reports_the_flow_codes(c_grid):
     _, system = c_grid
     capped = flow_map(system, physical(np.array([[2.0, 2.0]])), 40.0, FlowSettings(method="cell_crossing", max_steps=3))
     assert capped.status[0] == flow_status.FLOW_STEP_UNDERFLOW and capped.steps[0] == 3
+
+
+def test_cell_crossing_refuses_uneven_data_times(tmp_path):
+    # its series are per data interval of one length; uneven times are DOP853's to integrate
+    x, y = plane_grid("rotated", 0.2)
+    dataset = c_grid_dataset(lambda X, Y, T: 0 * X + 0.1 + 0 * T, lambda X, Y, T: 0 * X + 0 * T, x, y,
+                             np.array([0.0, 1.0, 3.0, 4.0, 7.0]))
+    system = make_system("uneven", {"velocity_data": {"path": str(write_dataset(dataset, tmp_path / "u.nc")),
+                                                        "x": "x_rho", "y": "y_rho", "components": "grid"}})
+    with pytest.raises(ValueError, match="method 'cell_crossing' needs the data at evenly spaced times"):
+        flow_map(system, physical(np.array([[3.0, 3.0]])), 2.0, CELLS, t0=1.0)
