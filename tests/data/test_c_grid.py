@@ -17,7 +17,9 @@ from scipy.integrate import quad
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
-from ldpipe.data.curvilinear import ROTATION, c_grid_dataset, plane_grid, rotated_pole_grid, write_dataset
+from ldpipe.core.trajectories import COMPLETED, FlowSettings, flow_map
+from ldpipe.data.curvilinear import (ROTATION, c_grid_dataset, double_gyre_c_grid_dataset, plane_grid,
+                                     rotated_pole_grid, write_dataset)
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
@@ -206,3 +208,118 @@ def test_nemos_layout_gives_romss_trajectories(c_grid, tmp_path):
         np.testing.assert_array_equal(got.ld, want.ld)
     with pytest.raises(ConfigError, match=r"velocity_data\.c_grid': NEMO's u and v are on arrays of the centres'"):
         make_system("nemo_on_roms", {"velocity_data": {"path": str(path), **ENTRY, "c_grid": "nemo"}})
+
+
+# The flow map by exact cell crossing (ldpipe.systems.velocity_data.cell_crossing): the interpolant's
+# trajectory itself, so against the closed forms above to rounding, with no tolerance to set.
+CELLS = FlowSettings(method="cell_crossing")
+
+
+def test_cell_crossing_follows_the_coasts_corner_in_closed_form(c_grid):
+    _, system = c_grid
+    start = physical(np.array([[13.2, 14.9]]))
+    for tau in (5.0, 15.0):
+        result = flow_map(system, start, tau, CELLS, t0=10.0)
+        position, _ = corner_path(tau)
+        # measured: 1.1e-16 and 2.2e-16 (rounding: the series are summed to 1e-15 cells)
+        np.testing.assert_allclose(result.end_state, physical(position[None]), rtol=0, atol=1e-13)
+        assert result.status[0] == COMPLETED
+
+
+def test_cell_crossing_never_crosses_into_land_and_stops_at_the_data_edge(c_grid):
+    # the starts of test_no_trajectory_crosses_into_land: forward every one comes up to a wall and
+    # stays on its sea side, or leaves by the north edge; backward every one leaves by the west or
+    # south edge; one from a cell not by the coast (its east and north neighbours at sea) on the
+    # edge line at the closed-form point start - (U0, V0) min((i0 - 0.5) / U0, (j0 - 0.5) / V0)
+    # (the flow is uniform in those cells, and backward it goes through such cells only)
+    _, system = c_grid
+    rng = np.random.default_rng(3)
+    indices = np.column_stack([rng.uniform(0.6, 19.4, 400), rng.uniform(0.6, 23.4, 400)])
+    indices = indices[~coast(np.floor(indices[:, 0] + 0.5), np.floor(indices[:, 1] + 0.5))]
+    forward = flow_map(system, physical(indices), 80.0, CELLS, t0=10.0)
+    flags = system.stop_flags(forward.end_state, 10.0, 90.0)
+    assert not flags["on_land"].any()
+    i, j = system.engine_states(forward.end_state[~flags["left_data"]]).T
+    past = np.maximum(i - 19.5, np.minimum(i - 13.5, j - 15.5))
+    assert past.max() <= 1e-12  # measured: 7e-15 (rounding of the coordinates' round trip)
+    backward = flow_map(system, physical(indices), -80.0, CELLS, t0=90.0)
+    assert system.stop_flags(backward.end_state, 90.0, 10.0)["left_data"].all()
+    exit_time = np.minimum((indices[:, 0] - 0.5) / U0, (indices[:, 1] - 0.5) / V0)
+    edge = indices - np.array([U0, V0]) * exit_time[:, None]
+    ci, cj = np.floor(indices[:, 0] + 0.5), np.floor(indices[:, 1] + 0.5)
+    open_sea = ~coast(ci + 1, cj) & ~coast(ci, cj + 1)
+    assert open_sea.sum() > 200
+    # measured: 8.7e-11 (the end is left EDGE_OUTSIDE = 1e-9 cells of 0.1 past the edge)
+    np.testing.assert_allclose(backward.end_state[open_sea], physical(edge[open_sea]), rtol=0, atol=3e-10)
+
+
+def test_cell_crossing_follows_quadratic_time_dependence_exactly(tmp_path):
+    # u and v the same on every face and quadratic in time: Keys' cubic convolution reproduces a
+    # quadratic exactly (Keys 1981), so the index position is i0 + int U dt, a cubic in t (closed form)
+    x, y = plane_grid("rotated", H)
+
+    def u(X, Y, T):
+        return 0 * X + 0.02 + 1e-3 * (T - 5.0) + 4e-4 * (T - 5.0) ** 2
+
+    def v(X, Y, T):
+        return 0 * X + 0.01 - 2e-3 * (T - 5.0)
+
+    dataset = c_grid_dataset(u, v, x, y, np.arange(0.0, 20.01, 0.5))
+    system = make_system("quadratic", {"velocity_data": {"path": str(write_dataset(dataset, tmp_path / "q.nc")),
+                                                           "x": "x_rho", "y": "y_rho", "components": "grid"}})
+    starts = np.array([[6.3, 8.0], [7.5, 10.2], [10.0, 6.7]])
+    for t0, tau in ((1.0, 12.0), (15.0, -11.0)):
+        t1 = t0 + tau
+
+        s0, s1 = t0 - 5.0, t1 - 5.0
+        di = (0.02 * (s1 - s0) + 5e-4 * (s1**2 - s0**2) + 4e-4 / 3 * (s1**3 - s0**3)) / H
+        dj = (0.01 * (s1 - s0) - 1e-3 * (s1**2 - s0**2)) / H
+        result = flow_map(system, physical(starts), tau, CELLS, t0=t0)
+        # measured: 4.4e-16 and 2.2e-16 (rounding)
+        np.testing.assert_allclose(result.end_state, physical(starts + [di, dj]), rtol=0, atol=1e-12)
+
+
+def test_cell_crossing_on_the_double_gyre_is_dop853s_limit(tmp_path):
+    # an independent method: DOP853 at rtol 1e-13 on the same interpolant (the engine's LD path)
+    # converges to the same trajectories; the cell crossing run back in time returns to its starts
+    # (the flow map's inverse)
+    times = np.arange(0.0, 6.01, 0.1)
+    dataset = double_gyre_c_grid_dataset("conformal", 0.1, times)
+    system = make_system("gyre", {"velocity_data": {"path": str(write_dataset(dataset, tmp_path / "g.nc")),
+                                                      "x": "x_rho", "y": "y_rho", "components": "grid"}})
+    rng = np.random.default_rng(5)
+    starts = np.column_stack([rng.uniform(0.2, 1.8, 12), rng.uniform(0.2, 0.8, 12)])
+    ends = flow_map(system, starts, 5.0, CELLS, t0=0.5)
+    reference = compute_ld(system, starts, 1, LDSettings(tau=5.0, p=0.5, rtol=1e-13, atol=1e-13), t0=0.5)
+    # measured: 5.7e-11 (DOP853's error across the faces at 1e-13: 5.4e-8 at 1e-12, 3.9e-11 at
+    # 1e-14, converging on the cell crossing); the grid's cells are 0.1 wide
+    np.testing.assert_allclose(ends.end_state, reference.end_state, rtol=0, atol=3e-10)
+    back = flow_map(system, ends.end_state, -5.0, CELLS, t0=5.5)
+    np.testing.assert_allclose(back.end_state, starts, rtol=0, atol=1e-12)  # measured: 1.6e-15
+    assert (ends.steps > 20).all()  # it did cross cells (a piece per cell and data interval)
+
+
+def test_cell_crossing_is_the_c_grids_and_reports_the_flow_codes(c_grid):
+    from ldpipe.engine.templates import flow_status
+    from ldpipe.systems.velocity_data import cell_crossing
+
+    assert (cell_crossing.COMPLETED, cell_crossing.FAILED) == (flow_status.FLOW_COMPLETED,
+                                                               flow_status.FLOW_STEP_UNDERFLOW)
+    with pytest.raises(ValueError, match="method: expected one of"):
+        FlowSettings(method="analytic")
+    with pytest.raises(ValueError, match="method 'cell_crossing' moves points through a C-grid's cells"):
+        flow_map(make_system("b", {"builtin": "barbanis_2dof"}), np.zeros((1, 4)), 1.0, CELLS)
+    _, system = c_grid
+    capped = flow_map(system, physical(np.array([[2.0, 2.0]])), 40.0, FlowSettings(method="cell_crossing", max_steps=3))
+    assert capped.status[0] == flow_status.FLOW_STEP_UNDERFLOW and capped.steps[0] == 3
+
+
+def test_cell_crossing_refuses_uneven_data_times(tmp_path):
+    # its series are per data interval of one length; uneven times are DOP853's to integrate
+    x, y = plane_grid("rotated", 0.2)
+    dataset = c_grid_dataset(lambda X, Y, T: 0 * X + 0.1 + 0 * T, lambda X, Y, T: 0 * X + 0 * T, x, y,
+                             np.array([0.0, 1.0, 3.0, 4.0, 7.0]))
+    system = make_system("uneven", {"velocity_data": {"path": str(write_dataset(dataset, tmp_path / "u.nc")),
+                                                        "x": "x_rho", "y": "y_rho", "components": "grid"}})
+    with pytest.raises(ValueError, match="method 'cell_crossing' needs the data at evenly spaced times"):
+        flow_map(system, physical(np.array([[3.0, 3.0]])), 2.0, CELLS, t0=1.0)

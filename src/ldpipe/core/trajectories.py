@@ -47,9 +47,17 @@ LANES = 32
 SMALL_LANES = 4
 
 
+#: How :func:`flow_map` moves the points: ``dop853``, the LD engine's steps at the tolerances;
+#: ``cell_crossing``, velocity data on a C-grid only: its interpolant's trajectory from cell face to
+#: cell face, exact to rounding, no tolerance (:mod:`ldpipe.systems.velocity_data.cell_crossing`;
+#: ``max_steps`` caps the cells crossed, the escape radius is not used: the data's edge stops it).
+FLOW_MAP_METHODS = ("dop853", "cell_crossing")
+
+
 @dataclass(frozen=True)
 class FlowSettings:
-    """DOP853 tolerances, escape radius (on every coordinate) and a cap on steps per trajectory.
+    """DOP853 tolerances, escape radius (on every coordinate) and a cap on steps per trajectory;
+    the flow map's ``method`` (:data:`FLOW_MAP_METHODS`).
 
     Refused on construction, naming the setting: tolerances below what doubles can honour
     (``rtol`` below :data:`ldpipe.engine.settings.RTOL_FLOOR`, 1e-15, where the step size
@@ -61,8 +69,11 @@ class FlowSettings:
     atol: float = 1e-10
     escape_radius: float = DEFAULT_ESCAPE_RADIUS
     max_steps: int = 10_000_000
+    method: str = "dop853"
 
     def __post_init__(self):
+        if self.method not in FLOW_MAP_METHODS:
+            raise ValueError(f"method: expected one of {list(FLOW_MAP_METHODS)}, got {self.method!r}")
         for name in ("rtol", "atol", "escape_radius"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
@@ -264,6 +275,8 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
     The escape radius is raised as the LD engine raises it (:func:`engine_escape_radius`)."""
     from ..engine.vector_field import ENDPOINTS, engine_dimension, get_vector_field_runner
 
+    if settings.method == "cell_crossing":
+        return _cell_crossing_flow_map(system, states, duration, settings, t0, threads)
     if system.hamiltonian:
         raise ValueError(f"system {system.name!r}: the flow map alone is of vector-field systems; a Hamiltonian's "
                          "end states are integrate()'s samples at the duration")
@@ -283,6 +296,33 @@ def flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings
             run_units(runner, engine_states, max(1, min(256, count // (8 * threads) or 1)), args, outputs, threads)
         if hasattr(system, "times_from_engine"):  # an engine state that says when a trajectory stopped
             outputs = outputs[:2] + (system.times_from_engine(outputs[0], outputs[2]),) + outputs[3:]
+        outputs = (states_at_end(system, states, engine_states, outputs[0]),) + outputs[1:]
+    end, status, elapsed, steps = outputs
+    return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)
+
+
+def _cell_crossing_flow_map(system, states: np.ndarray, duration: float, settings: FlowSettings, t0: float,
+                            threads: int | None) -> FlowMap:
+    """:func:`flow_map` by the C-grid's exact cell crossing (``method: cell_crossing``)."""
+    from ..systems.velocity_data.cell_crossing import cell_crossing_endpoints
+    from ..systems.velocity_data.staggered import StaggeredVelocitySystem
+
+    if not isinstance(system, StaggeredVelocitySystem):
+        raise ValueError(f"system {system.name!r}: method 'cell_crossing' moves points through a C-grid's cells "
+                         "(velocity data with u and v on the faces); use method 'dop853'")
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    count = len(states)
+    outputs = (np.zeros((count, 2)), np.zeros(count, dtype=np.int64), np.zeros(count), np.zeros(count, dtype=np.int64))
+    if count:
+        engine_states = np.ascontiguousarray(system.engine_states(states), dtype=np.float64)
+        with system.time_window(t0, t0 + float(duration)) as window:
+            if window.buffer[9] > 0.0:  # the staggered kernel's header: where uneven times start
+                raise ValueError(f"system {system.name!r}: method 'cell_crossing' needs the data at evenly "
+                                 "spaced times (its series are per data interval of one length); use method "
+                                 "'dop853'")
+            args = (window.buffer, float(t0), 1.0 if duration >= 0 else -1.0, abs(float(duration)), settings.max_steps)
+            run_units(cell_crossing_endpoints, engine_states, max(1, min(256, count // (8 * _thread_count(threads)) or 1)),
+                      args, outputs, _thread_count(threads))
         outputs = (states_at_end(system, states, engine_states, outputs[0]),) + outputs[1:]
     end, status, elapsed, steps = outputs
     return FlowMap(end, status, elapsed * (1.0 if duration >= 0 else -1.0), steps)

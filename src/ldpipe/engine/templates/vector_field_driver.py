@@ -50,7 +50,7 @@ def initial_step(xv, f0, t, direction, tau, rtol, atol, x1, f1):
 
 
 @njit(**JIT)
-def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs, f1):
+def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs, fs):
     """Put trajectory k's start state in xv; return (outcome (``start_outcome``'s), first |h|),
     with K[0] = f(xv, t0) for a trajectory that starts."""
     finite = np.bool_(True)  # (typed, not a literal: numba would compile the callees it reaches once more for the literal's type)
@@ -61,14 +61,14 @@ def load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_regio
     if outcome != START:
         return outcome, 0.0
     rhs(xv, t0, K[0])
-    return START, initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, f1)
+    return START, initial_step(xv, K[0], t0, direction, tau, rtol, atol, xs, fs)
 
 
 @njit(**JIT)
 def step_buffers(radius):
     """The scratch of a trajectory's steps: the stages K, the state xv, a stage's state xs, the
-    step's end xn, f at the starting step's trial f1, the dense output QC, VC (one lane), and
-    the escape box [elo, ehi] of ``radius``."""
+    step's end xn, f at a stage's state fs (before it is stored in K) or at the starting step's
+    trial, the dense output QC, VC (one lane), and the escape box [elo, ehi] of ``radius``."""
     return (np.zeros((DENSE_STAGES, N)), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(N), np.zeros((NC, N, 1)),
             np.zeros((NC, N, 1)), np.full(N, -radius), np.full(N, radius))
 
@@ -85,15 +85,22 @@ def stage_state(xv, h, K, m, out):
         out[i] = xv[i] + h * s
 
 
+# The stages' f are computed into fs and copied into their row of K: a row passed to rhs is a
+# view, whose reference count numba takes and drops around the call (two atomic updates, ~10 % of
+# a step of a cheap kernel).
 @njit(**JIT)
-def attempt(xv, t, h, K, xs, xn, rtol, atol):
+def attempt(xv, t, h, K, xs, xn, fs, rtol, atol):
     """One DOP853 step of signed length h from (xv, t) with K[0] = f(xv, t): xn, K[1..12]
     (K[12] = f(xn, t + h)) and the scaled error (accept when <= 1)."""
     for m in range(1, FSAL):
         stage_state(xv, h, K, m, xs)
-        rhs(xs, t + C[m] * h, K[m])
+        rhs(xs, t + C[m] * h, fs)
+        for i in range(N):
+            K[m, i] = fs[i]
     stage_state(xv, h, K, FSAL, xn)
-    rhs(xn, t + h, K[FSAL])
+    rhs(xn, t + h, fs)
+    for i in range(N):
+        K[FSAL, i] = fs[i]
     err5 = 0.0
     err3 = 0.0
     for i in range(N):
@@ -110,12 +117,14 @@ def attempt(xv, t, h, K, xs, xn, rtol, atol):
 
 
 @njit(**JIT)
-def dense(xv, t, h, K, xs, QC, VC):
+def dense(xv, t, h, K, xs, fs, QC, VC):
     """The step's state polynomial QC and velocity polynomial VC (see the module docstring),
     after the three extra stages of the continuous extension."""
     for m in range(FSAL + 1, DENSE_STAGES):
         stage_state(xv, h, K, m, xs)
-        rhs(xs, t + C[m] * h, K[m])
+        rhs(xs, t + C[m] * h, fs)
+        for i in range(N):
+            K[m, i] = fs[i]
     for i in range(N):
         QC[0, i, 0] = xv[i]
         for k in range(1, NC):
@@ -181,7 +190,7 @@ def trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, ra
     to locate the escape. numba compiles a function once per argument type and prunes the
     branches of a None argument, so each driver's copy holds only its own work.
     """
-    K, xv, xs, xn, f1, QC, VC, elo, ehi = buffers
+    K, xv, xs, xn, fs, QC, VC, elo, ehi = buffers
     if ld_rule is not None:
         kind, p_exp, glx, glw, gjx, gjf, window, roots = ld_rule
     if section is not None:
@@ -189,7 +198,7 @@ def trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, ra
         max_cross = o_crossing_times.shape[1]
     every_dense = ld_rule is not None or section is not None
     outcome, habs = load_trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, elo, ehi, xv, K, xs,
-                                    f1)
+                                    fs)
     elapsed = 0.0
     ld = 0.0
     steps = 0
@@ -211,13 +220,13 @@ def trajectory(states, k, t0, direction, tau, rtol, atol, lo, hi, has_region, ra
         habs = clipped_step(habs, elapsed, tau)
         h = direction * habs
         t = t0 + direction * elapsed
-        err = attempt(xv, t, h, K, xs, xn, rtol, atol)
+        err = attempt(xv, t, h, K, xs, xn, fs, rtol, atol)
         steps += 1
         accepted = acceptable(xn, err)
         if accepted:
             escapes = beyond(xn, radius)
             if every_dense or escapes:
-                dense(xv, t, h, K, xs, QC, VC)
+                dense(xv, t, h, K, xs, fs, QC, VC)
             theta = NO_EXIT  # where in the step (x units) the trajectory stops, if <= 1
             if has_region:
                 theta, face = first_exit(QC, 0, NC, N, lo, hi)

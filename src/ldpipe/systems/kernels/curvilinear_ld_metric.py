@@ -56,8 +56,8 @@ def curvilinear_metric(head, fi, fj, P):
 
 
 @njit(**JIT)
-def dense(xv, t, h, K, xs, QC, VC):
-    _index_dense(xv, t, h, K, xs, QC, VC)
+def dense(xv, t, h, K, xs, fs, QC, VC):
+    _index_dense(xv, t, h, K, xs, fs, QC, VC)
     head = velocity_data_pointer()  # the raw pointer, as the kernels read it
     physical = np.empty((DENSE_STAGES, 2))
     P = np.empty(4)

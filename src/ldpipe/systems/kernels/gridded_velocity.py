@@ -27,26 +27,30 @@
 # d lon/dt = u / (R cos lat) * 180/pi, d lat/dt = v / R * 180/pi.
 import math
 
+import numba
+
 from ldpipe.systems.data_pointer import velocity_data_pointer
+from ldpipe.systems.data_stencil import stencil_velocity
 
 DATA_HEADER = 16
 EDGE_SLACK = 1e-9  # cells: how far outside the B-spline's edge a point counts as on it
+SIXTH = 1.0 / 6.0  # a product: a division costs several times as much
 
 
-def rhs(state, t, out):
+@numba.njit(inline="always")  # compiled into rhs, with the engine's options
+def grid_velocity(x, y, t):
+    """(dx/dt, dy/dt) at (x, y) and time t."""
     data = velocity_data_pointer()  # read as a raw pointer: no array bounds, no negative-index wraparound
     nt = int(data[0])
     ny = int(data[1])
     nx = int(data[2])
     if nt < 2:  # nothing bound
-        out[0] = math.nan
-        out[1] = math.nan
-        return
-    east = state[0] - data[3]
+        return math.nan, math.nan
+    east = x - data[3]
     if data[9] > 0.0:  # on the sphere a longitude in either convention, across the dateline too
         east -= 360.0 * math.floor(east / 360.0)
     fx = east / data[4]
-    fy = (state[1] - data[5]) / data[6]
+    fy = (y - data[5]) / data[6]
     if data[14] > 0.0:
         # the B-spline's value on the edge is a sum of three coefficients: a velocity the data make
         # zero there (a wall) comes out as rounding, which would carry a trajectory sliding along the
@@ -54,9 +58,7 @@ def rhs(state, t, out):
         fx = min(max(fx, 0.0), nx - 1.0) if fx > -EDGE_SLACK and fx < nx - 1.0 + EDGE_SLACK else fx
         fy = min(max(fy, 0.0), ny - 1.0) if fy > -EDGE_SLACK and fy < ny - 1.0 + EDGE_SLACK else fy
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
-        out[0] = 0.0
-        out[1] = 0.0
-        return
+        return 0.0, 0.0
     ft = min(max((t - data[7]) / data[8], 0.0), nt - 1.0)
     i = min(int(fx), nx - 2)
     j = min(int(fy), ny - 2)
@@ -65,9 +67,7 @@ def rhs(state, t, out):
     py = ny + 2
     nodes = (nt + 2) * py * px
     if data[DATA_HEADER + 2 * nodes + j * px + i] > 0.0:  # a land cell
-        out[0] = 0.0
-        out[1] = 0.0
-        return
+        return 0.0, 0.0
     sx = fx - i
     sy = fy - j
     st = ft - k
@@ -75,18 +75,18 @@ def rhs(state, t, out):
         rx = 1.0 - sx
         ry = 1.0 - sy
         rt = 1.0 - st
-        wx0 = rx * rx * rx / 6.0
+        wx0 = rx * rx * rx * SIXTH
         wx1 = ((0.5 * sx - 1.0) * sx * sx) + 2.0 / 3.0
         wx2 = ((0.5 * rx - 1.0) * rx * rx) + 2.0 / 3.0
-        wx3 = sx * sx * sx / 6.0
-        wy0 = ry * ry * ry / 6.0
+        wx3 = sx * sx * sx * SIXTH
+        wy0 = ry * ry * ry * SIXTH
         wy1 = ((0.5 * sy - 1.0) * sy * sy) + 2.0 / 3.0
         wy2 = ((0.5 * ry - 1.0) * ry * ry) + 2.0 / 3.0
-        wy3 = sy * sy * sy / 6.0
-        wt0 = rt * rt * rt / 6.0
+        wy3 = sy * sy * sy * SIXTH
+        wt0 = rt * rt * rt * SIXTH
         wt1 = ((0.5 * st - 1.0) * st * st) + 2.0 / 3.0
         wt2 = ((0.5 * rt - 1.0) * rt * rt) + 2.0 / 3.0
-        wt3 = st * st * st / 6.0
+        wt3 = st * st * st * SIXTH
     else:  # cubic convolution on the data
         wx0 = ((-0.5 * sx + 1.0) * sx - 0.5) * sx
         wx1 = (1.5 * sx - 2.5) * sx * sx + 1.0
@@ -103,33 +103,14 @@ def rhs(state, t, out):
     if data[15] > 0.0:  # uneven times (a curvilinear grid's): kernels/uneven_time_weights.py
         k, wt0, wt1, wt2, wt3 = uneven_time_weights(data, int(data[15]), nt, t)
     qt = nt + 2
-    step = 2 * qt  # from a node to its x neighbour
-    u = 0.0
-    v = 0.0
-    # the time levels k .. k + 3 written out: as a loop, the compiled code picked their weights by a
-    # chain of selects inside it, ~20 % slower a call
-    for b in range(4):  # time level k + 0, rows j .. j + 3, (u, v) of nodes i .. i + 3
-        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 0)
-        wab = wt0 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
-        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
-        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
-                    + wx3 * data[row + 3 * step + 1])
-    for b in range(4):  # time level k + 1, rows j .. j + 3, (u, v) of nodes i .. i + 3
-        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 1)
-        wab = wt1 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
-        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
-        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
-                    + wx3 * data[row + 3 * step + 1])
-    for b in range(4):  # time level k + 2, rows j .. j + 3, (u, v) of nodes i .. i + 3
-        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 2)
-        wab = wt2 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
-        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
-        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
-                    + wx3 * data[row + 3 * step + 1])
-    for b in range(4):  # time level k + 3, rows j .. j + 3, (u, v) of nodes i .. i + 3
-        row = DATA_HEADER + 2 * (((j + b) * px + i) * qt + k + 3)
-        wab = wt3 * (wy0 if b == 0 else (wy1 if b == 1 else (wy2 if b == 2 else wy3)))
-        u += wab * (wx0 * data[row] + wx1 * data[row + step] + wx2 * data[row + 2 * step] + wx3 * data[row + 3 * step])
-        v += wab * (wx0 * data[row + 1] + wx1 * data[row + step + 1] + wx2 * data[row + 2 * step + 1]
-                    + wx3 * data[row + 3 * step + 1])
-    velocity_in_state_units(u, v, state[1], data[9], data[10], data[11], out)
+    # the 4 x 4 nodes from (i, j) at the time levels k .. k + 3: a node's (u, v) at the 4 levels are
+    # 8 doubles side by side, its x neighbour's 2 qt further, its y neighbour's 2 qt px
+    u, v = stencil_velocity(data, DATA_HEADER + 2 * ((j * px + i) * qt + k), 2 * qt, 2 * qt * px,
+                            (wx0, wx1, wx2, wx3), (wy0, wy1, wy2, wy3), (wt0, wt1, wt2, wt3))
+    return velocity_in_state_units(u, v, y, data[9], data[10], data[11])
+
+
+def rhs(state, t, out):
+    # the returns above lead to one exit here, where numba drops the reference counts of state and
+    # out it takes on entry (with a return for each case it kept them: four atomic updates a call)
+    out[0], out[1] = grid_velocity(state[0], state[1], t)

@@ -146,6 +146,6 @@ def rhs(state, t, out):
                 if GRID_DIMS == 3:
                     row += size
                     w += wabc * (wx0 * data[row] + wx1 * data[row + 1] + wx2 * data[row + 2] + wx3 * data[row + 3])
-    velocity_in_state_units(u, v, state[1], head[4], head[5], head[6], out)
+    out[0], out[1] = velocity_in_state_units(u, v, state[1], head[4], head[5], head[6])
     if GRID_DIMS == 3:
         out[2] = w * head[7]

@@ -22,8 +22,8 @@ _coordinate_step_ld = step_ld
 
 
 @njit(**JIT)
-def dense(xv, t, h, K, xs, QC, VC):
-    _state_dense(xv, t, h, K, xs, QC, VC)
+def dense(xv, t, h, K, xs, fs, QC, VC):
+    _state_dense(xv, t, h, K, xs, fs, QC, VC)
     head = velocity_data_pointer()  # the raw pointer, as the kernels read it
     per_degree = head[LD_RADIUS_AT] * (math.pi / 180.0) / head[LD_SCALE_AT]  # data velocity units per (degree per time unit)
     east = np.empty(DENSE_STAGES)

@@ -7,13 +7,10 @@ import numba
 
 
 @numba.njit(inline="always")
-def velocity_in_state_units(u, v, latitude, sphere, radius, scale, out):
-    # (u, v) times the data's velocity scale; on the sphere (sphere > 0, x and y longitude and
-    # latitude in degrees) d lon/dt = u / (R cos lat) * 180/pi, d lat/dt = v / R * 180/pi
+def velocity_in_state_units(u, v, latitude, sphere, radius, scale):
+    # (dx/dt, dy/dt): (u, v) times the data's velocity scale; on the sphere (sphere > 0, x and y
+    # longitude and latitude in degrees) d lon/dt = u / (R cos lat) * 180/pi, d lat/dt = v / R * 180/pi
     if sphere > 0.0:
         degrees = 180.0 / math.pi
-        out[0] = u * scale * degrees / (radius * math.cos(latitude / degrees))
-        out[1] = v * scale * degrees / radius
-    else:
-        out[0] = u * scale
-        out[1] = v * scale
+        return u * scale * degrees / (radius * math.cos(latitude / degrees)), v * scale * degrees / radius
+    return u * scale, v * scale

@@ -10,8 +10,8 @@ _horizontal_dense = dense
 
 
 @njit(**JIT)
-def dense(xv, t, h, K, xs, QC, VC):
-    _horizontal_dense(xv, t, h, K, xs, QC, VC)
+def dense(xv, t, h, K, xs, fs, QC, VC):
+    _horizontal_dense(xv, t, h, K, xs, fs, QC, VC)
     head = carray(velocity_data_pointer(), (GRID_HEADER,))
     per_z = head[8] / head[6]  # u's units per (z unit per time unit)
     for k in range(1, NC):

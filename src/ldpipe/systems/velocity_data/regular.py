@@ -44,11 +44,12 @@ EDGE_SLACK = 1e-9
 
 
 def kernel_source() -> str:
-    """The data kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
-    from .. import data_pointer
+    """The data kernel's text, with the digests of the pointer's and the stencil's modules (their code
+    is inlined into the kernel)."""
+    from .. import data_pointer, data_stencil
 
     text = kernel_text("velocity_units.py") + kernel_text("uneven_time_weights.py") + kernel_text("gridded_velocity.py")
-    return f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + text
+    return f"# data_pointer {data_pointer.SOURCE_DIGEST}, data_stencil {data_stencil.SOURCE_DIGEST}\n" + text
 
 
 def extend_keys(array: np.ndarray, axis: int, low_real: np.ndarray | None, high_real: np.ndarray | None) -> np.ndarray:
