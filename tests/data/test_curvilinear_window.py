@@ -178,8 +178,8 @@ def test_a_window_across_the_dateline_keeps_the_whole_grids_trajectories(tmp_pat
 
 
 def test_a_window_south_of_a_tripolar_grids_fold_is_read(tmp_path):
-    # the whole ORCA-like grid is refused by its north fold; a window south of it (where the grid is
-    # a regular 5-degree longitude-latitude grid) is read. A rotation about the polar axis, a turn
+    # the whole ORCA-like grid is read joined across its north fold (test_folded.py); a window south
+    # of it (where the grid is a regular 5-degree longitude-latitude grid) as any grid's box. A rotation about the polar axis, a turn
     # in 40 days, is linear in the index there: lon0 + omega t, lat0 (closed form); the starts on
     # rows of the grid, where the LD's metric (cos lat) is the nodes' own, so the arc length
     # omega R cos(lat0) t is exact too
@@ -187,8 +187,7 @@ def test_a_window_south_of_a_tripolar_grids_fold_is_read(tmp_path):
     field = lambda lon, lat, t: (omega * radius * np.cos(np.radians(lat)) + 0 * t, 0 * lat)  # noqa: E731
     path = write_dataset(tripolar_dataset(field, np.arange(0.0, 2.01, 0.5)), tmp_path / "tripolar.nc")
     entry = {"path": str(path), "coordinates": "sphere"}
-    with pytest.raises(ConfigError, match=r"folds onto itself along its last row"):
-        make_system("whole", {"velocity_data": entry})
+    assert make_system("whole", {"velocity_data": entry}).engine_name == "velocity_data_folded"
     boxed = make_system("boxed", {"velocity_data": entry | {"window": {"lon": [-60.0, 60.0], "lat": [-40.0, 20.0]}}})
     starts = np.array([[-20.0, -30.0], [0.0, 0.0], [12.5, 10.0]])
     result = compute_ld(boxed, starts, 1, LDSettings(tau=1.0, p="arclength", **TIGHT), t0=0.5)

@@ -15,8 +15,8 @@
 - The rows the window adds beyond a pole are the grid's own half-way round with u and v negated
   (an identity of the chart continued past the pole).
 - A grid whose last latitude is neither at the pole nor half a spacing from it, one past the pole,
-  and one with an odd number of longitudes, are refused by name; so is a tripolar grid (its north
-  fold is not joined yet), whose example file's geometry is checked by identities.
+  and one with an odd number of longitudes, are refused by name. The tripolar example grid's
+  geometry is checked by identities (its north fold is joined in test_folded.py).
 """
 
 import math
@@ -29,8 +29,7 @@ from support.gridded import write_velocity_file
 from ldpipe.config import validate_config
 from ldpipe.config.parameters import parameters_from_config
 from ldpipe.core.maps.assembly import compute_ld_map
-from ldpipe.data.curvilinear import write_dataset
-from ldpipe.data.tripolar import tripolar_dataset, tripolar_grid
+from ldpipe.data.tripolar import tripolar_grid
 from ldpipe.engine import LDSettings, compute_ld
 from ldpipe.errors import ConfigError
 from ldpipe.systems import make_system
@@ -232,7 +231,7 @@ def test_the_rows_beyond_a_pole_are_the_grid_half_way_round_with_u_and_v_negated
         np.testing.assert_array_equal(data[row, :, :, :], -data[mirror, across, :, :])
 
 
-def test_a_tripolar_grid_has_its_fold_and_is_refused_by_it(tmp_path):
+def test_a_tripolar_grid_has_its_fold():
     # ldpipe.data.tripolar's ORCA-like grid, by identities of its construction: the cap's first row
     # is the circle of the fold latitude at the columns' own longitudes (|w| = a); its last row, the
     # fold, lies on the segment between the cap's poles through the North Pole (w real: longitude
@@ -254,7 +253,3 @@ def test_a_tripolar_grid_has_its_fold_and_is_refused_by_it(tmp_path):
     # conformal (the stereographic radius taken as the half colatitude, not its tangent) is at 0.033
     assert np.abs(cosine[interior]).max() < 0.02
     assert folded_row(lon, lat) == "last" and folded_row(lon[:-1], lat[:-1]) == ""  # the row below does not fold
-    path = tmp_path / "tripolar.nc"
-    write_dataset(tripolar_dataset(rotation(0.0), np.arange(0.0, 2.01, 0.5)), path)
-    with pytest.raises(ConfigError, match=r"folds onto itself along its last row .* tripolar grid's north fold"):
-        polar_system(path)

@@ -10,7 +10,8 @@ checked. ``coordinates: sphere`` reads x, y as longitude and latitude in degrees
 as eastward and northward velocities, with the Earth's radius ``earth_radius`` (metres).
 
 Coordinates that are 2-D make a curvilinear grid (:mod:`.grid_coordinates` finds them), integrated
-in its index space (:mod:`.curvilinear`; u and v on a C-grid's faces: :mod:`.staggered`).
+in its index space (:mod:`.curvilinear`; u and v on a C-grid's faces: :mod:`.staggered`); a
+tripolar global grid, joined across its seam and north fold, as 3-D positions (:mod:`.folded`).
 
 The state is (x, y); the integration time is the data's time coordinate in its own units; u, v
 are converted from their units (``m/s``, ``km/day``, ...) to coordinate units per time unit

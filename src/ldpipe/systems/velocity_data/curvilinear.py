@@ -24,8 +24,9 @@ Only that box is read per window of times (with the stencil's ring of real neigh
 edges are the data's edges; the geometry is built over the box and :data:`GEOMETRY_MARGIN` more
 nodes, so that inside the box every value is the whole grid's bit for bit.
 
-A C-grid's face velocities are :mod:`.staggered`'s. Not yet: grids through a pole or folded
-(tripolar), 3-D data; a map's region box (variable-time LDs).
+A C-grid's face velocities are :mod:`.staggered`'s; a tripolar global grid without a window
+(joined across its fold) is :mod:`.folded`'s. Not yet: other grids through a pole or folded, 3-D
+data; a map's region box (variable-time LDs).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...jitcache import njit_functions
+from .folded import folded_grid, make_folded_system
 from .grid_geometry import GridGeometry, angle_from_coordinates, wrapped
 from .regular import DataWindow, VelocityDataSystem, extend_keys, index_window, kernel_source, read_window
 from .source import DataSource, at_least_three_nodes, kernel_text, node_window
@@ -316,7 +318,8 @@ def check_no_pole(source: DataSource, geometry: GridGeometry) -> None:
     if fold:
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} folds onto "
                           f"itself along its {fold} row (node i on node n - 1 - i: a tripolar grid's north fold); "
-                          "joining a fold is not supported yet")
+                          "a fold is joined on a grid that goes all round the sphere with its velocities at the "
+                          "nodes (not a C-grid's faces)")
     if pole or jumps > LONGITUDE_JUMP:
         why = "has a node at a pole" if pole else f"jumps by {jumps:.4g} degrees of longitude between neighbours"
         raise ConfigError(f"velocity data {source.label}: the curvilinear grid {source.grid_coordinates} {why}: a grid "
@@ -340,6 +343,14 @@ def grid_system(system_class: type[CurvilinearVelocitySystem], text: str, module
 
 def make_curvilinear_system(name: str, source: DataSource, spec: dict, coordinates: tuple[str, str],
                             window: dict | None = None, key: str = "window") -> CurvilinearVelocitySystem:
-    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`) over its ``window``."""
+    """The system of a checked curvilinear ``source`` (:func:`.source.open_source`) over its
+    ``window``; a sphere's grid that goes all round it and ends on a north fold, read whole, is
+    :mod:`.folded`'s."""
+    if source.sphere and not source.staggered and window is None:
+        with source.open() as dataset:
+            x, y = (np.asarray(dataset.read(variable, {}), dtype=float) for variable in source.grid_coordinates)
+        grid = folded_grid(source, x, y)
+        if grid is not None:
+            return make_folded_system(name, source, spec, coordinates, grid)
     return grid_system(CurvilinearVelocitySystem, kernel_source(), "velocity_data", name, source, spec, coordinates,
                        window, key)
