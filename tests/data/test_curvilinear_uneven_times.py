@@ -1,6 +1,6 @@
 """Uneven times on a curvilinear grid and a C-grid, against closed forms.
 
-The non-uniform cubic in time (kernels/rectilinear_velocity.py's, in the curvilinear and C-grid
+The non-uniform cubic in time (kernels/nonuniform_cubic_weights.py's, in the curvilinear and C-grid
 kernels) reproduces every quadratic in time exactly, the ghost times on the end nodes' parabola
 included; in space the interpolants are exact for these fields on the rotated grid (affine): a
 linear field for the collocated grid's cubic convolution, a uniform one for the C-grid's faces.

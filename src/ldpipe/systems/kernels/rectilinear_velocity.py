@@ -16,7 +16,8 @@
 # of degree <= 2 in each variable exactly; it is C1 across nodes and third-order accurate in the
 # largest spacing. On equal spacings the weights are Keys' cubic convolution (a = -1/2), the
 # uniform kernel's (gridded_velocity.py). The cell is found by bisection on the node values
-# (O(log n)); the product of the axes' weights is the interpolant (tensor product).
+# (O(log n)); the product of the axes' weights is the interpolant (tensor product). The weights'
+# function, grid_weights, is kernels/nonuniform_cubic_weights.py, put in front of this text.
 #
 # The bound buffer (ldpipe.systems.velocity_data.rectilinear.read_rectilinear_window): a header
 # of GRID_HEADER values (nt, nz (1 in 2-D), ny, nx, sphere (0 or 1), radius, velocity_scale,
@@ -34,47 +35,12 @@
 # dz/dt = vertical_scale * w (w upward; the scale is negative for a depth, positive down).
 import math
 
-import numba
 from numba import carray
 from ldpipe.systems.data_pointer import velocity_data_pointer
 
 GRID_HEADER = 16
 GRID_ZTAPS = 4 if GRID_DIMS == 3 else 1  # the stencil's levels
 GRID_ZCORNERS = 2 if GRID_DIMS == 3 else 1  # the cell's levels
-
-
-@numba.njit(cache=True, error_model="numpy")
-def grid_weights(data, start, count, value):
-    """(i, w0, w1, w2, w3): the cell [c_i, c_i+1] of the real nodes c_0 .. c_count-1 (at
-    data[start + 1 ...], ghosts around them) holding ``value`` (inside them), and the weights
-    of the padded nodes i .. i + 3 (the real nodes i - 1 .. i + 2)."""
-    low = 0
-    high = count - 1
-    while high - low > 1:
-        middle = (low + high) >> 1
-        if data[start + 1 + middle] <= value:
-            low = middle
-        else:
-            high = middle
-    x0 = data[start + low]
-    x1 = data[start + low + 1]
-    x2 = data[start + low + 2]
-    x3 = data[start + low + 3]
-    h0 = x1 - x0
-    h1 = x2 - x1
-    h2 = x3 - x2
-    s = (value - x1) / h1
-    s2 = s * s
-    s3 = s2 * s
-    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-    h10 = s3 - 2.0 * s2 + s
-    h01 = 3.0 * s2 - 2.0 * s3
-    h11 = s3 - s2
-    w0 = -h10 * h1 * h1 / (h0 * (h0 + h1))
-    w1 = h00 + h10 * (h1 - h0) / h0 - h11 * h2 / (h1 + h2)
-    w2 = h01 + h10 * h0 / (h0 + h1) + h11 * (h2 - h1) / h2
-    w3 = h11 * h1 * h1 / (h2 * (h1 + h2))
-    return low, w0, w1, w2, w3
 
 
 def rhs(state, t, out):

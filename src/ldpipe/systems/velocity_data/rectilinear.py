@@ -41,7 +41,7 @@ def rectilinear_kernel_source(dims: int) -> str:
     module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    text = kernel_text("velocity_units.py") + kernel_text("rectilinear_velocity.py")
+    text = kernel_text("velocity_units.py") + kernel_text("nonuniform_cubic_weights.py") + kernel_text("rectilinear_velocity.py")
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}\nGRID_DIMS = {dims}\n" + text
 
 

@@ -48,7 +48,8 @@ def kernel_source() -> str:
     is inlined into the kernel)."""
     from .. import data_pointer, data_stencil
 
-    text = kernel_text("velocity_units.py") + kernel_text("uneven_time_weights.py") + kernel_text("gridded_velocity.py")
+    text = (kernel_text("velocity_units.py") + kernel_text("nonuniform_cubic_weights.py")
+            + kernel_text("uneven_time_weights.py") + kernel_text("gridded_velocity.py"))
     return f"# data_pointer {data_pointer.SOURCE_DIGEST}, data_stencil {data_stencil.SOURCE_DIGEST}\n" + text
 
 

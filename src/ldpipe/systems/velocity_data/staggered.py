@@ -44,7 +44,8 @@ def staggered_kernel_source() -> str:
     """The C-grid kernel's text, with the pointer module's digest (its code is inlined into the kernel)."""
     from .. import data_pointer
 
-    return (f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + kernel_text("uneven_time_weights.py")
+    return (f"# data_pointer {data_pointer.SOURCE_DIGEST}\n" + kernel_text("nonuniform_cubic_weights.py")
+            + kernel_text("uneven_time_weights.py")
             + kernel_text("staggered_velocity.py"))
 
 
