@@ -38,9 +38,9 @@ import numpy as np
 from ...errors import ConfigError
 from ...jitcache import njit_functions
 from .grid_geometry import CENTRED
-from .polar import ROWS_BEYOND, PolarVelocitySystem
+from .polar import ROWS_BEYOND, PolarVelocitySystem, read_whole_grid
 from .regular import DataWindow, index_window
-from .source import DataSource, check_speeds, fill_land, kernel_text
+from .source import DataSource, kernel_text
 
 #: How near (degrees of arc) two nodes the fold pairs must be to be one node.
 FOLD_TOLERANCE = 1e-6
@@ -248,18 +248,8 @@ def read_folded_window(source: DataSource, grid: FoldedGrid, angle: np.ndarray |
                        table: tuple[np.ndarray, float]) -> DataWindow:
     """The whole grid's window over time nodes ``times`` (inclusive), as ``kernels/folded_velocity.py`` reads it."""
     ta, tb = times
-    nt_all = source.t_grid[2]
-    ny, n = grid.shape
-    t_low, t_high = max(0, ta - 1), min(nt_all - 1, tb + 1)
-    with source.open() as dataset:
-        region = {source.time: slice(t_low, t_high + 1), source.y: slice(0, ny), source.x: slice(0, n)}
-        u = np.asarray(dataset.read(source.u, region), dtype=float)
-        v = np.asarray(dataset.read(source.v, region), dtype=float)
-        water = dataset.read(source.mask, {source.y: region[source.y], source.x: region[source.x]}) != 0 \
-            if source.mask else np.ones((ny, n), dtype=bool)
-    check_speeds(source, [u, v])
-    land_nodes = (~(np.isfinite(u) & np.isfinite(v) & water)).any(axis=0)
-    u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
+    n = grid.shape[1]
+    u, v, land_nodes, t_low = read_whole_grid(source, times, grid.shape)
     if angle is not None:  # grid components turned east and north
         c, s = np.cos(angle), np.sin(angle)
         u, v = u * c - v * s, u * s + v * c

@@ -125,15 +125,14 @@ def padded_axis(array: np.ndarray, axis: int, start: int, stop: int) -> np.ndarr
     return np.moveaxis(extend_keys(a[start:stop], 0, low, high), 0, axis)
 
 
-def read_polar_window(source: DataSource, times: tuple[int, int], offsets: tuple[int | None, int | None]) -> DataWindow:
-    """The window of the whole globe over time nodes ``times`` (inclusive), as the regular kernel
-    reads it (:func:`.regular.read_window`'s layout): the ring of longitudes with its first column
-    repeated at its end and the real columns across the seam as padding; the rows beyond each pole
-    reached (:func:`extended_rows`), the padding beyond them real too; the header's sphere flag 0
-    (the polar kernel hands the kernel a longitude already on the grid's first turn)."""
-    (ta, tb) = times
-    nt_all, ny, nx = source.t_grid[2], source.y_grid[2], source.x_grid[2]
-    t_low, t_high = max(0, ta - 1), min(nt_all - 1, tb + 1)
+def read_whole_grid(source: DataSource, times: tuple[int, int], shape: tuple[int, int]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """u and v of the whole grid (``shape`` (rows, columns)) over time nodes ``times`` (inclusive)
+    and their real neighbours in time, land filled; the land nodes (a land or missing value at
+    any of these times); the first time node read."""
+    ta, tb = times
+    ny, nx = shape
+    t_low, t_high = max(0, ta - 1), min(source.t_grid[2] - 1, tb + 1)
     with source.open() as dataset:
         region = {source.time: slice(t_low, t_high + 1), source.y: slice(0, ny), source.x: slice(0, nx)}
         u = np.asarray(dataset.read(source.u, region), dtype=float)
@@ -142,7 +141,18 @@ def read_polar_window(source: DataSource, times: tuple[int, int], offsets: tuple
             if source.mask else np.ones((ny, nx), dtype=bool)
     check_speeds(source, [u, v])
     land_nodes = (~(np.isfinite(u) & np.isfinite(v) & water)).any(axis=0)
-    u, v = fill_land(u, land_nodes), fill_land(v, land_nodes)
+    return fill_land(u, land_nodes), fill_land(v, land_nodes), land_nodes, t_low
+
+
+def read_polar_window(source: DataSource, times: tuple[int, int], offsets: tuple[int | None, int | None]) -> DataWindow:
+    """The window of the whole globe over time nodes ``times`` (inclusive), as the regular kernel
+    reads it (:func:`.regular.read_window`'s layout): the ring of longitudes with its first column
+    repeated at its end and the real columns across the seam as padding; the rows beyond each pole
+    reached (:func:`extended_rows`), the padding beyond them real too; the header's sphere flag 0
+    (the polar kernel hands the kernel a longitude already on the grid's first turn)."""
+    (ta, tb) = times
+    nx = source.x_grid[2]
+    u, v, land_nodes, t_low = read_whole_grid(source, times, (source.y_grid[2], nx))
     u, v = extended_rows(u, offsets, -1.0), extended_rows(v, offsets, -1.0)
     land_nodes = extended_rows(land_nodes.astype(float), offsets, 1.0) > 0.5
     south, north = offsets
